@@ -1,0 +1,137 @@
+"""The two-node geometrically exact beam (Beam2), one-point integration, in sympy.
+
+Kinematics (Simo & Vu-Quoc 1986; FORMULATION.md), strains at the midpoint::
+
+    x' = (x2 − x1)/L0
+    r  = q1* ⊗ q2 (shortest branch),  ψ = log r       relative rotation
+    Am = A1 exp(ψ̃/2)                                   midpoint triad
+    Γ  = Amᵀ x' − Γ0,   K = (ψ − ψ0)/L0                 strains (section frame)
+    N  = C_Γ Γ,         M = C_K K                       section forces, moments
+    U  = (L0/2)(Γᵀ C_Γ Γ + Kᵀ C_K K)                    strain energy
+
+**Internal forces are the exact gradient of U** with respect to the nodal
+displacements and the body-frame rotation perturbations ``δR_i = R_i δθ̃_i``
+(the virtual work of the engine's body-frame moments).  The variations used:
+
+* ``δψ = J_r(ψ)⁻¹ (δθ2 − Rᵀ δθ1)`` with ``R = A1ᵀA2 = exp(ψ̃)``, from
+  ``δ(A1ᵀA2) = exp(ψ̃)(δθ2 − Rᵀδθ1)~`` and the right Jacobian of the
+  exponential map;
+* ``δθm = Eᵀ δθ1 + ½ J_r(ψ/2) δψ`` for the midpoint triad, ``E = exp(ψ̃/2)``;
+* ``δΓ = Amᵀ (δx2 − δx1)/L0 + (Amᵀ x')~ δθm``,  ``δK = δψ/L0``.
+
+Hence, with ``f = L0 N × (Amᵀ x')`` and ``g = M + ½ J_r(ψ/2)ᵀ f``::
+
+    S_u1 = −Am N,   S_u2 = Am N
+    S_θ2 = J_r(ψ)⁻ᵀ g,   S_θ1 = E f − R J_r(ψ)⁻ᵀ g
+
+(``M ü + S = F`` sign convention; the rotational parts are body-frame
+moments at each node).  The tests check them against central finite
+differences of U.  :func:`generate` writes ``reference/generated/beam2.py``.
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from derivations.codegen import Kernel, Stager, render_kernel, render_module, vector
+from derivations.rotation_maps import (
+    USER_FUNCTIONS,
+    exp_matrix,
+    log_quaternion,
+    quat_conj,
+    quat_mul,
+    right_jacobian,
+    right_jacobian_inverse,
+    rotation_matrix,
+)
+
+
+def beam2_quantities():
+    """Symbolic inputs, element quantities (strains, forces, energy) and the stages.
+
+    Intermediate quantities (``A1``, ``r``, ``psi``, ``E`` …) are named symbols
+    defined in stages, so the expressions stay small and the emitted code reads
+    like the derivation above.
+    """
+    x1, x2 = sp.Matrix(vector("x1", 3)), sp.Matrix(vector("x2", 3))
+    q1, q2 = vector("q1", 4), vector("q2", 4)
+    L0 = sp.Symbol("L0", positive=True)
+    psi0, gamma0 = sp.Matrix(vector("psi0", 3)), sp.Matrix(vector("gamma0", 3))
+    c = vector("c", 6)
+    CG, CK = sp.diag(*c[:3]), sp.diag(*c[3:])
+
+    st = Stager()
+    A1 = st.define("A1", rotation_matrix(q1))
+    r = st.define("r", quat_mul(quat_conj(q1), q2))
+    psi = st.define("psi", sp.Matrix(log_quaternion(r)))
+    E = st.define("E", exp_matrix(psi / 2))
+    R = st.define("R", E * E)
+    Am = st.define("Am", A1 * E)
+    gamma_hat = st.define("gh", Am.T * (x2 - x1) / L0)
+    Gamma = st.define("Gamma", gamma_hat - gamma0)
+    Kappa = st.define("Kappa", (psi - psi0) / L0)
+    N = st.define("N", CG * Gamma)
+    M = st.define("M", CK * Kappa)
+
+    f = st.define("f", L0 * N.cross(gamma_hat))
+    g = st.define("g", M + right_jacobian(psi / 2).T * f / 2)
+    s_theta2 = st.define("st2", right_jacobian_inverse(psi).T * g)
+    s_theta1 = E * f - R * s_theta2
+    n = Am * N
+    S = list(-n) + list(s_theta1) + list(n) + list(s_theta2)
+    U = L0 / 2 * ((Gamma.T * CG * Gamma)[0] + (Kappa.T * CK * Kappa)[0])
+    inputs = dict(x1=x1, x2=x2, q1=q1, q2=q2, L0=L0, psi0=psi0, gamma0=gamma0, c=c)
+    quantities = dict(S=S, U=U, Gamma=Gamma, Kappa=Kappa, N=N, M=M, psi=psi, gamma_hat=gamma_hat)
+    return inputs, quantities, st.stages
+
+
+def kernels() -> list[Kernel]:
+    inp, out, stages = beam2_quantities()
+    args = [
+        ("x1", list(inp["x1"]), "position of node 1 (inertial) [m]"),
+        ("x2", list(inp["x2"]), "position of node 2 (inertial) [m]"),
+        ("q1", inp["q1"], "Euler parameters of node 1 (section triad)"),
+        ("q2", inp["q2"], "Euler parameters of node 2 (section triad)"),
+        ("L0", inp["L0"], "reference length [m]"),
+        ("psi0", list(inp["psi0"]), "reference relative rotation ψ0 = log(A1ᵀA2) at rest [rad]"),
+        ("gamma0", list(inp["gamma0"]), "reference Γ0 = Amᵀx' at rest (E1 for a straight beam)"),
+        ("c", inp["c"], "section stiffness EA, GA2, GA3 [N], GJ, EI2, EI3 [N m²]"),
+    ]
+    return [
+        Kernel(
+            "internal_forces",
+            "Beam2 internal nodal forces, the exact gradient of the strain energy.\n\n"
+            "    Paper eq. (3): the vector S of ``M a + S = F``.  Order of ``s``:\n"
+            "    S_u1 (inertial, N), S_θ1 (body frame of node 1, N m), S_u2, S_θ2.",
+            args,
+            [("s", out["S"], "internal forces [S_u1, S_θ1, S_u2, S_θ2] (12,)")],
+            (out["U"], "strain energy U [J]"),
+            stages,
+        ),
+        Kernel(
+            "section_resultants",
+            "Strains and section resultants at the element midpoint (section frame).",
+            args,
+            [("strain", list(out["Gamma"]) + list(out["Kappa"]), "Γ (3) then K (3) [-, 1/m]"),
+             ("stress", list(out["N"]) + list(out["M"]), "N (3) [N] then M (3) [N m]")],
+            None,
+            stages,
+        ),
+    ]
+
+
+def generate() -> str:
+    """Source of ``reference/generated/beam2.py``."""
+    parts = [render_kernel(k, USER_FUNCTIONS) for k in kernels()]
+    return render_module(
+        "derivations/beam2.py",
+        "Beam2 element arrays: internal forces (exact energy gradient), strain energy, resultants.\n\n"
+        "See derivations/beam2.py for the derivation.",
+        parts,
+        imports=(
+            "import math",
+            "",
+            "from reference.generated.rotation_maps import branch_sign, c_asinc, c_cosc, c_jinv, c_sinc, c_sinc3",
+            "from reference.jit import kernel",
+        ),
+    )

@@ -1,0 +1,404 @@
+"""The Domain: one multibody problem and its resolution (paper §4.3, Figs. 7–10).
+
+The Domain owns the lists of nodes, elements, joints and interactions
+(boundary conditions and loading).  ``solve()`` follows the paper's Fig. 9:
+build the lists (done by the deck reader or by the ``add_*`` calls),
+``initialization()`` (lumped masses, element reference states — the paper's
+``Initialization`` and ``InitRotation_Euler_Param``), ``initial_conditions()``
+(the paper's ``Give_Init_Conditions``), then ``solve_at`` time after time.
+The per-step work of Fig. 10 (internal and external forces, the right-hand
+side Q of eq. 5, the Lagrange multipliers, the update of the generalized
+coordinates and of the Euler parameters) is done by the
+:class:`~reference.algorithms.Algorithm` on plain arrays (:mod:`reference.state`),
+so that it can be compiled and tested one step at a time.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from reference.algorithms import StaggeredCentralDifference
+from reference.algorithms.staggered import OK
+from reference.elements import Beam2Formulation, Element, Section
+from reference.interactions import FixedCoordinates, Gravity, Interaction, NodalLoad, TimeFunction
+from reference.nodes import Node
+from reference.rotation import EulerParameters
+from reference.state import Model, Record, Scratch, State
+
+
+class SolverDiverged(RuntimeError):
+    """The run produced non-finite values; the results written so far are kept."""
+
+
+@dataclass
+class SolverSettings:
+    """Algorithm settings.
+
+    Parameters
+    ----------
+    algorithm : str
+        ``"staggered_central_difference"`` (Park).
+    dt : float
+        Time step [s].
+    t_end : float
+        End time [s].
+    damping : float
+        Mass-proportional damping coefficient c [1/s] (force −c m v and moment
+        −c J ω on every node), for quasi-static runs.
+    output_every : int
+        Output every this many steps (and at ``t_end``).
+    """
+
+    algorithm: str = "staggered_central_difference"
+    dt: float = 1e-3
+    t_end: float = 1.0
+    damping: float = 0.0
+    output_every: int = 1
+
+
+def beam_triad(axis: np.ndarray, axis2_hint) -> np.ndarray:
+    """Section triad ``[e1 e2 e3]`` (columns) of a straight beam.
+
+    ``e1`` along the beam, ``e2`` the hint made orthogonal to ``e1``,
+    ``e3 = e1 × e2``.
+    """
+    e1 = np.asarray(axis, dtype=float)
+    e1 = e1 / np.linalg.norm(e1)
+    hint = np.asarray(axis2_hint, dtype=float)
+    e2 = hint - hint.dot(e1) * e1
+    if np.linalg.norm(e2) < 1e-9 * max(np.linalg.norm(hint), 1.0):
+        raise ValueError(f"section axis 2 {hint.tolist()} is parallel to the beam axis {e1.tolist()}")
+    e2 = e2 / np.linalg.norm(e2)
+    return np.column_stack([e1, e2, np.cross(e1, e2)])
+
+
+@dataclass
+class Results:
+    """Time histories of a run, as arrays in memory (the results file holds the same).
+
+    ``time`` (n,), ``position``/``velocity``/``angular_velocity`` (n,N,3),
+    ``rotation`` (n,N,4), ``energy`` dict of (n,) arrays, ``labels`` (N,),
+    ``status`` ("completed" or why it stopped), ``wall_time`` [s].
+    """
+
+    time: np.ndarray
+    labels: list
+    positions: np.ndarray
+    rotations: np.ndarray
+    velocities: np.ndarray
+    angular_velocities: np.ndarray
+    energy: dict
+    constraint_violation: np.ndarray
+    velocity_constraint_violation: np.ndarray
+    status: str = "completed"
+    wall_time: float = 0.0
+    attrs: dict = field(default_factory=dict)
+
+    def index(self, key) -> int:
+        if isinstance(key, (int, np.integer)):
+            return int(key)
+        try:
+            return self.labels.index(key)
+        except ValueError:
+            raise KeyError(f"no node labelled {key!r}; labels are e.g. {self.labels[:4]}") from None
+
+    def position(self, key) -> np.ndarray:
+        return self.positions[:, self.index(key)]
+
+    def rotation(self, key) -> np.ndarray:
+        return self.rotations[:, self.index(key)]
+
+    def velocity(self, key) -> np.ndarray:
+        return self.velocities[:, self.index(key)]
+
+    def angular_velocity(self, key) -> np.ndarray:
+        return self.angular_velocities[:, self.index(key)]
+
+
+class Domain:
+    """A multibody problem: nodes, elements, joints, interactions, solver settings.
+
+    Build it with the ``add_*`` methods or from a model deck
+    (:meth:`from_deck`), then call :meth:`solve`.
+    """
+
+    def __init__(self, name: str = "domain", description: str = ""):
+        self.name = name
+        self.description = description
+        self.nodes: list[Node] = []
+        self.elements: list[Element] = []
+        self.joints: list = []
+        self.boundary_conditions: list[Interaction] = []
+        self.loading: list[Interaction] = []
+        self.solver = SolverSettings()
+        self.metadata: dict = {}
+        self.deck_text: str = ""
+        self.deck_path: str = ""
+        self._labels: dict[str, Node] = {}
+        self._model: Model | None = None
+        self.state: State | None = None
+
+    @classmethod
+    def from_deck(cls, path, overrides=None) -> "Domain":
+        """Read a TOML model deck (see ``docs/deck.md``)."""
+        from reference.io.deck import load_deck
+
+        return load_deck(path, overrides=overrides)
+
+    def add_node(self, position, rotation=None, label=None, velocity=(0.0, 0.0, 0.0),
+                 angular_velocity=(0.0, 0.0, 0.0)) -> Node:
+        """Add a node; ``rotation`` are its Euler parameters (identity if omitted)."""
+        node_id = len(self.nodes)
+        label = label if label is not None else f"node:{node_id}"
+        if label in self._labels:
+            raise ValueError(f"a node labelled {label!r} already exists")
+        node = Node(node_id, label, position,
+                    np.array([1.0, 0, 0, 0]) if rotation is None else rotation, velocity, angular_velocity)
+        self.nodes.append(node)
+        self._labels[label] = node
+        self._model = None
+        return node
+
+    def node(self, key) -> Node:
+        """Node by id (int) or label (str)."""
+        if isinstance(key, Node):
+            return key
+        if isinstance(key, (int, np.integer)):
+            if 0 <= key < len(self.nodes):
+                return self.nodes[int(key)]
+            raise KeyError(f"no node with id {key}; ids run from 0 to {len(self.nodes) - 1}")
+        if key in self._labels:
+            return self._labels[key]
+        raise KeyError(f"no node labelled {key!r}")
+
+    def add_element(self, formulation, nodes, label: str = "") -> Element:
+        element = Element(formulation, tuple(self.node(n).id for n in nodes), label)
+        self.elements.append(element)
+        self._model = None
+        return element
+
+    def add_beam(self, label: str, start, end, n_elements: int, section: Section, axis2=(0.0, 1.0, 0.0),
+                 start_node: Node | None = None, end_node: Node | None = None) -> list[Node]:
+        """Mesh a straight beam from ``start`` to ``end`` into ``n_elements`` Beam2 elements.
+
+        Nodes are labelled ``f"{label}:{i}"``; ``start_node``/``end_node`` reuse
+        existing nodes (their triads are reset to the beam's section triad).
+        """
+        start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+        if n_elements < 1:
+            raise ValueError(f"beam {label!r}: needs at least one element")
+        if np.linalg.norm(end - start) <= 0.0:
+            raise ValueError(f"beam {label!r}: start and end coincide")
+        q = EulerParameters.from_matrix(beam_triad(end - start, axis2)).q
+        formulation = Beam2Formulation(section)
+        nodes = []
+        for i in range(n_elements + 1):
+            reuse = start_node if i == 0 else end_node if i == n_elements else None
+            if reuse is not None:
+                reuse.rotation = q.copy()
+                nodes.append(reuse)
+            else:
+                nodes.append(self.add_node(start + (end - start) * i / n_elements, q.copy(), f"{label}:{i}"))
+        for i in range(n_elements):
+            self.add_element(formulation, (nodes[i], nodes[i + 1]), f"{label}/{i}")
+        return nodes
+
+    def add_interaction(self, interaction: Interaction) -> Interaction:
+        """Add a boundary condition (fixed coordinates) or a load (nodal load, gravity)."""
+        if isinstance(interaction, FixedCoordinates):
+            self.boundary_conditions.append(interaction)
+        elif isinstance(interaction, (NodalLoad, Gravity)):
+            self.loading.append(interaction)
+        else:
+            raise TypeError(f"unknown interaction {interaction!r}")
+        self._model = None
+        return interaction
+
+    def critical_time_step(self) -> float:
+        """Smallest per-element stability limit of the explicit scheme [s]."""
+        limits = [e.formulation.critical_time_step(self._length(e)) for e in self.elements]
+        return min(limits) if limits else math.inf
+
+    def _length(self, element: Element) -> float:
+        a, b = (self.nodes[i].position for i in element.nodes)
+        return float(np.linalg.norm(b - a))
+
+    def initialization(self) -> Model:
+        """Assemble the plain-data model: lumped masses, references, loads (paper: Initialization)."""
+        N = len(self.nodes)
+        mass = np.array([n.mass for n in self.nodes], dtype=float)
+        inertia = np.array([n.inertia for n in self.nodes], dtype=float).reshape(N, 3, 3)
+        conn = np.zeros((len(self.elements), 2), dtype=np.int64)
+        L0 = np.zeros(len(self.elements))
+        psi0 = np.zeros((len(self.elements), 3))
+        gamma0 = np.zeros((len(self.elements), 3))
+        stiff = np.zeros((len(self.elements), 6))
+        for e, element in enumerate(self.elements):
+            ids = list(element.nodes)
+            xs = np.array([self.nodes[i].position for i in ids])
+            qs = np.array([self.nodes[i].rotation for i in ids])
+            for i, (m, J) in zip(ids, element.formulation.lumped_mass(xs)):
+                mass[i] += m
+                inertia[i] += J
+            ref = element.formulation.reference_state(xs, qs)
+            conn[e] = ids
+            L0[e], psi0[e], gamma0[e] = ref["L0"], ref["psi0"], ref["gamma0"]
+            stiff[e] = element.formulation.section.stiffness
+        massless = [n.label for n, m in zip(self.nodes, mass) if not m > 0.0]
+        if massless:
+            raise ValueError(f"nodes without mass (attach them to an element or give them a mass): {massless[:5]}")
+        singular = [n.label for n, J in zip(self.nodes, inertia) if not np.linalg.det(J) > 0.0]
+        if singular:
+            raise ValueError(f"nodes without positive rotary inertia: {singular[:5]}")
+        free = np.ones((N, 6))
+        for bc in self.boundary_conditions:
+            free[self.node(bc.node).id, list(bc.dofs)] = 0.0
+        gravity = np.zeros(3)
+        loads = [ld for ld in self.loading if isinstance(ld, NodalLoad)]
+        for g in self.loading:
+            if isinstance(g, Gravity):
+                gravity += np.asarray(g.g, dtype=float)
+        tfs: list[TimeFunction] = []
+        load_tf = np.zeros(len(loads), dtype=np.int64)
+        for l, ld in enumerate(loads):
+            if ld.time_function not in tfs:
+                tfs.append(ld.time_function)
+            load_tf[l] = tfs.index(ld.time_function)
+        pars = [tf.parameters() for tf in tfs]
+        width = max([len(p) for p in pars] + [1])
+        tf_par = np.zeros((max(len(tfs), 1), width))
+        for j, p in enumerate(pars):
+            tf_par[j, : len(p)] = p
+        self._model = Model(
+            mass=mass, inertia=inertia, inertia_inv=np.linalg.inv(inertia), free=free,
+            conn=conn, L0=L0, psi0=psi0, gamma0=gamma0, stiff=stiff,
+            load_node=np.array([self.node(ld.node).id for ld in loads], dtype=np.int64),
+            load_code=np.array([ld.code for ld in loads], dtype=np.int64),
+            load_vec=np.array([np.asarray(ld.vector, dtype=float) for ld in loads]).reshape(len(loads), 3),
+            load_tf=load_tf,
+            tf_kind=np.array([tf.kind for tf in tfs] or [0], dtype=np.int64),
+            tf_par=tf_par, gravity=gravity, damping=float(self.solver.damping),
+        )
+        return self._model
+
+    def initial_conditions(self) -> State:
+        """State at t = 0 from the nodes' initial positions, rotations and velocities."""
+        N = len(self.nodes)
+        self.state = State(
+            x=np.array([n.position for n in self.nodes]).reshape(N, 3),
+            q=np.array([n.rotation for n in self.nodes]).reshape(N, 4),
+            v=np.array([n.velocity for n in self.nodes]).reshape(N, 3),
+            w=np.array([n.angular_velocity for n in self.nodes]).reshape(N, 3),
+            f_prev=np.zeros((N, 6)),
+            clock=np.zeros(4),
+        )
+        return self.state
+
+    def algorithm(self, dt: float | None = None) -> StaggeredCentralDifference:
+        if self.solver.algorithm != StaggeredCentralDifference.name:
+            raise ValueError(f"unknown algorithm {self.solver.algorithm!r}; available: {StaggeredCentralDifference.name!r}")
+        return StaggeredCentralDifference(dt or self.solver.dt)
+
+    def solve_at(self, time: float) -> State:
+        """Advance the current state (initialised on first use) to ``time`` (paper: Solve_at)."""
+        model = self._model or self.initialization()
+        state = self.state if self.state is not None else self.initial_conditions()
+        algo = self.algorithm()
+        n = int(round((time - state.t) / algo.dt))
+        if n > 0 and algo.advance(model, state, n, None, Scratch.for_nodes(len(self.nodes))) != OK:
+            raise SolverDiverged(f"the solution became non-finite before t = {time}")
+        return state
+
+    def solve(self, t_end: float | None = None, dt: float | None = None, results_path=None,
+              progress=None) -> Results:
+        """Run from t = 0 to ``t_end`` (paper: Solve, Fig. 9) and return the time histories.
+
+        Parameters
+        ----------
+        t_end, dt : float, optional
+            Override the deck's end time and step.
+        results_path : path, optional
+            HDF5 results file written incrementally (DESIGN.md contract).
+        progress : callable(fraction, t), optional
+            Called after every output.
+
+        Raises
+        ------
+        SolverDiverged
+            When the state becomes non-finite; records up to then are kept
+            (and the file, if any, is closed with that status).
+        """
+        t_end = self.solver.t_end if t_end is None else float(t_end)
+        algo = self.algorithm(dt)
+        n_total = int(round(t_end / algo.dt))
+        if n_total < 1 or abs(n_total * algo.dt - t_end) > 1e-9 * max(t_end, 1.0):
+            raise ValueError(f"t_end = {t_end} is not a whole number of steps of dt = {algo.dt}")
+        model = self.initialization()
+        state = self.initial_conditions()
+        every = max(int(self.solver.output_every), 1)
+        N = len(self.nodes)
+        scratch, rec = Scratch.for_nodes(N), Record.empty(N)
+        records = []
+        writer = None
+        if results_path is not None:
+            from reference.io.results import ResultsWriter
+
+            writer = ResultsWriter(results_path, self, algo)
+        status = "completed"
+        wall0 = _time.perf_counter()
+        try:
+            done = 0
+            while True:
+                chunk = min(every, n_total - done)
+                t_record = state.t
+                code = algo.advance(model, state, chunk, rec, scratch)
+                self._store(rec, t_record, records, writer)
+                if code != OK:
+                    status = f"diverged after t = {records[-1]['time']:.6g}"
+                    raise SolverDiverged(
+                        f"the solution became non-finite after t = {records[-1]['time']:.6g} "
+                        f"(step {state.n}); results up to that time are kept. "
+                        f"Reduce dt below the critical estimate {self.critical_time_step():.3g} or check the loads."
+                    )
+                done += chunk
+                if progress is not None:
+                    progress(done / n_total, state.t)
+                if chunk == 0:
+                    break
+        except KeyboardInterrupt:
+            status = f"interrupted at t = {state.t:.6g}"
+            raise
+        finally:
+            if writer is not None:
+                writer.close(status)
+        return self._results(records, status, _time.perf_counter() - wall0, algo)
+
+    def _store(self, rec: Record, t: float, records: list, writer) -> None:
+        entry = {
+            "time": t, "position": rec.x.copy(), "rotation": rec.q.copy(), "velocity": rec.v.copy(),
+            "angular_velocity": rec.w.copy(), "violation_norm": 0.0, "velocity_violation_norm": 0.0,
+            "kinetic": rec.energy[0], "strain": rec.energy[1], "external_work": rec.energy[2],
+            "dissipated": rec.energy[3],
+        }
+        records.append(entry)
+        if writer is not None:
+            writer.append(entry)
+
+    def _results(self, records, status, wall, algo) -> Results:
+        def stack(key):
+            return np.array([r[key] for r in records])
+
+        return Results(
+            time=stack("time"), labels=[n.label for n in self.nodes], positions=stack("position"),
+            rotations=stack("rotation"), velocities=stack("velocity"),
+            angular_velocities=stack("angular_velocity"),
+            energy={k: stack(k) for k in ("kinetic", "strain", "external_work", "dissipated")},
+            constraint_violation=stack("violation_norm"),
+            velocity_constraint_violation=stack("velocity_violation_norm"),
+            status=status, wall_time=wall, attrs={"algorithm": algo.name, "dt": algo.dt},
+        )

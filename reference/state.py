@@ -1,0 +1,112 @@
+"""Plain data for time stepping: the assembled model and the state.
+
+Both are named tuples of numpy arrays so that the compiled kernels take them
+as they are (numba passes named tuples of arrays without copying).  An
+algorithm step is a function ``(model, state) → state``; nothing else is
+carried between steps.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Model(NamedTuple):
+    """Everything about the system that does not change during a run.
+
+    Nodes (N): ``mass`` (N,) [kg], ``inertia`` and ``inertia_inv`` (N,3,3)
+    body frame [kg m²], ``free`` (N,6) 1.0 for a free and 0.0 for a fixed
+    coordinate (translations inertial, rotations body frame).
+    Beam2 elements (E): ``conn`` (E,2), ``L0`` (E,), ``psi0`` (E,3),
+    ``gamma0`` (E,3), ``stiff`` (E,6) = EA, GA2, GA3, GJ, EI2, EI3.
+    Loads (L): ``load_node`` (L,), ``load_code`` (L,) 0 dead force,
+    1 follower force, 2 dead moment, 3 follower moment; ``load_vec`` (L,3);
+    ``load_tf`` (L,) index of the time function.
+    Time functions (T): ``tf_kind`` (T,), ``tf_par`` (T,P) parameters
+    (see :func:`reference.interactions.tf_value`).
+    ``gravity`` (3,) [m/s²]; ``damping`` mass-proportional coefficient c
+    [1/s] (force −c m v, moment −c J ω).
+    """
+
+    mass: np.ndarray
+    inertia: np.ndarray
+    inertia_inv: np.ndarray
+    free: np.ndarray
+    conn: np.ndarray
+    L0: np.ndarray
+    psi0: np.ndarray
+    gamma0: np.ndarray
+    stiff: np.ndarray
+    load_node: np.ndarray
+    load_code: np.ndarray
+    load_vec: np.ndarray
+    load_tf: np.ndarray
+    tf_kind: np.ndarray
+    tf_par: np.ndarray
+    gravity: np.ndarray
+    damping: float
+
+
+class State(NamedTuple):
+    """The state at step n.
+
+    ``x`` (N,3) positions, ``q`` (N,4) Euler parameters at ``t_n``; ``v``
+    (N,3) inertial and ``w`` (N,3) body-frame velocities at ``t_{n−½}``
+    (before the first step: the initial velocities at ``t_0``); ``f_prev``
+    (N,6) external generalised forces of the previous step (for the work
+    integral); ``clock`` = [t, n, external work, dissipated energy].
+    """
+
+    x: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    f_prev: np.ndarray
+    clock: np.ndarray
+
+    @property
+    def t(self) -> float:
+        return float(self.clock[0])
+
+    @property
+    def n(self) -> int:
+        return int(self.clock[1])
+
+    def copy(self) -> "State":
+        return State(*(a.copy() for a in self))
+
+
+class Record(NamedTuple):
+    """One output record at an integer step: configuration, integer-step
+    velocities (mean of the two half-step ones) and energies
+    ``[kinetic, strain, external work, dissipated]``."""
+
+    x: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    energy: np.ndarray
+
+    @classmethod
+    def empty(cls, n_nodes: int) -> "Record":
+        return cls(np.zeros((n_nodes, 3)), np.zeros((n_nodes, 4)), np.zeros((n_nodes, 3)),
+                   np.zeros((n_nodes, 3)), np.zeros(4))
+
+
+class Scratch(NamedTuple):
+    """Work arrays reused every step (the hot loop allocates nothing)."""
+
+    S: np.ndarray
+    F: np.ndarray
+    v_new: np.ndarray
+    w_new: np.ndarray
+    s_el: np.ndarray
+    q_tmp: np.ndarray
+    A: np.ndarray
+
+    @classmethod
+    def for_nodes(cls, n_nodes: int) -> "Scratch":
+        return cls(np.zeros((n_nodes, 6)), np.zeros((n_nodes, 6)), np.zeros((n_nodes, 3)),
+                   np.zeros((n_nodes, 3)), np.zeros(12), np.zeros(4), np.zeros(9))
