@@ -37,3 +37,25 @@ def cantilever_tip_deflection(P: float, L: float, EI: float, GA: float) -> float
 def cantilever_first_frequency(L: float, EI: float, rhoA: float) -> float:
     """First bending eigenfrequency [rad/s] of a clamped–free Euler–Bernoulli beam."""
     return 1.8751040687119611**2 * np.sqrt(EI / (rhoA * L**4))
+
+
+def fourbar_rocker_angle(theta, crank=1.0, coupler=5.0, rocker=4.0, ground=4.0, branch=1.0) -> np.ndarray:
+    """Rocker angle of a planar four-bar linkage from its crank angle (closed-form position analysis).
+
+    Ground pivots O1 = (0, 0) and O3 = (ground, 0); crank O1 → A, coupler A → B,
+    rocker B → O3.  B is the intersection of the circle of radius ``coupler``
+    about A with the circle of radius ``rocker`` about O3; ``branch = +1``
+    takes the assembly with B to the left of the line A → O3 (the three-bar
+    deck's: A = (0, 1), B = (4, 4) at θ = 90°).  Returns the angle of O3 → B
+    from the x axis [rad], one per crank angle ``theta`` [rad].
+    """
+    theta = np.asarray(theta, dtype=float)
+    ax, ay = crank * np.cos(theta), crank * np.sin(theta)
+    dx, dy = ground - ax, -ay
+    dist = np.hypot(dx, dy)
+    along = (coupler**2 - rocker**2 + dist**2) / (2.0 * dist)
+    across = np.sqrt(np.maximum(coupler**2 - along**2, 0.0))
+    ux, uy = dx / dist, dy / dist
+    bx = ax + along * ux - branch * across * uy
+    by = ay + along * uy + branch * across * ux
+    return np.arctan2(by, bx - ground)

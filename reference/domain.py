@@ -208,6 +208,51 @@ class Domain:
             self.add_element(formulation, (nodes[i], nodes[i + 1]), f"{label}/{i}")
         return nodes
 
+    def add_rigid_body(self, label: str, mass: float, inertia, position, rotation=None, points=None) -> Node:
+        """Add a rigid body: one node at its centre of mass with ``S = 0`` (paper §3.1).
+
+        Parameters
+        ----------
+        mass : float
+            [kg].
+        inertia : array (3,3) or (3,)
+            Inertia about the centre of mass in the body frame [kg m²].
+        position : array (3,)
+            Centre of mass, inertial [m].
+        rotation : array (4,), optional
+            Euler parameters of the body frame.
+        points : dict, optional
+            Named points (inertial coordinates at t = 0) where joints attach.
+        """
+        inertia = np.asarray(inertia, dtype=float)
+        inertia = np.diag(inertia) if inertia.shape == (3,) else inertia.reshape(3, 3)
+        if not mass > 0.0 or not np.all(np.linalg.eigvalsh(0.5 * (inertia + inertia.T)) > 0.0):
+            raise ValueError(f"rigid body {label!r}: mass and inertia must be positive")
+        node = self.add_node(position, rotation, label)
+        node.mass, node.inertia = float(mass), inertia
+        node.points = {name: np.asarray(p, dtype=float) for name, p in (points or {}).items()}
+        return node
+
+    def add_rigid_bar(self, label: str, start, end, section: Section, axis2=(0.0, 1.0, 0.0)) -> Node:
+        """A beam declared rigid: one rigid body with the bar's mass distribution.
+
+        Mass ``ρA L``; inertia about the centre in the section frame
+        ``diag(ρJ1 L, ρJ2 L + ρA L³/12, ρJ3 L + ρA L³/12)`` — the uniform bar
+        (the paper meshes its rigid bars with two Beam2 elements; a rigid bar
+        has no deformation, so one body carries exactly the same inertia).
+        Named points ``start``, ``end`` and ``centre``.
+        """
+        start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+        length = float(np.linalg.norm(end - start))
+        if length <= 0.0:
+            raise ValueError(f"rigid bar {label!r}: start and end coincide")
+        q = EulerParameters.from_matrix(beam_triad(end - start, axis2)).q
+        m = section.rhoA * length
+        J = np.diag([section.rhoJ1 * length, section.rhoJ2 * length + m * length**2 / 12.0,
+                     section.rhoJ3 * length + m * length**2 / 12.0])
+        centre = 0.5 * (start + end)
+        return self.add_rigid_body(label, m, J, centre, q, {"start": start, "end": end, "centre": centre})
+
     def add_interaction(self, interaction: Interaction) -> Interaction:
         """Add a boundary condition (fixed coordinates) or a load (nodal load, gravity)."""
         if isinstance(interaction, FixedCoordinates):

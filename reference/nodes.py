@@ -38,6 +38,8 @@ class Node:
         Lumped translational mass [kg] (accumulated from elements or set).
     inertia : array (3, 3)
         Rotary inertia [kg m²] in the body frame (accumulated or set).
+    points : dict
+        Named points of a rigid body, inertial coordinates at t = 0 [m].
     """
 
     id: int
@@ -48,6 +50,7 @@ class Node:
     angular_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     mass: float = 0.0
     inertia: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+    points: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.position = np.asarray(self.position, dtype=float).reshape(3)

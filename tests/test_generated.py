@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import derivations
@@ -35,7 +36,8 @@ def test_generated_files_have_header_and_documented_arguments():
                 assert doc, f"{path.name}:{node.name} has no docstring"
                 if len(node.args.args) > 1:
                     assert "Parameters (in this order)" in doc, f"{path.name}:{node.name}"
-                    positions = [doc.index(f"    {a.arg} :") if f"{a.arg} :" in doc else -1 for a in node.args.args]
+                    found = [re.search(rf"^{a.arg} :", doc, re.M) for a in node.args.args]
+                    positions = [m.start() if m else -1 for m in found]
                     assert -1 not in positions and positions == sorted(positions), f"{path.name}:{node.name}"
 
 
