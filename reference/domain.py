@@ -137,6 +137,7 @@ class Domain:
         self.loading: list[Interaction] = []
         self.solver = SolverSettings()
         self.metadata: dict = {}
+        self.checks: dict = {}
         self.deck_text: str = ""
         self.deck_path: str = ""
         self._labels: dict[str, Node] = {}
@@ -411,7 +412,7 @@ class Domain:
                         f"Reduce dt below the critical estimate {self.critical_time_step():.3g} or check the loads."
                     )
                 done += chunk
-                if progress is not None:
+                if progress is not None and chunk > 0:
                     progress(done / n_total, state.t)
                 if chunk == 0:
                     break

@@ -11,19 +11,22 @@ Layout::
 
 Attributes: engine, engine_version, deck, deck_sha256, algorithm, dt, created,
 flexmbs_version, status (``"running"`` while written, then ``"completed"`` or
-why the run stopped).  Datasets are chunked and resizable and the file is
-flushed after every record, so a run that stops leaves a valid file.
+why the run stopped).  Datasets are chunked and resizable and every record is
+written as it comes; the file is flushed at least every ``FLUSH_SECONDS`` and
+on close, so a run that stops — even by a hard kill — leaves a valid file.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+import time
 from pathlib import Path
 
 import h5py
 import numpy as np
 
+FLUSH_SECONDS = 0.5
 NODE_FIELDS = {"position": 3, "rotation": 4, "velocity": 3, "angular_velocity": 3}
 SCALARS = {
     "constraints/violation_norm": "violation_norm",
@@ -85,25 +88,41 @@ class ResultsWriter:
         for name in SCALARS:
             self.f.create_dataset(name, shape=(0,), maxshape=(None,), chunks=(256,), dtype="f8")
         self.n = 0
+        self._buffer = []
+        self._flushed = time.monotonic()
 
     def append(self, entry: dict) -> None:
-        """Append one output record (keys: time, the node fields, the scalar names)."""
-        n = self.n
-        self.f["time"].resize((n + 1,))
-        self.f["time"][n] = entry["time"]
-        for name in NODE_FIELDS:
-            ds = self.f[f"nodes/{name}"]
-            ds.resize((n + 1, self.n_nodes, ds.shape[2]))
-            ds[n] = entry[name]
-        for name, key in SCALARS.items():
-            ds = self.f[name]
-            ds.resize((n + 1,))
-            ds[n] = entry.get(key, np.nan)
-        self.n = n + 1
+        """Append one output record (keys: time, the node fields, the scalar names).
+
+        Records are written in blocks, at least every ``FLUSH_SECONDS`` of wall
+        time and on close (one HDF5 resize per record would cost milliseconds).
+        """
+        self._buffer.append(entry)
+        if time.monotonic() - self._flushed > FLUSH_SECONDS:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the buffered records and flush the file."""
+        if self._buffer:
+            n, k = self.n, len(self._buffer)
+            self.f["time"].resize((n + k,))
+            self.f["time"][n:] = [e["time"] for e in self._buffer]
+            for name in NODE_FIELDS:
+                ds = self.f[f"nodes/{name}"]
+                ds.resize((n + k, self.n_nodes, ds.shape[2]))
+                ds[n:] = np.array([e[name] for e in self._buffer])
+            for name, key in SCALARS.items():
+                ds = self.f[name]
+                ds.resize((n + k,))
+                ds[n:] = [e.get(key, np.nan) for e in self._buffer]
+            self.n = n + k
+            self._buffer = []
         self.f.flush()
+        self._flushed = time.monotonic()
 
     def close(self, status: str = "completed") -> None:
         if self.f.id.valid:
+            self.flush()
             self.f.attrs["status"] = status
             self.f.close()
 

@@ -1,0 +1,99 @@
+"""The ``flexmbs`` command: run, crosscheck, report, derive, bench."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+
+class CommandError(Exception):
+    """An error to report in one line, without a traceback."""
+
+
+def cmd_run(args) -> int:
+    from flexmbs.progress import ProgressBar
+    from reference.domain import Domain
+    from reference.io.results import load_results
+    from reference.io.vtk import write_vtk
+
+    overrides = {k: v for k, v in (("t_end", args.t_end), ("dt", args.dt), ("refine", args.refine)) if v is not None}
+    domain = Domain.from_deck(args.deck, overrides=overrides)
+    out = Path(args.out) if args.out else Path("out") / Path(args.deck).stem
+    out.mkdir(parents=True, exist_ok=True)
+    results_path = out / "results.h5"
+    t0 = time.perf_counter()
+    result = domain.solve(results_path=results_path, progress=ProgressBar(domain.name))
+    wall = time.perf_counter() - t0
+    pvd = None
+    if not args.no_vtk:
+        pvd = write_vtk(domain, load_results(results_path), out / "vtk", domain.name)
+    print(f"{domain.name}: {len(result.time)} outputs to t = {result.time[-1]:g} in {wall:.2f} s "
+          f"(solve {result.wall_time:.3f} s) → {results_path}" + (f", {pvd}" if pvd else ""))
+    return 0
+
+
+def cmd_derive(args) -> int:
+    import derivations
+
+    if args.check:
+        stale = derivations.stale()
+        if stale:
+            raise CommandError(f"generated code is stale: {', '.join(stale)}; run `flexmbs derive` and commit the result")
+        print("reference/generated/ is up to date with derivations/")
+        return 0
+    for path in derivations.write():
+        print(f"wrote {path}")
+    return 0
+
+
+def cmd_report(args) -> int:
+    from flexmbs import report
+
+    return report.main(args)
+
+
+def cmd_bench(args) -> int:
+    from flexmbs import bench
+
+    return bench.main(args)
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="flexmbs", description="Flexible multibody dynamics: reference engine, "
+                                "Exudyn cross-check, verification report.")
+    sub = p.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="run a model deck with the reference engine")
+    run.add_argument("deck")
+    run.add_argument("--out", help="output folder (default out/<deck name>)")
+    run.add_argument("--t-end", type=float, help="end time, overriding the deck's")
+    run.add_argument("--dt", type=float, help="time step, overriding the deck's")
+    run.add_argument("--refine", type=int, help="multiply every beam's element count (the step shrinks with it)")
+    run.add_argument("--no-vtk", action="store_true", help="skip the ParaView output")
+    run.set_defaults(func=cmd_run)
+    rep = sub.add_parser("report", help="the verification report → reports/")
+    rep.add_argument("--quick", action="store_true", help="reduced version (for the tests)")
+    rep.set_defaults(func=cmd_report)
+    der = sub.add_parser("derive", help="regenerate reference/generated/ from derivations/")
+    der.add_argument("--check", action="store_true", help="fail if the committed generated code is stale")
+    der.set_defaults(func=cmd_derive)
+    ben = sub.add_parser("bench", help="solve times of flexmbs and Exudyn, side by side")
+    ben.add_argument("--repeat", type=int, default=3)
+    ben.set_defaults(func=cmd_bench)
+    return p
+
+
+def main(argv=None) -> int:
+    args = parser().parse_args(argv)
+    from reference.domain import SolverDiverged
+    from reference.io.deck import DeckError
+
+    try:
+        return args.func(args)
+    except (DeckError, SolverDiverged, CommandError, FileNotFoundError) as exc:
+        print(f"flexmbs: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("flexmbs: interrupted; results written so far are kept", file=sys.stderr)
+        return 130

@@ -1,0 +1,1 @@
+"""Input and output: model decks, the results file, ParaView export."""

@@ -1,0 +1,320 @@
+"""Model decks (TOML): reading and validation.
+
+The deck is the preprocessor's file of the paper's Domain (§4.3): it lists
+sections, nodes, beams, boundary conditions, loads and their time functions,
+initial conditions and the solver settings.  Every key is documented in
+``docs/deck.md``.  Anything wrong — a typo, a missing reference, a
+non-positive stiffness, an unstable time step — raises :class:`DeckError`
+with one message naming the file, the entry and the fix.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from reference.domain import Domain, SolverSettings
+from reference.elements import Section
+from reference.interactions import (
+    Clamp, Constant, FixedCoordinates, Gravity, NodalLoad, PiecewiseLinear, Ramp, Sine, SmoothStep, Step,
+)
+
+
+class DeckError(ValueError):
+    """A deck that cannot be run; the message names the file, the entry and the fix."""
+
+
+TOP_LEVEL = {"meta", "sections", "time_functions", "nodes", "beams", "rigid_bodies", "joints", "clamps", "fixed",
+             "loads", "gravity", "initial_velocities", "solver", "checks"}
+SECTION_KEYS = ["EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ1", "rhoJ2", "rhoJ3"]
+TIME_FUNCTIONS = {
+    "constant": (Constant, ["value"], {}),
+    "ramp": (Ramp, ["t0", "t1"], {"v0": 0.0, "v1": 1.0}),
+    "step": (Step, ["t0"], {"v0": 0.0, "v1": 1.0}),
+    "piecewise_linear": (PiecewiseLinear, ["times", "values"], {}),
+    "sine": (Sine, ["amplitude", "omega"], {"phase": 0.0, "offset": 0.0}),
+    "smooth_step": (SmoothStep, ["t0", "t1"], {"v0": 0.0, "v1": 1.0}),
+}
+DOF_NAMES = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
+OVERRIDES = {"t_end", "dt", "refine"}
+
+
+class _Reader:
+    """Validation helpers that know the file name for their messages."""
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def fail(self, entry: str, problem: str, fix: str = "") -> DeckError:
+        msg = f"{self.path}: {entry}: {problem}"
+        return DeckError(msg + (f"; {fix}" if fix else ""))
+
+    def keys(self, table, entry: str, required=(), optional=()) -> None:
+        if not isinstance(table, dict):
+            raise self.fail(entry, f"expected a table, got {type(table).__name__}")
+        allowed = list(required) + list(optional)
+        for key in table:
+            if key not in allowed:
+                close = difflib.get_close_matches(key, allowed, n=1)
+                hint = f"did you mean '{close[0]}'?" if close else f"valid keys: {', '.join(allowed)}"
+                raise self.fail(f"{entry}.{key}", "unknown key", hint)
+        for key in required:
+            if key not in table:
+                raise self.fail(entry, f"missing required key '{key}'", f"required keys: {', '.join(required)}")
+
+    def number(self, value, entry: str, positive=False, nonnegative=False) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.fail(entry, f"expected a number, got {value!r}")
+        if positive and not value > 0:
+            raise self.fail(entry, f"must be positive, got {value!r}", "give a value > 0")
+        if nonnegative and value < 0:
+            raise self.fail(entry, f"must not be negative, got {value!r}")
+        return float(value)
+
+    def integer(self, value, entry: str, minimum=1) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            raise self.fail(entry, f"expected an integer ≥ {minimum}, got {value!r}")
+        return int(value)
+
+    def vector(self, value, entry: str, n=3) -> np.ndarray:
+        if not isinstance(value, list) or len(value) != n:
+            raise self.fail(entry, f"expected a list of {n} numbers, got {value!r}")
+        return np.array([self.number(v, f"{entry}[{i}]") for i, v in enumerate(value)])
+
+    def string(self, value, entry: str) -> str:
+        if not isinstance(value, str):
+            raise self.fail(entry, f"expected a string, got {value!r}")
+        return value
+
+    def items(self, deck, key) -> list:
+        value = deck.get(key, [])
+        if not isinstance(value, list):
+            raise self.fail(key, "expected an array of tables", f"write it as [[{key}]]")
+        return value
+
+
+def load_deck(path, overrides: dict | None = None) -> Domain:
+    """Read and validate a deck; return a ready-to-solve :class:`~reference.domain.Domain`.
+
+    Parameters
+    ----------
+    path : path-like
+    overrides : dict, optional
+        ``t_end``, ``dt`` (replace the deck's), ``refine`` (an integer
+        multiplying every beam's element count; the step is divided and the
+        output interval multiplied by it, so output times stay the same).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise DeckError(f"{path}: no such deck file")
+    text = path.read_text(encoding="utf-8")
+    rd = _Reader(path)
+    try:
+        deck = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise DeckError(f"{path}: not valid TOML: {exc}") from None
+    overrides = dict(overrides or {})
+    for key in overrides:
+        if key not in OVERRIDES:
+            raise DeckError(f"{path}: unknown override {key!r}; valid: {', '.join(sorted(OVERRIDES))}")
+    refine = rd.integer(overrides.get("refine", 1), "override refine")
+    rd.keys(deck, "deck", optional=sorted(TOP_LEVEL))
+    for key in ("rigid_bodies", "joints"):
+        if key in deck:
+            raise rd.fail(f"{key}[0]", "rigid bodies and joints are not supported by this version of the deck reader",
+                          "remove the entry or use a newer flexmbs")
+
+    meta = deck.get("meta", {})
+    rd.keys(meta, "meta", required=["name"], optional=["description", "units", "provenance", "notes"])
+    domain = Domain(rd.string(meta["name"], "meta.name"), str(meta.get("description", "")))
+    domain.metadata = dict(meta)
+    domain.deck_text, domain.deck_path = text, str(path)
+
+    sections = {}
+    for name, sec in deck.get("sections", {}).items():
+        entry = f"sections.{name}"
+        rd.keys(sec, entry, required=SECTION_KEYS)
+        values = {k: rd.number(sec[k], f"{entry}.{k}", positive=True) for k in SECTION_KEYS}
+        sections[name] = Section(**values)
+
+    tfs = {}
+    for name, tf in deck.get("time_functions", {}).items():
+        entry = f"time_functions.{name}"
+        if not isinstance(tf, dict) or "kind" not in tf:
+            raise rd.fail(entry, "missing required key 'kind'", f"one of: {', '.join(TIME_FUNCTIONS)}")
+        kind = tf["kind"]
+        if kind not in TIME_FUNCTIONS:
+            close = difflib.get_close_matches(str(kind), list(TIME_FUNCTIONS), n=1)
+            raise rd.fail(f"{entry}.kind", f"unknown kind {kind!r}",
+                          f"did you mean '{close[0]}'?" if close else f"one of: {', '.join(TIME_FUNCTIONS)}")
+        cls, required, optional = TIME_FUNCTIONS[kind]
+        rd.keys(tf, entry, required=["kind"] + required, optional=list(optional))
+        args = {}
+        for k in required + list(optional):
+            v = tf.get(k, optional.get(k))
+            if k in ("times", "values"):
+                if not isinstance(v, list) or len(v) < 2:
+                    raise rd.fail(f"{entry}.{k}", "expected a list of at least two numbers")
+                args[k] = [rd.number(x, f"{entry}.{k}[{i}]") for i, x in enumerate(v)]
+            else:
+                args[k] = rd.number(v, f"{entry}.{k}")
+        if kind == "piecewise_linear":
+            if len(args["times"]) != len(args["values"]):
+                raise rd.fail(entry, "times and values have different lengths")
+            if np.any(np.diff(args["times"]) <= 0):
+                raise rd.fail(f"{entry}.times", "must be strictly increasing")
+        if kind in ("ramp", "smooth_step") and not args["t1"] > args["t0"]:
+            raise rd.fail(entry, "t1 must be greater than t0")
+        tfs[name] = cls(**args)
+
+    beams = {}
+
+    def node_ref(ref, entry):
+        if not isinstance(ref, str):
+            raise rd.fail(entry, f"expected a node reference (a label like 'beam:end'), got {ref!r}")
+        if ":" in ref:
+            beam, _, which = ref.rpartition(":")
+            if beam in beams:
+                nodes = beams[beam]
+                if which == "start":
+                    return nodes[0]
+                if which == "end":
+                    return nodes[-1]
+                if which.isdigit() and int(which) < len(nodes):
+                    return nodes[int(which)]
+                raise rd.fail(entry, f"beam '{beam}' has no node '{which}'",
+                              f"use '{beam}:start', '{beam}:end' or an index 0…{len(nodes) - 1}")
+        try:
+            return domain.node(ref)
+        except KeyError:
+            labels = [n.label for n in domain.nodes]
+            close = difflib.get_close_matches(ref, labels + [f"{b}:start" for b in beams] + [f"{b}:end" for b in beams], n=1)
+            raise rd.fail(entry, f"no node {ref!r}", f"did you mean '{close[0]}'?" if close else
+                          "reference a node label or '<beam>:start', '<beam>:end', '<beam>:<i>'") from None
+
+    for i, nd in enumerate(rd.items(deck, "nodes")):
+        entry = f"nodes[{i}]"
+        rd.keys(nd, entry, required=["label", "position"], optional=["rotation"])
+        rot = rd.vector(nd["rotation"], f"{entry}.rotation", 4) if "rotation" in nd else None
+        if rot is not None and abs(np.linalg.norm(rot) - 1.0) > 1e-6:
+            raise rd.fail(f"{entry}.rotation", "Euler parameters must have unit norm", "normalise them")
+        label = rd.string(nd["label"], f"{entry}.label")
+        if label in domain._labels:
+            raise rd.fail(f"{entry}.label", f"duplicate node label {label!r}")
+        domain.add_node(rd.vector(nd["position"], f"{entry}.position"), rot, label)
+
+    for i, bm in enumerate(rd.items(deck, "beams")):
+        entry = f"beams[{i}]"
+        rd.keys(bm, entry, required=["label", "elements", "section"],
+                optional=["start", "end", "start_node", "end_node", "axis2", "rigid"])
+        label = rd.string(bm["label"], f"{entry}.label")
+        if label in beams:
+            raise rd.fail(f"{entry}.label", f"duplicate beam label {label!r}")
+        if bm.get("rigid", False):
+            raise rd.fail(f"{entry}.rigid", "rigid bars are not supported by this version of the deck reader",
+                          "set rigid = false")
+        n = rd.integer(bm["elements"], f"{entry}.elements") * refine
+        sec_name = rd.string(bm["section"], f"{entry}.section")
+        if sec_name not in sections:
+            close = difflib.get_close_matches(sec_name, list(sections), n=1)
+            raise rd.fail(f"{entry}.section", f"no section {sec_name!r}",
+                          f"did you mean '{close[0]}'?" if close else f"defined sections: {', '.join(sections) or 'none'}")
+        ends = []
+        for side in ("start", "end"):
+            if (side in bm) == (f"{side}_node" in bm):
+                raise rd.fail(entry, f"give exactly one of '{side}' (coordinates) and '{side}_node' (a node reference)")
+            if side in bm:
+                ends.append((rd.vector(bm[side], f"{entry}.{side}"), None))
+            else:
+                node = node_ref(bm[f"{side}_node"], f"{entry}.{side}_node")
+                ends.append((node.position, node))
+        if np.linalg.norm(ends[1][0] - ends[0][0]) <= 0.0:
+            raise rd.fail(entry, "start and end coincide (zero-length beam)")
+        axis2 = rd.vector(bm.get("axis2", [0.0, 1.0, 0.0]), f"{entry}.axis2")
+        try:
+            beams[label] = domain.add_beam(label, ends[0][0], ends[1][0], n, sections[sec_name], axis2,
+                                           start_node=ends[0][1], end_node=ends[1][1])
+        except ValueError as exc:
+            raise rd.fail(entry, str(exc)) from None
+
+    for i, cl in enumerate(rd.items(deck, "clamps")):
+        entry = f"clamps[{i}]"
+        rd.keys(cl, entry, required=["node"])
+        domain.add_interaction(Clamp(node_ref(cl["node"], f"{entry}.node")))
+    for i, fx in enumerate(rd.items(deck, "fixed")):
+        entry = f"fixed[{i}]"
+        rd.keys(fx, entry, required=["node", "dofs"])
+        if not isinstance(fx["dofs"], list) or not fx["dofs"]:
+            raise rd.fail(f"{entry}.dofs", "expected a non-empty list", f"names: {', '.join(DOF_NAMES)}")
+        dofs = []
+        for d in fx["dofs"]:
+            if d not in DOF_NAMES:
+                raise rd.fail(f"{entry}.dofs", f"unknown coordinate {d!r}", f"names: {', '.join(DOF_NAMES)}")
+            dofs.append(DOF_NAMES[d])
+        domain.add_interaction(FixedCoordinates(node_ref(fx["node"], f"{entry}.node"), tuple(dofs)))
+
+    for i, ld in enumerate(rd.items(deck, "loads")):
+        entry = f"loads[{i}]"
+        rd.keys(ld, entry, required=["node"], optional=["force", "moment", "frame", "time_function"])
+        if ("force" in ld) == ("moment" in ld):
+            raise rd.fail(entry, "give exactly one of 'force' and 'moment'")
+        moment = "moment" in ld
+        vec = rd.vector(ld["moment" if moment else "force"], f"{entry}.{'moment' if moment else 'force'}")
+        frame = ld.get("frame", "inertial")
+        if frame not in ("inertial", "body"):
+            raise rd.fail(f"{entry}.frame", f"unknown frame {frame!r}",
+                          "'inertial' (a dead load) or 'body' (a follower load)")
+        tf = Constant(1.0)
+        if "time_function" in ld:
+            name = rd.string(ld["time_function"], f"{entry}.time_function")
+            if name not in tfs:
+                close = difflib.get_close_matches(name, list(tfs), n=1)
+                raise rd.fail(f"{entry}.time_function", f"no time function {name!r}",
+                              f"did you mean '{close[0]}'?" if close else f"defined: {', '.join(tfs) or 'none'}")
+            tf = tfs[name]
+        domain.add_interaction(NodalLoad(node_ref(ld["node"], f"{entry}.node"), vec, moment, frame == "body", tf))
+    if "gravity" in deck:
+        rd.keys(deck["gravity"], "gravity", required=["g"])
+        domain.add_interaction(Gravity(rd.vector(deck["gravity"]["g"], "gravity.g")))
+
+    for i, iv in enumerate(rd.items(deck, "initial_velocities")):
+        entry = f"initial_velocities[{i}]"
+        rd.keys(iv, entry, required=["node"], optional=["velocity", "angular_velocity"])
+        node = node_ref(iv["node"], f"{entry}.node")
+        if "velocity" in iv:
+            node.velocity = rd.vector(iv["velocity"], f"{entry}.velocity")
+        if "angular_velocity" in iv:
+            node.angular_velocity = rd.vector(iv["angular_velocity"], f"{entry}.angular_velocity")
+
+    if "solver" not in deck:
+        raise rd.fail("solver", "missing [solver] table", "give at least dt and t_end")
+    sv = deck["solver"]
+    rd.keys(sv, "solver", required=["dt", "t_end"], optional=["algorithm", "damping", "output_every"])
+    algorithm = sv.get("algorithm", SolverSettings.algorithm)
+    if algorithm != SolverSettings.algorithm:
+        raise rd.fail("solver.algorithm", f"unknown algorithm {algorithm!r}", f"available: '{SolverSettings.algorithm}'")
+    dt = rd.number(overrides.get("dt", sv["dt"] / refine), "solver.dt", positive=True)
+    t_end = rd.number(overrides.get("t_end", sv["t_end"]), "solver.t_end", positive=True)
+    domain.solver = SolverSettings(
+        algorithm=algorithm, dt=dt, t_end=t_end,
+        damping=rd.number(sv.get("damping", 0.0), "solver.damping", nonnegative=True),
+        output_every=rd.integer(sv.get("output_every", 1), "solver.output_every") * refine,
+    )
+    if not domain.elements and not domain.nodes:
+        raise rd.fail("deck", "the deck defines no nodes or beams")
+    crit = domain.critical_time_step()
+    if dt > crit:
+        raise rd.fail("solver.dt", f"dt = {dt:g} is above the critical time step {crit:.4g} of the explicit scheme "
+                      "(the run would blow up)", f"use dt ≤ {0.8 * crit:.3g}")
+    steps = t_end / dt
+    if abs(steps - round(steps)) > 1e-9 * max(steps, 1.0):
+        raise rd.fail("solver.t_end", f"t_end = {t_end:g} is not a whole number of steps dt = {dt:g}",
+                      f"use t_end = {max(round(steps), 1) * dt:g} or a dt that divides it")
+    checks = deck.get("checks", {})
+    rd.keys(checks, "checks", optional=list(checks))
+    domain.checks = checks
+    return domain

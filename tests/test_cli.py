@@ -1,0 +1,32 @@
+"""The command line: run writes results and VTK; errors are one line and exit status 2."""
+
+from __future__ import annotations
+
+import h5py
+
+from flexmbs.cli import main
+
+from test_deck import GOOD, write
+
+
+def test_run_writes_results_and_vtk(tmp_path, capsys):
+    deck = write(tmp_path, GOOD)
+    assert main(["run", str(deck), "--out", str(tmp_path / "out")]) == 0
+    with h5py.File(tmp_path / "out" / "results.h5") as f:
+        assert f["time"].shape == (5,)
+        assert f.attrs["status"] == "completed" and f.attrs["engine"] == "flexmbs-reference"
+        assert f.attrs["deck"] == deck.read_text()
+    assert (tmp_path / "out" / "vtk" / "tiny.pvd").exists()
+    assert "outputs to t = 0.02" in capsys.readouterr().out
+
+
+def test_bad_deck_gives_one_line_and_status_2(tmp_path, capsys):
+    deck = write(tmp_path, GOOD.replace("elements = 4", "elemnts = 4"))
+    assert main(["run", str(deck), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("flexmbs: error:") and len(err.splitlines()) == 1
+    assert "beams[0].elemnts" in err and "Traceback" not in err
+
+
+def test_derive_check_passes_on_the_committed_code(capsys):
+    assert main(["derive", "--check"]) == 0

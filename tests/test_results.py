@@ -1,0 +1,52 @@
+"""The results file contract (DESIGN.md), and a run that blows up keeps what it wrote."""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+from reference.domain import SolverDiverged, SolverSettings
+from reference.elements import Section
+from reference.interactions import NodalLoad
+from reference.io.results import load_results
+
+from conftest import cantilever
+
+SEC = Section(EA=1e3, GA2=1e3, GA3=1e3, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-2, rhoJ2=1e-2, rhoJ3=1e-2)
+
+CONTRACT = {
+    "time": 1, "nodes/id": 1, "nodes/label": 1, "nodes/position": 3, "nodes/rotation": 3, "nodes/velocity": 3,
+    "nodes/angular_velocity": 3, "constraints/violation_norm": 1, "constraints/velocity_violation_norm": 1,
+    "energy/kinetic": 1, "energy/strain": 1, "energy/external_work": 1,
+}
+
+
+def test_results_file_honours_the_contract(tmp_path):
+    d, nodes = cantilever(3, SEC)
+    d.add_interaction(NodalLoad(nodes[-1], np.array([0.0, 1e-3, 0.0])))
+    d.solver = SolverSettings(dt=1e-3, t_end=0.05, output_every=10)
+    r = d.solve(results_path=tmp_path / "r.h5")
+    with h5py.File(tmp_path / "r.h5") as f:
+        for name, ndim in CONTRACT.items():
+            assert f[name].ndim == ndim, name
+        assert f["nodes/position"].shape == (6, 4, 3) and f["nodes/rotation"].shape == (6, 4, 4)
+        for key in ("engine", "engine_version", "deck", "deck_sha256", "algorithm", "dt", "created", "flexmbs_version"):
+            assert key in f.attrs, key
+        assert f.attrs["dt"] == 1e-3
+    back = load_results(tmp_path / "r.h5")
+    assert np.array_equal(back.positions, r.positions) and back.labels == r.labels
+    assert np.allclose(np.linalg.norm(back.rotations, axis=2), 1.0)
+
+
+def test_blow_up_stops_with_a_message_and_keeps_the_results(tmp_path):
+    """dt far above the critical step: SolverDiverged names the time and the fix; the file
+    is valid up to the last output and says how the run ended."""
+    d, nodes = cantilever(3, SEC)
+    d.add_interaction(NodalLoad(nodes[-1], np.array([0.0, 0.0, 1e-3])))
+    d.solver = SolverSettings(dt=2.5 * d.critical_time_step(), t_end=2000 * 2.5 * d.critical_time_step(), output_every=5)
+    with pytest.raises(SolverDiverged, match="critical"):
+        d.solve(results_path=tmp_path / "r.h5")
+    back = load_results(tmp_path / "r.h5")
+    assert back.status.startswith("diverged")
+    assert len(back.time) >= 1 and np.all(np.isfinite(back.positions))
