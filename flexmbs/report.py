@@ -114,7 +114,7 @@ def rollup_section(out: Path, quick: bool) -> tuple[list[str], list[Check]]:
                             "issue acceptance: 0.5 % of L (polygon error ≤ 0.21 % L + dynamic lag)"))
     checks.append(Check("tip at k = 2 (closed circle)", "0", float(np.linalg.norm(at(r, tip_label, 2.0)) / L), 5e-4,
                         "the polygon closes exactly; only the damping lag remains (< 0.09 % L)"))
-    checks.append(Check("max |out-of-plane y| over all nodes and times", "0 exactly",
+    checks.append(Check("max out-of-plane y over all nodes and times", "0 exactly",
                         float(np.abs(r.positions[:, :, 1]).max()), 0.0,
                         "the planar roll-up is unstable out of plane: any non-zero term grows"))
     e = r.energy
