@@ -51,7 +51,7 @@ def solve_rollup_exudyn(L=10.0, n_elements=12, EA=4.0, GA=4.0, GJ=100.0, EI=100.
         nodes.append(mbs.AddNode(eii.NodeRigidBodyEP(referenceCoordinates=ref)))
         markers.append(mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=nodes[-1])))
     for i in range(n_elements):
-        mbs.AddObject(eii.ObjectBeamGeometricallyExact(nodeNumbers=[nodes[i], nodes[i + 1]], physicsLength=L0,
+        mbs.AddObject(eii.ObjectBeamGeometricallyExact(nodeNumbers=[nodes[i], nodes[i + 1]], length=L0,
                                                        sectionData=section))
     mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[m_ground, markers[0]], constrainedAxes=[1, 1, 1, 1, 1, 1]))
     if damping > 0.0 and not static:
@@ -81,8 +81,8 @@ def solve_rollup_exudyn(L=10.0, n_elements=12, EA=4.0, GA=4.0, GJ=100.0, EI=100.
     mbs.Assemble()
 
     settings = exu.SimulationSettings()
-    settings.solutionSettings.writeSolutionToFile = False
-    settings.solutionSettings.sensorsWritePeriod = output_every * dt
+    settings.solution.file.write = False
+    settings.solution.sensors.writePeriod = output_every * dt
     settings.timeIntegration.verboseMode = 0
     settings.staticSolver.verboseMode = 0
     n_steps = int(round(t_end / dt))
