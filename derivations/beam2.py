@@ -100,21 +100,14 @@ def kernels() -> list[Kernel]:
     return [
         Kernel(
             "internal_forces",
-            "Beam2 internal nodal forces, the exact gradient of the strain energy.\n\n"
+            "Beam2 internal nodal forces (the exact gradient of the strain energy), strains, resultants.\n\n"
             "    Paper eq. (3): the vector S of ``M a + S = F``.  Order of ``s``:\n"
             "    S_u1 (inertial, N), S_θ1 (body frame of node 1, N m), S_u2, S_θ2.",
             args,
-            [("s", out["S"], "internal forces [S_u1, S_θ1, S_u2, S_θ2] (12,)")],
+            [("s", out["S"], "internal forces [S_u1, S_θ1, S_u2, S_θ2] (12,)"),
+             ("strain", list(out["Gamma"]) + list(out["Kappa"]), "Γ (3) then K (3) at the midpoint [-, 1/m]"),
+             ("stress", list(out["N"]) + list(out["M"]), "N (3) [N] then M (3) [N m], section frame")],
             (out["U"], "strain energy U [J]"),
-            stages,
-        ),
-        Kernel(
-            "section_resultants",
-            "Strains and section resultants at the element midpoint (section frame).",
-            args,
-            [("strain", list(out["Gamma"]) + list(out["Kappa"]), "Γ (3) then K (3) [-, 1/m]"),
-             ("stress", list(out["N"]) + list(out["M"]), "N (3) [N] then M (3) [N m]")],
-            None,
             stages,
         ),
     ]

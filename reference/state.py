@@ -109,4 +109,4 @@ class Scratch(NamedTuple):
     @classmethod
     def for_nodes(cls, n_nodes: int) -> "Scratch":
         return cls(np.zeros((n_nodes, 6)), np.zeros((n_nodes, 6)), np.zeros((n_nodes, 3)),
-                   np.zeros((n_nodes, 3)), np.zeros(12), np.zeros(4), np.zeros(9))
+                   np.zeros((n_nodes, 3)), np.zeros(24), np.zeros(4), np.zeros(9))

@@ -102,28 +102,24 @@ class Beam2Formulation(ElementFormulation):
         psi0 = np.empty(3)
         rm.log_quaternion(r, psi0)
         # Γ0 = Am^T x' with the reference itself: evaluate with Γ0 = 0 and read Γ.
-        strain, stress = np.empty(6), np.empty(6)
-        generated_beam2.section_resultants(
-            x_nodes[0], x_nodes[1], q_nodes[0], q_nodes[1], length, psi0, np.zeros(3),
-            self.section.stiffness, strain, stress,
-        )
+        _, _, strain, _ = self._evaluate(x_nodes, q_nodes, {"L0": length, "psi0": psi0, "gamma0": np.zeros(3)})
         return {"L0": length, "psi0": psi0, "gamma0": strain[:3].copy()}
 
-    def internal_forces(self, x_nodes, q_nodes, reference):
-        s = np.empty(12)
+    def _evaluate(self, x_nodes, q_nodes, reference):
+        s, strain, stress = np.empty(12), np.empty(6), np.empty(6)
         U = generated_beam2.internal_forces(
             x_nodes[0], x_nodes[1], q_nodes[0], q_nodes[1], reference["L0"], reference["psi0"],
-            reference["gamma0"], self.section.stiffness, s,
+            reference["gamma0"], self.section.stiffness, s, strain, stress,
         )
+        return s, U, strain, stress
+
+    def internal_forces(self, x_nodes, q_nodes, reference):
+        s, U, _, _ = self._evaluate(x_nodes, q_nodes, reference)
         return s, U
 
     def section_resultants(self, x_nodes, q_nodes, reference):
         """Strains ``(Γ, K)`` and resultants ``(N, M)`` at the midpoint, section frame."""
-        strain, stress = np.empty(6), np.empty(6)
-        generated_beam2.section_resultants(
-            x_nodes[0], x_nodes[1], q_nodes[0], q_nodes[1], reference["L0"], reference["psi0"],
-            reference["gamma0"], self.section.stiffness, strain, stress,
-        )
+        _, _, strain, stress = self._evaluate(x_nodes, q_nodes, reference)
         return strain, stress
 
     def critical_time_step(self, length):
@@ -150,14 +146,15 @@ class Beam2Formulation(ElementFormulation):
 def beam2_assemble(x, q, conn, L0, psi0, gamma0, stiff, S, s_el):
     """Add the internal forces of all Beam2 elements into ``S`` (N, 6); return ΣU.
 
-    ``S`` is zeroed first; ``s_el`` (12,) is scratch.  Loops over the elements
-    in compiled code and allocates nothing.
+    ``S`` is zeroed first; ``s_el`` (24,) is scratch (forces, strains,
+    resultants).  Loops over the elements in compiled code and allocates nothing.
     """
     S[:, :] = 0.0
     U = 0.0
     for e in range(conn.shape[0]):
         i, j = conn[e, 0], conn[e, 1]
-        U += generated_beam2.internal_forces(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e], s_el)
+        U += generated_beam2.internal_forces(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e],
+                                             s_el[:12], s_el[12:18], s_el[18:])
         for k in range(6):
             S[i, k] += s_el[k]
             S[j, k] += s_el[6 + k]

@@ -12,8 +12,8 @@ from reference.jit import kernel
 
 
 @kernel
-def internal_forces(x1, x2, q1, q2, L0, psi0, gamma0, c, s):
-    """Beam2 internal nodal forces, the exact gradient of the strain energy.
+def internal_forces(x1, x2, q1, q2, L0, psi0, gamma0, c, s, strain, stress):
+    """Beam2 internal nodal forces (the exact gradient of the strain energy), strains, resultants.
 
     Paper eq. (3): the vector S of ``M a + S = F``.  Order of ``s``:
     S_u1 (inertial, N), S_θ1 (body frame of node 1, N m), S_u2, S_θ2.
@@ -38,6 +38,10 @@ def internal_forces(x1, x2, q1, q2, L0, psi0, gamma0, c, s):
         section stiffness EA, GA2, GA3 [N], GJ, EI2, EI3 [N m²]
     s : array (12,), written
         internal forces [S_u1, S_θ1, S_u2, S_θ2] (12,)
+    strain : array (6,), written
+        Γ (3) then K (3) at the midpoint [-, 1/m]
+    stress : array (6,), written
+        N (3) [N] then M (3) [N m], section frame
 
     Returns
     -------
@@ -214,191 +218,6 @@ def internal_forces(x1, x2, q1, q2, L0, psi0, gamma0, c, s):
     s[9] = st2_0
     s[10] = st2_1
     s[11] = st2_2
-    return (1/2)*L0*(Gamma_0**2*c_0 + Gamma_1**2*c_1 + Gamma_2**2*c_2 + Kappa_0**2*c_3 + Kappa_1**2*c_4 + Kappa_2**2*c_5)
-
-
-@kernel
-def section_resultants(x1, x2, q1, q2, L0, psi0, gamma0, c, strain, stress):
-    """Strains and section resultants at the element midpoint (section frame).
-
-    Parameters (in this order)
-    ----------
-    x1 : array (3,)
-        position of node 1 (inertial) [m]
-    x2 : array (3,)
-        position of node 2 (inertial) [m]
-    q1 : array (4,)
-        Euler parameters of node 1 (section triad)
-    q2 : array (4,)
-        Euler parameters of node 2 (section triad)
-    L0 : float
-        reference length [m]
-    psi0 : array (3,)
-        reference relative rotation ψ0 = log(A1ᵀA2) at rest [rad]
-    gamma0 : array (3,)
-        reference Γ0 = Amᵀx' at rest (E1 for a straight beam)
-    c : array (6,)
-        section stiffness EA, GA2, GA3 [N], GJ, EI2, EI3 [N m²]
-    strain : array (6,), written
-        Γ (3) then K (3) [-, 1/m]
-    stress : array (6,), written
-        N (3) [N] then M (3) [N m]
-    """
-    x1_0 = x1[0]
-    x1_1 = x1[1]
-    x1_2 = x1[2]
-    x2_0 = x2[0]
-    x2_1 = x2[1]
-    x2_2 = x2[2]
-    q1_0 = q1[0]
-    q1_1 = q1[1]
-    q1_2 = q1[2]
-    q1_3 = q1[3]
-    q2_0 = q2[0]
-    q2_1 = q2[1]
-    q2_2 = q2[2]
-    q2_3 = q2[3]
-    psi0_0 = psi0[0]
-    psi0_1 = psi0[1]
-    psi0_2 = psi0[2]
-    gamma0_0 = gamma0[0]
-    gamma0_1 = gamma0[1]
-    gamma0_2 = gamma0[2]
-    c_0 = c[0]
-    c_1 = c[1]
-    c_2 = c[2]
-    c_3 = c[3]
-    c_4 = c[4]
-    c_5 = c[5]
-    t0 = 2*q1_0**2 - 1
-    t1 = q1_0*q1_3
-    t2 = q1_0*q1_2
-    t3 = q1_0*q1_1
-    A1_0 = 2*q1_1**2 + t0
-    A1_1 = 2*q1_1*q1_2 - 2*t1
-    A1_2 = 2*q1_1*q1_3 + 2*t2
-    A1_3 = 2*q1_1*q1_2 + 2*t1
-    A1_4 = 2*q1_2**2 + t0
-    A1_5 = 2*q1_2*q1_3 - 2*t3
-    A1_6 = 2*q1_1*q1_3 - 2*t2
-    A1_7 = 2*q1_2*q1_3 + 2*t3
-    A1_8 = 2*q1_3**2 + t0
-    r_0 = q1_0*q2_0 + q1_1*q2_1 + q1_2*q2_2 + q1_3*q2_3
-    r_1 = q1_0*q2_1 - q1_1*q2_0 - q1_2*q2_3 + q1_3*q2_2
-    r_2 = q1_0*q2_2 + q1_1*q2_3 - q1_2*q2_0 - q1_3*q2_1
-    r_3 = q1_0*q2_3 - q1_1*q2_2 + q1_2*q2_1 - q1_3*q2_0
-    t4 = branch_sign(r_0)
-    t5 = 2*t4*c_asinc(math.atan2(math.sqrt(r_1**2 + r_2**2 + r_3**2), r_0*t4))
-    psi_0 = r_1*t5
-    psi_1 = r_2*t5
-    psi_2 = r_3*t5
-    t6 = psi_1**2
-    t7 = psi_0**2
-    t8 = psi_2**2
-    t9 = (1/2)*math.sqrt(t6 + t7 + t8)
-    t10 = c_cosc(t9)
-    t11 = (1/4)*t10
-    t12 = t11*t6
-    t13 = t11*t8 - 1
-    t14 = 2*c_sinc(t9)
-    t15 = psi_2*t14
-    t16 = psi_0*t10
-    t17 = psi_1*t16
-    t18 = psi_1*t14
-    t19 = psi_2*t16
-    t20 = t11*t7
-    t21 = psi_0*t14
-    E_0 = -t12 - t13
-    E_1 = -1/4*t15 + (1/4)*t17
-    E_2 = (1/4)*t18 + (1/4)*t19
-    E_3 = (1/4)*t15 + (1/4)*t17
-    E_4 = -t13 - t20
-    E_5 = (1/4)*psi_1*psi_2*t10 - 1/4*t21
-    E_6 = -1/4*t18 + (1/4)*t19
-    E_7 = (1/4)*psi_1*psi_2*t10 + (1/4)*t21
-    E_8 = -t12 - t20 + 1
-    t22 = E_1*E_3
-    t23 = E_2*E_6
-    t24 = E_5*E_7
-    R_0 = E_0**2 + t22 + t23
-    R_1 = E_0*E_1 + E_1*E_4 + E_2*E_7
-    R_2 = E_0*E_2 + E_1*E_5 + E_2*E_8
-    R_3 = E_0*E_3 + E_3*E_4 + E_5*E_6
-    R_4 = E_4**2 + t22 + t24
-    R_5 = E_2*E_3 + E_4*E_5 + E_5*E_8
-    R_6 = E_0*E_6 + E_3*E_7 + E_6*E_8
-    R_7 = E_1*E_6 + E_4*E_7 + E_7*E_8
-    R_8 = E_8**2 + t23 + t24
-    Am_0 = A1_0*E_0 + A1_1*E_3 + A1_2*E_6
-    Am_1 = A1_0*E_1 + A1_1*E_4 + A1_2*E_7
-    Am_2 = A1_0*E_2 + A1_1*E_5 + A1_2*E_8
-    Am_3 = A1_3*E_0 + A1_4*E_3 + A1_5*E_6
-    Am_4 = A1_3*E_1 + A1_4*E_4 + A1_5*E_7
-    Am_5 = A1_3*E_2 + A1_4*E_5 + A1_5*E_8
-    Am_6 = A1_6*E_0 + A1_7*E_3 + A1_8*E_6
-    Am_7 = A1_6*E_1 + A1_7*E_4 + A1_8*E_7
-    Am_8 = A1_6*E_2 + A1_7*E_5 + A1_8*E_8
-    t25 = 1/L0
-    t26 = x1_0 - x2_0
-    t27 = x1_1 - x2_1
-    t28 = x1_2 - x2_2
-    gh_0 = -t25*(Am_0*t26 + Am_3*t27 + Am_6*t28)
-    gh_1 = -t25*(Am_1*t26 + Am_4*t27 + Am_7*t28)
-    gh_2 = -t25*(Am_2*t26 + Am_5*t27 + Am_8*t28)
-    Gamma_0 = -gamma0_0 + gh_0
-    Gamma_1 = -gamma0_1 + gh_1
-    Gamma_2 = -gamma0_2 + gh_2
-    t29 = 1/L0
-    Kappa_0 = -t29*(psi0_0 - psi_0)
-    Kappa_1 = -t29*(psi0_1 - psi_1)
-    Kappa_2 = -t29*(psi0_2 - psi_2)
-    N_0 = Gamma_0*c_0
-    N_1 = Gamma_1*c_1
-    N_2 = Gamma_2*c_2
-    M_0 = Kappa_0*c_3
-    M_1 = Kappa_1*c_4
-    M_2 = Kappa_2*c_5
-    f_0 = L0*(N_1*gh_2 - N_2*gh_1)
-    f_1 = -L0*(N_0*gh_2 - N_2*gh_0)
-    f_2 = L0*(N_0*gh_1 - N_1*gh_0)
-    t30 = psi_0**2
-    t31 = psi_1**2
-    t32 = psi_2**2
-    t33 = (1/2)*math.sqrt(t30 + t31 + t32)
-    t34 = 2*c_cosc(t33)
-    t35 = psi_2*t34
-    t36 = c_sinc3(t33)
-    t37 = psi_0*t36
-    t38 = psi_1*t37
-    t39 = (1/8)*f_1
-    t40 = psi_1*t34
-    t41 = psi_2*t37
-    t42 = (1/8)*f_2
-    t43 = t31*t36
-    t44 = t32*t36 - 4
-    t45 = (1/8)*f_0
-    t46 = psi_0*t34
-    t47 = psi_1*psi_2*t36
-    t48 = t30*t36
-    g_0 = M_0 + t39*(-t35 + t38) + t42*(t40 + t41) - t45*(t43 + t44)
-    g_1 = M_1 - t39*(t44 + t48) - t42*(t46 - t47) + t45*(t35 + t38)
-    g_2 = M_2 + t39*(t46 + t47) - t42*(t43 + t48 - 4) + t45*(-t40 + t41)
-    t49 = psi_0**2
-    t50 = psi_1**2
-    t51 = psi_2**2
-    t52 = c_jinv(math.sqrt(t49 + t50 + t51))
-    t53 = 2*psi_0*t52
-    t54 = psi_1*t53
-    t55 = (1/2)*g_1
-    t56 = psi_2*t53
-    t57 = (1/2)*g_2
-    t58 = t50*t52
-    t59 = t51*t52 - 1
-    t60 = 2*psi_1*psi_2*t52
-    t61 = t49*t52
-    st2_0 = -g_0*(t58 + t59) + t55*(psi_2 + t54) + t57*(-psi_1 + t56)
-    st2_1 = (1/2)*g_0*(-psi_2 + t54) - g_1*(t59 + t61) + t57*(psi_0 + t60)
-    st2_2 = (1/2)*g_0*(psi_1 + t56) - g_2*(t58 + t61 - 1) - t55*(psi_0 - t60)
     strain[0] = Gamma_0
     strain[1] = Gamma_1
     strain[2] = Gamma_2
@@ -411,3 +230,4 @@ def section_resultants(x1, x2, q1, q2, L0, psi0, gamma0, c, strain, stress):
     stress[3] = M_0
     stress[4] = M_1
     stress[5] = M_2
+    return (1/2)*L0*(Gamma_0**2*c_0 + Gamma_1**2*c_1 + Gamma_2**2*c_2 + Kappa_0**2*c_3 + Kappa_1**2*c_4 + Kappa_2**2*c_5)
