@@ -25,7 +25,10 @@ import numpy as np
 from reference.algorithms import StaggeredCentralDifference
 from reference.algorithms.staggered import OK
 from reference.elements import Beam2Formulation, Element, Section
-from reference.interactions import FixedCoordinates, Gravity, Interaction, NodalLoad, TimeFunction
+from reference.interactions import Constant, FixedCoordinates, Gravity, Interaction, NodalLoad, TimeFunction
+from reference.joints import Jacobian, Joint, joint_frame
+from reference.joints.assembly import SINGULAR, assemble_constraints, apply_inverse_mass
+from reference.joints.joint import ROWS
 from reference.nodes import Node
 from reference.rotation import EulerParameters
 from reference.state import Model, Record, Scratch, State
@@ -254,6 +257,24 @@ class Domain:
         centre = 0.5 * (start + end)
         return self.add_rigid_body(label, m, J, centre, q, {"start": start, "end": end, "centre": centre})
 
+    def add_joint(self, kind: str, body_i, body_j, point, axis=(0.0, 0.0, 1.0), reference=None, frame=None,
+                  formulation=None, time_function: TimeFunction | None = None, mode: str = "position",
+                  label: str = "") -> Joint:
+        """Join ``body_i`` to ``body_j`` (``None``: the ground) at ``point`` about/along ``axis``.
+
+        ``reference`` fixes the joint frame's u1 (see :func:`reference.joints.joint_frame`);
+        a full ``frame`` (columns u1, u2, u3) may be given instead.  For a universal
+        joint u1 is the pin on body i and u2 the pin on body j.  Drives take a
+        ``time_function`` (θ(t) or s(t), or their rates with ``mode="velocity"``).
+        """
+        frame = joint_frame(axis, reference) if frame is None else np.asarray(frame, dtype=float)
+        joint = Joint(kind, None if body_i is None else self.node(body_i), None if body_j is None else self.node(body_j),
+                      point, frame, formulation or Jacobian(), time_function or Constant(0.0), mode,
+                      label or f"{kind}:{len(self.joints)}")
+        self.joints.append(joint)
+        self._model = None
+        return joint
+
     def add_interaction(self, interaction: Interaction) -> Interaction:
         """Add a boundary condition (fixed coordinates) or a load (nodal load, gravity)."""
         if isinstance(interaction, FixedCoordinates):
@@ -310,11 +331,32 @@ class Domain:
             if isinstance(g, Gravity):
                 gravity += np.asarray(g.g, dtype=float)
         tfs: list[TimeFunction] = []
-        load_tf = np.zeros(len(loads), dtype=np.int64)
-        for l, ld in enumerate(loads):
-            if ld.time_function not in tfs:
-                tfs.append(ld.time_function)
-            load_tf[l] = tfs.index(ld.time_function)
+
+        def tf_index(tf):
+            for k, known in enumerate(tfs):
+                if known is tf:
+                    return k
+            tfs.append(tf)
+            return len(tfs) - 1
+
+        load_tf = np.array([tf_index(ld.time_function) for ld in loads], dtype=np.int64)
+        J = len(self.joints)
+        jt = {"jt_i": np.zeros(J, dtype=np.int64), "jt_j": np.zeros(J, dtype=np.int64), "jt_par": np.zeros((J, 24)),
+              "jt_rows": np.full((J, 6), -1, dtype=np.int64), "jt_neq": np.zeros(J, dtype=np.int64),
+              "jt_row0": np.zeros(J, dtype=np.int64), "jt_drive": np.zeros(J, dtype=np.int64),
+              "jt_tf": np.zeros(J, dtype=np.int64)}
+        row_eps, row0 = [], 0
+        for k, joint in enumerate(self.joints):
+            jt["jt_i"][k] = joint.body_i.id
+            jt["jt_j"][k] = -1 if joint.body_j is None else joint.body_j.id
+            jt["jt_par"][k] = joint.body_fixed()
+            jt["jt_rows"][k, : len(ROWS[joint.kind])] = ROWS[joint.kind]
+            jt["jt_neq"][k] = joint.n_equations
+            jt["jt_row0"][k] = row0
+            jt["jt_drive"][k] = joint.drive_code
+            jt["jt_tf"][k] = tf_index(joint.time_function)
+            row0 += joint.n_equations
+            row_eps += [joint.formulation.epsilon] * joint.n_equations
         pars = [tf.parameters() for tf in tfs]
         width = max([len(p) for p in pars] + [1])
         tf_par = np.zeros((max(len(tfs), 1), width))
@@ -329,8 +371,60 @@ class Domain:
             load_tf=load_tf,
             tf_kind=np.array([tf.kind for tf in tfs] or [0], dtype=np.int64),
             tf_par=tf_par, gravity=gravity, damping=float(self.solver.damping),
+            row_eps=np.array(row_eps, dtype=float), **jt,
         )
+        self.check_constraints(self._model)
         return self._model
+
+    def constraint_matrices(self, model: Model, x=None, q=None, t: float = 0.0):
+        """Global Φ (m,), Φ_t (m,), B (m, 6N) and B M⁻¹ at a configuration (default: initial)."""
+        N, m = len(self.nodes), model.n_constraints
+        x = np.array([n.position for n in self.nodes]) if x is None else x
+        q = np.array([n.rotation for n in self.nodes]) if q is None else q
+        PHI, PHIt, Bg, BM = np.zeros(m), np.zeros(m), np.zeros((m, 6 * N)), np.zeros((m, 6 * N))
+        assemble_constraints(model, x, q, float(t), PHI, PHIt, Bg, np.zeros(6), np.zeros((6, 12)), np.zeros(6),
+                             np.zeros(10), np.zeros(120))
+        apply_inverse_mass(model, Bg, BM)
+        return PHI, PHIt, Bg, BM
+
+    def check_constraints(self, model: Model) -> None:
+        """Refuse redundant constraints that are not regularised (ε = 0), naming the joints.
+
+        Gram–Schmidt on the rows of B in the M⁻¹ inner product ``⟨a, b⟩ = a M⁻¹ bᵀ``
+        (the metric of ``B M⁻¹ Bᵀ``): a row whose remainder is below 1e-9 of its
+        own norm depends on the earlier rows.
+        """
+        if model.n_constraints == 0:
+            return
+        _, _, Bg, _ = self.constraint_matrices(model)
+        owner = [joint for joint in self.joints for _ in range(joint.n_equations)]
+        basis, redundant = [], []
+        for r, row in enumerate(Bg):
+            own = row @ self._minv_apply(model, row)
+            vec = row.copy()
+            for e, me in basis:
+                vec -= (vec @ me) * e
+            mv = self._minv_apply(model, vec)
+            remainder = vec @ mv
+            if remainder <= 1e-18 * own:
+                redundant.append(r)
+            else:
+                basis.append((vec / np.sqrt(remainder), mv / np.sqrt(remainder)))
+        bad = sorted({owner[r].label for r in redundant if owner[r].formulation.epsilon == 0.0},
+                     key=[j.label for j in self.joints].index)
+        if bad:
+            raise ValueError(
+                f"redundant constraints: {len(redundant)} equation(s) of joint(s) {', '.join(bad)} depend on "
+                "the others (e.g. a planar linkage of rigid bodies closed in 3D); give those joints a "
+                "formulation with epsilon > 0 to regularise them, or replace a revolute joint by a "
+                "spherical or universal one"
+            )
+
+    @staticmethod
+    def _minv_apply(model: Model, row: np.ndarray) -> np.ndarray:
+        out = np.zeros_like(row)
+        apply_inverse_mass(model, row[None, :], out[None, :])
+        return out
 
     def initial_conditions(self) -> State:
         """State at t = 0 from the nodes' initial positions, rotations and velocities."""
@@ -356,7 +450,7 @@ class Domain:
         state = self.state if self.state is not None else self.initial_conditions()
         algo = self.algorithm()
         n = int(round((time - state.t) / algo.dt))
-        if n > 0 and algo.advance(model, state, n, None, Scratch.for_nodes(len(self.nodes))) != OK:
+        if n > 0 and algo.advance(model, state, n, None, Scratch.for_model(model)) != OK:
             raise SolverDiverged(f"the solution became non-finite before t = {time}")
         return state
 
@@ -388,7 +482,7 @@ class Domain:
         state = self.initial_conditions()
         every = max(int(self.solver.output_every), 1)
         N = len(self.nodes)
-        scratch, rec = Scratch.for_nodes(N), Record.empty(N)
+        scratch, rec = Scratch.for_model(model), Record.empty(N, model.n_constraints)
         records = []
         writer = None
         if results_path is not None:
@@ -404,6 +498,13 @@ class Domain:
                 t_record = state.t
                 code = algo.advance(model, state, chunk, rec, scratch)
                 self._store(rec, t_record, records, writer)
+                if code == SINGULAR:
+                    status = f"singular constraints after t = {records[-1]['time']:.6g}"
+                    raise SolverDiverged(
+                        f"the constraint matrix became singular after t = {records[-1]['time']:.6g} "
+                        "(redundant or degenerate joints); results up to that time are kept. "
+                        "Regularise the joints (epsilon > 0) or remove the redundancy."
+                    )
                 if code != OK:
                     status = f"diverged after t = {records[-1]['time']:.6g}"
                     raise SolverDiverged(
@@ -427,7 +528,8 @@ class Domain:
     def _store(self, rec: Record, t: float, records: list, writer) -> None:
         entry = {
             "time": t, "position": rec.x.copy(), "rotation": rec.q.copy(), "velocity": rec.v.copy(),
-            "angular_velocity": rec.w.copy(), "violation_norm": 0.0, "velocity_violation_norm": 0.0,
+            "angular_velocity": rec.w.copy(), "violation_norm": rec.constraint[0],
+            "velocity_violation_norm": rec.constraint[1], "multipliers": rec.lam.copy(),
             "kinetic": rec.energy[0], "strain": rec.energy[1], "external_work": rec.energy[2],
             "dissipated": rec.energy[3],
         }

@@ -28,6 +28,11 @@ class Model(NamedTuple):
     (see :func:`reference.interactions.tf_value`).
     ``gravity`` (3,) [m/s²]; ``damping`` mass-proportional coefficient c
     [1/s] (force −c m v, moment −c J ω).
+    Joints (J) with m constraint rows in all: ``jt_i``, ``jt_j`` (J,) node
+    indices (−1 the ground), ``jt_par`` (J,24) body-fixed point and frames,
+    ``jt_rows`` (J,6) primitive rows (−1 padded), ``jt_neq`` (J,) equations,
+    ``jt_row0`` (J,) first global row, ``jt_drive`` (J,) drive code,
+    ``jt_tf`` (J,) time function; ``row_eps`` (m,) the ε of each row.
     """
 
     mass: np.ndarray
@@ -47,6 +52,19 @@ class Model(NamedTuple):
     tf_par: np.ndarray
     gravity: np.ndarray
     damping: float
+    jt_i: np.ndarray
+    jt_j: np.ndarray
+    jt_par: np.ndarray
+    jt_rows: np.ndarray
+    jt_neq: np.ndarray
+    jt_row0: np.ndarray
+    jt_drive: np.ndarray
+    jt_tf: np.ndarray
+    row_eps: np.ndarray
+
+    @property
+    def n_constraints(self) -> int:
+        return int(self.row_eps.shape[0])
 
 
 class State(NamedTuple):
@@ -80,19 +98,22 @@ class State(NamedTuple):
 
 class Record(NamedTuple):
     """One output record at an integer step: configuration, integer-step
-    velocities (mean of the two half-step ones) and energies
-    ``[kinetic, strain, external work, dissipated]``."""
+    velocities (mean of the two half-step ones), energies
+    ``[kinetic, strain, external work, dissipated]`` and constraint residuals
+    ``[‖Φ‖, ‖B V + Φ_t‖]``; ``lam`` the Lagrange multipliers of the step."""
 
     x: np.ndarray
     q: np.ndarray
     v: np.ndarray
     w: np.ndarray
     energy: np.ndarray
+    constraint: np.ndarray
+    lam: np.ndarray
 
     @classmethod
-    def empty(cls, n_nodes: int) -> "Record":
+    def empty(cls, n_nodes: int, n_constraints: int = 0) -> "Record":
         return cls(np.zeros((n_nodes, 3)), np.zeros((n_nodes, 4)), np.zeros((n_nodes, 3)),
-                   np.zeros((n_nodes, 3)), np.zeros(4))
+                   np.zeros((n_nodes, 3)), np.zeros(4), np.zeros(2), np.zeros(n_constraints))
 
 
 class Scratch(NamedTuple):
@@ -105,8 +126,22 @@ class Scratch(NamedTuple):
     s_el: np.ndarray
     q_tmp: np.ndarray
     A: np.ndarray
+    PHI: np.ndarray
+    PHIt: np.ndarray
+    Bg: np.ndarray
+    BM: np.ndarray
+    W: np.ndarray
+    lam: np.ndarray
+    jphi: np.ndarray
+    jB: np.ndarray
+    jphit: np.ndarray
+    prim_phi: np.ndarray
+    prim_B: np.ndarray
 
     @classmethod
-    def for_nodes(cls, n_nodes: int) -> "Scratch":
-        return cls(np.zeros((n_nodes, 6)), np.zeros((n_nodes, 6)), np.zeros((n_nodes, 3)),
-                   np.zeros((n_nodes, 3)), np.zeros(24), np.zeros(4), np.zeros(9))
+    def for_model(cls, model: Model) -> "Scratch":
+        N, m = model.mass.shape[0], model.n_constraints
+        return cls(np.zeros((N, 6)), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 3)), np.zeros(24),
+                   np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((m, 6 * N)), np.zeros((m, 6 * N)),
+                   np.zeros((m, m)), np.zeros(m), np.zeros(6), np.zeros((6, 12)), np.zeros(6), np.zeros(10),
+                   np.zeros(120))

@@ -7,11 +7,14 @@ staggered step"; the staging is a reconstruction, the originals of Park, Chiou
 1. forces at ``t_n``: internal ``S`` (Beam2 kernel), external ``F`` (dead and
    follower loads × time functions, gravity), damping ``−c m v``, ``−c J ω``;
 2. **kick** (explicit predictor) of the half-step velocities,
-   ``v^{n+½} = v^{n−½} + h m⁻¹(F − S_u)`` and, in the body frame,
-   ``J(ω^{n+½} − ω^{n−½}) = h (M_b − S_θ − ω̄ × J ω̄)``,
-   ``ω̄ = ½(ω^{n−½} + ω^{n+½})`` solved by fixed-point sweeps (this midpoint
+   ``v* = v^{n−½} + h m⁻¹(F − S_u)`` and, in the body frame,
+   ``J(ω* − ω^{n−½}) = h (M_b − S_θ − ω̄ × J ω̄)``,
+   ``ω̄ = ½(ω^{n−½} + ω*)`` solved by fixed-point sweeps (this midpoint
    gyroscopic term keeps the kinetic energy of a free rigid body; the fully
    explicit one drifts by percents);
+2b. **constraint forces** (implicit stage): the joints' Φ, Φ_t and B at t_n,
+   the stabilised multipliers λ^n and ``V^{n+½} = V* − h M⁻¹ Bᵀ λ^n``
+   (``reference/joints/assembly.py``);
 3. **drift**: ``x^{n+1} = x^n + h v^{n+½}`` and the Euler parameters by the
    trapezoidal rule, ``q^{n+1} = q^n ⊗ p(h ω^{n+½})`` (closed-form Cayley
    factor, exactly unit).
@@ -34,13 +37,19 @@ from reference.elements.formulation import beam2_assemble
 from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
 from reference.jit import kernel
+from reference.joints.assembly import SINGULAR, assemble_constraints, constraint_impulse, constraint_power
 from reference.state import Model, Record, Scratch, State
 
 GYRO_SWEEPS = 4
 """Fixed-point sweeps of the midpoint gyroscopic term (contraction factor
 ≈ h|ω|, so four sweeps reach round-off for h|ω| ≲ 1e-3)."""
 
+CONSTRAINED_SWEEPS = 3
+"""Extra (kick, projection) passes when there are joints (contraction ≈ h|ω|)."""
+
 OK, DIVERGED = 0, 1
+"""Status codes of :func:`advance`; ``SINGULAR`` (2, from the joint assembly) means
+the constraint matrix lost rank (redundant or degenerate joints)."""
 
 
 @kernel
@@ -74,8 +83,13 @@ def external_forces(model, x, q, t, F, A):
 
 
 @kernel
-def _kick(model, v, w, S, F, hk, v_new, w_new):
-    """Explicit predictor of the half-step velocities (stage 2), fixed coordinates kept at rest."""
+def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess):
+    """Explicit predictor of the half-step velocities (stage 2), fixed coordinates kept at rest.
+
+    The midpoint gyroscopic term is solved by ``sweeps`` fixed-point sweeps
+    starting from ``w`` or, if ``from_guess``, from the current ``w_new`` (the
+    constrained velocities of the previous pass, see :func:`advance`).
+    """
     c = model.damping
     for i in range(v.shape[0]):
         m = model.mass[i]
@@ -90,7 +104,9 @@ def _kick(model, v, w, S, F, hk, v_new, w_new):
         r1 -= c * (J[1, 0] * w0 + J[1, 1] * w1 + J[1, 2] * w2)
         r2 -= c * (J[2, 0] * w0 + J[2, 1] * w1 + J[2, 2] * w2)
         n0, n1, n2 = w0, w1, w2
-        for _ in range(GYRO_SWEEPS):
+        if from_guess:
+            n0, n1, n2 = w_new[i, 0], w_new[i, 1], w_new[i, 2]
+        for _ in range(sweeps):
             b0, b1, b2 = 0.5 * (w0 + n0), 0.5 * (w1 + n1), 0.5 * (w2 + n2)
             j0 = J[0, 0] * b0 + J[0, 1] * b1 + J[0, 2] * b2
             j1 = J[1, 0] * b0 + J[1, 1] * b1 + J[1, 2] * b2
@@ -122,12 +138,16 @@ def advance(model, state, h, n_steps, record, rec, scratch):
 
     If ``record`` is true, the output record at the starting time ``t_n`` is
     written into ``rec`` (its integer-step velocities need the first kick).
-    ``n_steps = 0`` with ``record`` only writes the record.  Returns ``OK`` or
-    ``DIVERGED`` (non-finite state: the state is left at the last finite step).
+    ``n_steps = 0`` with ``record`` only writes the record.  Returns ``OK``,
+    ``DIVERGED`` (non-finite state: the state is left at the last finite step)
+    or ``SINGULAR`` (the constraint matrix lost rank).
     """
     x, q, v, w, f_prev, clock = state
-    S, F, v_new, w_new, s_el, q_tmp, A = scratch
+    S, F, v_new, w_new, s_el = scratch.S, scratch.F, scratch.v_new, scratch.w_new, scratch.s_el
+    q_tmp, A = scratch.q_tmp, scratch.A
+    PHI, PHIt, Bg, BM, W, lam = scratch.PHI, scratch.PHIt, scratch.Bg, scratch.BM, scratch.W, scratch.lam
     N = x.shape[0]
+    n_rows = PHI.shape[0]
     c = model.damping
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
@@ -148,7 +168,20 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             clock[2] += h * dW
             clock[3] += h * c * dD
         hk = h if n > 0 else 0.5 * h
-        _kick(model, v, w, S, F, hk, v_new, w_new)
+        _kick(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, False)
+        if n_rows > 0:
+            assemble_constraints(model, x, q, t, PHI, PHIt, Bg, scratch.jphi, scratch.jB, scratch.jphit,
+                                 scratch.prim_phi, scratch.prim_B)
+            if constraint_impulse(model, Bg, BM, PHI, PHIt, v_new, w_new, h, hk, W, lam) != OK:
+                return SINGULAR
+            # The constraint impulse changes ω^{n+½}: redo the predictor with the midpoint
+            # gyroscopic term at the constrained velocity and project again, so that the
+            # pair (kick, projection) is solved together (otherwise the gyroscopic term of a
+            # constrained spinning body is only first-order accurate).
+            for _ in range(CONSTRAINED_SWEEPS):
+                _kick(model, v, w, S, F, hk, v_new, w_new, 1, True)
+                if constraint_impulse(model, Bg, BM, PHI, PHIt, v_new, w_new, h, hk, W, lam) != OK:
+                    return SINGULAR
         if record and k == 0:
             for i in range(N):
                 for a in range(3):
@@ -161,8 +194,23 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             rec.energy[1] = U
             rec.energy[2] = clock[2]
             rec.energy[3] = clock[3]
+            rec.constraint[0] = 0.0
+            rec.constraint[1] = 0.0
+            for r in range(n_rows):
+                res = PHIt[r]
+                for i in range(N):
+                    for a in range(3):
+                        res += Bg[r, 6 * i + a] * rec.v[i, a] + Bg[r, 6 * i + 3 + a] * rec.w[i, a]
+                rec.constraint[0] += PHI[r] ** 2
+                rec.constraint[1] += res**2
+                rec.lam[r] = lam[r]
+            rec.constraint[0] = math.sqrt(rec.constraint[0])
+            rec.constraint[1] = math.sqrt(rec.constraint[1])
         if n_steps == 0:
             break
+        if n_rows > 0:
+            # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
+            clock[2] += hk * constraint_power(Bg, lam, v, w, v_new, w_new)
         for i in range(N):
             for a in range(3):
                 if not math.isfinite(v_new[i, a]) or not math.isfinite(w_new[i, a]):
@@ -200,14 +248,15 @@ class StaggeredCentralDifference(Algorithm):
         self.dt = float(dt)
 
     def advance(self, model: Model, state: State, n_steps: int, record: Record | None, scratch: Scratch) -> int:
-        rec = record if record is not None else Record.empty(state.x.shape[0])
+        rec = record if record is not None else Record.empty(state.x.shape[0], model.n_constraints)
         return advance(model, state, self.dt, int(n_steps), record is not None, rec, scratch)
 
 
 def step(model: Model, state: State, h: float) -> State:
     """One staggered step as a pure function: returns the state at ``t_{n+1}``."""
     new = state.copy()
-    status = advance(model, new, h, 1, False, Record.empty(new.x.shape[0]), Scratch.for_nodes(new.x.shape[0]))
+    status = advance(model, new, h, 1, False, Record.empty(new.x.shape[0], model.n_constraints),
+                     Scratch.for_model(model))
     if status != OK:
-        raise FloatingPointError("the step produced non-finite values")
+        raise FloatingPointError(f"the step failed with status {status}")
     return new
