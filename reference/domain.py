@@ -27,7 +27,7 @@ from reference.algorithms.staggered import OK
 from reference.elements import Beam2Formulation, Element, Section
 from reference.interactions import Constant, FixedCoordinates, Gravity, Interaction, NodalLoad, TimeFunction
 from reference.joints import Jacobian, Joint, joint_frame
-from reference.joints.assembly import SINGULAR, assemble_constraints, apply_inverse_mass
+from reference.joints.assembly import SINGULAR, apply_inverse_mass, assemble_constraints
 from reference.joints.joint import ROWS
 from reference.nodes import Node
 from reference.rotation import EulerParameters
@@ -55,6 +55,10 @@ class SolverSettings:
         −c J ω on every node), for quasi-static runs.
     output_every : int
         Output every this many steps (and at ``t_end``).
+    consistent_initial_velocities : bool
+        Project the initial velocities onto the velocity constraints at t = 0
+        (``B V + Φ_t = 0``, the change of least kinetic energy), e.g. to start a
+        mechanism at its full driving speed.
     """
 
     algorithm: str = "staggered_central_difference"
@@ -62,6 +66,7 @@ class SolverSettings:
     t_end: float = 1.0
     damping: float = 0.0
     output_every: int = 1
+    consistent_initial_velocities: bool = False
 
 
 def beam_triad(axis: np.ndarray, axis2_hint) -> np.ndarray:
@@ -264,9 +269,14 @@ class Domain:
 
         ``reference`` fixes the joint frame's u1 (see :func:`reference.joints.joint_frame`);
         a full ``frame`` (columns u1, u2, u3) may be given instead.  For a universal
-        joint u1 is the pin on body i and u2 the pin on body j.  Drives take a
-        ``time_function`` (θ(t) or s(t), or their rates with ``mode="velocity"``).
+        joint ``axis`` is the pin on body i (u1) and ``reference`` the pin on body j (u2).
+        Drives take a ``time_function`` (θ(t) or s(t), or their rates with ``mode="velocity"``).
         """
+        if frame is None and kind == "universal":
+            if reference is None:
+                raise ValueError("a universal joint needs the pin of body j as `reference`")
+            u3 = np.cross(axis, reference)
+            frame = joint_frame(u3, axis)
         frame = joint_frame(axis, reference) if frame is None else np.asarray(frame, dtype=float)
         joint = Joint(kind, None if body_i is None else self.node(body_i), None if body_j is None else self.node(body_j),
                       point, frame, formulation or Jacobian(), time_function or Constant(0.0), mode,
@@ -371,7 +381,10 @@ class Domain:
             load_tf=load_tf,
             tf_kind=np.array([tf.kind for tf in tfs] or [0], dtype=np.int64),
             tf_par=tf_par, gravity=gravity, damping=float(self.solver.damping),
-            row_eps=np.array(row_eps, dtype=float), **jt,
+            row_eps=np.array(row_eps, dtype=float),
+            row_nodes=np.array([[j.body_i.id, -1 if j.body_j is None else j.body_j.id]
+                                for j in self.joints for _ in range(j.n_equations)], dtype=np.int64).reshape(-1, 2),
+            **jt,
         )
         self.check_constraints(self._model)
         return self._model
@@ -422,9 +435,13 @@ class Domain:
 
     @staticmethod
     def _minv_apply(model: Model, row: np.ndarray) -> np.ndarray:
-        out = np.zeros_like(row)
-        apply_inverse_mass(model, row[None, :], out[None, :])
-        return out
+        """``M⁻¹ row`` with the lumped, block-diagonal M (fixed coordinates: M⁻¹ = 0)."""
+        blocks = row.reshape(-1, 6)
+        out = np.empty_like(blocks)
+        out[:, :3] = blocks[:, :3] * model.free[:, :3] / model.mass[:, None]
+        rot = blocks[:, 3:] * model.free[:, 3:]
+        out[:, 3:] = np.einsum("nab,nb->na", model.inertia_inv, rot) * model.free[:, 3:]
+        return out.reshape(-1)
 
     def initial_conditions(self) -> State:
         """State at t = 0 from the nodes' initial positions, rotations and velocities."""
@@ -437,7 +454,22 @@ class Domain:
             f_prev=np.zeros((N, 6)),
             clock=np.zeros(4),
         )
+        if self.solver.consistent_initial_velocities and self.joints:
+            self.project_initial_velocities(self._model or self.initialization(), self.state)
         return self.state
+
+    def project_initial_velocities(self, model: Model, state: State) -> None:
+        """Make the initial velocities consistent: ``V = V0 − M⁻¹Bᵀ (B M⁻¹ Bᵀ)⁻¹ (B V0 + Φ_t)``.
+
+        The M-orthogonal projection changes the kinetic energy least; for a
+        mechanism driven from rest it gives the velocities of the driven motion.
+        """
+        _, PHIt, Bg, BM = self.constraint_matrices(model, state.x, state.q, state.t)
+        V0 = np.concatenate([state.v, state.w], axis=1).reshape(-1)
+        W = BM @ Bg.T
+        lam = np.linalg.lstsq(W, Bg @ V0 + PHIt, rcond=1e-12)[0]
+        V = (V0 - BM.T @ lam).reshape(-1, 6)
+        state.v[:], state.w[:] = V[:, :3], V[:, 3:]
 
     def algorithm(self, dt: float | None = None) -> StaggeredCentralDifference:
         if self.solver.algorithm != StaggeredCentralDifference.name:

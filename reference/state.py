@@ -32,7 +32,8 @@ class Model(NamedTuple):
     indices (−1 the ground), ``jt_par`` (J,24) body-fixed point and frames,
     ``jt_rows`` (J,6) primitive rows (−1 padded), ``jt_neq`` (J,) equations,
     ``jt_row0`` (J,) first global row, ``jt_drive`` (J,) drive code,
-    ``jt_tf`` (J,) time function; ``row_eps`` (m,) the ε of each row.
+    ``jt_tf`` (J,) time function; ``row_eps`` (m,) the ε of each row;
+    ``row_nodes`` (m,2) the nodes a row involves (−1 the ground).
     """
 
     mass: np.ndarray
@@ -61,6 +62,7 @@ class Model(NamedTuple):
     jt_drive: np.ndarray
     jt_tf: np.ndarray
     row_eps: np.ndarray
+    row_nodes: np.ndarray
 
     @property
     def n_constraints(self) -> int:

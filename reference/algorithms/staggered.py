@@ -37,7 +37,9 @@ from reference.elements.formulation import beam2_assemble
 from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
 from reference.jit import kernel
-from reference.joints.assembly import SINGULAR, assemble_constraints, constraint_impulse, constraint_power
+from reference.joints.assembly import (
+    SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints,
+)
 from reference.state import Model, Record, Scratch, State
 
 GYRO_SWEEPS = 4
@@ -172,16 +174,16 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         if n_rows > 0:
             assemble_constraints(model, x, q, t, PHI, PHIt, Bg, scratch.jphi, scratch.jB, scratch.jphit,
                                  scratch.prim_phi, scratch.prim_B)
-            if constraint_impulse(model, Bg, BM, PHI, PHIt, v_new, w_new, h, hk, W, lam) != OK:
+            if factor_constraints(model, Bg, BM, W, h, hk) != OK:
                 return SINGULAR
+            constraint_impulse(model, Bg, BM, W, PHI, PHIt, v_new, w_new, h, hk, lam)
             # The constraint impulse changes ω^{n+½}: redo the predictor with the midpoint
-            # gyroscopic term at the constrained velocity and project again, so that the
-            # pair (kick, projection) is solved together (otherwise the gyroscopic term of a
-            # constrained spinning body is only first-order accurate).
+            # gyroscopic term at the constrained velocity and project again (same factor),
+            # so that the pair (kick, projection) is solved together (otherwise the gyroscopic
+            # term of a constrained spinning body is only first-order accurate).
             for _ in range(CONSTRAINED_SWEEPS):
                 _kick(model, v, w, S, F, hk, v_new, w_new, 1, True)
-                if constraint_impulse(model, Bg, BM, PHI, PHIt, v_new, w_new, h, hk, W, lam) != OK:
-                    return SINGULAR
+                constraint_impulse(model, Bg, BM, W, PHI, PHIt, v_new, w_new, h, hk, lam)
         if record and k == 0:
             for i in range(N):
                 for a in range(3):
@@ -210,7 +212,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             break
         if n_rows > 0:
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
-            clock[2] += hk * constraint_power(Bg, lam, v, w, v_new, w_new)
+            clock[2] += hk * constraint_power(model, Bg, lam, v, w, v_new, w_new)
         for i in range(N):
             for a in range(3):
                 if not math.isfinite(v_new[i, a]) or not math.isfinite(w_new[i, a]):

@@ -22,6 +22,8 @@ from reference.elements import Section
 from reference.interactions import (
     Clamp, Constant, FixedCoordinates, Gravity, NodalLoad, PiecewiseLinear, Ramp, Sine, SmoothStep, Step,
 )
+from reference.joints import Jacobian
+from reference.joints.joint import ROWS as JOINT_KINDS
 
 
 class DeckError(ValueError):
@@ -123,10 +125,6 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
             raise DeckError(f"{path}: unknown override {key!r}; valid: {', '.join(sorted(OVERRIDES))}")
     refine = rd.integer(overrides.get("refine", 1), "override refine")
     rd.keys(deck, "deck", optional=sorted(TOP_LEVEL))
-    for key in ("rigid_bodies", "joints"):
-        if key in deck:
-            raise rd.fail(f"{key}[0]", "rigid bodies and joints are not supported by this version of the deck reader",
-                          "remove the entry or use a newer flexmbs")
 
     meta = deck.get("meta", {})
     rd.keys(meta, "meta", required=["name"], optional=["description", "units", "provenance", "notes"])
@@ -214,10 +212,10 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         label = rd.string(bm["label"], f"{entry}.label")
         if label in beams:
             raise rd.fail(f"{entry}.label", f"duplicate beam label {label!r}")
-        if bm.get("rigid", False):
-            raise rd.fail(f"{entry}.rigid", "rigid bars are not supported by this version of the deck reader",
-                          "set rigid = false")
-        n = rd.integer(bm["elements"], f"{entry}.elements") * refine
+        rigid = bm.get("rigid", False)
+        if not isinstance(rigid, bool):
+            raise rd.fail(f"{entry}.rigid", f"expected true or false, got {rigid!r}")
+        n = rd.integer(bm["elements"], f"{entry}.elements") * (1 if rigid else refine)
         sec_name = rd.string(bm["section"], f"{entry}.section")
         if sec_name not in sections:
             close = difflib.get_close_matches(sec_name, list(sections), n=1)
@@ -236,10 +234,35 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
             raise rd.fail(entry, "start and end coincide (zero-length beam)")
         axis2 = rd.vector(bm.get("axis2", [0.0, 1.0, 0.0]), f"{entry}.axis2")
         try:
-            beams[label] = domain.add_beam(label, ends[0][0], ends[1][0], n, sections[sec_name], axis2,
-                                           start_node=ends[0][1], end_node=ends[1][1])
+            if rigid:
+                if ends[0][1] is not None or ends[1][1] is not None:
+                    raise ValueError("a rigid bar is a body of its own: give start/end coordinates, "
+                                     "and join it to other bodies with [[joints]]")
+                domain.add_rigid_bar(label, ends[0][0], ends[1][0], sections[sec_name], axis2)
+            else:
+                beams[label] = domain.add_beam(label, ends[0][0], ends[1][0], n, sections[sec_name], axis2,
+                                               start_node=ends[0][1], end_node=ends[1][1])
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
+
+    for i, rb in enumerate(rd.items(deck, "rigid_bodies")):
+        entry = f"rigid_bodies[{i}]"
+        rd.keys(rb, entry, required=["label", "mass", "inertia", "position"], optional=["rotation", "points"])
+        label = rd.string(rb["label"], f"{entry}.label")
+        if label in domain._labels:
+            raise rd.fail(f"{entry}.label", f"duplicate label {label!r}")
+        mass = rd.number(rb["mass"], f"{entry}.mass", positive=True)
+        inertia = rb["inertia"]
+        if isinstance(inertia, list) and len(inertia) == 3 and all(isinstance(r, list) for r in inertia):
+            J = np.array([rd.vector(r, f"{entry}.inertia[{k}]") for k, r in enumerate(inertia)])
+        else:
+            J = np.diag(rd.vector(inertia, f"{entry}.inertia"))
+        rot = rd.vector(rb["rotation"], f"{entry}.rotation", 4) if "rotation" in rb else None
+        points = {name: rd.vector(p, f"{entry}.points.{name}") for name, p in rb.get("points", {}).items()}
+        try:
+            domain.add_rigid_body(label, mass, J, rd.vector(rb["position"], f"{entry}.position"), rot, points)
+        except ValueError as exc:
+            raise rd.fail(entry, str(exc), "mass > 0 and a positive definite inertia") from None
 
     for i, cl in enumerate(rd.items(deck, "clamps")):
         entry = f"clamps[{i}]"
@@ -281,6 +304,50 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         rd.keys(deck["gravity"], "gravity", required=["g"])
         domain.add_interaction(Gravity(rd.vector(deck["gravity"]["g"], "gravity.g")))
 
+    for i, jt in enumerate(rd.items(deck, "joints")):
+        entry = f"joints[{i}]"
+        rd.keys(jt, entry, required=["kind", "body_i", "point"],
+                optional=["label", "body_j", "axis", "reference", "epsilon", "formulation", "time_function", "mode"])
+        kind = rd.string(jt["kind"], f"{entry}.kind")
+        if kind not in JOINT_KINDS:
+            close = difflib.get_close_matches(kind, list(JOINT_KINDS), n=1)
+            raise rd.fail(f"{entry}.kind", f"unknown joint kind {kind!r}",
+                          f"did you mean '{close[0]}'?" if close else f"one of: {', '.join(JOINT_KINDS)}")
+        formulation = jt.get("formulation", "jacobian")
+        if formulation != "jacobian":
+            raise rd.fail(f"{entry}.formulation", f"unknown joint formulation {formulation!r}",
+                          "'jacobian' (Lagrange multipliers, stabilised) is the one available")
+        body_i = node_ref(jt["body_i"], f"{entry}.body_i")
+        body_j = None
+        if jt.get("body_j", "ground") != "ground":
+            body_j = node_ref(jt["body_j"], f"{entry}.body_j")
+        if body_j is body_i:
+            raise rd.fail(entry, "body_i and body_j are the same body")
+        drive = kind.endswith("_drive")
+        if drive and "time_function" not in jt:
+            raise rd.fail(entry, f"a {kind} needs a time_function (the prescribed motion or its rate)")
+        if not drive and ("time_function" in jt or "mode" in jt):
+            raise rd.fail(entry, "time_function and mode apply to rotation_drive and displacement_drive only")
+        tf = None
+        if drive:
+            name = rd.string(jt["time_function"], f"{entry}.time_function")
+            if name not in tfs:
+                raise rd.fail(f"{entry}.time_function", f"no time function {name!r}", f"defined: {', '.join(tfs) or 'none'}")
+            tf = tfs[name]
+        mode = jt.get("mode", "position")
+        if mode not in ("position", "velocity"):
+            raise rd.fail(f"{entry}.mode", f"unknown mode {mode!r}",
+                          "'position' (the time function is the angle/displacement) or 'velocity' (its rate)")
+        eps = rd.number(jt.get("epsilon", 0.0), f"{entry}.epsilon", nonnegative=True)
+        reference = rd.vector(jt["reference"], f"{entry}.reference") if "reference" in jt else None
+        try:
+            domain.add_joint(kind, body_i, body_j, rd.vector(jt["point"], f"{entry}.point"),
+                             rd.vector(jt.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis"), reference,
+                             formulation=Jacobian(eps), time_function=tf, mode=mode,
+                             label=str(jt.get("label", f"{kind}:{i}")))
+        except ValueError as exc:
+            raise rd.fail(entry, str(exc)) from None
+
     for i, iv in enumerate(rd.items(deck, "initial_velocities")):
         entry = f"initial_velocities[{i}]"
         rd.keys(iv, entry, required=["node"], optional=["velocity", "angular_velocity"])
@@ -293,7 +360,8 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     if "solver" not in deck:
         raise rd.fail("solver", "missing [solver] table", "give at least dt and t_end")
     sv = deck["solver"]
-    rd.keys(sv, "solver", required=["dt", "t_end"], optional=["algorithm", "damping", "output_every"])
+    rd.keys(sv, "solver", required=["dt", "t_end"],
+            optional=["algorithm", "damping", "output_every", "consistent_initial_velocities"])
     algorithm = sv.get("algorithm", SolverSettings.algorithm)
     if algorithm != SolverSettings.algorithm:
         raise rd.fail("solver.algorithm", f"unknown algorithm {algorithm!r}", f"available: '{SolverSettings.algorithm}'")
@@ -303,6 +371,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         algorithm=algorithm, dt=dt, t_end=t_end,
         damping=rd.number(sv.get("damping", 0.0), "solver.damping", nonnegative=True),
         output_every=rd.integer(sv.get("output_every", 1), "solver.output_every") * refine,
+        consistent_initial_velocities=bool(sv.get("consistent_initial_velocities", False)),
     )
     if not domain.elements and not domain.nodes:
         raise rd.fail("deck", "the deck defines no nodes or beams")
@@ -317,4 +386,8 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     checks = deck.get("checks", {})
     rd.keys(checks, "checks", optional=list(checks))
     domain.checks = checks
+    try:
+        domain.initialization()
+    except ValueError as exc:
+        raise rd.fail("model", str(exc)) from None
     return domain

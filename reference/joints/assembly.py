@@ -103,9 +103,16 @@ def assemble_constraints(model, x, q, t, PHI, PHIt, Bg, jphi, jB, jphit, prim_ph
 
 @kernel
 def apply_inverse_mass(model, Bg, BM):
-    """``BM = B M⁻¹`` with the lumped, block-diagonal M (fixed coordinates have M⁻¹ = 0)."""
+    """``BM = B M⁻¹`` with the lumped, block-diagonal M (fixed coordinates have M⁻¹ = 0).
+
+    Only the (at most two) nodes of each row are visited (``model.row_nodes``).
+    """
+    BM[:, :] = 0.0
     for r in range(Bg.shape[0]):
-        for n in range(model.mass.shape[0]):
+        for side in range(2):
+            n = model.row_nodes[r, side]
+            if n < 0:
+                continue
             for a in range(3):
                 BM[r, 6 * n + a] = Bg[r, 6 * n + a] * model.free[n, a] / model.mass[n]
             for a in range(3):
@@ -116,8 +123,21 @@ def apply_inverse_mass(model, Bg, BM):
 
 
 @kernel
-def cholesky_solve(W, rhs):
-    """Solve ``W y = rhs`` in place (W symmetric positive definite, overwritten by its factor).
+def _row_dot(model, r, s, X, Y):
+    """``X[r] · Y[s]`` over the nodes of row r (the rows are zero elsewhere)."""
+    acc = 0.0
+    for side in range(2):
+        n = model.row_nodes[r, side]
+        if n < 0:
+            continue
+        for c in range(6 * n, 6 * n + 6):
+            acc += X[r, c] * Y[s, c]
+    return acc
+
+
+@kernel
+def cholesky_factor(W):
+    """Factor the symmetric positive definite ``W`` in place (lower triangle).
 
     Returns ``OK``, or ``SINGULAR`` when a pivot falls below 1e-13 of the
     largest diagonal entry (dependent constraint rows).
@@ -139,65 +159,85 @@ def cholesky_solve(W, rhs):
             for p in range(k):
                 s -= W[r, p] * W[k, p]
             W[r, k] = s / d
+    return OK
+
+
+@kernel
+def cholesky_solve(L, rhs):
+    """Solve ``L Lᵀ y = rhs`` in place with the factor from :func:`cholesky_factor`."""
+    m = L.shape[0]
     for k in range(m):
         s = rhs[k]
         for p in range(k):
-            s -= W[k, p] * rhs[p]
-        rhs[k] = s / W[k, k]
+            s -= L[k, p] * rhs[p]
+        rhs[k] = s / L[k, k]
     for k in range(m - 1, -1, -1):
         s = rhs[k]
         for p in range(k + 1, m):
-            s -= W[p, k] * rhs[p]
-        rhs[k] = s / W[k, k]
-    return OK
+            s -= L[p, k] * rhs[p]
+        rhs[k] = s / L[k, k]
 
 
 @kernel
-def constraint_impulse(model, Bg, BM, PHI, PHIt, v, w, h, hk, W, lam):
-    """Stabilised implicit stage: correct ``v, w`` (N,3) in place; ``lam`` gets λ = Λ/h_k.
-
-    Returns ``OK`` or ``SINGULAR``.
-    """
-    m = PHI.shape[0]
-    N = v.shape[0]
+def factor_constraints(model, Bg, BM, W, h, hk):
+    """``BM = B M⁻¹`` and the Cholesky factor of ``B M⁻¹ Bᵀ + ε/(h h_k) I`` into ``W``."""
+    m = Bg.shape[0]
     apply_inverse_mass(model, Bg, BM)
     for r in range(m):
         for s in range(r + 1):
-            acc = 0.0
-            for c in range(6 * N):
-                acc += BM[r, c] * Bg[s, c]
-            W[r, s] = acc
-            W[s, r] = acc
+            W[r, s] = _row_dot(model, r, s, BM, Bg) if _shares_node(model, r, s) else 0.0
         W[r, r] += model.row_eps[r] / (h * hk)
-        acc = PHIt[r] + PHI[r] / h
-        for n in range(N):
-            for a in range(3):
-                acc += Bg[r, 6 * n + a] * v[n, a] + Bg[r, 6 * n + 3 + a] * w[n, a]
-        lam[r] = acc
-    status = cholesky_solve(W, lam)
-    if status != OK:
-        return status
-    for n in range(N):
-        for a in range(3):
-            dv = 0.0
-            dw = 0.0
-            for r in range(m):
-                dv += BM[r, 6 * n + a] * lam[r]
-                dw += BM[r, 6 * n + 3 + a] * lam[r]
-            v[n, a] -= dv
-            w[n, a] -= dw
-    for r in range(m):
-        lam[r] /= hk
-    return OK
+    return cholesky_factor(W)
 
 
 @kernel
-def constraint_power(Bg, lam, v_old, w_old, v_new, w_new):
+def _shares_node(model, r, s):
+    for a in range(2):
+        n = model.row_nodes[r, a]
+        if n >= 0 and (n == model.row_nodes[s, 0] or n == model.row_nodes[s, 1]):
+            return True
+    return False
+
+
+@kernel
+def constraint_impulse(model, Bg, BM, L, PHI, PHIt, v, w, h, hk, lam):
+    """Stabilised implicit stage with the factor ``L``: correct ``v, w`` (N,3) in place.
+
+    ``lam`` receives λ = Λ/h_k.
+    """
+    m = PHI.shape[0]
+    for r in range(m):
+        acc = PHIt[r] + PHI[r] / h
+        for side in range(2):
+            n = model.row_nodes[r, side]
+            if n < 0:
+                continue
+            for a in range(3):
+                acc += Bg[r, 6 * n + a] * v[n, a] + Bg[r, 6 * n + 3 + a] * w[n, a]
+        lam[r] = acc
+    cholesky_solve(L, lam)
+    for r in range(m):
+        for side in range(2):
+            n = model.row_nodes[r, side]
+            if n < 0:
+                continue
+            for a in range(3):
+                v[n, a] -= BM[r, 6 * n + a] * lam[r]
+                w[n, a] -= BM[r, 6 * n + 3 + a] * lam[r]
+    for r in range(m):
+        lam[r] /= hk
+
+
+@kernel
+def constraint_power(model, Bg, lam, v_old, w_old, v_new, w_new):
     """``−λᵀ B V̄`` with ``V̄ = ½(V_old + V_new)``: the power of the constraint forces."""
     P = 0.0
     for r in range(lam.shape[0]):
         acc = 0.0
-        for n in range(v_new.shape[0]):
+        for side in range(2):
+            n = model.row_nodes[r, side]
+            if n < 0:
+                continue
             for a in range(3):
                 acc += Bg[r, 6 * n + a] * 0.5 * (v_old[n, a] + v_new[n, a])
                 acc += Bg[r, 6 * n + 3 + a] * 0.5 * (w_old[n, a] + w_new[n, a])
