@@ -87,7 +87,12 @@ def test_refine_override_multiplies_elements_and_divides_the_step(tmp_path):
         (('kind = "ramp"', 'kind = "rampp"'), "time_functions.up.kind", "did you mean 'ramp'"),
         (("end = [1.0, 0.0, 0.0]", "end = [0.0, 0.0, 0.0]"), "beams[0]", "zero-length"),
         (("force = [0.0, 0.0, 1e-3]", "force = [0.0, 1e-3]"), "loads[0].force", "list of 3 numbers"),
-        (("[solver]", "[[joints]]\nkind = 'revolute'\n[solver]"), "joints[0]", "not supported"),
+        (("[solver]", "[[joints]]\nkind = 'revolut'\nbody_i = 'b:end'\npoint = [1.0, 0.0, 0.0]\n[solver]"),
+         "joints[0].kind", "did you mean 'revolute'"),
+        (("[solver]", "[[joints]]\nkind = 'revolute'\nbody_i = 'rotor'\npoint = [1.0, 0.0, 0.0]\n[solver]"),
+         "joints[0].body_i", "no node 'rotor'"),
+        (("[solver]", "[[joints]]\nkind = 'rotation_drive'\nbody_i = 'b:end'\npoint = [1.0, 0.0, 0.0]\n[solver]"),
+         "joints[0]", "needs a time_function"),
         (("[solver]", "[solver\n"), "not valid TOML", "line"),
     ],
 )
