@@ -74,6 +74,7 @@ def parser() -> argparse.ArgumentParser:
     run.set_defaults(func=cmd_run)
     rep = sub.add_parser("report", help="the verification report → reports/")
     rep.add_argument("--quick", action="store_true", help="reduced version (for the tests)")
+    rep.add_argument("--out", help="report folder (default reports/)")
     rep.set_defaults(func=cmd_report)
     der = sub.add_parser("derive", help="regenerate reference/generated/ from derivations/")
     der.add_argument("--check", action="store_true", help="fail if the committed generated code is stale")

@@ -43,7 +43,7 @@ def _table(checks: list[Check]) -> list[str]:
     return lines
 
 
-def rollup_section(out: Path, quick: bool) -> tuple[list[str], list[Check]]:
+def rollup_section(out: Path, quick: bool, figures: Path) -> tuple[list[str], list[Check]]:
     """Embedded beam (paper §5.1): Fig. 12, tip table, convergence, Exudyn comparison."""
     import matplotlib
 
@@ -80,7 +80,7 @@ def rollup_section(out: Path, quick: bool) -> tuple[list[str], list[Check]]:
                  f"{n0} Beam2 elements; dotted: elastica arcs", fontsize=10)
     ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
-    fig.savefig(REPORTS / "figures" / "rollup_fig12.png", dpi=130)
+    fig.savefig(figures / "rollup_fig12.png", dpi=130)
     plt.close(fig)
 
     lines = [
@@ -158,7 +158,7 @@ def rollup_section(out: Path, quick: bool) -> tuple[list[str], list[Check]]:
     ax.legend(fontsize=8)
     ax.set_title("Roll-up: tip error against the number of elements", fontsize=10)
     fig.tight_layout()
-    fig.savefig(REPORTS / "figures" / "rollup_convergence.png", dpi=130)
+    fig.savefig(figures / "rollup_convergence.png", dpi=130)
     plt.close(fig)
     lines += ["", "![convergence](figures/rollup_convergence.png)", ""]
 
@@ -182,7 +182,7 @@ def rollup_section(out: Path, quick: bool) -> tuple[list[str], list[Check]]:
         ax.set_xlabel("k")
         ax.legend(fontsize=8)
         fig.tight_layout()
-        fig.savefig(REPORTS / "figures" / "rollup_exudyn.png", dpi=130)
+        fig.savefig(figures / "rollup_exudyn.png", dpi=130)
         plt.close(fig)
         lines += ["### Cross-check with Exudyn", "",
                   f"Exudyn {ex['exudyn_version']}, {params['n_elements']} `ObjectBeamGeometricallyExact` elements, "
@@ -194,12 +194,160 @@ def rollup_section(out: Path, quick: bool) -> tuple[list[str], list[Check]]:
     return lines, checks
 
 
+def three_bar_section(out: Path, quick: bool, figures: Path) -> tuple[list[str], list[Check]]:
+    """Three-bar mechanism (paper §5.2): Fig. 14, rigid limit, drift, energy, time-step study."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from reference.analytic import fourbar_rocker_angle
+    from reference.domain import Domain
+    from reference.io.deck import load_deck
+    from reference.observables import crank_angle, midspan_deflection, rocker_angle, wrap
+
+    deck = MODELS / "three_bar.toml"
+    domain = Domain.from_deck(deck)
+    drive = next(j for j in domain.joints if j.kind == "rotation_drive")
+    theta0 = np.pi / 2
+
+    def prescribed(t):
+        return theta0 + np.array([drive.time_function.integral(s) for s in t])
+
+    r = domain.solve(results_path=out / "three_bar" / "results.h5")
+    t = r.time
+    departure = wrap(rocker_angle(r) - fourbar_rocker_angle(prescribed(t)))
+    defl = midspan_deflection(r)
+    e = r.energy
+    balance = e["external_work"] - e["kinetic"] - e["strain"]
+    checks = []
+
+    text = deck.read_text()
+    text = text.replace('section = "coupler"\naxis2', 'section = "coupler"\nrigid = true\naxis2')
+    text = text.replace('body_i = "coupler:start"', 'body_i = "coupler"').replace('body_i = "coupler:end"', 'body_i = "coupler"')
+    for joint in ('label = "B"', 'label = "O3"'):
+        text = text.replace(joint, joint + "\nepsilon = 1e-10")
+    rigid_path = out / "three_bar_rigid.toml"
+    rigid_path.parent.mkdir(parents=True, exist_ok=True)
+    rigid_path.write_text(text)
+    rr = load_deck(rigid_path).solve()
+    rigid_err = np.max(np.abs(wrap(rocker_angle(rr) - fourbar_rocker_angle(prescribed(rr.time)))))
+    checks.append(Check("three-bar rigid limit: rocker angle vs closed form [rad]", "four-bar position analysis",
+                        float(rigid_err), 1e-4, "issue acceptance (coupler rigid, closing joints regularised ε = 1e-10)"))
+    checks.append(Check("three-bar flexible: max ‖Φ‖", "0", float(r.constraint_violation.max()), 5e-5,
+                        "issue acceptance: stabilised multipliers keep the drift small"))
+    second = int(round(1.0 / (domain.solver.dt * domain.solver.output_every)))
+    growth = r.constraint_violation[-second:].max() / r.constraint_violation[1:second].max()
+    checks.append(Check("three-bar flexible: ‖Φ‖ growth (last s / first s) − 1", "≤ 1 (not growing)",
+                        float(max(growth - 1.0, 0.0)), 1.0, "bounded drift: at most doubling over 10 s"))
+    checks.append(Check("three-bar energy balance / peak kinetic energy", "0",
+                        float(np.max(np.abs(balance)) / e["kinetic"].max()), 5e-3,
+                        "issue acceptance: work of the drive = ΔT + ΔU within 0.5 % of peak T"))
+    checks.append(Check("three-bar rocker departure from the rigid linkage − 5e-4 [rad]", "≈ 5e-4 (Exudyn)",
+                        float(np.max(np.abs(departure)) - 5e-4), 5e-4,
+                        "a much larger departure means an error (BENCHMARKS.md §2)"))
+
+    fig, ax = plt.subplots(figsize=(6.4, 5.4))
+    mag = 50.0
+    nodes = sorted((int(l.rsplit(":", 1)[1]), l) for l in r.labels if l.startswith("coupler:"))
+    n = nodes[-1][0]
+    times = np.arange(2.0, 6.0 + 1e-9, 0.25)
+    cmap = plt.get_cmap("viridis")
+    for k, tt in enumerate(times):
+        i = int(np.argmin(np.abs(t - tt)))
+        P = np.array([r.positions[i, r.labels.index(l)] for _, l in nodes])
+        chord = P[0] + np.outer(np.arange(n + 1) / n, P[-1] - P[0])
+        shown = chord + mag * (P - chord)
+        col = cmap(k / (len(times) - 1))
+        ax.plot([0.0, P[0, 0]], [0.0, P[0, 1]], "-", color=col, lw=2)
+        ax.plot(shown[:, 0], shown[:, 1], "o-", color=col, ms=2.5, lw=1)
+        ax.plot([P[-1, 0], 4.0], [P[-1, 1], 0.0], "-", color=col, lw=2)
+    ax.plot([0, 4], [0, 0], "k^", ms=8)
+    ax.set_aspect("equal")
+    ax.set_title(f"Successive deformed configurations of the three-bar mechanism (paper Fig. 14)\n"
+                 f"t = 2 … 6 s every 0.25 s; coupler deflection magnified ×{mag:g}", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(figures / "three_bar_fig14.png", dpi=130)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(3, 1, figsize=(6.4, 7.0), sharex=True)
+    axes[0].plot(t, defl)
+    axes[0].set_ylabel("coupler mid-span\ndeflection")
+    axes[1].plot(t, departure)
+    axes[1].set_ylabel("rocker − rigid\nlinkage [rad]")
+    axes[2].semilogy(t[1:], r.constraint_violation[1:], label="‖Φ‖")
+    axes[2].semilogy(t[1:], np.maximum(np.abs(balance[1:]) / e["kinetic"].max(), 1e-16), label="|energy balance| / peak T")
+    axes[2].legend(fontsize=8)
+    axes[2].set_xlabel("t [s]")
+    fig.tight_layout()
+    fig.savefig(figures / "three_bar_histories.png", dpi=130)
+    plt.close(fig)
+
+    dts = [2e-4, 1e-4] if quick else [2e-4, 1e-4, 5e-5, 2.5e-5]
+    runs = {}
+    for dt in dts:
+        runs[dt] = Domain.from_deck(deck, overrides={"dt": dt}).solve() if dt != 2e-4 else r
+    finest = runs[dts[-1]]
+    step_lines = ["| dt | max rocker difference to finest [rad] | max deflection difference to finest |", "|---|---|---|"]
+    rocker_diffs, defl_diffs = [], []
+    for dt in dts[:-1]:
+        ra = runs[dt]
+        rd_ = float(np.max(np.abs(wrap(rocker_angle(ra) - rocker_angle(finest)))))
+        dd = float(np.max(np.abs(midspan_deflection(ra) - midspan_deflection(finest))))
+        rocker_diffs.append(rd_)
+        defl_diffs.append(dd)
+        step_lines.append(f"| {dt:g} | {rd_:.3e} | {dd:.3e} |")
+    orders = [np.log2(a / b) for a, b in zip(defl_diffs[:-1], defl_diffs[1:])]
+    if orders:
+        step_lines.append("")
+        step_lines.append("Observed order of the deflection history in the step: " + ", ".join(f"{o:.2f}" for o in orders)
+                          + " (central differences: 2; the difference to the finest run slightly inflates the last one).")
+    fig, ax = plt.subplots(figsize=(5.0, 3.8))
+    ax.loglog(dts[:-1], defl_diffs, "o-", label="coupler deflection")
+    ax.loglog(dts[:-1], rocker_diffs, "s-", label="rocker angle")
+    ax.loglog(dts[:-1], defl_diffs[0] * (np.array(dts[:-1]) / dts[0]) ** 2, "k--", lw=0.8, label="slope 2")
+    ax.set_xlabel("dt [s]")
+    ax.set_ylabel("max difference to the finest run")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(figures / "three_bar_dt.png", dpi=130)
+    plt.close(fig)
+
+    lines = [
+        "## 2. Three-bar mechanism (paper §5.2, Figs. 13–14)",
+        "",
+        f"Deck: `models/three_bar.toml` — {domain.description}",
+        "",
+        f"Rigid crank and rocker (one rigid body each), flexible coupler in 4 Beam2 elements, 5 joints "
+        f"({domain._model.n_constraints} constraint equations, stabilised Lagrange multipliers), "
+        f"h = {domain.solver.dt:g}, {int(round(domain.solver.t_end / domain.solver.dt))} steps: "
+        f"reference solve {r.wall_time:.2f} s.",
+        "",
+        "![Fig. 14](figures/three_bar_fig14.png)",
+        "",
+        f"Peak coupler mid-span deflection {np.max(np.abs(defl)):.4f} (BENCHMARKS: about 0.019); "
+        f"rocker departure from the rigid linkage {np.max(np.abs(departure)):.2e} rad (about 5e-4 with Exudyn); "
+        f"max ‖Φ‖ {r.constraint_violation.max():.2e}; crank angle error "
+        f"{np.max(np.abs(wrap(crank_angle(r) - prescribed(t)))):.1e} rad; rigid limit {rigid_err:.1e} rad.",
+        "",
+        "![histories](figures/three_bar_histories.png)",
+        "",
+        "### Convergence with the time step",
+        "",
+    ] + step_lines + ["", "![dt study](figures/three_bar_dt.png)", ""]
+    return lines, checks
+
+
 def main(args=None) -> int:
     quick = bool(getattr(args, "quick", False))
-    out = REPORTS / "_runs"
-    (REPORTS / "figures").mkdir(parents=True, exist_ok=True)
+    reports = Path(getattr(args, "out", None) or REPORTS)
+    out = reports / "_runs"
+    figures = reports / "figures"
+    figures.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    lines, checks = rollup_section(out, quick)
+    lines, checks = rollup_section(out, quick, figures)
+    more_lines, more_checks = three_bar_section(out, quick, figures)
+    lines, checks = lines + more_lines, checks + more_checks
     failed = [c for c in checks if not c.passed]
     head = [
         "# flexmbs verification report",
@@ -214,8 +362,8 @@ def main(args=None) -> int:
     body = head + lines + ["## All checks", ""] + _table(checks)
     body += ["", f"Report generated in {time.perf_counter() - t0:.1f} s."]
     name = "verification_quick.md" if quick else "verification.md"
-    (REPORTS / name).write_text("\n".join(body) + "\n", encoding="utf-8")
-    print(f"wrote {REPORTS / name}: {len(checks) - len(failed)}/{len(checks)} checks pass")
+    (reports / name).write_text("\n".join(body) + "\n", encoding="utf-8")
+    print(f"wrote {reports / name}: {len(checks) - len(failed)}/{len(checks)} checks pass")
     for c in failed:
         print(f"FAILED: {c.name}: computed {c.computed:.3e}, tolerance {c.tolerance:.1e}")
     return 1 if failed else 0

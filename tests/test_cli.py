@@ -30,3 +30,13 @@ def test_bad_deck_gives_one_line_and_status_2(tmp_path, capsys):
 
 def test_derive_check_passes_on_the_committed_code(capsys):
     assert main(["derive", "--check"]) == 0
+
+
+def test_quick_report_runs_and_every_check_passes(tmp_path, capsys):
+    """`flexmbs report --quick` (the reduced report) writes its Markdown and figures and exits 0
+    only if every check passes."""
+    assert main(["report", "--quick", "--out", str(tmp_path)]) == 0
+    text = (tmp_path / "verification_quick.md").read_text()
+    assert "**FAIL**" not in text and "checks pass" in text
+    for fig in ("rollup_fig12.png", "three_bar_fig14.png", "rollup_convergence.png"):
+        assert (tmp_path / "figures" / fig).stat().st_size > 10_000

@@ -106,9 +106,10 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     ----------
     path : path-like
     overrides : dict, optional
-        ``t_end``, ``dt`` (replace the deck's), ``refine`` (an integer
-        multiplying every beam's element count; the step is divided and the
-        output interval multiplied by it, so output times stay the same).
+        ``t_end``, ``dt`` (replace the deck's; a step smaller by a whole factor
+        keeps the deck's output times), ``refine`` (an integer multiplying every
+        flexible beam's element count; the step is divided and the output
+        interval multiplied by it, so output times stay the same).
     """
     path = Path(path)
     if not path.exists():
@@ -365,12 +366,16 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     algorithm = sv.get("algorithm", SolverSettings.algorithm)
     if algorithm != SolverSettings.algorithm:
         raise rd.fail("solver.algorithm", f"unknown algorithm {algorithm!r}", f"available: '{SolverSettings.algorithm}'")
-    dt = rd.number(overrides.get("dt", sv["dt"] / refine), "solver.dt", positive=True)
+    deck_dt = rd.number(sv["dt"], "solver.dt", positive=True) / refine
+    dt = rd.number(overrides.get("dt", deck_dt), "override dt" if "dt" in overrides else "solver.dt", positive=True)
+    # keep the deck's output times when the step is overridden by a whole factor
+    ratio = deck_dt / dt
+    output_scale = int(round(ratio)) if ratio >= 1 and abs(ratio - round(ratio)) < 1e-9 else 1
     t_end = rd.number(overrides.get("t_end", sv["t_end"]), "solver.t_end", positive=True)
     domain.solver = SolverSettings(
         algorithm=algorithm, dt=dt, t_end=t_end,
         damping=rd.number(sv.get("damping", 0.0), "solver.damping", nonnegative=True),
-        output_every=rd.integer(sv.get("output_every", 1), "solver.output_every") * refine,
+        output_every=rd.integer(sv.get("output_every", 1), "solver.output_every") * refine * output_scale,
         consistent_initial_velocities=bool(sv.get("consistent_initial_velocities", False)),
     )
     if not domain.elements and not domain.nodes:
