@@ -58,8 +58,26 @@ def time_exudyn_rollup(deck: Path, repeat: int) -> tuple[float, int]:
     return statistics.median(times), steps
 
 
+def time_exudyn_three_bar(deck: Path, repeat: int) -> tuple[float, int]:
+    from crosscheck.exudyn_three_bar import solve_three_bar_exudyn
+    from reference.domain import Domain
+
+    domain = Domain.from_deck(deck)
+    params = dict(dt=domain.solver.dt, t_end=domain.solver.t_end, output_every=domain.solver.output_every)
+    solve_three_bar_exudyn(**{**params, "t_end": 20 * params["dt"]})  # warm-up
+    times, steps = [], 0
+    for _ in range(repeat):
+        out = solve_three_bar_exudyn(**params)
+        times.append(out["wall_time"])
+        steps = out["steps"]
+    return statistics.median(times), steps
+
+
+THREE_BAR_DECK = ROOT / "models" / "three_bar.toml"
 CASES = {
     "embedded beam roll-up (12 Beam2, 10,000 steps)": (ROLLUP_DECK, time_reference, time_exudyn_rollup),
+    "three-bar mechanism (4 Beam2 + 2 rigid, 5 joints, 50,000 steps)": (THREE_BAR_DECK, time_reference,
+                                                                         time_exudyn_three_bar),
 }
 
 
