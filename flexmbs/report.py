@@ -319,7 +319,7 @@ def three_bar_section(out: Path, quick: bool, figures: Path) -> tuple[list[str],
         f"Deck: `models/three_bar.toml` — {domain.description}",
         "",
         f"Rigid crank and rocker (one rigid body each), flexible coupler in 4 Beam2 elements, 5 joints "
-        f"({domain._model.n_constraints} constraint equations, stabilised Lagrange multipliers), "
+        f"({domain.model.n_constraints} constraint equations, stabilised Lagrange multipliers), "
         f"h = {domain.solver.dt:g}, {int(round(domain.solver.t_end / domain.solver.dt))} steps: "
         f"reference solve {r.wall_time:.2f} s.",
         "",

@@ -26,7 +26,8 @@ from reference.algorithms import StaggeredCentralDifference
 from reference.algorithms.staggered import OK
 from reference.elements import Beam2Formulation, Element, Section
 from reference.interactions import Constant, FixedCoordinates, Gravity, Interaction, NodalLoad, TimeFunction
-from reference.joints import Jacobian, Joint, joint_frame
+from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
+from reference.joints.master_slave import master_slave_parameters
 from reference.joints.assembly import SINGULAR, apply_inverse_mass, assemble_constraints
 from reference.joints.joint import ROWS
 from reference.nodes import Node
@@ -296,6 +297,11 @@ class Domain:
         self._model = None
         return interaction
 
+    @property
+    def model(self) -> Model:
+        """The assembled plain-data model (built on first use)."""
+        return self._model or self.initialization()
+
     def critical_time_step(self) -> float:
         """Smallest per-element stability limit of the explicit scheme [s]."""
         limits = [e.formulation.critical_time_step(self._length(e)) for e in self.elements]
@@ -350,13 +356,15 @@ class Domain:
             return len(tfs) - 1
 
         load_tf = np.array([tf_index(ld.time_function) for ld in loads], dtype=np.int64)
-        J = len(self.joints)
+        lagrange = self.multiplier_joints()
+        ms = self.master_slave_joints()
+        J = len(lagrange)
         jt = {"jt_i": np.zeros(J, dtype=np.int64), "jt_j": np.zeros(J, dtype=np.int64), "jt_par": np.zeros((J, 24)),
               "jt_rows": np.full((J, 6), -1, dtype=np.int64), "jt_neq": np.zeros(J, dtype=np.int64),
               "jt_row0": np.zeros(J, dtype=np.int64), "jt_drive": np.zeros(J, dtype=np.int64),
               "jt_tf": np.zeros(J, dtype=np.int64)}
         row_eps, row0 = [], 0
-        for k, joint in enumerate(self.joints):
+        for k, joint in enumerate(lagrange):
             jt["jt_i"][k] = joint.body_i.id
             jt["jt_j"][k] = -1 if joint.body_j is None else joint.body_j.id
             jt["jt_par"][k] = joint.body_fixed()
@@ -383,11 +391,49 @@ class Domain:
             tf_par=tf_par, gravity=gravity, damping=float(self.solver.damping),
             row_eps=np.array(row_eps, dtype=float),
             row_nodes=np.array([[j.body_i.id, -1 if j.body_j is None else j.body_j.id]
-                                for j in self.joints for _ in range(j.n_equations)], dtype=np.int64).reshape(-1, 2),
+                                for j in lagrange for _ in range(j.n_equations)], dtype=np.int64).reshape(-1, 2),
+            ms_master=np.array([j.body_j.id for j in ms], dtype=np.int64),
+            ms_slave=np.array([j.body_i.id for j in ms], dtype=np.int64),
+            ms_kind=np.array([0 if j.kind == "spherical" else 1 for j in ms], dtype=np.int64),
+            ms_par=np.array([master_slave_parameters(j) for j in ms]).reshape(len(ms), 9),
             **jt,
         )
         self.check_constraints(self._model)
         return self._model
+
+    def multiplier_joints(self) -> list[Joint]:
+        """Joints treated by Lagrange multipliers (the :class:`Jacobian` formulation)."""
+        return [j for j in self.joints if not isinstance(j.formulation, MasterSlave)]
+
+    def master_slave_joints(self) -> list[Joint]:
+        """Joints treated by master/slave elimination, validated.
+
+        Only spherical and revolute joints; the slave (``body_i``) must be a beam
+        node at the joint point, slave of no other joint and master of none; the
+        master (``body_j``) a body, not the ground; neither may have fixed coordinates.
+        """
+        joints = [j for j in self.joints if isinstance(j.formulation, MasterSlave)]
+        beam_nodes = {i for e in self.elements for i in e.nodes}
+        fixed = {self.node(bc.node).id for bc in self.boundary_conditions}
+        slaves = [j.body_i.id for j in joints]
+        masters = {j.body_j.id for j in joints if j.body_j is not None}
+        for j in joints:
+            problem = None
+            if j.kind not in ("spherical", "revolute"):
+                problem = f"master/slave is available for spherical and revolute joints, not {j.kind}"
+            elif j.body_j is None:
+                problem = "the master (body_j) of a master/slave joint cannot be the ground; use a clamp or fixed coordinates"
+            elif j.body_i.id not in beam_nodes:
+                problem = "the slave (body_i) of a master/slave joint must be a beam node"
+            elif np.linalg.norm(j.body_i.position - j.point) > 1e-9 * max(1.0, np.linalg.norm(j.point)):
+                problem = "the slave node must sit at the joint point"
+            elif slaves.count(j.body_i.id) > 1 or j.body_i.id in masters:
+                problem = f"node {j.body_i.label!r} is the slave of one master/slave joint and used by another"
+            elif j.body_i.id in fixed or j.body_j.id in fixed:
+                problem = "master and slave of a master/slave joint may not have fixed coordinates"
+            if problem:
+                raise ValueError(f"joint {j.label!r}: {problem}")
+        return joints
 
     def constraint_matrices(self, model: Model, x=None, q=None, t: float = 0.0):
         """Global Φ (m,), Φ_t (m,), B (m, 6N) and B M⁻¹ at a configuration (default: initial)."""
@@ -410,7 +456,7 @@ class Domain:
         if model.n_constraints == 0:
             return
         _, _, Bg, _ = self.constraint_matrices(model)
-        owner = [joint for joint in self.joints for _ in range(joint.n_equations)]
+        owner = [joint for joint in self.multiplier_joints() for _ in range(joint.n_equations)]
         basis, redundant = [], []
         for r, row in enumerate(Bg):
             own = row @ self._minv_apply(model, row)

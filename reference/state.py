@@ -34,6 +34,9 @@ class Model(NamedTuple):
     ``jt_row0`` (J,) first global row, ``jt_drive`` (J,) drive code,
     ``jt_tf`` (J,) time function; ``row_eps`` (m,) the ε of each row;
     ``row_nodes`` (m,2) the nodes a row involves (−1 the ground).
+    Master/slave joints (K): ``ms_master``, ``ms_slave`` (K,) node indices,
+    ``ms_kind`` (K,) 0 spherical 1 revolute, ``ms_par`` (K,9) the master's
+    body-fixed offset and axis and the slave's body-fixed axis.
     """
 
     mass: np.ndarray
@@ -63,6 +66,10 @@ class Model(NamedTuple):
     jt_tf: np.ndarray
     row_eps: np.ndarray
     row_nodes: np.ndarray
+    ms_master: np.ndarray
+    ms_slave: np.ndarray
+    ms_kind: np.ndarray
+    ms_par: np.ndarray
 
     @property
     def n_constraints(self) -> int:
@@ -139,6 +146,13 @@ class Scratch(NamedTuple):
     jphit: np.ndarray
     prim_phi: np.ndarray
     prim_B: np.ndarray
+    T: np.ndarray
+    A_m: np.ndarray
+    A_s: np.ndarray
+    MT: np.ndarray
+    TMT: np.ndarray
+    rhs: np.ndarray
+    r4: np.ndarray
 
     @classmethod
     def for_model(cls, model: Model) -> "Scratch":
@@ -146,4 +160,5 @@ class Scratch(NamedTuple):
         return cls(np.zeros((N, 6)), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 3)), np.zeros(24),
                    np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((m, 6 * N)), np.zeros((m, 6 * N)),
                    np.zeros((m, m)), np.zeros(m), np.zeros(6), np.zeros((6, 12)), np.zeros(6), np.zeros(10),
-                   np.zeros(120))
+                   np.zeros(120), np.zeros((12, 9)), np.zeros(9), np.zeros(9), np.zeros((12, 9)), np.zeros((9, 9)),
+                   np.zeros(9), np.zeros(4))

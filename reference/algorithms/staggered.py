@@ -40,6 +40,7 @@ from reference.jit import kernel
 from reference.joints.assembly import (
     SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints,
 )
+from reference.joints.master_slave import master_slave_positions, master_slave_project
 from reference.state import Model, Record, Scratch, State
 
 GYRO_SWEEPS = 4
@@ -150,6 +151,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     PHI, PHIt, Bg, BM, W, lam = scratch.PHI, scratch.PHIt, scratch.Bg, scratch.BM, scratch.W, scratch.lam
     N = x.shape[0]
     n_rows = PHI.shape[0]
+    n_ms = model.ms_master.shape[0]
     c = model.damping
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
@@ -176,14 +178,20 @@ def advance(model, state, h, n_steps, record, rec, scratch):
                                  scratch.prim_phi, scratch.prim_B)
             if factor_constraints(model, Bg, BM, W, h, hk) != OK:
                 return SINGULAR
-            constraint_impulse(model, Bg, BM, W, PHI, PHIt, v_new, w_new, h, hk, lam)
-            # The constraint impulse changes ω^{n+½}: redo the predictor with the midpoint
-            # gyroscopic term at the constrained velocity and project again (same factor),
-            # so that the pair (kick, projection) is solved together (otherwise the gyroscopic
-            # term of a constrained spinning body is only first-order accurate).
-            for _ in range(CONSTRAINED_SWEEPS):
-                _kick(model, v, w, S, F, hk, v_new, w_new, 1, True)
-                constraint_impulse(model, Bg, BM, W, PHI, PHIt, v_new, w_new, h, hk, lam)
+        if n_rows > 0 or n_ms > 0:
+            # The constraint stage changes ω^{n+½}: redo the predictor with the midpoint
+            # gyroscopic term at the constrained velocity and constrain again (same factor),
+            # so that the pair (kick, constraint) is solved together (otherwise the gyroscopic
+            # term of a constrained spinning body is only first-order accurate).  With both
+            # multiplier and master/slave joints the passes also alternate the two projections.
+            for sweep in range(1 + CONSTRAINED_SWEEPS):
+                if sweep > 0:
+                    _kick(model, v, w, S, F, hk, v_new, w_new, 1, True)
+                if n_rows > 0:
+                    constraint_impulse(model, Bg, BM, W, PHI, PHIt, v_new, w_new, h, hk, lam)
+                if n_ms > 0:
+                    master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
+                                         scratch.TMT, scratch.rhs)
         if record and k == 0:
             for i in range(N):
                 for a in range(3):
@@ -228,6 +236,8 @@ def advance(model, state, h, n_steps, record, rec, scratch):
                 q[i, a] = q_tmp[a] / nrm
             for a in range(6):
                 f_prev[i, a] = F[i, a]
+        if n_ms > 0:
+            master_slave_positions(model, x, q, scratch.A_m, scratch.A_s, q_tmp, scratch.r4)
         clock[1] = n + 1
         clock[0] = (n + 1) * h
     return OK

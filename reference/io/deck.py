@@ -22,7 +22,7 @@ from reference.elements import Section
 from reference.interactions import (
     Clamp, Constant, FixedCoordinates, Gravity, NodalLoad, PiecewiseLinear, Ramp, Sine, SmoothStep, Step,
 )
-from reference.joints import Jacobian
+from reference.joints import Jacobian, MasterSlave
 from reference.joints.joint import ROWS as JOINT_KINDS
 
 
@@ -315,9 +315,10 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
             raise rd.fail(f"{entry}.kind", f"unknown joint kind {kind!r}",
                           f"did you mean '{close[0]}'?" if close else f"one of: {', '.join(JOINT_KINDS)}")
         formulation = jt.get("formulation", "jacobian")
-        if formulation != "jacobian":
+        if formulation not in ("jacobian", "master_slave"):
             raise rd.fail(f"{entry}.formulation", f"unknown joint formulation {formulation!r}",
-                          "'jacobian' (Lagrange multipliers, stabilised) is the one available")
+                          "'jacobian' (Lagrange multipliers, stabilised) or 'master_slave' (elimination; "
+                          "spherical and revolute joints, slave = body_i a beam node)")
         body_i = node_ref(jt["body_i"], f"{entry}.body_i")
         body_j = None
         if jt.get("body_j", "ground") != "ground":
@@ -344,7 +345,8 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         try:
             domain.add_joint(kind, body_i, body_j, rd.vector(jt["point"], f"{entry}.point"),
                              rd.vector(jt.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis"), reference,
-                             formulation=Jacobian(eps), time_function=tf, mode=mode,
+                             formulation=Jacobian(eps) if formulation == "jacobian" else MasterSlave(),
+                             time_function=tf, mode=mode,
                              label=str(jt.get("label", f"{kind}:{i}")))
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None

@@ -14,10 +14,13 @@ class JointFormulation(ABC):
     Domain assembles joints of one formulation together:
 
     - :class:`Jacobian`: Lagrange multipliers from the constraint Jacobian B,
-      solved by the stabilised implicit procedure (``reference/joints/assembly.py``).
+      solved by the stabilised implicit procedure (``reference/joints/assembly.py``);
+    - :class:`MasterSlave`: elimination of the slave's dependent coordinates
+      (``reference/joints/master_slave.py``).
     """
 
     name: str
+    epsilon: float = 0.0
 
 
 @dataclass
@@ -40,3 +43,17 @@ class Jacobian(JointFormulation):
     def __post_init__(self):
         if not self.epsilon >= 0.0:
             raise ValueError(f"epsilon must be ≥ 0, got {self.epsilon!r}")
+
+
+@dataclass
+class MasterSlave(JointFormulation):
+    """Master/slave elimination (spherical and revolute joints).
+
+    ``body_i`` of the joint is the slave (a beam node at the joint point),
+    ``body_j`` the master (a rigid body or another node); the slave's
+    dependent coordinates follow the master exactly, so the joint has no
+    constraint drift and no multipliers.
+    """
+
+    name = "master_slave"
+    epsilon: float = 0.0
