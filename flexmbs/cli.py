@@ -48,6 +48,25 @@ def cmd_derive(args) -> int:
     return 0
 
 
+def cmd_crosscheck(args) -> int:
+    from crosscheck.exudyn_model import Unsupported
+    from crosscheck.harness import run
+    from flexmbs.progress import ProgressBar
+
+    out = Path(args.out) if args.out else Path("out") / (Path(args.deck).stem + "_crosscheck")
+    try:
+        cmp = run(args.deck, out, refine=args.refine or 1, exudyn_dt=args.exudyn_dt, t_end=args.t_end,
+                  progress=ProgressBar("reference"))
+    except Unsupported as exc:
+        raise CommandError(f"{args.deck}: cannot be cross-checked in Exudyn: {exc}") from None
+    failed = [v for v in cmp["verdicts"] if not v.passed]
+    for v in cmp["verdicts"]:
+        print(f"{'pass' if v.passed else 'FAIL'}  {v.observable}: {v.measure:.3e} (tolerance {v.tolerance:g}, "
+              f"relative to {v.relative_to})")
+    print(f"reference {cmp['reference'].wall_time:.2f} s, Exudyn {cmp['exudyn_wall']:.2f} s → {out / 'crosscheck.md'}")
+    return 1 if failed else 0
+
+
 def cmd_report(args) -> int:
     from flexmbs import report
 
@@ -72,6 +91,13 @@ def parser() -> argparse.ArgumentParser:
     run.add_argument("--refine", type=int, help="multiply every beam's element count (the step shrinks with it)")
     run.add_argument("--no-vtk", action="store_true", help="skip the ParaView output")
     run.set_defaults(func=cmd_run)
+    cc = sub.add_parser("crosscheck", help="run a deck in the reference and in Exudyn and compare")
+    cc.add_argument("deck")
+    cc.add_argument("--out", help="output folder (default out/<deck name>_crosscheck)")
+    cc.add_argument("--refine", type=int, help="multiply every flexible beam's element count")
+    cc.add_argument("--exudyn-dt", type=float, help="Exudyn's step (default: the deck's)")
+    cc.add_argument("--t-end", type=float, help="end time, overriding the deck's")
+    cc.set_defaults(func=cmd_crosscheck)
     rep = sub.add_parser("report", help="the verification report → reports/")
     rep.add_argument("--quick", action="store_true", help="reduced version (for the tests)")
     rep.add_argument("--out", help="report folder (default reports/)")

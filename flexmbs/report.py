@@ -162,35 +162,6 @@ def rollup_section(out: Path, quick: bool, figures: Path) -> tuple[list[str], li
     plt.close(fig)
     lines += ["", "![convergence](figures/rollup_convergence.png)", ""]
 
-    try:
-        from flexmbs.bench import rollup_parameters
-        from crosscheck.exudyn_rollup import solve_rollup_exudyn
-
-        params = rollup_parameters(domain)
-        ex = solve_rollup_exudyn(**params)
-        ref_tip = r.position(tip_label)
-        m = min(len(ex["time"]), len(r.time))
-        assert np.allclose(ex["time"][:m], r.time[:m])
-        d_ex = np.linalg.norm(ex["tip_position"][:m] - ref_tip[:m], axis=1) / L
-        checks.append(Check("tip trajectory, reference − Exudyn (max over the history)", "Exudyn 1.13 generalized-α",
-                            float(d_ex.max()), 5e-3, "two different beam elements: Exudyn's SE(3) strain is exact "
-                            "for constant curvature, Beam2 has its h² polygon error"))
-        fig, ax = plt.subplots(figsize=(6.0, 3.6))
-        ax.plot(r.time[:m], d_ex, label="|tip_ref − tip_Exudyn| / L")
-        ax.plot(r.time[:m], [np.linalg.norm(ref_tip[i] - elastica_tip(L, r.time[i])) / L for i in range(m)],
-                label="|tip_ref − elastica| / L")
-        ax.set_xlabel("k")
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(figures / "rollup_exudyn.png", dpi=130)
-        plt.close(fig)
-        lines += ["### Cross-check with Exudyn", "",
-                  f"Exudyn {ex['exudyn_version']}, {params['n_elements']} `ObjectBeamGeometricallyExact` elements, "
-                  f"generalized-α at the same step, same damping (nodal dampers): max tip difference "
-                  f"{d_ex.max():.2e} L; Exudyn solve {ex['wall_time']:.3f} s against {r.wall_time:.3f} s.", "",
-                  "![exudyn](figures/rollup_exudyn.png)", ""]
-    except ImportError as exc:
-        lines += ["", f"Exudyn cross-check not run: {exc}", ""]
     return lines, checks
 
 
@@ -336,38 +307,30 @@ def three_bar_section(out: Path, quick: bool, figures: Path) -> tuple[list[str],
         "",
     ] + step_lines + ["", "![dt study](figures/three_bar_dt.png)", ""]
 
-    from crosscheck.exudyn_three_bar import solve_three_bar_exudyn
+    return lines, checks
 
-    ex = solve_three_bar_exudyn(dt=domain.solver.dt, t_end=domain.solver.t_end, output_every=domain.solver.output_every)
-    rocker_ex = np.arctan2(ex["rocker"][:, 1], ex["rocker"][:, 0] - 4.0)
-    P = ex["coupler"]
-    chord = P[:, -1, :2] - P[:, 0, :2]
-    normal = np.stack([-chord[:, 1], chord[:, 0]], axis=1) / np.linalg.norm(chord, axis=1)[:, None]
-    defl_ex = np.sum((P[:, P.shape[1] // 2, :2] - 0.5 * (P[:, 0, :2] + P[:, -1, :2])) * normal, axis=1)
-    rocker_diff = float(np.max(np.abs(wrap(rocker_angle(r) - rocker_ex))))
-    defl_diff = float(np.max(np.abs(defl - defl_ex)) / np.max(np.abs(defl_ex)))
-    checks.append(Check("three-bar rocker angle, reference − Exudyn [rad]", "Exudyn 1.13 generalized-α",
-                        rocker_diff, 2e-4, "issue 4 tolerance (mesh-insensitive observable)"))
-    checks.append(Check("three-bar mid-span deflection, reference − Exudyn, / peak", "Exudyn 1.13",
-                        defl_diff, 0.25, "issue 4 tolerance at the paper's 4-element mesh: lumped vs consistent "
-                        "mass and another rotation interpolation (BENCHMARKS §2: 18 % mesh sensitivity)"))
-    fig, axes = plt.subplots(2, 1, figsize=(6.4, 5.0), sharex=True)
-    axes[0].plot(t, defl, label="reference (Beam2, lumped)")
-    axes[0].plot(ex["time"], defl_ex, "--", label="Exudyn (geometrically exact, consistent)")
-    axes[0].set_ylabel("mid-span deflection")
-    axes[0].legend(fontsize=8)
-    axes[1].plot(t, wrap(rocker_angle(r) - rocker_ex))
-    axes[1].set_ylabel("rocker: ref − Exudyn [rad]")
-    axes[1].set_xlabel("t [s]")
-    fig.tight_layout()
-    fig.savefig(figures / "three_bar_exudyn.png", dpi=130)
-    plt.close(fig)
-    lines += ["### Cross-check with Exudyn", "",
-              f"Exudyn {ex['exudyn_version']}: rigid bodies, 4 `ObjectBeamGeometricallyExact`, generic joints, the drive "
-              f"as an offset user function; generalized-α at the same step. Rocker angles differ by at most "
-              f"{rocker_diff:.2e} rad; the mid-span deflection histories by {100 * defl_diff:.1f} % of the peak. "
-              f"Exudyn solve {ex['wall_time']:.2f} s against {r.wall_time:.2f} s.", "",
-              "![exudyn](figures/three_bar_exudyn.png)", ""]
+
+def crosscheck_section(out: Path, quick: bool, figures: Path) -> tuple[list[str], list[Check]]:
+    """Every deck in models/ in both engines (issue: the cross-check harness), compared."""
+    from crosscheck.harness import run
+
+    lines = ["## 3. Cross-check with Exudyn", "",
+             "Every deck is translated item by item into Exudyn 1.13 (`crosscheck/exudyn_model.py`) and solved "
+             "with its generalized-α solver; both results files are compared by `crosscheck.compare` against the "
+             "tolerances each deck states in `[crosscheck]`. Constraint drift and energies of both engines are "
+             "measured with the reference's definitions.", ""]
+    checks = []
+    runs = [(deck, 1) for deck in sorted(MODELS.glob("*.toml"))]
+    if not quick:
+        runs.append((MODELS / "three_bar.toml", 8))
+    for deck, refine in runs:
+        t_end = 3.0 if quick and deck.stem == "three_bar" else None
+        cmp = run(deck, out / f"crosscheck_{deck.stem}_{refine}", refine=refine, t_end=t_end, figures=figures)
+        lines += cmp["markdown"]
+        for v in cmp["verdicts"]:
+            checks.append(Check(f"Exudyn cross-check {deck.stem}" + (f" ×{refine}" if refine > 1 else "")
+                                + f": {v.observable}", f"Exudyn, relative to {v.relative_to}", v.measure,
+                                v.tolerance, v.reason.replace("|", "/")))
     return lines, checks
 
 
@@ -379,8 +342,9 @@ def main(args=None) -> int:
     figures.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     lines, checks = rollup_section(out, quick, figures)
-    more_lines, more_checks = three_bar_section(out, quick, figures)
-    lines, checks = lines + more_lines, checks + more_checks
+    for section in (three_bar_section, crosscheck_section):
+        more_lines, more_checks = section(out, quick, figures)
+        lines, checks = lines + more_lines, checks + more_checks
     failed = [c for c in checks if not c.passed]
     head = [
         "# flexmbs verification report",

@@ -147,6 +147,7 @@ class Domain:
         self.solver = SolverSettings()
         self.metadata: dict = {}
         self.checks: dict = {}
+        self.crosscheck: dict = {}
         self.deck_text: str = ""
         self.deck_path: str = ""
         self._labels: dict[str, Node] = {}

@@ -31,7 +31,7 @@ class DeckError(ValueError):
 
 
 TOP_LEVEL = {"meta", "sections", "time_functions", "nodes", "beams", "rigid_bodies", "joints", "clamps", "fixed",
-             "loads", "gravity", "initial_velocities", "solver", "checks"}
+             "loads", "gravity", "initial_velocities", "solver", "checks", "crosscheck"}
 SECTION_KEYS = ["EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ1", "rhoJ2", "rhoJ3"]
 TIME_FUNCTIONS = {
     "constant": (Constant, ["value"], {}),
@@ -393,6 +393,16 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     checks = deck.get("checks", {})
     rd.keys(checks, "checks", optional=list(checks))
     domain.checks = checks
+    crosscheck = deck.get("crosscheck", {})
+    rd.keys(crosscheck, "crosscheck", optional=list(crosscheck))
+    for name, spec in crosscheck.items():
+        entry = f"crosscheck.{name}"
+        rd.keys(spec, entry, required=["observable", "tolerance", "reason"], optional=["relative_to", "refine"])
+        rd.number(spec["tolerance"], f"{entry}.tolerance", positive=True)
+        if spec.get("relative_to", "absolute") not in ("length", "peak", "absolute"):
+            raise rd.fail(f"{entry}.relative_to", f"unknown scale {spec['relative_to']!r}", "'length', 'peak' or 'absolute'")
+        rd.integer(spec.get("refine", 1), f"{entry}.refine")
+    domain.crosscheck = crosscheck
     try:
         domain.initialization()
     except ValueError as exc:

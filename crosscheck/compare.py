@@ -1,0 +1,123 @@
+"""Compare two results files of one deck (any engines honouring the results contract).
+
+``compare(a, b, deck_checks)`` returns the differences of
+
+- every common node's trajectory: positions (max and RMS, absolute and relative
+  to the model's characteristic length, the diagonal of its initial bounding
+  box) and rotations (the angle of ``q_a* ⊗ q_b``);
+- the observables the deck names in ``[crosscheck]`` (see below), absolute and
+  relative to the observable's peak in file ``a``;
+- the constraint drift of both files (max ‖Φ‖ and ‖BV + Φ_t‖),
+
+and a verdict per observable against the tolerance the deck states with its
+reason.  Output times must coincide (both engines write the deck's output
+interval); ``b`` is interpolated linearly onto ``a``'s times otherwise.
+
+Deck syntax::
+
+    [crosscheck.tip]
+    observable = "position:beam:end"      # or "rocker_angle", "midspan_deflection:coupler"
+    tolerance = 0.005
+    relative_to = "length"                 # "length", "peak" or "absolute"
+    reason = "..."
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from reference.observables import midspan_deflection, rocker_angle, wrap
+from reference.rotation import EulerParameters
+
+
+@dataclass
+class Verdict:
+    name: str
+    observable: str
+    max_difference: float
+    rms_difference: float
+    scale: float
+    tolerance: float
+    relative_to: str
+    reason: str
+
+    @property
+    def measure(self) -> float:
+        return self.max_difference / self.scale
+
+    @property
+    def passed(self) -> bool:
+        return bool(np.isfinite(self.measure) and self.measure <= self.tolerance)
+
+
+def observable(results, spec: str, end_label=None) -> np.ndarray:
+    """Time history of a named observable: ``position:<node>`` (n,3), ``rocker_angle`` (n,),
+    ``midspan_deflection:<beam>`` (n,)."""
+    kind, _, arg = spec.partition(":")
+    if kind == "position":
+        if arg.endswith(":end") and end_label:
+            arg = end_label(arg[: -len(":end")])
+        return results.position(arg)
+    if kind == "rocker_angle":
+        return np.unwrap(rocker_angle(results))
+    if kind == "midspan_deflection":
+        return midspan_deflection(results, arg or "coupler")
+    raise ValueError(f"unknown observable {spec!r}: position:<node>, rocker_angle or midspan_deflection:<beam>")
+
+
+def _last_node(results):
+    def label(beam):
+        nodes = [lbl for lbl in results.labels if lbl.startswith(beam + ":")]
+        return max(nodes, key=lambda lbl: int(lbl.rsplit(":", 1)[1]))
+
+    return label
+
+
+def _on_times(values, t_from, t_to):
+    if len(t_from) == len(t_to) and np.allclose(t_from, t_to, rtol=0, atol=1e-9):
+        return values
+    flat = values.reshape(len(t_from), -1)
+    out = np.stack([np.interp(t_to, t_from, flat[:, k]) for k in range(flat.shape[1])], axis=1)
+    return out.reshape((len(t_to),) + values.shape[1:])
+
+
+def compare(a, b, checks: dict | None = None) -> dict:
+    """Differences between results ``a`` and ``b`` (see the module docstring)."""
+    common = [lbl for lbl in a.labels if lbl in b.labels]
+    ia = [a.labels.index(lbl) for lbl in common]
+    ib = [b.labels.index(lbl) for lbl in common]
+    pos_b = _on_times(b.positions[:, ib], b.time, a.time)
+    rot_b = _on_times(b.rotations[:, ib], b.time, a.time)
+    x0 = a.positions[0, ia]
+    length = float(np.linalg.norm(x0.max(axis=0) - x0.min(axis=0))) or 1.0
+    dpos = np.linalg.norm(a.positions[:, ia] - pos_b, axis=2)
+    angles = np.zeros(dpos.shape)
+    for t in range(dpos.shape[0]):
+        for k in range(dpos.shape[1]):
+            qa = EulerParameters(a.rotations[t, ia[k]])
+            angles[t, k] = qa.conjugate().product(EulerParameters(rot_b[t, k])).angle()
+    out = {
+        "nodes": len(common), "length": length,
+        "position_max": float(dpos.max()), "position_rms": float(np.sqrt(np.mean(dpos**2))),
+        "position_max_relative": float(dpos.max() / length),
+        "rotation_max": float(angles.max()), "rotation_rms": float(np.sqrt(np.mean(angles**2))),
+        "drift": {name: {"violation_max": float(np.nanmax(r.constraint_violation)),
+                         "velocity_violation_max": float(np.nanmax(r.velocity_constraint_violation))}
+                  for name, r in (("a", a), ("b", b))},
+        "verdicts": [],
+    }
+    for name, spec in (checks or {}).items():
+        obs = spec["observable"]
+        va = observable(a, obs, _last_node(a))
+        vb = _on_times(observable(b, obs, _last_node(b)), b.time, a.time)
+        diff = va - vb
+        if obs == "rocker_angle":
+            diff = wrap(diff)
+        d = np.linalg.norm(diff.reshape(len(a.time), -1), axis=1)
+        relative_to = spec.get("relative_to", "absolute")
+        scale = {"length": length, "peak": float(np.max(np.abs(va))), "absolute": 1.0}[relative_to]
+        out["verdicts"].append(Verdict(name, obs, float(d.max()), float(np.sqrt(np.mean(d**2))), scale,
+                                       float(spec["tolerance"]), relative_to, str(spec.get("reason", ""))))
+    return out
