@@ -104,7 +104,7 @@ def _partner(domain, drive):
     return None
 
 
-def build(domain, dt: float, output_every: int):
+def build(domain, dt: float, output_every: int, progress=None, t_end: float = 1.0):
     """Translate ``domain`` into an Exudyn system; return ``(SC, mbs, sensors, pre_step_items)``."""
     import exudyn as exu
     import exudyn.itemInterface as eii
@@ -168,7 +168,10 @@ def build(domain, dt: float, output_every: int):
 
             options["offsetUserFunction"] = offset
             time_functions.append(offset)
-        mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[m0, m1], constrainedAxes=axes, **options))
+        # a universal joint's locked rotation pairs the pin of body i (u1) with the pin of body j (u2):
+        # Exudyn's generic joint locks marker 0's x against marker 1's y, so body i goes first there
+        order = [m1, m0] if j.kind == "universal" else [m0, m1]
+        mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=order, constrainedAxes=axes, **options))
 
     for bc in domain.boundary_conditions:
         node = domain.node(bc.node)
@@ -201,9 +204,11 @@ def build(domain, dt: float, output_every: int):
         # loads at the end of the step (the implicit solver's equilibrium time), once per step
         for number, vec, tf in loads:
             mbs_.SetLoadParameter(number, "loadVector", list(vec * tf(t + dt)))
+        if progress is not None:
+            progress(min((t + dt) / t_end, 1.0), t + dt)
         return True
 
-    if loads:
+    if loads or progress is not None:
         mbs.SetPreStepUserFunction(pre_step)
     OV = exu.OutputVariableType
     sensors = {kind: [mbs.AddSensor(eii.SensorNode(nodeNumber=nd, storeInternal=True, writeToFile=False,
@@ -214,7 +219,7 @@ def build(domain, dt: float, output_every: int):
     return SC, mbs, sensors
 
 
-def solve(domain, dt: float | None = None, t_end: float | None = None, results_path=None) -> dict:
+def solve(domain, dt: float | None = None, t_end: float | None = None, results_path=None, progress=None) -> dict:
     """Build and run ``domain`` in Exudyn (generalized-α, fixed step); return results and timing.
 
     Returns a dict with ``results`` (:class:`reference.domain.Results`, engine
@@ -228,7 +233,7 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
     dt = float(dt or domain.solver.dt)
     t_end = float(t_end or domain.solver.t_end)
     every = max(int(round(domain.solver.output_every * domain.solver.dt / dt)), 1)
-    SC, mbs, sensors = build(domain, dt, every)
+    SC, mbs, sensors = build(domain, dt, every, progress, t_end)
     settings = exu.SimulationSettings()
     settings.solution.file.write = False
     settings.solution.sensors.writePeriod = every * dt

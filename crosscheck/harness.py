@@ -12,7 +12,7 @@ from crosscheck.exudyn_model import solve as solve_exudyn
 
 
 def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float | None = None,
-        progress=None, figures=None) -> dict:
+        progress=None, figures=None, exudyn_progress=None) -> dict:
     """Run ``deck`` with the reference and with Exudyn, compare, write ``out/crosscheck.md``.
 
     The reference needs the step divided by ``refine`` (its critical step
@@ -35,7 +35,7 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     ref_domain = Domain.from_deck(deck, overrides=overrides)
     ref = ref_domain.solve(results_path=out / "results_reference.h5", progress=progress)
     dt_ex = exudyn_dt or ref_domain.solver.dt * refine
-    ex = solve_exudyn(ex_domain, dt=dt_ex, results_path=out / "results_exudyn.h5")
+    ex = solve_exudyn(ex_domain, dt=dt_ex, results_path=out / "results_exudyn.h5", progress=exudyn_progress)
     exr = ex["results"]
     checks = {name: spec for name, spec in ref_domain.crosscheck.items() if int(spec.get("refine", 1)) == refine}
     cmp = compare(ref, exr, checks)

@@ -56,7 +56,7 @@ def cmd_crosscheck(args) -> int:
     out = Path(args.out) if args.out else Path("out") / (Path(args.deck).stem + "_crosscheck")
     try:
         cmp = run(args.deck, out, refine=args.refine or 1, exudyn_dt=args.exudyn_dt, t_end=args.t_end,
-                  progress=ProgressBar("reference"))
+                  progress=ProgressBar("reference"), exudyn_progress=ProgressBar("Exudyn   "))
     except Unsupported as exc:
         raise CommandError(f"{args.deck}: cannot be cross-checked in Exudyn: {exc}") from None
     failed = [v for v in cmp["verdicts"] if not v.passed]
