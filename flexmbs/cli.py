@@ -67,6 +67,12 @@ def cmd_crosscheck(args) -> int:
     return 1 if failed else 0
 
 
+def cmd_plot(args) -> int:
+    from flexmbs import plot
+
+    return plot.main(args)
+
+
 def cmd_report(args) -> int:
     from flexmbs import report
 
@@ -98,6 +104,15 @@ def parser() -> argparse.ArgumentParser:
     cc.add_argument("--exudyn-dt", type=float, help="Exudyn's step (default: the deck's)")
     cc.add_argument("--t-end", type=float, help="end time, overriding the deck's")
     cc.set_defaults(func=cmd_crosscheck)
+    pl = sub.add_parser("plot", help="time histories, drift, energies and an animation from a results file")
+    pl.add_argument("results")
+    pl.add_argument("--node", action="append", help="node label (repeatable)")
+    pl.add_argument("--drift", action="store_true", help="constraint violation history")
+    pl.add_argument("--energy", action="store_true", help="energy histories")
+    pl.add_argument("--animate", metavar="NAME.gif", help="animation of the motion")
+    pl.add_argument("--every", type=int, default=1, help="animate every n-th output")
+    pl.add_argument("--out", help="folder for the figures (default: next to the results file)")
+    pl.set_defaults(func=cmd_plot)
     rep = sub.add_parser("report", help="the verification report → reports/")
     rep.add_argument("--quick", action="store_true", help="reduced version (for the tests)")
     rep.add_argument("--out", help="report folder (default reports/)")
@@ -118,8 +133,9 @@ def main(argv=None) -> int:
 
     try:
         return args.func(args)
-    except (DeckError, SolverDiverged, CommandError, FileNotFoundError) as exc:
-        print(f"flexmbs: error: {exc}", file=sys.stderr)
+    except (DeckError, SolverDiverged, CommandError, FileNotFoundError, KeyError) as exc:
+        message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        print(f"flexmbs: error: {message}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("flexmbs: interrupted; results written so far are kept", file=sys.stderr)

@@ -360,6 +360,9 @@ def main(args=None) -> int:
     body += ["", f"Report generated in {time.perf_counter() - t0:.1f} s."]
     name = "verification_quick.md" if quick else "verification.md"
     (reports / name).write_text("\n".join(body) + "\n", encoding="utf-8")
+    from flexmbs.html import markdown_to_html
+
+    (reports / name).with_suffix(".html").write_text(markdown_to_html("\n".join(body), reports), encoding="utf-8")
     print(f"wrote {reports / name}: {len(checks) - len(failed)}/{len(checks)} checks pass")
     for c in failed:
         print(f"FAILED: {c.name}: computed {c.computed:.3e}, tolerance {c.tolerance:.1e}")

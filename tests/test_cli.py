@@ -40,3 +40,15 @@ def test_quick_report_runs_and_every_check_passes(tmp_path, capsys):
     assert "**FAIL**" not in text and "checks pass" in text
     for fig in ("rollup_fig12.png", "three_bar_fig14.png", "rollup_convergence.png"):
         assert (tmp_path / "figures" / fig).stat().st_size > 10_000
+
+
+def test_plot_writes_histories_drift_energy_and_animation(tmp_path, capsys):
+    deck = write(tmp_path, GOOD)
+    assert main(["run", str(deck), "--out", str(tmp_path / "run"), "--no-vtk"]) == 0
+    results = tmp_path / "run" / "results.h5"
+    assert main(["plot", str(results), "--node", "b:4", "--drift", "--energy", "--animate", "motion.gif",
+                 "--out", str(tmp_path / "fig")]) == 0
+    for name in ("node_b_4.png", "drift.png", "energy.png", "motion.gif"):
+        assert (tmp_path / "fig" / name).stat().st_size > 1000, name
+    assert main(["plot", str(results), "--node", "nope"]) == 2
+    assert "no node 'nope'" in capsys.readouterr().err
