@@ -56,7 +56,7 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
         lines.append(f"| {v.observable} | {v.max_difference:.3e} | {v.rms_difference:.3e} | {v.relative_to} "
                      f"({v.scale:.3g}) | {v.measure:.3e} | {v.tolerance:g} | {'pass' if v.passed else '**FAIL**'} | {v.reason} |")
     specs = list(dict.fromkeys(v.observable for v in cmp["verdicts"]))
-    fig, axes = plt.subplots(len(specs) + 1, 1, figsize=(6.4, 2.4 * (len(specs) + 1)), sharex=True, squeeze=False)
+    fig, axes = plt.subplots(len(specs) + 2, 1, figsize=(6.4, 2.4 * (len(specs) + 2)), sharex=True, squeeze=False)
     for ax, spec in zip(axes[:, 0], specs):
         va, vb = observable(ref, spec, _last_node(ref)), observable(exr, spec, _last_node(exr))
         if va.ndim == 2:
@@ -68,6 +68,12 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
         ax.plot(exr.time, vb, "--", label="Exudyn")
         ax.plot(ref.time, va - np.interp(ref.time, exr.time, vb), ":", label="difference")
         ax.legend(fontsize=7)
+    ax = axes[-2, 0]
+    for key, style in (("kinetic", "-"), ("strain", "-.")):
+        ax.plot(ref.time, ref.energy[key], style, label=f"{key} (reference)")
+        ax.plot(exr.time, exr.energy[key], style, alpha=0.6, lw=2.5, label=f"{key} (Exudyn)")
+    ax.set_ylabel("energy", fontsize=8)
+    ax.legend(fontsize=7)
     ax = axes[-1, 0]
     ax.semilogy(ref.time[1:], np.maximum(ref.constraint_violation[1:], 1e-17), label="‖Φ‖ reference")
     ax.semilogy(exr.time[1:], np.maximum(exr.constraint_violation[1:], 1e-17), "--", label="‖Φ‖ Exudyn")

@@ -35,6 +35,28 @@ class Check:
         return bool(np.isfinite(self.computed) and abs(self.computed) <= self.tolerance)
 
 
+def deck_data(domain) -> list[str]:
+    """Provenance and data of a deck, for the report."""
+    meta = domain.metadata
+    prov = meta.get("provenance", {})
+    lines = ["**Provenance:** " + "; ".join(f"{k}: {v}" for k, v in prov.items()), ""]
+    if meta.get("notes"):
+        lines += ["**Why these data:** " + " ".join(str(meta["notes"]).split()), ""]
+    sections = {id(e.formulation.section): e.formulation.section for e in domain.elements}
+    if sections:
+        lines += ["| section | EA | GA2 | GA3 | GJ | EI2 | EI3 | ρA | ρJ1 | ρJ2 | ρJ3 |", "|---|" + "---|" * 10]
+        for k, sec in enumerate(sections.values()):
+            lines.append(f"| {k + 1} | " + " | ".join(f"{v:g}" for v in (*sec.stiffness, sec.rhoA, *sec.rotary_inertia)) + " |")
+        lines.append("")
+    rigid = [n for n in domain.nodes if n.mass > 0.0]
+    for n in rigid:
+        lines.append(f"Rigid body `{n.label}`: mass {n.mass:g}, inertia diag {np.round(np.diag(n.inertia), 6).tolist()}, "
+                     f"centre {np.round(n.position, 6).tolist()}.")
+    lines += ["", f"{len(domain.nodes)} nodes, {len(domain.elements)} Beam2 elements, {len(domain.joints)} joints; "
+              f"h = {domain.solver.dt:g}, t_end = {domain.solver.t_end:g}.", ""]
+    return lines
+
+
 def _table(checks: list[Check]) -> list[str]:
     lines = ["| check | reference | computed | tolerance | result | why this tolerance |", "|---|---|---|---|---|---|"]
     for c in checks:
@@ -88,6 +110,7 @@ def rollup_section(out: Path, quick: bool, figures: Path) -> tuple[list[str], li
         "",
         f"Deck: `models/embedded_beam.toml` — {domain.metadata.get('description', domain.description)}",
         "",
+        *deck_data(domain),
         f"{n0} Beam2 elements, L = {L:g}, Δk = {domain.solver.dt:g} ({int(round(domain.solver.t_end / domain.solver.dt))} steps), "
         f"mass-proportional damping c = {domain.solver.damping:g}; critical step estimate "
         f"{domain.critical_time_step():.3e} (margin {domain.critical_time_step() / domain.solver.dt:.2f}). "
@@ -289,6 +312,7 @@ def three_bar_section(out: Path, quick: bool, figures: Path) -> tuple[list[str],
         "",
         f"Deck: `models/three_bar.toml` — {domain.description}",
         "",
+        *deck_data(domain),
         f"Rigid crank and rocker (one rigid body each), flexible coupler in 4 Beam2 elements, 5 joints "
         f"({domain.model.n_constraints} constraint equations, stabilised Lagrange multipliers), "
         f"h = {domain.solver.dt:g}, {int(round(domain.solver.t_end / domain.solver.dt))} steps: "
