@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from flexmbs.report import rigid_coupler_deck
 from reference.analytic import fourbar_rocker_angle
 from reference.domain import Domain
 from reference.io.deck import load_deck
@@ -67,18 +68,8 @@ def test_flexible_run_drift_energy_and_departure(flexible):
     assert np.max(np.abs(r.positions[:, :, 2])) < 1e-12  # planar mechanism, planar motion
 
 
-def rigid_variant(tmp_path, extra_solver=""):
-    """The same deck with the coupler made rigid; the closing joints regularised (ε = 1e-10),
-    as a rigid planar four-bar closed by revolute joints is redundant in 3D."""
-    text = DECK.read_text()
-    text = text.replace('section = "coupler"\naxis2', 'section = "coupler"\nrigid = true\naxis2')
-    text = text.replace('body_i = "coupler:start"', 'body_i = "coupler"').replace('body_i = "coupler:end"', 'body_i = "coupler"')
-    for joint in ('label = "B"', 'label = "O3"'):
-        text = text.replace(joint, joint + "\nepsilon = 1e-10")
-    text = text.replace("[solver]", "[solver]" + extra_solver)
-    path = tmp_path / "three_bar_rigid.toml"
-    path.write_text(text)
-    return path
+def rigid_variant(tmp_path):
+    return rigid_coupler_deck(DECK, tmp_path / "three_bar_rigid.toml")
 
 
 def test_rigid_limit_reproduces_the_four_bar_closed_form(tmp_path):
