@@ -227,7 +227,6 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
     """
     import exudyn as exu
 
-    from reference.domain import Results
     from reference.io.results import ResultsWriter
 
     dt = float(dt or domain.solver.dt)

@@ -34,14 +34,14 @@ def main(args) -> int:
         axes[1].set_xlabel("t")
         axes[0].legend(fontsize=8)
         axes[0].set_title(f"{label} ({r.attrs.get('engine', '')})", fontsize=10)
-        written.append(_save(fig, out / f"node_{label.replace(':', '_')}.png"))
+        written.append(save_figure(fig, out / f"node_{label.replace(':', '_')}.png"))
     if args.drift:
         fig, ax = plt.subplots(figsize=(6.4, 3.6))
         ax.semilogy(r.time[1:], np.maximum(r.constraint_violation[1:], 1e-17), label="‖Φ‖")
         ax.semilogy(r.time[1:], np.maximum(r.velocity_constraint_violation[1:], 1e-17), label="‖B V + Φ_t‖")
         ax.set_xlabel("t")
         ax.legend(fontsize=8)
-        written.append(_save(fig, out / "drift.png"))
+        written.append(save_figure(fig, out / "drift.png"))
     if args.energy:
         fig, ax = plt.subplots(figsize=(6.4, 3.6))
         for key, values in r.energy.items():
@@ -49,7 +49,7 @@ def main(args) -> int:
                 ax.plot(r.time, values, label=key)
         ax.set_xlabel("t")
         ax.legend(fontsize=8)
-        written.append(_save(fig, out / "energy.png"))
+        written.append(save_figure(fig, out / "energy.png"))
     if args.animate:
         written.append(animate(r, out / args.animate, every=args.every))
     for path in written:
@@ -57,11 +57,12 @@ def main(args) -> int:
     return 0
 
 
-def _save(fig, path: Path) -> Path:
+def save_figure(fig, path: Path, dpi: int = 120) -> Path:
+    """Lay out, save and close a figure; return its path."""
     import matplotlib.pyplot as plt
 
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path
 

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from flexmbs.plot import save_figure
+
 ROOT = Path(__file__).resolve().parent.parent
 MODELS = ROOT / "models"
 REPORTS = ROOT / "reports"
@@ -110,9 +112,7 @@ def rollup_section(out: Path, quick: bool, figures: Path) -> tuple[list[str], li
     ax.set_title("Successive deflections of the embedded beam (paper Fig. 12)\n"
                  f"{n0} Beam2 elements; dotted: elastica arcs", fontsize=10)
     ax.legend(fontsize=7, loc="upper right")
-    fig.tight_layout()
-    fig.savefig(figures / "rollup_fig12.png", dpi=130)
-    plt.close(fig)
+    save_figure(fig, figures / "rollup_fig12.png", dpi=130)
 
     lines = [
         "## 1. Embedded beam rolled up by an end torque (paper §5.1, Figs. 11–12)",
@@ -188,9 +188,7 @@ def rollup_section(out: Path, quick: bool, figures: Path) -> tuple[list[str], li
     ax.set_ylabel("/ L")
     ax.legend(fontsize=8)
     ax.set_title("Roll-up: tip error against the number of elements", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(figures / "rollup_convergence.png", dpi=130)
-    plt.close(fig)
+    save_figure(fig, figures / "rollup_convergence.png", dpi=130)
     lines += ["", "![convergence](figures/rollup_convergence.png)", ""]
 
     return lines, checks
@@ -274,9 +272,7 @@ def three_bar_section(out: Path, quick: bool, figures: Path) -> tuple[list[str],
     ax.set_aspect("equal")
     ax.set_title(f"Successive deformed configurations of the three-bar mechanism (paper Fig. 14)\n"
                  f"t = 2 … 6 s every 0.25 s; coupler deflection magnified ×{mag:g}", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(figures / "three_bar_fig14.png", dpi=130)
-    plt.close(fig)
+    save_figure(fig, figures / "three_bar_fig14.png", dpi=130)
 
     fig, axes = plt.subplots(3, 1, figsize=(6.4, 7.0), sharex=True)
     axes[0].plot(t, defl)
@@ -287,9 +283,7 @@ def three_bar_section(out: Path, quick: bool, figures: Path) -> tuple[list[str],
     axes[2].semilogy(t[1:], np.maximum(np.abs(balance[1:]) / e["kinetic"].max(), 1e-16), label="|energy balance| / peak T")
     axes[2].legend(fontsize=8)
     axes[2].set_xlabel("t [s]")
-    fig.tight_layout()
-    fig.savefig(figures / "three_bar_histories.png", dpi=130)
-    plt.close(fig)
+    save_figure(fig, figures / "three_bar_histories.png", dpi=130)
 
     dts = [2e-4, 1e-4] if quick else [2e-4, 1e-4, 5e-5, 2.5e-5]
     runs = {}
@@ -317,9 +311,7 @@ def three_bar_section(out: Path, quick: bool, figures: Path) -> tuple[list[str],
     ax.set_xlabel("dt [s]")
     ax.set_ylabel("max difference to the finest run")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(figures / "three_bar_dt.png", dpi=130)
-    plt.close(fig)
+    save_figure(fig, figures / "three_bar_dt.png", dpi=130)
 
     lines = [
         "## 2. Three-bar mechanism (paper §5.2, Figs. 13–14)",

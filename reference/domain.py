@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 import time as _time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from reference.domain import Domain, SolverSettings
+from reference.domain import Domain
 from reference.elements import Section
 
 

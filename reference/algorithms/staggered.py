@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 
 from reference.algorithms.base import Algorithm
 from reference.elements.formulation import beam2_assemble
