@@ -16,7 +16,7 @@ rotation / displacement drive merged into the revolute / translational joint at 
                               place: all axes locked, the motion as an offset user function
 clamp, fixed coordinates      ``ObjectJointGeneric`` to ground locking those coordinates
 dead / follower force, moment ``LoadForceVector`` / ``LoadTorqueVector`` (``bodyFixed``),
-                              scaled by the time function once per step
+                              scaled by the time function once per step (at the step's end time)
 gravity                       ``LoadMassProportional`` on every body and beam element
 mass-proportional damping     a ``ObjectConnectorRigidBodySpringDamper`` per node to
                               ground (Exudyn ignores the beam's own damping matrix)
@@ -196,16 +196,19 @@ def build(domain, dt: float, output_every: int, progress=None, t_end: float = 1.
         c = domain.solver.damping
         for n in domain.nodes:
             d = [c * model.mass[n.id]] * 3 + [c * model.inertia[n.id, k, k] for k in range(3)]
+            # the node as marker 0: the connector damps the relative angular velocity in marker 0's
+            # frame, i.e. the body frame, as the reference's −c J ω (translations: isotropic c m)
             mbs.AddObject(eii.ObjectConnectorRigidBodySpringDamper(
-                markerNumbers=[marker(None, _matrix(n.rotation), n.position), marker(n)],
+                markerNumbers=[marker(n), marker(None, _matrix(n.rotation), n.position)],
                 stiffness=np.zeros((6, 6)).tolist(), damping=np.diag(d).tolist()))
 
     def pre_step(mbs_, t):
-        # loads at the end of the step (the implicit solver's equilibrium time), once per step
+        # Exudyn passes the step's end time (the implicit solver's equilibrium time): the loads are
+        # set to their value there, once per step
         for number, vec, tf in loads:
-            mbs_.SetLoadParameter(number, "loadVector", list(vec * tf(t + dt)))
+            mbs_.SetLoadParameter(number, "loadVector", list(vec * tf(t)))
         if progress is not None:
-            progress(min((t + dt) / t_end, 1.0), t + dt)
+            progress(min(t / t_end, 1.0), t)
         return True
 
     if loads or progress is not None:
