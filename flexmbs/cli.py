@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 import time
 from pathlib import Path
@@ -12,9 +13,19 @@ class CommandError(Exception):
     """An error to report in one line, without a traceback."""
 
 
+def _module(name: str, command: str):
+    """Import ``name`` for ``command`` lazily; a failed import is one clear line, not a traceback."""
+    try:
+        return importlib.import_module(name)
+    except ImportError as exc:
+        raise CommandError(f"`flexmbs {command}` needs the module {name!r}, which could not be imported "
+                           f"({type(exc).__name__}: {exc}); check the installation (make test creates the "
+                           "virtual environment)") from None
+
+
 def cmd_run(args) -> int:
     from flexmbs.progress import ProgressBar
-    from reference.domain import Domain
+    from reference.domain import Domain, SolverDiverged
     from reference.io.results import load_results
     from reference.io.vtk import write_vtk
 
@@ -24,7 +35,13 @@ def cmd_run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     results_path = out / "results.h5"
     t0 = time.perf_counter()
-    result = domain.solve(results_path=results_path, progress=ProgressBar(domain.name))
+    bar = ProgressBar(domain.name)
+    try:
+        result = domain.solve(results_path=results_path, progress=bar)
+    except SolverDiverged as exc:
+        raise CommandError(f"{args.deck}: {exc} (results file: {results_path})") from None
+    finally:
+        bar.close()
     wall = time.perf_counter() - t0
     pvd = None
     if not args.no_vtk:
@@ -35,12 +52,14 @@ def cmd_run(args) -> int:
 
 
 def cmd_derive(args) -> int:
-    import derivations
+    derivations = _module("derivations", "derive")
 
     if args.check:
         stale = derivations.stale()
         if stale:
-            raise CommandError(f"generated code is stale: {', '.join(stale)}; run `flexmbs derive` and commit the result")
+            print(f"flexmbs: generated code is stale: reference/generated/{{{', '.join(stale)}}} differ from a "
+                  "fresh derivation; run `flexmbs derive` (or `make derive`) and commit the result", file=sys.stderr)
+            return 1
         print("reference/generated/ is up to date with derivations/")
         return 0
     for path in derivations.write():
@@ -49,8 +68,8 @@ def cmd_derive(args) -> int:
 
 
 def cmd_crosscheck(args) -> int:
-    from crosscheck.exudyn_model import Unsupported
-    from crosscheck.harness import run
+    Unsupported = _module("crosscheck.exudyn_model", "crosscheck").Unsupported
+    run = _module("crosscheck.harness", "crosscheck").run
     from flexmbs.progress import ProgressBar
 
     out = Path(args.out) if args.out else Path("out") / (Path(args.deck).stem + "_crosscheck")
@@ -68,21 +87,15 @@ def cmd_crosscheck(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    from flexmbs import plot
-
-    return plot.main(args)
+    return _module("flexmbs.plot", "plot").main(args)
 
 
 def cmd_report(args) -> int:
-    from flexmbs import report
-
-    return report.main(args)
+    return _module("flexmbs.report", "report").main(args)
 
 
 def cmd_bench(args) -> int:
-    from flexmbs import bench
-
-    return bench.main(args)
+    return _module("flexmbs.bench", "bench").main(args)
 
 
 def parser() -> argparse.ArgumentParser:
@@ -133,8 +146,11 @@ def main(argv=None) -> int:
 
     try:
         return args.func(args)
-    except (DeckError, SolverDiverged, CommandError, FileNotFoundError, KeyError) as exc:
+    except (DeckError, SolverDiverged, CommandError, OSError, KeyError) as exc:
+        # one line: the deck reader's messages name file, entry and fix; OSError covers a missing
+        # deck or an unwritable output folder; KeyError is an unknown node label (flexmbs plot)
         message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        message = " ".join(str(message).split())
         print(f"flexmbs: error: {message}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

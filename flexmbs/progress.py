@@ -19,19 +19,32 @@ class ProgressBar:
         self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
         self.start = time.perf_counter()
         self.last = 0.0
+        self.open = False  # a partial line is on the terminal
+        self.done = False
 
     def __call__(self, fraction: float, t: float) -> None:
         now = time.perf_counter()
-        if fraction < 1.0 and (not self.tty or now - self.last < 0.1):
+        fraction = min(max(float(fraction), 0.0), 1.0)
+        final = fraction >= 1.0
+        if self.done or (not final and (not self.tty or now - self.last < 0.1)):
             return
         self.last = now
         elapsed = now - self.start
-        eta = elapsed * (1.0 - fraction) / fraction if fraction > 0 else float("nan")
+        eta = f"{elapsed * (1.0 - fraction) / fraction:.1f} s" if fraction > 0 else "--"
         filled = int(self.width * fraction)
         line = (f"{self.label} [{'#' * filled}{'.' * (self.width - filled)}] {100 * fraction:5.1f}%  "
-                f"t = {t:.4g}  elapsed {elapsed:.1f} s  eta {eta:.1f} s")
+                f"t = {t:.4g}  elapsed {elapsed:.1f} s  eta {eta}")
         if self.tty:
-            self.stream.write("\r" + line + ("\n" if fraction >= 1.0 else ""))
-        elif fraction >= 1.0:
+            self.stream.write("\r" + line + ("\n" if final else ""))
+            self.open = not final
+        else:
             self.stream.write(line + "\n")
+        self.done = final
         self.stream.flush()
+
+    def close(self) -> None:
+        """End a partial terminal line (a run that stopped early), so that what follows starts cleanly."""
+        if self.open:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.open = False

@@ -2,11 +2,20 @@
 
 from __future__ import annotations
 
+import io
+import subprocess
+import sys
+from pathlib import Path
+
 import h5py
+import pytest
 
 from flexmbs.cli import main
+from flexmbs.progress import ProgressBar
 
 from test_deck import GOOD, write
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_run_writes_results_and_vtk(tmp_path, capsys):
@@ -28,8 +37,96 @@ def test_bad_deck_gives_one_line_and_status_2(tmp_path, capsys):
     assert "beams[0].elemnts" in err and "Traceback" not in err
 
 
+def test_bad_deck_in_a_real_process_gives_one_line_and_status_2(tmp_path):
+    """`python -m flexmbs run` as a user runs it: exit status 2, one stderr line, no traceback."""
+    deck = write(tmp_path, GOOD.replace('node = "b:end"', 'node = "b:tip"'))
+    proc = subprocess.run([sys.executable, "-m", "flexmbs", "run", str(deck), "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in proc.stderr
+    assert lines[0] == f"flexmbs: error: {deck}: loads[0].node: beam 'b' has no node 'tip'; " \
+                       "use 'b:start', 'b:end' or an index 0…4"
+    assert not (tmp_path / "out" / "results.h5").exists()
+
+
+@pytest.mark.parametrize("args, words", [
+    (["run", "no/such/deck.toml"], "no/such/deck.toml: no such deck file"),
+    (["run", "DECK", "--dt", "1.0"], "dt override (--dt): dt = 1 is above the critical time step"),
+    (["run", "DECK", "--t-end", "0.0215"], "t_end override (--t-end)"),
+])
+def test_run_errors_are_one_line_with_status_2(tmp_path, capsys, args, words):
+    deck = write(tmp_path, GOOD)
+    args = [str(deck) if a == "DECK" else a for a in args]
+    assert main(args + ["--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("flexmbs: error:") and len(err.strip().splitlines()) == 1 and words in err
+
+
+def test_divergence_is_one_line_naming_the_results_file(tmp_path, capsys, monkeypatch):
+    from reference.domain import Domain, SolverDiverged
+
+    def blow_up(self, **kwargs):
+        kwargs["progress"](0.5, 0.01)
+        raise SolverDiverged("the solution became non-finite after t = 0.01 (step 10); "
+                             "results up to that time are kept.")
+
+    monkeypatch.setattr(Domain, "solve", blow_up)
+    deck = write(tmp_path, GOOD)
+    assert main(["run", str(deck), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "non-finite after t = 0.01" in err[0] and "results.h5" in err[0]
+
+
+def test_missing_application_module_is_a_clear_message(capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "flexmbs.bench", None)  # makes `import flexmbs.bench` fail
+    assert main(["bench"]) == 2
+    err = capsys.readouterr().err
+    assert "`flexmbs bench` needs the module 'flexmbs.bench'" in err and len(err.strip().splitlines()) == 1
+
+
 def test_derive_check_passes_on_the_committed_code(capsys):
     assert main(["derive", "--check"]) == 0
+
+
+def test_derive_check_names_stale_files_and_exits_1(capsys, monkeypatch):
+    import derivations
+
+    monkeypatch.setattr(derivations, "stale", lambda: ["beam2.py", "joints.py"])
+    assert main(["derive", "--check"]) == 1
+    err = capsys.readouterr().err
+    assert "beam2.py, joints.py" in err and "run `flexmbs derive`" in err
+
+
+class _Stream(io.StringIO):
+    def __init__(self, tty):
+        super().__init__()
+        self.tty = tty
+
+    def isatty(self):
+        return self.tty
+
+
+def test_progress_bar_is_silent_off_a_terminal_except_the_final_line():
+    stream = _Stream(tty=False)
+    bar = ProgressBar("run", stream)
+    for i in range(1, 101):
+        bar(i / 100, i * 0.01)
+    bar(1.0, 1.0)  # a repeated final call draws nothing more
+    lines = stream.getvalue().splitlines()
+    assert len(lines) == 1 and "100.0%" in lines[0] and "t = 1" in lines[0] and "elapsed" in lines[0]
+
+
+def test_progress_bar_redraws_at_most_ten_times_a_second_on_a_terminal():
+    stream = _Stream(tty=True)
+    bar = ProgressBar("run", stream)
+    for i in range(1000):
+        bar(i / 2000, i * 1e-3)  # far faster than 10 Hz: only the first call draws
+    assert stream.getvalue().count("\r") == 1 and "eta --" in stream.getvalue()
+    bar.close()  # a run that stopped early ends its line
+    assert stream.getvalue().endswith("\n")
+    bar(1.0, 1.0)
+    assert stream.getvalue().count("\r") == 2 and "100.0%" in stream.getvalue()
 
 
 def test_quick_report_runs_and_every_check_passes(tmp_path, capsys):

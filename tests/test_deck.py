@@ -107,6 +107,105 @@ def test_bad_decks_are_rejected_with_one_clear_message(tmp_path, change, entry, 
     assert "\n" not in message.strip() or "TOML" in message
 
 
+@pytest.mark.parametrize(
+    "text, entry, words",
+    [
+        ("sections = 5\n" + GOOD.split("[sections.s]")[0], "sections", "write it as [sections.NAME]"),
+        (GOOD.replace('kind = "ramp"', 'kind = ["ramp"]'), "time_functions.up.kind", "unknown kind"),
+        (GOOD.replace("[solver]", "[[fixed]]\nnode = 'b:end'\ndofs = [[1]]\n[solver]"), "fixed[0].dofs",
+         "names: x, y, z, rx, ry, rz"),
+        (GOOD.replace("[solver]", "[[fixed]]\nnode = 'b:end'\ndofs = ['rzz']\n[solver]"), "fixed[0].dofs",
+         "did you mean 'rz'"),
+        ("checks = 3\n" + GOOD, "checks", "write it as [checks.NAME]"),
+        (GOOD.replace("output_every = 5", "output_every = 5\nconsistent_initial_velocities = 'yes'"),
+         "solver.consistent_initial_velocities", "true or false"),
+        (GOOD.replace("elements = 4", "elements = 2.5"), "beams[0].elements", "integer"),
+        (GOOD.replace("elements = 4", "elements = 0"), "beams[0].elements", "integer ≥ 1"),
+        (GOOD.replace("rhoA = 1.0", "rhoA = 0.0"), "sections.s.rhoA", "must be positive"),
+        (GOOD.replace("[[beams]]", "[[nodes]]\nlabel = 'n'\nposition = [0.0, 1.0, 0.0]\n"
+                      "rotation = [1.0, 0.0, 0.0, 1.0]\n[[beams]]"), "nodes[0].rotation", "unit norm"),
+        (GOOD.replace("[meta]", "[metta]\nname = 'x'\n[meta]"), "deck.metta", "did you mean 'meta'"),
+        (GOOD.replace("[solver]\n", "[solver]\nalgorithm = 'newmark'\n"), "solver.algorithm",
+         "staggered_central_difference"),
+    ],
+)
+def test_malformed_structure_is_a_deck_error_not_a_traceback(tmp_path, text, entry, words):
+    path = write(tmp_path, text)
+    with pytest.raises(DeckError) as info:
+        load_deck(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: {entry}") and words in message and "\n" not in message
+
+
+def test_unreadable_files_are_deck_errors(tmp_path):
+    with pytest.raises(DeckError, match="no such deck file"):
+        load_deck(tmp_path / "missing.toml")
+    with pytest.raises(DeckError, match="it is a directory"):
+        load_deck(tmp_path)
+    binary = tmp_path / "binary.toml"
+    binary.write_bytes(b"\xff\xfe[meta]\n")
+    with pytest.raises(DeckError, match="not a UTF-8 text file"):
+        load_deck(binary)
+
+
+def test_toml_syntax_error_gives_the_line(tmp_path):
+    path = write(tmp_path, GOOD.replace("[solver]", "[solver"))
+    line = GOOD.splitlines().index("[solver]") + 1
+    with pytest.raises(DeckError, match=rf"not valid TOML: .*\(at line {line}, column"):
+        load_deck(path)
+
+
+def test_dt_above_critical_gives_both_numbers_and_a_dt_that_works(tmp_path):
+    path = write(tmp_path, GOOD.replace("dt = 1e-3", "dt = 5e-2").replace("t_end = 0.02", "t_end = 0.1"))
+    with pytest.raises(DeckError) as info:
+        load_deck(path)
+    message = str(info.value)
+    crit = load_deck(write(tmp_path, GOOD, "ok.toml")).critical_time_step()
+    assert "dt = 0.05" in message and f"{crit:.4g}" in message
+    suggested = float(message.split("e.g. dt = ")[1].split()[0])
+    d = load_deck(path, overrides={"dt": suggested})  # the suggestion is stable and divides t_end
+    assert d.solver.dt == suggested < crit
+
+
+def test_overrides_are_validated_and_named(tmp_path):
+    path = write(tmp_path, GOOD)
+    with pytest.raises(DeckError, match=r"dt override \(--dt\): dt = 1 is above the critical time step"):
+        load_deck(path, overrides={"dt": 1.0})
+    with pytest.raises(DeckError, match=r"t_end override \(--t-end\): .*not a whole number of steps.*use t_end = "):
+        load_deck(path, overrides={"t_end": 0.0215})
+    with pytest.raises(DeckError, match="must be positive"):
+        load_deck(path, overrides={"t_end": -1.0})
+    with pytest.raises(DeckError, match="unknown override 'dtt'"):
+        load_deck(path, overrides={"dtt": 1e-3})
+    d = load_deck(path, overrides={"t_end": 0.01, "dt": 5e-4})
+    assert (d.solver.t_end, d.solver.dt, d.solver.output_every) == (0.01, 5e-4, 10)  # output times kept
+
+
+def test_deck_text_and_path_are_kept_for_the_results_file(tmp_path):
+    path = write(tmp_path, GOOD)
+    d = load_deck(path)
+    assert d.deck_text == GOOD and d.deck_path == str(path) and d.metadata["name"] == "tiny"
+
+
+def test_embedded_beam_states_its_checks_with_tolerances_and_reasons():
+    d = load_deck(MODELS / "embedded_beam.toml")
+    tip = d.checks["tip_vs_elastica"]
+    assert tip["tolerance"] == 0.005 and tip["relative_to"] == "L" and tip["at"] == [0.25 * k for k in range(1, 9)]
+    assert d.checks["out_of_plane"]["tolerance"] == 0.0
+    assert all(spec.get("reason") for spec in d.checks.values())
+    prov = d.metadata["provenance"]
+    assert "Kromer" in prov["paper"] and prov["section"] == "5.1" and "BENCHMARKS" in prov["data"]
+    assert d.elements[0].formulation.section.rhoJ1 == 1.6e-5 and d.solver.output_every == 50
+    assert [n.label for n in d.nodes][:: 12] == ["beam:0", "beam:12"]
+
+
+def test_the_documented_example_deck_loads_and_runs(tmp_path):
+    doc = (MODELS.parent / "docs" / "deck.md").read_text()
+    example = doc.split("## A small example")[1].split("```toml\n")[1].split("```")[0]
+    d = load_deck(write(tmp_path, example))
+    assert len(d.nodes) == 5 and d.solve().time[-1] == pytest.approx(0.02)
+
+
 def test_good_tiny_deck_runs(tmp_path):
     d = load_deck(write(tmp_path, GOOD))
     r = d.solve()

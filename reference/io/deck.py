@@ -92,11 +92,49 @@ class _Reader:
             raise self.fail(entry, f"expected a string, got {value!r}")
         return value
 
+    def boolean(self, value, entry: str) -> bool:
+        if not isinstance(value, bool):
+            raise self.fail(entry, f"expected true or false, got {value!r}")
+        return value
+
+    def choice(self, value, entry: str, options, what: str = "value", describe: str = "") -> str:
+        """A string that must be one of ``options``; the fix is a close match or the list (or ``describe``)."""
+        if not isinstance(value, str) or value not in options:
+            close = difflib.get_close_matches(value, list(options), n=1) if isinstance(value, str) else []
+            raise self.fail(entry, f"unknown {what} {value!r}",
+                            f"did you mean '{close[0]}'?" if close else describe or f"one of: {', '.join(options)}")
+        return value
+
+    def tables(self, parent, key, entry: str | None = None) -> dict:
+        """A table of named entries (``[sections.NAME]``, ``points.NAME``)."""
+        value = parent.get(key, {})
+        if not isinstance(value, dict):
+            raise self.fail(entry or key, f"expected a table of named entries, got {value!r}",
+                            f"write it as [{key}.NAME]" if entry is None else "write it as {NAME = ..., ...}")
+        return value
+
     def items(self, deck, key) -> list:
         value = deck.get(key, [])
         if not isinstance(value, list):
             raise self.fail(key, "expected an array of tables", f"write it as [[{key}]]")
         return value
+
+
+def _whole_steps(t_end: float, dt: float) -> bool:
+    steps = t_end / dt
+    return abs(steps - round(steps)) <= 1e-9 * max(steps, 1.0) and round(steps) >= 1
+
+
+def _suggest_dt(t_end: float, limit: float) -> str:
+    """A step ≤ ``limit`` that divides ``t_end``: a round number (1, 2, 2.5, 4, 5 × 10^k) if one
+    does, else t_end / N to full precision."""
+    for k in range(math.floor(math.log10(limit)), math.floor(math.log10(limit)) - 3, -1):
+        for m in (5.0, 4.0, 2.5, 2.0, 1.0):
+            dt = float(f"{m}e{k}")
+            if dt <= limit and _whole_steps(t_end, dt):
+                return f"dt = {dt:g} ({round(t_end / dt)} steps to t_end = {t_end:g})"
+    n = math.ceil(t_end / limit)
+    return f"dt = {t_end / n!r} ({n} steps to t_end = {t_end:g})"
 
 
 def load_deck(path, overrides: dict | None = None) -> Domain:
@@ -112,9 +150,13 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         interval multiplied by it, so output times stay the same).
     """
     path = Path(path)
-    if not path.exists():
-        raise DeckError(f"{path}: no such deck file")
-    text = path.read_text(encoding="utf-8")
+    if not path.is_file():
+        raise DeckError(f"{path}: no such deck file" + ("" if not path.exists() else " (it is a directory)"))
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise DeckError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); "
+                        "save the deck as UTF-8") from None
     rd = _Reader(path)
     try:
         deck = tomllib.loads(text)
@@ -129,27 +171,31 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
 
     meta = deck.get("meta", {})
     rd.keys(meta, "meta", required=["name"], optional=["description", "units", "provenance", "notes"])
-    domain = Domain(rd.string(meta["name"], "meta.name"), str(meta.get("description", "")))
+    for key in ("description", "units", "notes"):
+        if key in meta:
+            rd.string(meta[key], f"meta.{key}")
+    if "provenance" in meta and not isinstance(meta["provenance"], (str, dict)):
+        raise rd.fail("meta.provenance", f"expected a string or a table, got {meta['provenance']!r}",
+                      'e.g. provenance = { paper = "...", figures = "...", data = "..." }')
+    domain = Domain(rd.string(meta["name"], "meta.name"), meta.get("description", ""))
     domain.metadata = dict(meta)
     domain.deck_text, domain.deck_path = text, str(path)
 
     sections = {}
-    for name, sec in deck.get("sections", {}).items():
+    for name, sec in rd.tables(deck, "sections").items():
         entry = f"sections.{name}"
         rd.keys(sec, entry, required=SECTION_KEYS)
         values = {k: rd.number(sec[k], f"{entry}.{k}", positive=True) for k in SECTION_KEYS}
         sections[name] = Section(**values)
 
     tfs = {}
-    for name, tf in deck.get("time_functions", {}).items():
+    for name, tf in rd.tables(deck, "time_functions").items():
         entry = f"time_functions.{name}"
-        if not isinstance(tf, dict) or "kind" not in tf:
+        if not isinstance(tf, dict):
+            raise rd.fail(entry, f"expected a table, got {tf!r}", f"write it as [{entry}] with kind = ...")
+        if "kind" not in tf:
             raise rd.fail(entry, "missing required key 'kind'", f"one of: {', '.join(TIME_FUNCTIONS)}")
-        kind = tf["kind"]
-        if kind not in TIME_FUNCTIONS:
-            close = difflib.get_close_matches(str(kind), list(TIME_FUNCTIONS), n=1)
-            raise rd.fail(f"{entry}.kind", f"unknown kind {kind!r}",
-                          f"did you mean '{close[0]}'?" if close else f"one of: {', '.join(TIME_FUNCTIONS)}")
+        kind = rd.choice(tf["kind"], f"{entry}.kind", TIME_FUNCTIONS, "kind")
         cls, required, optional = TIME_FUNCTIONS[kind]
         rd.keys(tf, entry, required=["kind"] + required, optional=list(optional))
         args = {}
@@ -213,9 +259,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         label = rd.string(bm["label"], f"{entry}.label")
         if label in beams:
             raise rd.fail(f"{entry}.label", f"duplicate beam label {label!r}")
-        rigid = bm.get("rigid", False)
-        if not isinstance(rigid, bool):
-            raise rd.fail(f"{entry}.rigid", f"expected true or false, got {rigid!r}")
+        rigid = rd.boolean(bm.get("rigid", False), f"{entry}.rigid")
         n = rd.integer(bm["elements"], f"{entry}.elements") * (1 if rigid else refine)
         sec_name = rd.string(bm["section"], f"{entry}.section")
         if sec_name not in sections:
@@ -259,7 +303,8 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         else:
             J = np.diag(rd.vector(inertia, f"{entry}.inertia"))
         rot = rd.vector(rb["rotation"], f"{entry}.rotation", 4) if "rotation" in rb else None
-        points = {name: rd.vector(p, f"{entry}.points.{name}") for name, p in rb.get("points", {}).items()}
+        points = {name: rd.vector(p, f"{entry}.points.{name}")
+                  for name, p in rd.tables(rb, "points", f"{entry}.points").items()}
         try:
             domain.add_rigid_body(label, mass, J, rd.vector(rb["position"], f"{entry}.position"), rot, points)
         except ValueError as exc:
@@ -276,9 +321,8 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
             raise rd.fail(f"{entry}.dofs", "expected a non-empty list", f"names: {', '.join(DOF_NAMES)}")
         dofs = []
         for d in fx["dofs"]:
-            if d not in DOF_NAMES:
-                raise rd.fail(f"{entry}.dofs", f"unknown coordinate {d!r}", f"names: {', '.join(DOF_NAMES)}")
-            dofs.append(DOF_NAMES[d])
+            dofs.append(DOF_NAMES[rd.choice(d, f"{entry}.dofs", DOF_NAMES, "coordinate",
+                                            f"names: {', '.join(DOF_NAMES)}")])
         domain.add_interaction(FixedCoordinates(node_ref(fx["node"], f"{entry}.node"), tuple(dofs)))
 
     for i, ld in enumerate(rd.items(deck, "loads")):
@@ -342,12 +386,13 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                           "'position' (the time function is the angle/displacement) or 'velocity' (its rate)")
         eps = rd.number(jt.get("epsilon", 0.0), f"{entry}.epsilon", nonnegative=True)
         reference = rd.vector(jt["reference"], f"{entry}.reference") if "reference" in jt else None
+        label = rd.string(jt.get("label", f"{kind}:{i}"), f"{entry}.label")
+        point = rd.vector(jt["point"], f"{entry}.point")
+        axis = rd.vector(jt.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis")
         try:
-            domain.add_joint(kind, body_i, body_j, rd.vector(jt["point"], f"{entry}.point"),
-                             rd.vector(jt.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis"), reference,
+            domain.add_joint(kind, body_i, body_j, point, axis, reference,
                              formulation=Jacobian(eps) if formulation == "jacobian" else MasterSlave(),
-                             time_function=tf, mode=mode,
-                             label=str(jt.get("label", f"{kind}:{i}")))
+                             time_function=tf, mode=mode, label=label)
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
 
@@ -368,33 +413,37 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     algorithm = sv.get("algorithm", SolverSettings.algorithm)
     if algorithm != SolverSettings.algorithm:
         raise rd.fail("solver.algorithm", f"unknown algorithm {algorithm!r}", f"available: '{SolverSettings.algorithm}'")
+    dt_entry = "dt override (--dt)" if "dt" in overrides else "solver.dt"
+    t_entry = "t_end override (--t-end)" if "t_end" in overrides else "solver.t_end"
     deck_dt = rd.number(sv["dt"], "solver.dt", positive=True) / refine
-    dt = rd.number(overrides.get("dt", deck_dt), "override dt" if "dt" in overrides else "solver.dt", positive=True)
+    dt = rd.number(overrides.get("dt", deck_dt), dt_entry, positive=True)
     # keep the deck's output times when the step is overridden by a whole factor
     ratio = deck_dt / dt
     output_scale = int(round(ratio)) if ratio >= 1 and abs(ratio - round(ratio)) < 1e-9 else 1
-    t_end = rd.number(overrides.get("t_end", sv["t_end"]), "solver.t_end", positive=True)
+    t_end = rd.number(overrides.get("t_end", sv["t_end"]), t_entry, positive=True)
     domain.solver = SolverSettings(
         algorithm=algorithm, dt=dt, t_end=t_end,
         damping=rd.number(sv.get("damping", 0.0), "solver.damping", nonnegative=True),
         output_every=rd.integer(sv.get("output_every", 1), "solver.output_every") * refine * output_scale,
-        consistent_initial_velocities=bool(sv.get("consistent_initial_velocities", False)),
+        consistent_initial_velocities=rd.boolean(sv.get("consistent_initial_velocities", False),
+                                                 "solver.consistent_initial_velocities"),
     )
     if not domain.elements and not domain.nodes:
         raise rd.fail("deck", "the deck defines no nodes or beams")
     crit = domain.critical_time_step()
     if dt > crit:
-        raise rd.fail("solver.dt", f"dt = {dt:g} is above the critical time step {crit:.4g} of the explicit scheme "
-                      "(the run would blow up)", f"use dt ≤ {0.8 * crit:.3g}")
-    steps = t_end / dt
-    if abs(steps - round(steps)) > 1e-9 * max(steps, 1.0):
-        raise rd.fail("solver.t_end", f"t_end = {t_end:g} is not a whole number of steps dt = {dt:g}",
-                      f"use t_end = {max(round(steps), 1) * dt:g} or a dt that divides it")
-    checks = deck.get("checks", {})
-    rd.keys(checks, "checks", optional=list(checks))
+        # a margin of 1.25 over the estimate, and a whole number of steps
+        raise rd.fail(dt_entry, f"dt = {dt:g} is above the critical time step {crit:.4g} of the explicit scheme "
+                      "(the run would blow up)", f"use dt ≤ {0.8 * crit:.3g}, e.g. {_suggest_dt(t_end, 0.8 * crit)}")
+    if not _whole_steps(t_end, dt):
+        steps = t_end / dt
+        raise rd.fail(t_entry, f"t_end = {t_end:g} is not a whole number of steps dt = {dt:g} ({steps:.6g} steps)",
+                      f"use t_end = {max(round(steps), 1) * dt:.10g} or {_suggest_dt(t_end, dt)}")
+    checks = rd.tables(deck, "checks")
+    for name, spec in checks.items():
+        rd.keys(spec, f"checks.{name}", optional=list(spec))
     domain.checks = checks
-    crosscheck = deck.get("crosscheck", {})
-    rd.keys(crosscheck, "crosscheck", optional=list(crosscheck))
+    crosscheck = rd.tables(deck, "crosscheck")
     for name, spec in crosscheck.items():
         entry = f"crosscheck.{name}"
         rd.keys(spec, entry, required=["observable", "tolerance", "reason"], optional=["relative_to", "refine"])
