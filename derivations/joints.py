@@ -78,7 +78,7 @@ def kernels() -> list[Kernel]:
                            si, sj, Ui, Uj)
     zero = {s: 0 for s in list(dxi) + list(dti) + list(dxj) + list(dtj)}
     columns = list(dxi) + list(dti) + list(dxj) + list(dtj)
-    B = [sp.diff(p, c).subs(zero) for p in perturbed for c in columns]
+    B = [sp.diff(p, c).xreplace(zero) for p in perturbed for c in columns]
     return [
         Kernel(
             "joint_primitives",
