@@ -19,14 +19,22 @@ from derivations.codegen import Coefficient, Kernel, render_coefficient, render_
 a = sp.Symbol("a")
 
 # Coefficient functions with a removable singularity at a = 0 (a = rotation angle).
+# The closed forms of c_cosc, c_sinc3 and c_jinv subtract nearly equal numbers for small a
+# (relative round-off ≈ 6 eps/a² for c_sinc3): their series is used up to a = 1, where the
+# round-off is below 1.5e-15 and the 26th-order series is exact to double precision (the series
+# of c_jinv converges for a < 2π; its omitted term at a = 1 is ~1e-20). c_sinc and c_asinc
+# have no cancellation and switch at 0.1.
 COEFFICIENTS = [
     Coefficient("c_sinc", sp.sin(a) / a, "sin(a)/a."),
-    Coefficient("c_cosc", (1 - sp.cos(a)) / a**2, "(1 - cos a)/a**2, the second coefficient of exp(a~)."),
-    Coefficient("c_sinc3", (a - sp.sin(a)) / a**3, "(a - sin a)/a**3, the third coefficient of the SO(3) Jacobians."),
+    Coefficient("c_cosc", (1 - sp.cos(a)) / a**2, "(1 - cos a)/a**2, the second coefficient of exp(a~).",
+                threshold=1.0, order=26),
+    Coefficient("c_sinc3", (a - sp.sin(a)) / a**3, "(a - sin a)/a**3, the third coefficient of the SO(3) Jacobians.",
+                threshold=1.0, order=26),
     Coefficient(
         "c_jinv",
         (1 - (a / 2) * sp.cos(a / 2) / sp.sin(a / 2)) / a**2,
         "(1 - (a/2) cot(a/2))/a**2, the quadratic coefficient of the inverse Jacobian (finite up to a = 2 pi).",
+        threshold=1.0, order=26,
     ),
     Coefficient("c_asinc", a / sp.sin(a), "a/sin(a), for the logarithm from Euler parameters (a = half angle)."),
 ]
