@@ -68,8 +68,6 @@ __all__ = [
 ]
 
 
-# --------------------------------------------------------------------------- helpers
-
 def _vec(x, n: int, what: str) -> np.ndarray:
     """``x`` as a fresh contiguous float array of length ``n`` (checked finite)."""
     a = np.array(x, dtype=float).reshape(-1)
@@ -238,8 +236,6 @@ def left_jacobian_inverse(psi) -> np.ndarray:
     return right_jacobian_inverse(-_vec(psi, 3, "rotation vector"))
 
 
-# --------------------------------------------------------------------------- base class
-
 class Rotation(ABC):
     """A finite rotation, in one parametrisation (paper §4.2.1, Fig. 3).
 
@@ -263,7 +259,6 @@ class Rotation(ABC):
     Instances are treated as immutable: every operation returns a new object.
     """
 
-    # ---- what a subclass provides
     @abstractmethod
     def matrix(self) -> np.ndarray:
         """Rotation matrix ``A`` (body → inertial components), shape (3, 3)."""
@@ -282,7 +277,6 @@ class Rotation(ABC):
     def from_euler_parameters(cls, q: "EulerParameters") -> "Rotation":
         """The rotation described by the Euler parameters ``q``."""
 
-    # ---- what the base class builds on them
     def as_array(self) -> np.ndarray:
         """The parameters of this parametrisation (a copy); default: Euler parameters."""
         return self.to_euler_parameters().q.copy()
@@ -376,8 +370,6 @@ def _check_rotation_matrix(R) -> np.ndarray:
     return R
 
 
-# --------------------------------------------------------------------------- Euler parameters
-
 class EulerParameters(Rotation):
     """Unit quaternion ``q = (e0, e1, e2, e3)``, scalar first.
 
@@ -412,7 +404,6 @@ class EulerParameters(Rotation):
     def as_array(self) -> np.ndarray:
         return self.q.copy()
 
-    # ---- Rotation interface
     def matrix(self) -> np.ndarray:
         """``A(q) = (2 e0² − 1) I + 2 (e eᵀ + e0 ẽ)`` (body → inertial), by the generated kernel."""
         return _mat9(_rm.rotation_matrix, self.q)
@@ -468,7 +459,6 @@ class EulerParameters(Rotation):
         q = np.array(q)
         return cls(q if q[0] >= 0.0 else -q)
 
-    # ---- specific methods
     def product(self, other: "EulerParameters") -> "EulerParameters":
         """Quaternion product ``self ⊗ other``: matrix ``A_self A_other``.
 
@@ -557,8 +547,6 @@ class EulerParameters(Rotation):
         return EulerParameters(out)
 
 
-# --------------------------------------------------------------------------- rotation vector
-
 class RotationVector(Rotation):
     """Rotation vector ``ψ = a n`` (angle × unit axis), ``A = exp(ψ̃)``.
 
@@ -631,8 +619,6 @@ class RotationVector(Rotation):
         """``J_l(ψ)⁻¹ = J_r(−ψ)⁻¹``."""
         return left_jacobian_inverse(self.psi)
 
-
-# --------------------------------------------------------------------------- Rodrigues parameters
 
 class RodriguesParameters(Rotation):
     """Rodrigues (Gibbs) parameters ``g = tan(a/2) n = e / e0``.

@@ -59,8 +59,6 @@ def mp_euler_parameters(psi):
         return np.array([float(mpmath.cos(a / 2))] + [float(mpmath.sin(a / 2) / a * c) for c in p])
 
 
-# --------------------------------------------------------------------------- conventions
-
 def test_skew_unskew_and_the_stated_matrix_convention():
     """ã b = a × b; unskew inverts skew; A(q) is (2e0²−1)I + 2(eeᵀ + e0ẽ) and maps body to inertial:
     a +90° turn about z carries the body x axis to inertial y.  Tolerance 1e-15: a few ulps."""
@@ -90,8 +88,6 @@ def test_kinematic_rate_is_body_frame_angular_velocity():
     assert np.max(np.abs(Adot - q.matrix() @ skew(w))) <= 1e-9
     assert np.max(np.abs(Adot - skew(w) @ q.matrix())) > 1e-2  # the other convention is really different
 
-
-# --------------------------------------------------------------------------- round trips
 
 @SETTINGS
 @given(quats)
@@ -180,8 +176,6 @@ def test_near_a_half_turn(cls, delta):
         assert X.angle() == pytest.approx(np.pi - delta, rel=0, abs=1e-15)
 
 
-# --------------------------------------------------------------------------- group properties
-
 @SETTINGS
 @given(quats)
 def test_matrices_are_proper_orthogonal(q):
@@ -263,8 +257,6 @@ def test_log_takes_the_shortest_branch(q):
     assert same_up_to_sign(RotationVector(psi).to_euler_parameters().q, ep.q) <= 3e-15
 
 
-# --------------------------------------------------------------------------- Cayley update
-
 @SETTINGS
 @given(quats, vec3.filter(lambda v: np.linalg.norm(v) >= 0.5))
 def test_cayley_update_is_third_order(q, w):
@@ -314,8 +306,6 @@ def test_bare_cayley_kernel_stays_unit_without_renormalisation():
         q = out.copy()
     assert abs(np.linalg.norm(q) - 1.0) <= 5e-12
 
-
-# --------------------------------------------------------------------------- Jacobians
 
 def _fd_jacobian(psi, side: str, eps: float = 1e-6) -> np.ndarray:
     """Columns (log(q(ψ)* ⊗ q(ψ+εe_k)) − log(q(ψ)* ⊗ q(ψ−εe_k)))/2ε (right), or with the factors
@@ -374,8 +364,6 @@ def test_jacobian_wrong_sign_would_be_caught():
     assert np.max(np.abs(_fd_jacobian(psi, "right") - left_jacobian(psi))) > 0.1
 
 
-# --------------------------------------------------------------------------- coefficient functions
-
 EXACT = {
     "c_sinc": lambda a: mpmath.sin(a) / a,
     "c_cosc": lambda a: (1 - mpmath.cos(a)) / a**2,
@@ -426,8 +414,6 @@ def test_coefficients_continuous_across_the_series_threshold(name):
     is removed, to 1e-15 (~4 ulps)."""
     assert _jump(name) <= TOL
 
-
-# --------------------------------------------------------------------------- Rodrigues at a half turn
 
 @pytest.mark.parametrize("delta", [0.0, 1e-12, 5e-9])
 def test_rodrigues_refuses_a_half_turn_clearly(delta):
