@@ -168,7 +168,7 @@ def rollup_section(out: Path, quick: bool, figures: Path) -> tuple[list[str], li
     lines += ["", "### Convergence with the mesh", "",
               "The step halves with the element length (the critical step does). Raw tip errors contain a "
               "mesh-independent dynamic lag, so the order is measured on differences between successive meshes "
-              "(BENCHMARKS.md §1).", "",
+              "(docs/benchmarks.md §1).", "",
               "| elements | Δk | max tip error / L (vs elastica) | max difference to next mesh / L | observed order |",
               "|---|---|---|---|---|"]
     orders = [np.log2(d1 / d2) for d1, d2 in zip(diffs[:-1], diffs[1:])]
@@ -326,7 +326,7 @@ def three_bar_section(out: Path, quick: bool, figures: Path) -> tuple[list[str],
         "",
         "![Fig. 14](figures/three_bar_fig14.png)",
         "",
-        f"Peak coupler mid-span deflection {np.max(np.abs(defl)):.4f} (BENCHMARKS: about 0.019); "
+        f"Peak coupler mid-span deflection {np.max(np.abs(defl)):.4f} (docs/benchmarks.md §2: about 0.019); "
         f"rocker departure from the rigid linkage {np.max(np.abs(departure)):.2e} rad (about 5e-4 with Exudyn); "
         f"max ‖Φ‖ {r.constraint_violation.max():.2e}; crank angle error "
         f"{np.max(np.abs(wrap(crank_angle(r) - prescribed(t)))):.1e} rad; rigid limit {rigid_err:.1e} rad.",
