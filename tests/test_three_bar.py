@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbs.report import rigid_coupler_deck
+from flexmbs.deckchecks.three_bar import rigid_coupler_deck
 from reference.analytic import fourbar_rocker_angle
 from reference.domain import Domain
 from reference.io.deck import load_deck
