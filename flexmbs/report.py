@@ -265,7 +265,10 @@ def crosscheck_lines(ctx: Context, domain) -> tuple[list[str], list[Check]]:
     refines = sorted({int(spec.get("refine", 1)) for spec in domain.crosscheck.values()})
     lines, checks = [], []
     for refine in refines[:1] if ctx.quick else refines:
-        t_end = min(domain.solver.t_end, 3.0) if ctx.quick else None
+        t_end = None
+        if ctx.quick:  # the first second only (a whole number of output intervals)
+            interval = domain.solver.dt * domain.solver.output_every
+            t_end = min(domain.solver.t_end, max(1, int(1.0 / interval)) * interval)
         label = ctx.deck.stem + (f" ×{refine}" if refine > 1 else "")
         try:
             cmp = run(ctx.deck, ctx.out / f"crosscheck_{ctx.deck.stem}_{refine}", refine=refine, t_end=t_end,
