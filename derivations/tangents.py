@@ -56,8 +56,17 @@ from __future__ import annotations
 import sympy as sp
 
 from derivations.beam2 import beam2_quantities
+from derivations.joints import N_PRIMITIVES, primitives
 from derivations.codegen import Coefficient, Kernel, Stager, render_coefficient, render_kernel, render_module, vector
-from derivations.rotation_maps import COEFFICIENTS, USER_FUNCTIONS, C, right_jacobian, right_jacobian_inverse, skew
+from derivations.rotation_maps import (
+    COEFFICIENTS,
+    USER_FUNCTIONS,
+    C,
+    right_jacobian,
+    right_jacobian_inverse,
+    rotation_matrix,
+    skew,
+)
 
 a = sp.Symbol("a")
 
@@ -195,8 +204,67 @@ def beam2_kernel() -> Kernel:
     )
 
 
+def joint_hessian():
+    """Inputs of the joint primitives, weights w (10) and ``H = ∂(Σ_p w_p B_pᵀ)/∂η`` (12 × 12).
+
+    ``B_p`` at a configuration already perturbed by ``η`` is the first-order term in
+    ``δ`` of ``Φ_p(x + η_x + δ_x, A exp(η̃) (I + δ̃))``; so ``H_ab`` is the mixed second
+    derivative ``∂²Φ/∂δ_a ∂η_b`` of ``Φ(x + εη_x + τδ_x, A (I + εη̃)(I + τδ̃))`` at zero
+    (only the first order of each exponential contributes to the mixed term; the order of
+    the two factors does).
+    """
+    xi, xj = sp.Matrix(vector("xi", 3)), sp.Matrix(vector("xj", 3))
+    qi, qj = vector("qi", 4), vector("qj", 4)
+    si, sj = sp.Matrix(vector("si", 3)), sp.Matrix(vector("sj", 3))
+    fi, fj = vector("fi", 9), vector("fj", 9)
+    Ui, Uj = sp.Matrix(3, 3, fi), sp.Matrix(3, 3, fj)
+    w = vector("w", N_PRIMITIVES)
+
+    st = Stager()
+    Ai = st.define("Ai", rotation_matrix(qi))
+    Aj = st.define("Aj", rotation_matrix(qj))
+    d = [sp.Matrix(vector(n, 3)) for n in ("dxi", "dti", "dxj", "dtj")]
+    e = [sp.Matrix(vector(n, 3)) for n in ("exi", "eti", "exj", "etj")]
+    I = sp.eye(3)
+    phi = primitives(xi + e[0] + d[0], Ai * (I + skew(e[1])) * (I + skew(d[1])),
+                     xj + e[2] + d[2], Aj * (I + skew(e[3])) * (I + skew(d[3])), si, sj, Ui, Uj)
+    weighted = sum(wp * p for wp, p in zip(w, phi))
+    dvars = [s for v in d for s in v]
+    evars = [s for v in e for s in v]
+    zero = {s: 0 for s in dvars + evars}
+    first = [sp.diff(weighted, s) for s in dvars]
+    H = [sp.diff(fa, s).xreplace(zero) for fa in first for s in evars]
+    inputs = dict(xi=xi, qi=qi, xj=xj, qj=qj, si=si, sj=sj, fi=fi, fj=fj, w=w)
+    return inputs, H, st.stages
+
+
+def joint_kernel() -> Kernel:
+    inp, H, stages = joint_hessian()
+    return Kernel(
+        "joint_primitive_hessian",
+        "λ-weighted Hessian of the ten joint primitives (derivations/tangents.py).\n\n"
+        "    ``H = ∂(Σ_p w_p B_pᵀ)/∂[δx_i, δθ_i, δx_j, δθ_j]`` (12 × 12, row-major) under\n"
+        "    ``x → x + ε δx``, ``q → q ⊗ exp(ε δθ)``; B_p are the rows of ``joints.joint_primitives``\n"
+        "    (columns [v_i | ω_i | v_j | ω_j]).  Row a of H is B's column a, column b the perturbation.\n"
+        "    With ``w`` the multipliers of the rows a joint uses (``reference.joints.hessian``), H is\n"
+        "    the geometric stiffness of the joint, ``∂(Bᵀλ)/∂q``.",
+        [("xi", list(inp["xi"]), "position of body i (inertial) [m]"),
+         ("qi", inp["qi"], "Euler parameters of body i"),
+         ("xj", list(inp["xj"]), "position of body j [m]"),
+         ("qj", inp["qj"], "Euler parameters of body j"),
+         ("si", list(inp["si"]), "joint point, body-fixed on i [m]"),
+         ("sj", list(inp["sj"]), "joint point, body-fixed on j [m]"),
+         ("fi", inp["fi"], "joint frame on i: row-major 3×3 whose columns are u1', u2', u3' (body-fixed)"),
+         ("fj", inp["fj"], "joint frame on j, likewise"),
+         ("w", inp["w"], "weight of each primitive (10,): the multiplier of the row that uses it")],
+        [("H", H, "Σ_p w_p ∂B_pᵀ/∂[δx_i, δθ_i, δx_j, δθ_j], row-major (12 × 12)")],
+        None,
+        stages,
+    )
+
+
 def kernels() -> list[Kernel]:
-    return [beam2_kernel()]
+    return [beam2_kernel(), joint_kernel()]
 
 
 def generate() -> str:

@@ -9,6 +9,8 @@ margin of ~100 and still catches a single wrong term (a missing geometric term i
 
 from __future__ import annotations
 
+import zlib
+
 import numpy as np
 import pytest
 
@@ -123,3 +125,59 @@ def test_beam2_tangent_is_symmetric_at_rest_and_singular_for_rigid_motion():
         modes.append(np.concatenate([np.zeros(3), A[0].reshape(3, 3).T @ e,
                                      np.cross(e, x[1] - x[0]), A[1].reshape(3, 3).T @ e]))
     assert np.max(np.abs(K @ np.array(modes).T)) < 1e-12 * scale
+
+
+def joint_setup(kind, rng, ground):
+    """A joint of ``kind`` between two rigid bodies (or body and ground), randomly moved away
+    from its assembly configuration (so Φ ≠ 0 and every term of the Hessian is exercised)."""
+    from reference.domain import Domain
+    from reference.interactions import Sine
+    from reference.joints import Joint, joint_frame
+
+    d = Domain()
+    bi = d.add_rigid_body("i", 1.0, [1.0, 2.0, 3.0], rng.normal(size=3), qexp(rng.normal(size=3) * 1.5))
+    bj = None if ground else d.add_rigid_body("j", 2.0, [2.0, 1.0, 1.0], rng.normal(size=3),
+                                              qexp(rng.normal(size=3) * 1.5))
+    joint = Joint(kind, bi, bj, rng.normal(size=3), joint_frame(rng.normal(size=3), rng.normal(size=3)),
+                  time_function=Sine(0.7, 2.0, 0.3, 0.1),
+                  mode="velocity" if kind.endswith("drive") and rng.random() < 0.5 else "position")
+    x = np.array([n.position for n in d.nodes]) + rng.normal(size=(len(d.nodes), 3)) * 0.3
+    q = np.array([qmul(n.rotation, qexp(rng.normal(size=3) * 0.8)) for n in d.nodes])
+    return joint, x, q
+
+
+def joint_hessian(joint, x, q, t, lam):
+    from reference.joints.hessian import joint_rows_hessian
+    from reference.joints.joint import ROWS
+
+    m = joint.n_equations
+    rows = np.full(6, -1, dtype=np.int64)
+    rows[: len(ROWS[joint.kind])] = ROWS[joint.kind]
+    j = -1 if joint.body_j is None else joint.body_j.id
+    tf = joint.time_function
+    phi, B, phit, H = np.zeros(m), np.zeros((m, 12)), np.zeros(m), np.zeros((12, 12))
+    joint_rows_hessian(x, q, joint.body_i.id, j, joint.body_fixed(), rows, joint.drive_code, tf.kind,
+                       tf.parameters(), float(t), lam, phi, B, phit, H, np.zeros(10), np.zeros(120), np.zeros(10))
+    return phi, B, phit, H
+
+
+@pytest.mark.parametrize("ground", [False, True])
+@pytest.mark.parametrize("kind", ["spherical", "revolute", "universal", "cylindrical", "translational", "fixed",
+                                  "rotation_drive", "displacement_drive"])
+def test_joint_hessian_is_the_derivative_of_the_joint_forces(kind, ground):
+    """``H = ∂(Bᵀλ)/∂[δx_i, δθ_i, δx_j, δθ_j]`` against central differences of Bᵀλ, B from the
+    assembly's ``joint_rows`` (drives included, at a fixed t), 5 random configurations and
+    multipliers each; Φ, B, Φ_t returned alongside equal ``joint_rows``' exactly."""
+    rng = np.random.default_rng(zlib.crc32(f"{kind}{ground}".encode()))
+    for _ in range(5):
+        joint, x, q = joint_setup(kind, rng, ground)
+        t = rng.uniform(0.0, 3.0)
+        lam = rng.normal(size=joint.n_equations)
+        phi, B, phit, H = joint_hessian(joint, x, q, t, lam)
+        ref = joint.evaluate(x, q, t)
+        assert np.array_equal(phi, ref[0]) and np.array_equal(B, ref[1]) and np.array_equal(phit, ref[2])
+        n_vars = 6 if ground else 12
+        fd = central_difference(lambda xx, qq: joint.evaluate(xx, qq, t)[1].T @ lam, x, q, n_vars)
+        assert relative_error(H[:, :n_vars], fd) <= RTOL, kind
+        if ground:
+            assert np.all(H[6:, :] == 0.0) and np.all(H[:, 6:] == 0.0)
