@@ -209,9 +209,15 @@ def joint_hessian():
 
     ``B_p`` at a configuration already perturbed by ``η`` is the first-order term in
     ``δ`` of ``Φ_p(x + η_x + δ_x, A exp(η̃) (I + δ̃))``; so ``H_ab`` is the mixed second
-    derivative ``∂²Φ/∂δ_a ∂η_b`` of ``Φ(x + εη_x + τδ_x, A (I + εη̃)(I + τδ̃))`` at zero
-    (only the first order of each exponential contributes to the mixed term; the order of
-    the two factors does).
+    derivative ``∂²Φ/∂δ_a ∂η_b`` of ``Φ(x + εη_x + τδ_x, A (I + εη̃)(I + τδ̃))`` at zero.
+    With the raw coordinates ``z = (x_i, A_i, x_j, A_j)`` (24: the rotation matrices'
+    entries) and ``T = ∂z/∂δ`` (columns ``e_c`` for δx, ``vec(A ẽ_c)`` for δθ), the chain
+    rule gives::
+
+        H = Tᵀ (∂²Φ_w/∂z²) T + [∂Φ_w/∂z · vec(A ẽ_b ẽ_a)]_ab      (a, b rotations of one body)
+
+    with ``Φ_w = Σ_p w_p Φ_p``: the only derivatives sympy takes are those of the
+    polynomials ``Φ_p`` with respect to plain symbols, which keeps the derivation fast.
     """
     xi, xj = sp.Matrix(vector("xi", 3)), sp.Matrix(vector("xj", 3))
     qi, qj = vector("qi", 4), vector("qj", 4)
@@ -223,19 +229,29 @@ def joint_hessian():
     st = Stager()
     Ai = st.define("Ai", rotation_matrix(qi))
     Aj = st.define("Aj", rotation_matrix(qj))
-    d = [sp.Matrix(vector(n, 3)) for n in ("dxi", "dti", "dxj", "dtj")]
-    e = [sp.Matrix(vector(n, 3)) for n in ("exi", "eti", "exj", "etj")]
-    I = sp.eye(3)
-    phi = primitives(xi + e[0] + d[0], Ai * (I + skew(e[1])) * (I + skew(d[1])),
-                     xj + e[2] + d[2], Aj * (I + skew(e[3])) * (I + skew(d[3])), si, sj, Ui, Uj)
-    weighted = sum(wp * p for wp, p in zip(w, phi))
-    dvars = [s for v in d for s in v]
-    evars = [s for v in e for s in v]
-    zero = {s: 0 for s in dvars + evars}
-    first = [sp.diff(weighted, s) for s in dvars]
-    H = [sp.diff(fa, s).xreplace(zero) for fa in first for s in evars]
+    phi = primitives(xi, Ai, xj, Aj, si, sj, Ui, Uj)
+    z = list(xi) + list(Ai) + list(xj) + list(Aj)
+    grads = [[sp.diff(p, v) for v in z] for p in phi]
+    grad_exprs = [sum(wp * gp[k] for wp, gp in zip(w, grads)) for k in range(24)]
+    hess = stage_sparse(st, "hz", sp.Matrix(24, 24, lambda r, c: sum(
+        wp * sp.diff(gp[r], z[c]) for wp, gp in zip(w, grads) if gp[r] != 0)))
+    grad = stage_sparse(st, "gz", sp.Matrix(grad_exprs))
+
+    units = [sp.Matrix([1 if k == c else 0 for k in range(3)]) for c in range(3)]
+    T = sp.zeros(24, 12)
+    for body, (A, row0) in enumerate(((Ai, 0), (Aj, 12))):
+        for c in range(3):
+            T[row0 + c, 6 * body + c] = 1
+            T[row0 + 3:row0 + 12, 6 * body + 3 + c] = (A * skew(units[c])).reshape(9, 1)
+    H = T.T * stage_sparse(st, "hT", hess * T)
+    for body, (A, row0) in enumerate(((Ai, 0), (Aj, 12))):
+        g = grad[row0 + 3:row0 + 12, 0]
+        for a in range(3):
+            for b in range(3):
+                second = (A * skew(units[b]) * skew(units[a])).reshape(9, 1)
+                H[6 * body + 3 + a, 6 * body + 3 + b] += (g.T * second)[0]
     inputs = dict(xi=xi, qi=qi, xj=xj, qj=qj, si=si, sj=sj, fi=fi, fj=fj, w=w)
-    return inputs, H, st.stages
+    return inputs, list(H), st.stages
 
 
 def joint_kernel() -> Kernel:
@@ -263,8 +279,49 @@ def joint_kernel() -> Kernel:
     )
 
 
+def _flat(M: sp.Matrix) -> list:
+    return [M[i, j] for i in range(M.shape[0]) for j in range(M.shape[1])]
+
+
+def nodal_kernels() -> list[Kernel]:
+    """Tangents of the nodal loads and of the gyroscopic term, by differentiation.
+
+    The rotation is perturbed as ``A → A (I + δθ̃)`` (the first order of
+    ``q ⊗ exp(δθ)``), so the results are ``−A b̃`` (follower force ``A b``) and
+    ``(Aᵀm)~`` (dead moment ``Aᵀ m`` in the body frame); the gyroscopic term
+    ``ω × Jω`` has ``∂/∂ω = ω̃ J − (Jω)~``.
+    """
+    q, b, w = vector("q", 4), sp.Matrix(vector("b", 3)), sp.Matrix(vector("w", 3))
+    J = sp.Matrix(3, 3, vector("J", 9))
+    dt = sp.Matrix(vector("dt", 3))
+    zero = {s: 0 for s in dt}
+    A = rotation_matrix(q)
+    Ap = A * (sp.eye(3) + skew(dt))
+    follower = (Ap * b).jacobian(dt).xreplace(zero)
+    dead = (Ap.T * b).jacobian(dt).xreplace(zero)
+    gyro = w.cross(J * w).jacobian(w)
+    rot = ("q", q, "Euler parameters of the node")
+    return [
+        Kernel("follower_force_tangent",
+               "``∂(A b)/∂δθ`` (3 × 3, row-major): a follower force, body-frame components b, in the\n"
+               "    inertial frame, differentiated along ``q → q ⊗ exp(δθ)``; equals ``−A b̃``.",
+               [rot, ("b", list(b), "force in body-frame components [N]")],
+               [("K", _flat(follower), "∂(A b)/∂δθ, row-major (3 × 3) [N/rad]")]),
+        Kernel("dead_moment_tangent",
+               "``∂(Aᵀ m)/∂δθ`` (3 × 3, row-major): a dead (inertially fixed) moment in body-frame\n"
+               "    components, differentiated along ``q → q ⊗ exp(δθ)``; equals ``(Aᵀm)~``.",
+               [rot, ("b", list(b), "moment in inertial components [N m]")],
+               [("K", _flat(dead), "∂(Aᵀ b)/∂δθ, row-major (3 × 3) [N m/rad]")]),
+        Kernel("gyroscopic_tangent",
+               "``∂(ω × J ω)/∂ω`` (3 × 3, row-major), ω body frame; equals ``ω̃ J − (Jω)~``.",
+               [("J", list(J), "inertia tensor in the body frame, row-major 3×3 [kg m²]"),
+                ("w", list(w), "angular velocity, body frame [rad/s]")],
+               [("K", _flat(gyro), "∂(ω × Jω)/∂ω, row-major (3 × 3) [kg m²/s]")]),
+    ]
+
+
 def kernels() -> list[Kernel]:
-    return [beam2_kernel(), joint_kernel()]
+    return [beam2_kernel(), joint_kernel()] + nodal_kernels()
 
 
 def generate() -> str:
