@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 import tomllib
+import unicodedata
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +46,66 @@ TIME_FUNCTIONS = {
 DOF_NAMES = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
 OVERRIDES = {"t_end", "dt", "refine"}
 
+MAX_BYTES = 4 * 2**20
+"""Largest deck file [bytes]: decks are hand-written; this bounds the parser's time and memory."""
+MAX_NESTING = 32
+"""Deepest nesting of arrays and inline tables, and most parts of one dotted key (``a.b.c``)."""
+MAX_ELEMENTS = 100_000
+"""Most Beam2 elements in one model, after ``refine`` (about 1 GB of model and scratch memory)."""
+MAX_STEPS = 10**9
+"""Default limit on the number of time steps; ``solver.max_steps`` raises it."""
+SAFETY = 0.9
+"""Largest accepted dt as a fraction of the critical estimate (``solver.allow_unsafe_dt`` lifts it).
+
+The estimate (:meth:`Domain.critical_time_step`) is the linear limit of the undeformed mesh and is
+tight: at 1.01 × the estimate the scheme blows up.  Tension, large rotations, joints and follower
+loads shift the highest frequency of the running model, so the reader keeps 10 % below it.
+"""
+SUGGEST = 0.8
+"""Fraction of the critical estimate used for the dt the messages suggest."""
+MESSAGE_VALUE = 60
+"""Longest rendering of an offending value in a message [characters]."""
+
+_TOKEN = re.compile(r'"""[\s\S]*?"""|\'\'\'[\s\S]*?\'\'\'|"(?:\\.|[^"\\\n])*"|\'[^\'\n]*\'|#[^\n]*'
+                    r"|[\[{]|[\]}]|(?<![0-9])\.|\.(?![0-9])|\n")
+
+
+def _show(value) -> str:
+    """``repr(value)``, abbreviated to :data:`MESSAGE_VALUE` characters (huge lists stay readable)."""
+    text = repr(value)
+    if len(text) <= MESSAGE_VALUE:
+        return text
+    size = f" ({len(value)} items)" if isinstance(value, (list, dict, str)) else ""
+    return text[: MESSAGE_VALUE - 10] + "…" + text[-5:] + size
+
+
+def _structure_problem(text: str) -> str:
+    """Why ``text`` is too deeply nested for the TOML parser, or ``""``.
+
+    Scans brackets and dots outside strings and comments: more than :data:`MAX_NESTING` open
+    ``[``/``{`` at once, or a dotted key of more than :data:`MAX_NESTING` parts on one line,
+    would send :mod:`tomllib` into deep recursion or gigabytes of nested tables.
+    """
+    depth = deepest = dots = 0
+    line = 1
+    for m in _TOKEN.finditer(text):
+        tok = m.group()
+        if tok in "[{":
+            depth += 1
+            if depth > MAX_NESTING:
+                return f"line {line}: arrays or inline tables nested more than {MAX_NESTING} deep"
+        elif tok in "]}":
+            depth = max(depth - 1, 0)
+        elif tok == ".":
+            dots += 1
+            if dots >= MAX_NESTING:
+                return f"line {line}: a dotted key of more than {MAX_NESTING} parts"
+        elif tok == "\n":
+            line, dots = line + 1, 0
+        else:
+            line += tok.count("\n")
+    return ""
+
 
 class _Reader:
     """Validation helpers that know the file name for their messages."""
@@ -54,6 +116,15 @@ class _Reader:
     def fail(self, entry: str, problem: str, fix: str = "") -> DeckError:
         msg = f"{self.path}: {entry}: {problem}"
         return DeckError(msg + (f"; {fix}" if fix else ""))
+
+    def label(self, value, entry: str) -> str:
+        """A name used in references, messages and file names: printable, no path separators."""
+        self.string(value, entry)
+        bad = [c for c in value if unicodedata.category(c)[0] == "C" or c in "/\\"]
+        if not value.strip() or bad or value in (".", "..") or len(value) > 200:
+            raise self.fail(entry, f"unusable name {_show(value)}",
+                            "give 1–200 printable characters without '/' or '\\' (e.g. 'arm_2')")
+        return value
 
     def keys(self, table, entry: str, required=(), optional=()) -> None:
         if not isinstance(table, dict):
@@ -70,38 +141,56 @@ class _Reader:
 
     def number(self, value, entry: str, positive=False, nonnegative=False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.fail(entry, f"expected a number, got {value!r}")
+            raise self.fail(entry, f"expected a number, got {_show(value)}")
         if positive and not value > 0:
             raise self.fail(entry, f"must be positive, got {value!r}", "give a value > 0")
         if nonnegative and value < 0:
             raise self.fail(entry, f"must not be negative, got {value!r}")
         return float(value)
 
-    def integer(self, value, entry: str, minimum=1) -> int:
+    def integer(self, value, entry: str, minimum=1, maximum=None, fix: str = "") -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            raise self.fail(entry, f"expected an integer ≥ {minimum}, got {value!r}")
+            raise self.fail(entry, f"expected an integer ≥ {minimum}, got {_show(value)}")
+        if maximum is not None and value > maximum:
+            raise self.fail(entry, f"{value} is above the limit of {maximum}", fix)
         return int(value)
 
     def vector(self, value, entry: str, n=3) -> np.ndarray:
         if not isinstance(value, list) or len(value) != n:
-            raise self.fail(entry, f"expected a list of {n} numbers, got {value!r}")
+            raise self.fail(entry, f"expected a list of {n} numbers, got {_show(value)}")
         return np.array([self.number(v, f"{entry}[{i}]") for i, v in enumerate(value)])
+
+    def direction(self, value, entry: str) -> np.ndarray:
+        """A non-zero 3-vector (a joint axis, a section axis)."""
+        vec = self.vector(value, entry)
+        if not math.hypot(*vec) > 0.0:
+            raise self.fail(entry, "a direction cannot be the zero vector", "give a non-zero direction, e.g. [0, 0, 1]")
+        return vec
+
+    def rotation(self, value, entry: str) -> np.ndarray:
+        """Euler parameters of unit norm (within 1e-6)."""
+        rot = self.vector(value, entry, 4)
+        norm = math.hypot(*rot)
+        if not abs(norm - 1.0) <= 1e-6:
+            raise self.fail(entry, f"Euler parameters must have unit norm, got |q| = {norm:.6g}",
+                            "normalise them (identity: [1, 0, 0, 0])")
+        return rot
 
     def string(self, value, entry: str) -> str:
         if not isinstance(value, str):
-            raise self.fail(entry, f"expected a string, got {value!r}")
+            raise self.fail(entry, f"expected a string, got {_show(value)}")
         return value
 
     def boolean(self, value, entry: str) -> bool:
         if not isinstance(value, bool):
-            raise self.fail(entry, f"expected true or false, got {value!r}")
+            raise self.fail(entry, f"expected true or false, got {_show(value)}")
         return value
 
     def choice(self, value, entry: str, options, what: str = "value", describe: str = "") -> str:
         """A string that must be one of ``options``; the fix is a close match or the list (or ``describe``)."""
         if not isinstance(value, str) or value not in options:
             close = difflib.get_close_matches(value, list(options), n=1) if isinstance(value, str) else []
-            raise self.fail(entry, f"unknown {what} {value!r}",
+            raise self.fail(entry, f"unknown {what} {_show(value)}",
                             f"did you mean '{close[0]}'?" if close else describe or f"one of: {', '.join(options)}")
         return value
 
@@ -109,7 +198,7 @@ class _Reader:
         """A table of named entries (``[sections.NAME]``, ``points.NAME``)."""
         value = parent.get(key, {})
         if not isinstance(value, dict):
-            raise self.fail(entry or key, f"expected a table of named entries, got {value!r}",
+            raise self.fail(entry or key, f"expected a table of named entries, got {_show(value)}",
                             f"write it as [{key}.NAME]" if entry is None else "write it as {NAME = ..., ...}")
         return value
 
@@ -122,12 +211,16 @@ class _Reader:
 
 def _whole_steps(t_end: float, dt: float) -> bool:
     steps = t_end / dt
+    if not steps < 2.0**62:
+        return False
     return abs(steps - round(steps)) <= 1e-9 * max(steps, 1.0) and round(steps) >= 1
 
 
 def _suggest_dt(t_end: float, limit: float) -> str:
     """A step ≤ ``limit`` that divides ``t_end``: a round number (1, 2, 2.5, 4, 5 × 10^k) if one
     does, else t_end / N to full precision."""
+    if not (limit > 0.0 and math.isfinite(limit) and t_end / limit < 2.0**62):
+        return f"a step that gives at most {MAX_STEPS:.0e} steps to t_end = {t_end:g}"
     for k in range(math.floor(math.log10(limit)), math.floor(math.log10(limit)) - 3, -1):
         for m in (5.0, 4.0, 2.5, 2.0, 1.0):
             dt = float(f"{m}e{k}")
@@ -152,21 +245,32 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     path = Path(path)
     if not path.is_file():
         raise DeckError(f"{path}: no such deck file" + ("" if not path.exists() else " (it is a directory)"))
+    size = path.stat().st_size
+    if size > MAX_BYTES:
+        raise DeckError(f"{path}: the file is {size / 2**20:.1f} MB, above the deck limit of "
+                        f"{MAX_BYTES / 2**20:.0f} MB; is it a deck? (decks are hand-written TOML of a few kB)")
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise DeckError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); "
                         "save the deck as UTF-8") from None
     rd = _Reader(path)
+    problem = _structure_problem(text)
+    if problem:
+        raise DeckError(f"{path}: {problem}; flatten the structure (a deck needs at most 3 levels)")
     try:
         deck = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise DeckError(f"{path}: not valid TOML: {exc}") from None
+    except (RecursionError, MemoryError):
+        raise DeckError(f"{path}: not a usable deck: too deeply nested for the TOML parser; "
+                        "flatten the structure") from None
     overrides = dict(overrides or {})
     for key in overrides:
         if key not in OVERRIDES:
-            raise DeckError(f"{path}: unknown override {key!r}; valid: {', '.join(sorted(OVERRIDES))}")
-    refine = rd.integer(overrides.get("refine", 1), "override refine")
+            raise DeckError(f"{path}: unknown override {_show(key)}; valid: {', '.join(sorted(OVERRIDES))}")
+    refine = rd.integer(overrides.get("refine", 1), "override refine (--refine)", maximum=MAX_ELEMENTS,
+                        fix=f"a model has at most {MAX_ELEMENTS} elements")
     rd.keys(deck, "deck", optional=sorted(TOP_LEVEL))
 
     meta = deck.get("meta", {})
@@ -177,7 +281,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     if "provenance" in meta and not isinstance(meta["provenance"], (str, dict)):
         raise rd.fail("meta.provenance", f"expected a string or a table, got {meta['provenance']!r}",
                       'e.g. provenance = { paper = "...", figures = "...", data = "..." }')
-    domain = Domain(rd.string(meta["name"], "meta.name"), meta.get("description", ""))
+    domain = Domain(rd.label(meta["name"], "meta.name"), meta.get("description", ""))
     domain.metadata = dict(meta)
     domain.deck_text, domain.deck_path = text, str(path)
 
@@ -229,25 +333,23 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                     return nodes[0]
                 if which == "end":
                     return nodes[-1]
-                if which.isdigit() and int(which) < len(nodes):
+                if which.isascii() and which.isdigit() and int(which) < len(nodes):
                     return nodes[int(which)]
-                raise rd.fail(entry, f"beam '{beam}' has no node '{which}'",
+                raise rd.fail(entry, f"beam '{beam}' has no node {_show(which)}",
                               f"use '{beam}:start', '{beam}:end' or an index 0…{len(nodes) - 1}")
         try:
             return domain.node(ref)
         except KeyError:
             labels = [n.label for n in domain.nodes]
             close = difflib.get_close_matches(ref, labels + [f"{b}:start" for b in beams] + [f"{b}:end" for b in beams], n=1)
-            raise rd.fail(entry, f"no node {ref!r}", f"did you mean '{close[0]}'?" if close else
+            raise rd.fail(entry, f"no node {_show(ref)}", f"did you mean '{close[0]}'?" if close else
                           "reference a node label or '<beam>:start', '<beam>:end', '<beam>:<i>'") from None
 
     for i, nd in enumerate(rd.items(deck, "nodes")):
         entry = f"nodes[{i}]"
         rd.keys(nd, entry, required=["label", "position"], optional=["rotation"])
-        rot = rd.vector(nd["rotation"], f"{entry}.rotation", 4) if "rotation" in nd else None
-        if rot is not None and abs(np.linalg.norm(rot) - 1.0) > 1e-6:
-            raise rd.fail(f"{entry}.rotation", "Euler parameters must have unit norm", "normalise them")
-        label = rd.string(nd["label"], f"{entry}.label")
+        rot = rd.rotation(nd["rotation"], f"{entry}.rotation") if "rotation" in nd else None
+        label = rd.label(nd["label"], f"{entry}.label")
         if label in domain._labels:
             raise rd.fail(f"{entry}.label", f"duplicate node label {label!r}")
         domain.add_node(rd.vector(nd["position"], f"{entry}.position"), rot, label)
@@ -256,11 +358,15 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         entry = f"beams[{i}]"
         rd.keys(bm, entry, required=["label", "elements", "section"],
                 optional=["start", "end", "start_node", "end_node", "axis2", "rigid"])
-        label = rd.string(bm["label"], f"{entry}.label")
+        label = rd.label(bm["label"], f"{entry}.label")
         if label in beams:
             raise rd.fail(f"{entry}.label", f"duplicate beam label {label!r}")
         rigid = rd.boolean(bm.get("rigid", False), f"{entry}.rigid")
         n = rd.integer(bm["elements"], f"{entry}.elements") * (1 if rigid else refine)
+        if len(domain.elements) + n > MAX_ELEMENTS:
+            raise rd.fail(f"{entry}.elements", f"{n} elements" + (f" (× refine {refine})" if refine > 1 else "")
+                          + f" would exceed the limit of {MAX_ELEMENTS} elements in a model",
+                          "use fewer elements (memory and run time grow with the count)")
         sec_name = rd.string(bm["section"], f"{entry}.section")
         if sec_name not in sections:
             close = difflib.get_close_matches(sec_name, list(sections), n=1)
@@ -277,7 +383,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                 ends.append((node.position, node))
         if np.linalg.norm(ends[1][0] - ends[0][0]) <= 0.0:
             raise rd.fail(entry, "start and end coincide (zero-length beam)")
-        axis2 = rd.vector(bm.get("axis2", [0.0, 1.0, 0.0]), f"{entry}.axis2")
+        axis2 = rd.direction(bm.get("axis2", [0.0, 1.0, 0.0]), f"{entry}.axis2")
         try:
             if rigid:
                 if ends[0][1] is not None or ends[1][1] is not None:
@@ -293,7 +399,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     for i, rb in enumerate(rd.items(deck, "rigid_bodies")):
         entry = f"rigid_bodies[{i}]"
         rd.keys(rb, entry, required=["label", "mass", "inertia", "position"], optional=["rotation", "points"])
-        label = rd.string(rb["label"], f"{entry}.label")
+        label = rd.label(rb["label"], f"{entry}.label")
         if label in domain._labels:
             raise rd.fail(f"{entry}.label", f"duplicate label {label!r}")
         mass = rd.number(rb["mass"], f"{entry}.mass", positive=True)
@@ -302,11 +408,20 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
             J = np.array([rd.vector(r, f"{entry}.inertia[{k}]") for k, r in enumerate(inertia)])
         else:
             J = np.diag(rd.vector(inertia, f"{entry}.inertia"))
-        rot = rd.vector(rb["rotation"], f"{entry}.rotation", 4) if "rotation" in rb else None
+        scale = float(np.abs(J).max())
+        if not np.all(np.abs(J - J.T) <= 1e-12 * scale):
+            raise rd.fail(f"{entry}.inertia", "the inertia matrix is not symmetric", "give J[a][b] = J[b][a]")
+        with np.errstate(all="ignore"):
+            eig = np.linalg.eigvalsh(J / scale) if scale > 0.0 and math.isfinite(scale) else np.zeros(3)
+        if not np.all(eig > 1e-12):
+            raise rd.fail(f"{entry}.inertia", "the inertia matrix is not positive definite",
+                          "give positive principal moments, e.g. [J1, J2, J3] with every Ji > 0")
+        rot = rd.rotation(rb["rotation"], f"{entry}.rotation") if "rotation" in rb else None
         points = {name: rd.vector(p, f"{entry}.points.{name}")
                   for name, p in rd.tables(rb, "points", f"{entry}.points").items()}
+        position = rd.vector(rb["position"], f"{entry}.position")
         try:
-            domain.add_rigid_body(label, mass, J, rd.vector(rb["position"], f"{entry}.position"), rot, points)
+            domain.add_rigid_body(label, mass, J, position, rot, points)
         except ValueError as exc:
             raise rd.fail(entry, str(exc), "mass > 0 and a positive definite inertia") from None
 
@@ -386,9 +501,11 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                           "'position' (the time function is the angle/displacement) or 'velocity' (its rate)")
         eps = rd.number(jt.get("epsilon", 0.0), f"{entry}.epsilon", nonnegative=True)
         reference = rd.vector(jt["reference"], f"{entry}.reference") if "reference" in jt else None
-        label = rd.string(jt.get("label", f"{kind}:{i}"), f"{entry}.label")
+        label = rd.label(jt.get("label", f"{kind}:{i}"), f"{entry}.label")
         point = rd.vector(jt["point"], f"{entry}.point")
-        axis = rd.vector(jt.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis")
+        axis = rd.direction(jt.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis")
+        if reference is not None:
+            reference = rd.direction(jt["reference"], f"{entry}.reference")
         try:
             domain.add_joint(kind, body_i, body_j, point, axis, reference,
                              formulation=Jacobian(eps) if formulation == "jacobian" else MasterSlave(),
@@ -409,7 +526,8 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         raise rd.fail("solver", "missing [solver] table", "give at least dt and t_end")
     sv = deck["solver"]
     rd.keys(sv, "solver", required=["dt", "t_end"],
-            optional=["algorithm", "damping", "output_every", "consistent_initial_velocities"])
+            optional=["algorithm", "damping", "output_every", "consistent_initial_velocities", "max_steps",
+                      "allow_unsafe_dt"])
     algorithm = sv.get("algorithm", SolverSettings.algorithm)
     if algorithm != SolverSettings.algorithm:
         raise rd.fail("solver.algorithm", f"unknown algorithm {algorithm!r}", f"available: '{SolverSettings.algorithm}'")
@@ -428,20 +546,31 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         consistent_initial_velocities=rd.boolean(sv.get("consistent_initial_velocities", False),
                                                  "solver.consistent_initial_velocities"),
     )
+    max_steps = rd.integer(sv.get("max_steps", MAX_STEPS), "solver.max_steps")
+    unsafe = rd.boolean(sv.get("allow_unsafe_dt", False), "solver.allow_unsafe_dt")
     if not domain.elements and not domain.nodes:
         raise rd.fail("deck", "the deck defines no nodes or beams")
     crit = domain.critical_time_step()
-    if dt > crit:
-        # a margin of 1.25 over the estimate, and a whole number of steps
+    if not crit > 0.0:
+        raise rd.fail("sections", f"the critical time step of the mesh is {crit:g} (a stiffness so large against "
+                      "the mass that no step is stable)", "check the units of the section data")
+    if dt > SAFETY * crit and not unsafe:
         raise rd.fail(dt_entry, f"dt = {dt:g} is above the critical time step {crit:.4g} of the explicit scheme "
-                      "(the run would blow up)", f"use dt ≤ {0.8 * crit:.3g}, e.g. {_suggest_dt(t_end, 0.8 * crit)}")
+                      f"× {SAFETY:g} (the safety margin; the run would blow up or come close)",
+                      f"use dt ≤ {SUGGEST * crit:.3g}, e.g. {_suggest_dt(t_end, SUGGEST * crit)}")
+    steps = t_end / dt
+    if not steps <= max_steps:
+        raise rd.fail(t_entry if "t_end" in overrides else dt_entry if "dt" in overrides else "solver",
+                      f"t_end / dt = {t_end:g} / {dt:g} = {steps:.3g} steps, above the limit of {max_steps:.3g}",
+                      "use a larger dt or a shorter t_end, or raise solver.max_steps if the run is meant")
     if not _whole_steps(t_end, dt):
         steps = t_end / dt
         raise rd.fail(t_entry, f"t_end = {t_end:g} is not a whole number of steps dt = {dt:g} ({steps:.6g} steps)",
                       f"use t_end = {max(round(steps), 1) * dt:.10g} or {_suggest_dt(t_end, dt)}")
     checks = rd.tables(deck, "checks")
     for name, spec in checks.items():
-        rd.keys(spec, f"checks.{name}", optional=list(spec))
+        if not isinstance(spec, dict):
+            raise rd.fail(f"checks.{name}", f"expected a table, got {_show(spec)}", f"write it as [checks.{name}]")
     domain.checks = checks
     crosscheck = rd.tables(deck, "crosscheck")
     for name, spec in crosscheck.items():
