@@ -63,11 +63,22 @@ loads shift the highest frequency of the running model, so the reader keeps 10 %
 """
 SUGGEST = 0.8
 """Fraction of the critical estimate used for the dt the messages suggest."""
+MAX_MAGNITUDE = 1e30
+"""Every number is 0 or of magnitude in [1e-30, 1e30]: no consistent set of units needs more, and the
+products the model forms of such numbers (inertias, constraint matrices) stay finite."""
 MESSAGE_VALUE = 60
 """Longest rendering of an offending value in a message [characters]."""
 
 _TOKEN = re.compile(r'"""[\s\S]*?"""|\'\'\'[\s\S]*?\'\'\'|"(?:\\.|[^"\\\n])*"|\'[^\'\n]*\'|#[^\n]*'
                     r"|[\[{]|[\]}]|(?<![0-9])\.|\.(?![0-9])|\n")
+
+
+MESSAGE_CHARS = 300
+"""Longest message after the file name [characters]."""
+
+
+def _clip(text: str, n: int) -> str:
+    return text if len(text) <= n else text[: n - 1] + "…"
 
 
 def _show(value) -> str:
@@ -114,8 +125,13 @@ class _Reader:
         self.path = path
 
     def fail(self, entry: str, problem: str, fix: str = "") -> DeckError:
-        msg = f"{self.path}: {entry}: {problem}"
-        return DeckError(msg + (f"; {fix}" if fix else ""))
+        """``FILE: ENTRY: problem; fix``; the part after the file name is kept to :data:`MESSAGE_CHARS`."""
+        entry = _clip(entry, 60)
+        room = MESSAGE_CHARS - len(entry) - 4
+        if len(problem) + len(fix) > room:
+            fix = _clip(fix, max(room // 3, room - len(problem)))
+            problem = _clip(problem, room - len(fix))
+        return DeckError(f"{self.path}: {entry}: {problem}" + (f"; {fix}" if fix else ""))
 
     def label(self, value, entry: str) -> str:
         """A name used in references, messages and file names: printable, no path separators."""
@@ -142,10 +158,13 @@ class _Reader:
     def number(self, value, entry: str, positive=False, nonnegative=False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise self.fail(entry, f"expected a number, got {_show(value)}")
+        if value != 0 and not 1.0 / MAX_MAGNITUDE <= abs(value) <= MAX_MAGNITUDE:
+            raise self.fail(entry, f"{value:g} is outside the range of the format (0 or a magnitude from "
+                            f"{1 / MAX_MAGNITUDE:g} to {MAX_MAGNITUDE:g})", "check the units")
         if positive and not value > 0:
-            raise self.fail(entry, f"must be positive, got {value!r}", "give a value > 0")
+            raise self.fail(entry, f"must be positive, got {_show(value)}", "give a value > 0")
         if nonnegative and value < 0:
-            raise self.fail(entry, f"must not be negative, got {value!r}")
+            raise self.fail(entry, f"must not be negative, got {_show(value)}")
         return float(value)
 
     def integer(self, value, entry: str, minimum=1, maximum=None, fix: str = "") -> int:
@@ -279,7 +298,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         if key in meta:
             rd.string(meta[key], f"meta.{key}")
     if "provenance" in meta and not isinstance(meta["provenance"], (str, dict)):
-        raise rd.fail("meta.provenance", f"expected a string or a table, got {meta['provenance']!r}",
+        raise rd.fail("meta.provenance", f"expected a string or a table, got {_show(meta['provenance'])}",
                       'e.g. provenance = { paper = "...", figures = "...", data = "..." }')
     domain = Domain(rd.label(meta["name"], "meta.name"), meta.get("description", ""))
     domain.metadata = dict(meta)
@@ -296,7 +315,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     for name, tf in rd.tables(deck, "time_functions").items():
         entry = f"time_functions.{name}"
         if not isinstance(tf, dict):
-            raise rd.fail(entry, f"expected a table, got {tf!r}", f"write it as [{entry}] with kind = ...")
+            raise rd.fail(entry, f"expected a table, got {_show(tf)}", f"write it as [{entry}] with kind = ...")
         if "kind" not in tf:
             raise rd.fail(entry, "missing required key 'kind'", f"one of: {', '.join(TIME_FUNCTIONS)}")
         kind = rd.choice(tf["kind"], f"{entry}.kind", TIME_FUNCTIONS, "kind")
@@ -324,7 +343,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
 
     def node_ref(ref, entry):
         if not isinstance(ref, str):
-            raise rd.fail(entry, f"expected a node reference (a label like 'beam:end'), got {ref!r}")
+            raise rd.fail(entry, f"expected a node reference (a label like 'beam:end'), got {_show(ref)}")
         if ":" in ref:
             beam, _, which = ref.rpartition(":")
             if beam in beams:
@@ -351,7 +370,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         rot = rd.rotation(nd["rotation"], f"{entry}.rotation") if "rotation" in nd else None
         label = rd.label(nd["label"], f"{entry}.label")
         if label in domain._labels:
-            raise rd.fail(f"{entry}.label", f"duplicate node label {label!r}")
+            raise rd.fail(f"{entry}.label", f"duplicate node label {_show(label)}")
         domain.add_node(rd.vector(nd["position"], f"{entry}.position"), rot, label)
 
     for i, bm in enumerate(rd.items(deck, "beams")):
@@ -360,7 +379,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                 optional=["start", "end", "start_node", "end_node", "axis2", "rigid"])
         label = rd.label(bm["label"], f"{entry}.label")
         if label in beams:
-            raise rd.fail(f"{entry}.label", f"duplicate beam label {label!r}")
+            raise rd.fail(f"{entry}.label", f"duplicate beam label {_show(label)}")
         rigid = rd.boolean(bm.get("rigid", False), f"{entry}.rigid")
         n = rd.integer(bm["elements"], f"{entry}.elements") * (1 if rigid else refine)
         if len(domain.elements) + n > MAX_ELEMENTS:
@@ -370,7 +389,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         sec_name = rd.string(bm["section"], f"{entry}.section")
         if sec_name not in sections:
             close = difflib.get_close_matches(sec_name, list(sections), n=1)
-            raise rd.fail(f"{entry}.section", f"no section {sec_name!r}",
+            raise rd.fail(f"{entry}.section", f"no section {_show(sec_name)}",
                           f"did you mean '{close[0]}'?" if close else f"defined sections: {', '.join(sections) or 'none'}")
         ends = []
         for side in ("start", "end"):
@@ -401,7 +420,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         rd.keys(rb, entry, required=["label", "mass", "inertia", "position"], optional=["rotation", "points"])
         label = rd.label(rb["label"], f"{entry}.label")
         if label in domain._labels:
-            raise rd.fail(f"{entry}.label", f"duplicate label {label!r}")
+            raise rd.fail(f"{entry}.label", f"duplicate label {_show(label)}")
         mass = rd.number(rb["mass"], f"{entry}.mass", positive=True)
         inertia = rb["inertia"]
         if isinstance(inertia, list) and len(inertia) == 3 and all(isinstance(r, list) for r in inertia):
@@ -449,14 +468,14 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         vec = rd.vector(ld["moment" if moment else "force"], f"{entry}.{'moment' if moment else 'force'}")
         frame = ld.get("frame", "inertial")
         if frame not in ("inertial", "body"):
-            raise rd.fail(f"{entry}.frame", f"unknown frame {frame!r}",
+            raise rd.fail(f"{entry}.frame", f"unknown frame {_show(frame)}",
                           "'inertial' (a dead load) or 'body' (a follower load)")
         tf = Constant(1.0)
         if "time_function" in ld:
             name = rd.string(ld["time_function"], f"{entry}.time_function")
             if name not in tfs:
                 close = difflib.get_close_matches(name, list(tfs), n=1)
-                raise rd.fail(f"{entry}.time_function", f"no time function {name!r}",
+                raise rd.fail(f"{entry}.time_function", f"no time function {_show(name)}",
                               f"did you mean '{close[0]}'?" if close else f"defined: {', '.join(tfs) or 'none'}")
             tf = tfs[name]
         domain.add_interaction(NodalLoad(node_ref(ld["node"], f"{entry}.node"), vec, moment, frame == "body", tf))
@@ -471,11 +490,11 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         kind = rd.string(jt["kind"], f"{entry}.kind")
         if kind not in JOINT_KINDS:
             close = difflib.get_close_matches(kind, list(JOINT_KINDS), n=1)
-            raise rd.fail(f"{entry}.kind", f"unknown joint kind {kind!r}",
+            raise rd.fail(f"{entry}.kind", f"unknown joint kind {_show(kind)}",
                           f"did you mean '{close[0]}'?" if close else f"one of: {', '.join(JOINT_KINDS)}")
         formulation = jt.get("formulation", "jacobian")
         if formulation not in ("jacobian", "master_slave"):
-            raise rd.fail(f"{entry}.formulation", f"unknown joint formulation {formulation!r}",
+            raise rd.fail(f"{entry}.formulation", f"unknown joint formulation {_show(formulation)}",
                           "'jacobian' (Lagrange multipliers, stabilised) or 'master_slave' (elimination; "
                           "spherical and revolute joints, slave = body_i a beam node)")
         body_i = node_ref(jt["body_i"], f"{entry}.body_i")
@@ -493,11 +512,11 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         if drive:
             name = rd.string(jt["time_function"], f"{entry}.time_function")
             if name not in tfs:
-                raise rd.fail(f"{entry}.time_function", f"no time function {name!r}", f"defined: {', '.join(tfs) or 'none'}")
+                raise rd.fail(f"{entry}.time_function", f"no time function {_show(name)}", f"defined: {', '.join(tfs) or 'none'}")
             tf = tfs[name]
         mode = jt.get("mode", "position")
         if mode not in ("position", "velocity"):
-            raise rd.fail(f"{entry}.mode", f"unknown mode {mode!r}",
+            raise rd.fail(f"{entry}.mode", f"unknown mode {_show(mode)}",
                           "'position' (the time function is the angle/displacement) or 'velocity' (its rate)")
         eps = rd.number(jt.get("epsilon", 0.0), f"{entry}.epsilon", nonnegative=True)
         reference = rd.vector(jt["reference"], f"{entry}.reference") if "reference" in jt else None
@@ -530,14 +549,14 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                       "allow_unsafe_dt"])
     algorithm = sv.get("algorithm", SolverSettings.algorithm)
     if algorithm != SolverSettings.algorithm:
-        raise rd.fail("solver.algorithm", f"unknown algorithm {algorithm!r}", f"available: '{SolverSettings.algorithm}'")
+        raise rd.fail("solver.algorithm", f"unknown algorithm {_show(algorithm)}", f"available: '{SolverSettings.algorithm}'")
     dt_entry = "dt override (--dt)" if "dt" in overrides else "solver.dt"
     t_entry = "t_end override (--t-end)" if "t_end" in overrides else "solver.t_end"
     deck_dt = rd.number(sv["dt"], "solver.dt", positive=True) / refine
     dt = rd.number(overrides.get("dt", deck_dt), dt_entry, positive=True)
     # keep the deck's output times when the step is overridden by a whole factor
     ratio = deck_dt / dt
-    output_scale = int(round(ratio)) if ratio >= 1 and abs(ratio - round(ratio)) < 1e-9 else 1
+    output_scale = int(round(ratio)) if 1 <= ratio < 2.0**62 and abs(ratio - round(ratio)) < 1e-9 else 1
     t_end = rd.number(overrides.get("t_end", sv["t_end"]), t_entry, positive=True)
     domain.solver = SolverSettings(
         algorithm=algorithm, dt=dt, t_end=t_end,
@@ -556,8 +575,11 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                       "the mass that no step is stable)", "check the units of the section data")
     if dt > SAFETY * crit and not unsafe:
         raise rd.fail(dt_entry, f"dt = {dt:g} is above the critical time step {crit:.4g} of the explicit scheme "
-                      f"× {SAFETY:g} (the safety margin; the run would blow up or come close)",
-                      f"use dt ≤ {SUGGEST * crit:.3g}, e.g. {_suggest_dt(t_end, SUGGEST * crit)}")
+                      f"× {SAFETY:g} (the safety margin)",
+                      f"use dt ≤ {SUGGEST * crit:.3g}, e.g. {_suggest_dt(t_end, SUGGEST * crit)}"
+                      if t_end / (SUGGEST * crit) <= max_steps else
+                      f"a stable step needs {t_end / (SUGGEST * crit):.3g} steps, above the limit of {max_steps:.3g}: "
+                      "check the units of the section data, or raise solver.max_steps")
     steps = t_end / dt
     if not steps <= max_steps:
         raise rd.fail(t_entry if "t_end" in overrides else dt_entry if "dt" in overrides else "solver",
@@ -578,7 +600,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         rd.keys(spec, entry, required=["observable", "tolerance", "reason"], optional=["relative_to", "refine"])
         rd.number(spec["tolerance"], f"{entry}.tolerance", positive=True)
         if spec.get("relative_to", "absolute") not in ("length", "peak", "absolute"):
-            raise rd.fail(f"{entry}.relative_to", f"unknown scale {spec['relative_to']!r}", "'length', 'peak' or 'absolute'")
+            raise rd.fail(f"{entry}.relative_to", f"unknown scale {_show(spec['relative_to'])}", "'length', 'peak' or 'absolute'")
         rd.integer(spec.get("refine", 1), f"{entry}.refine")
     domain.crosscheck = crosscheck
     try:
