@@ -553,7 +553,7 @@ class Domain:
         t_end, dt : float, optional
             Override the deck's end time and step.
         results_path : path, optional
-            HDF5 results file written incrementally (DESIGN.md contract).
+            HDF5 results file written incrementally (the contract of reference/io/results.py).
         progress : callable(fraction, t), optional
             Called after every output.
 

@@ -1,6 +1,6 @@
 """Park's two-stage staggered explicit central difference (paper §3.3).
 
-One step from ``t_n`` to ``t_{n+1}`` (FORMULATION.md, "Park's two-stage
+One step from ``t_n`` to ``t_{n+1}`` (docs/formulation.md §6, "Park's two-stage
 staggered step"; the staging is a reconstruction, the originals of Park, Chiou
 & Downer 1990 not being at hand):
 
