@@ -287,7 +287,7 @@ def measured(domain, times, pos, rot, vel, omg, wall, dt):
     phi = np.zeros(n)
     phid = np.zeros(n)
     kinetic, strain, work = np.zeros(n), np.zeros(n), np.zeros(n)
-    S, F, s_el, A = np.zeros((N, 6)), np.zeros((N, 6)), np.zeros(24), np.zeros(9)
+    S, F, s_el, A = np.zeros((N, 6)), np.zeros((N, 6)), np.zeros(40), np.zeros(9)
     power = np.zeros(n)
     for i in range(n):
         if model.n_constraints:
@@ -295,7 +295,7 @@ def measured(domain, times, pos, rot, vel, omg, wall, dt):
             V = np.concatenate([vel[i], omg[i]], axis=1).reshape(-1)
             phi[i], phid[i] = np.linalg.norm(PHI), np.linalg.norm(Bg @ V + PHIt)
         kinetic[i] = 0.5 * np.sum(model.mass[:, None] * vel[i] ** 2) + 0.5 * np.einsum("ni,nij,nj->", omg[i], model.inertia, omg[i])
-        strain[i] = beam2_assemble(pos[i], rot[i], model.conn, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
+        strain[i] = beam2_assemble(pos[i], rot[i], model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
         external_forces(model, pos[i], rot[i], times[i], F, A)
         power[i] = np.sum(F[:, :3] * vel[i]) + np.sum(F[:, 3:] * omg[i])
         if i > 0:
