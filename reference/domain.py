@@ -281,6 +281,7 @@ class Domain:
                 raise ValueError(f"beam {label!r}: node {node.label!r} is not at the beam's end point {point.tolist()}")
         if center is None:
             points = start + np.outer(np.arange(n_elements + 1) / n_elements, end - start)
+            points[0], points[-1] = start, end
             tangents = np.tile(end - start, (n_elements + 1, 1))
         else:
             points, tangents = arc_geometry(start, end, center, n_elements)
