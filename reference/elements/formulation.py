@@ -74,8 +74,11 @@ class Beam2Formulation(ElementFormulation):
     Strains and internal forces: see ``derivations/beam2.py`` (the internal
     force is the exact gradient of the element strain energy).  Mass: row-sum
     lumping ``m_i = ∫ N_i ρA ds = ρA L0/2`` and rotary inertia
-    ``J_i = (L0/2) diag(ρJ1, ρJ2, ρJ3)`` in the nodal (section) frame, constant
-    because rotary motion is written in the body frame (paper §3.1).
+    ``J_i = (L0/2) diag(ρJ1, ρJ2, ρJ3)`` in the element's section frame; the
+    Domain adds ``O_a J_i O_aᵀ`` to the node (``O_a`` the end's offset, a full
+    tensor at a kinked node), constant because rotary motion is written in the
+    body frame (paper §3.1).  ``q_nodes`` passed to the methods below are the
+    section triads of the ends (``p_a = q_a ⊗ o_a``).
 
     Parameters
     ----------
