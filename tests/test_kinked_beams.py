@@ -250,3 +250,73 @@ def test_quarter_circle_cantilever_converges_at_second_order():
     print(f"relative errors {errors}, observed orders {orders}")
     assert np.all(orders >= 1.8)     # chords between nodes on the arc: O(h²)
     assert errors[-1] < 1e-3         # issue 9 target at 32 elements
+
+
+ARC_DECK = """
+[meta]
+name = "arc"
+[sections.s]
+EA = 1e4
+GA2 = 1e4
+GA3 = 1e4
+GJ = 1.5
+EI2 = 2.0
+EI3 = 2.0
+rhoA = 1.0
+rhoJ1 = 0.01
+rhoJ2 = 0.01
+rhoJ3 = 0.01
+[[beams]]
+label = "arc"
+start = [1.0, 0.0, 0.0]
+end = {end}
+center = [0.0, 0.0, 0.0]
+elements = 4
+section = "s"
+axis2 = [0.0, 0.0, 1.0]
+[[clamps]]
+node = "arc:start"
+[solver]
+dt = 1e-4
+t_end = 1e-3
+"""
+
+
+def test_deck_arc_refines_along_the_circle(tmp_path):
+    from reference.io.deck import load_deck
+
+    deck = tmp_path / "arc.toml"
+    deck.write_text(ARC_DECK.format(end="[0.0, 1.0, 0.0]"))
+    d = load_deck(deck, overrides={"refine": 2})
+    x = np.array([n.position for n in d.nodes])
+    assert len(d.elements) == 8 and np.allclose(np.linalg.norm(x, axis=1), 1.0, atol=1e-15)
+    # node frames on the tangent, axis 2 out of the plane
+    for n in d.nodes:
+        A = EulerParameters(n.rotation).matrix()
+        assert abs(A[:, 0] @ n.position) < 1e-14 and np.allclose(A[:, 1], [0, 0, 1.0])
+
+
+@pytest.mark.parametrize("end, message", [
+    ("[0.0, 1.01, 0.0]", "not equidistant from center .* > 1e-06"),
+    ("[-1.0, 0.0, 0.0]", "diametrically opposite"),
+])
+def test_deck_arc_errors_are_one_line(tmp_path, end, message):
+    from reference.io.deck import DeckError, load_deck
+
+    deck = tmp_path / "arc.toml"
+    deck.write_text(ARC_DECK.format(end=end))
+    with pytest.raises(DeckError, match=message) as info:
+        load_deck(deck)
+    assert "beams[0]" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_node_rotation_is_kept_by_the_beams_that_use_it():
+    # the node keeps its given frame; never reset (was: silently overwritten by add_beam)
+    d = Domain()
+    r = quat([0.2, 0.5, 1.0], 2.0)
+    n = d.add_node([1.0, 0, 0], r, "corner")
+    d.add_beam("a", [0.0, 0, 0], [1.0, 0, 0], 2, section(), end_node=n)
+    d.add_beam("b", [1.0, 0, 0], [1.0, 0, 1.0], 2, section(), start_node=n)
+    assert np.array_equal(n.rotation, r)
+    force, U = rigid_motion_is_strain_free(d)
+    assert force < 1e-13 and U < 1e-18
