@@ -56,29 +56,43 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
         lines.append(f"| {v.observable} | {v.max_difference:.3e} | {v.rms_difference:.3e} | {v.relative_to} "
                      f"({v.scale:.3g}) | {v.measure:.3e} | {v.tolerance:g} | {'pass' if v.passed else '**FAIL**'} | {v.reason} |")
     specs = list(dict.fromkeys(v.observable for v in cmp["verdicts"]))
-    fig, axes = plt.subplots(len(specs) + 2, 1, figsize=(6.4, 2.4 * (len(specs) + 2)), sharex=True, squeeze=False)
+    joints = bool(ref_domain.model.n_constraints)
+    rows = len(specs) + 1 + joints
+    fig, axes = plt.subplots(rows, 1, figsize=(6.4, 2.3 * rows + 0.5), sharex=True, squeeze=False)
     for ax, spec in zip(axes[:, 0], specs):
         va, vb = observable(ref, spec, _last_node(ref)), observable(exr, spec, _last_node(exr))
+        vb_on = np.stack([np.interp(ref.time, exr.time, c) for c in np.atleast_2d(vb.T)], axis=-1).reshape(va.shape)
+        twin = ax.twinx()
         if va.ndim == 2:
-            va, vb = np.linalg.norm(va - va[0], axis=1), np.linalg.norm(vb - vb[0], axis=1)
-            ax.set_ylabel("|Δ position|", fontsize=8)
+            # what the verdict judges: the norm of the vector difference, not a difference of magnitudes
+            ax.plot(ref.time, np.linalg.norm(va - va[0], axis=1), label="reference |x − x(0)|")
+            ax.plot(exr.time, np.linalg.norm(vb - vb[0], axis=1), "--", label="Exudyn |x − x(0)|")
+            twin.plot(ref.time, np.linalg.norm(va - vb_on, axis=1), "r:", label="|x_ref − x_Exudyn| (judged)")
+            ax.set_ylabel(f"{spec}\ndisplacement [m]", fontsize=8)
+            twin.set_ylabel("difference [m]", fontsize=8, color="r")
         else:
-            ax.set_ylabel(spec.split(":")[0], fontsize=8)
-        ax.plot(ref.time, va, label="reference")
-        ax.plot(exr.time, vb, "--", label="Exudyn")
-        ax.plot(ref.time, va - np.interp(ref.time, exr.time, vb), ":", label="difference")
-        ax.legend(fontsize=7)
-    ax = axes[-2, 0]
+            unit = "[rad]" if "angle" in spec else "[m]"
+            ax.plot(ref.time, va, label="reference")
+            ax.plot(exr.time, vb, "--", label="Exudyn")
+            twin.plot(ref.time, va - vb_on, "r:", label="reference − Exudyn (judged)")
+            ax.set_ylabel(f"{spec} {unit}", fontsize=8)
+            twin.set_ylabel(f"difference {unit}", fontsize=8, color="r")
+        handles = ax.get_legend_handles_labels()[0] + twin.get_legend_handles_labels()[0]
+        ax.legend(handles, [h.get_label() for h in handles], fontsize=7, loc="upper left")
+    ax = axes[len(specs), 0]
     for key, style in (("kinetic", "-"), ("strain", "-.")):
         ax.plot(ref.time, ref.energy[key], style, label=f"{key} (reference)")
         ax.plot(exr.time, exr.energy[key], style, alpha=0.6, lw=2.5, label=f"{key} (Exudyn)")
-    ax.set_ylabel("energy", fontsize=8)
+    ax.set_ylabel("energy [J]", fontsize=8)
     ax.legend(fontsize=7)
-    ax = axes[-1, 0]
-    ax.semilogy(ref.time[1:], np.maximum(ref.constraint_violation[1:], 1e-17), label="‖Φ‖ reference")
-    ax.semilogy(exr.time[1:], np.maximum(exr.constraint_violation[1:], 1e-17), "--", label="‖Φ‖ Exudyn")
-    ax.set_xlabel("t")
-    ax.legend(fontsize=7)
+    if joints:
+        ax = axes[-1, 0]
+        ax.semilogy(ref.time[1:], np.maximum(ref.constraint_violation[1:], 1e-17), label="‖Φ‖ reference")
+        ax.semilogy(exr.time[1:], np.maximum(exr.constraint_violation[1:], 1e-17), "--", label="‖Φ‖ Exudyn")
+        ax.set_ylabel("constraint\nviolation [m]", fontsize=8)
+        ax.legend(fontsize=7)
+    axes[-1, 0].set_xlabel("time t [s]")
+    axes[0, 0].set_title(f"Cross-check {name}: reference engine and Exudyn", fontsize=10)
     fig.tight_layout()
     figure = Path(figures or out) / f"crosscheck_{name}.png"
     fig.savefig(figure, dpi=120)

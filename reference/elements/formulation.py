@@ -138,7 +138,7 @@ class Beam2Formulation(ElementFormulation):
 
         The minimum of the axial ``L0 √(ρA/EA)``, torsional ``L0 √(ρJ1/GJ)``,
         bending–rotation ``L0 √(ρJ/EI)`` limits and the coupled shear–rotation
-        mode ``2/√((GA/ρA)(4/L0² + ρA/ρJ))`` (FORMULATION.md; each matched the
+        mode ``2/√((GA/ρA)(4/L0² + ρA/ρJ))`` (docs/formulation.md §3; each matched the
         eigenvalue limit within 0.5 %, the last is ~9 % conservative).
         """
         s = self.section
@@ -178,6 +178,29 @@ def to_node_frame(o, v, out):
     out[0] = a * v[0] + d * e1 + 2.0 * e0 * (e2 * v[2] - e3 * v[1])
     out[1] = a * v[1] + d * e2 + 2.0 * e0 * (e3 * v[0] - e1 * v[2])
     out[2] = a * v[2] + d * e3 + 2.0 * e0 * (e1 * v[1] - e2 * v[0])
+
+
+@kernel
+def tangent_to_node_frame(o1, o2, K, v, out):
+    """A section-frame element tangent (12×12) to the node frames, in place: ``K ← T K Tᵀ``.
+
+    ``T = blockdiag(I, A(o1), I, A(o2))``: ``S_node = T s_sec`` and
+    ``δθ_section = A(o_a)ᵀ δθ_node`` exactly, so ``∂S_node/∂δ_node = T K_sec Tᵀ``.
+    ``v``, ``out`` (3,) scratch.
+    """
+    for pass_ in range(2):
+        for c in range(12):
+            for blk in range(2):
+                o = o1 if blk == 0 else o2
+                r0 = 3 + 6 * blk
+                for k in range(3):
+                    v[k] = K[r0 + k, c] if pass_ == 0 else K[c, r0 + k]
+                to_node_frame(o, v, out)
+                for k in range(3):
+                    if pass_ == 0:
+                        K[r0 + k, c] = out[k]
+                    else:
+                        K[c, r0 + k] = out[k]
 
 
 @kernel
