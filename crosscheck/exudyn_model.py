@@ -146,6 +146,7 @@ def build(domain, dt: float, output_every: int, progress=None, t_end: float = 1.
         return mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=nodes[node.id], localHT=_ht(R, p)))
 
     time_functions = []
+    joint_objects = {}
     drives = {id(_partner(domain, j)): j for j in domain.joints if j.kind in MERGES}
     for j in domain.joints:
         if j.kind in MERGES:
@@ -171,7 +172,10 @@ def build(domain, dt: float, output_every: int, progress=None, t_end: float = 1.
         # a universal joint's locked rotation pairs the pin of body i (u1) with the pin of body j (u2):
         # Exudyn's generic joint locks marker 0's x against marker 1's y, so body i goes first there
         order = [m1, m0] if j.kind == "universal" else [m0, m1]
-        mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=order, constrainedAxes=axes, **options))
+        number = mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=order, constrainedAxes=axes, **options))
+        joint_objects[id(j)] = number
+        if drive is not None:
+            joint_objects[id(drive)] = number
 
     for bc in domain.boundary_conditions:
         node = domain.node(bc.node)
@@ -218,6 +222,14 @@ def build(domain, dt: float, output_every: int, progress=None, t_end: float = 1.
                                                    outputVariableType=ov)) for nd in nodes]
                for kind, ov in (("position", OV.Position), ("velocity", OV.Velocity),
                                 ("angular_velocity", OV.AngularVelocityLocal), ("rotation", OV.RotationMatrix))}
+    for kind, ov in (("joint_force", OV.ForceLocal), ("joint_torque", OV.TorqueLocal)):
+        sensors[kind] = [mbs.AddSensor(eii.SensorObject(objectNumber=joint_objects[id(j)], storeInternal=True,
+                                                        writeToFile=False, outputVariableType=ov))
+                         for j in domain.joints]
+    for kind, ov in (("section_force", OV.ForceLocal), ("section_moment", OV.TorqueLocal)):
+        sensors[kind] = [mbs.AddSensor(eii.SensorBody(bodyNumber=obj, localPosition=[0.0, 0.0, 0.0], storeInternal=True,
+                                                      writeToFile=False, outputVariableType=ov))
+                         for obj in beam_objects]
     mbs.Assemble()
     return SC, mbs, sensors
 
@@ -261,19 +273,75 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
     rot = np.array([[EulerParameters.from_matrix(R.reshape(3, 3)).q for R in data["rotation"][n, :, 1:10]]
                     for n in range(len(domain.nodes))]).transpose(1, 0, 2)
     results = measured(domain, times, pos, rot, vel, omg, wall, dt)
+    results.joint_labels = [j.label for j in domain.joints]
+    results.reaction_forces, results.reaction_moments = joint_reactions(
+        domain, rot, np.array([[mbs.GetSensorStoredData(s)[:, 1:4] for s in sensors[k]]
+                               for k in ("joint_force", "joint_torque")]).reshape(2, len(domain.joints), len(times), 3))
+    results.element_labels = [e.label for e in domain.elements]
+    section = {k: np.array([mbs.GetSensorStoredData(s)[:, 1:4] for s in sensors[k]]).reshape(-1, len(times), 3)
+               for k in ("section_force", "section_moment")}
+    results.section_forces = np.transpose(section["section_force"], (1, 0, 2))
+    results.section_moments = np.transpose(section["section_moment"], (1, 0, 2))
     if results_path is not None:
-        writer = ResultsWriter(results_path, labels=results.labels, ids=[n.id for n in domain.nodes], attrs={
+        writer = ResultsWriter(results_path, labels=results.labels, ids=[n.id for n in domain.nodes],
+                               items={"joints": results.joint_labels, "elements": results.element_labels}, attrs={
             "engine": "exudyn", "engine_version": exu.__version__, "deck": domain.deck_text,
             "deck_path": str(domain.deck_path), "algorithm": "generalized-alpha (Exudyn)", "dt": dt,
             "energy_note": "evaluated with the reference's definitions on Exudyn's states; external work "
-                           "excludes driving motions"})
+                           "excludes driving motions",
+            "reaction_note": "joint reactions from Exudyn's joint sensors (ForceLocal, TorqueLocal of "
+                             "ObjectJointGeneric), section resultants from the beams' own ForceLocal/TorqueLocal "
+                             "output at the element midpoint; no multipliers (Exudyn's are another set)"})
         for i, t in enumerate(times):
             writer.append({"time": t, "position": pos[i], "rotation": rot[i], "velocity": vel[i],
                            "angular_velocity": omg[i], "violation_norm": results.constraint_violation[i],
+                           "reaction_force": results.reaction_forces[i], "reaction_moment": results.reaction_moments[i],
+                           "section_force": results.section_forces[i], "section_moment": results.section_moments[i],
                            "velocity_violation_norm": results.velocity_constraint_violation[i],
                            **{k: v[i] for k, v in results.energy.items()}})
         writer.close("completed")
     return {"results": results, "wall_time": wall, "steps": steps, "exudyn_version": exu.__version__}
+
+
+def joint_reactions(domain, rot, local) -> tuple[np.ndarray, np.ndarray]:
+    """Reactions on each joint's body_i, inertial, from Exudyn's joint sensors.
+
+    ``local`` (2, J, n, 3): ``ForceLocal`` and ``TorqueLocal`` of the generic joint
+    carrying each deck joint, in the frame J0 of its marker 0 (``A_0(t) f_0``, the
+    joint frame fixed on that body).  Measured on static cases (a pinned bar under
+    gravity, ``tests/test_reactions.py``): Exudyn's ``ForceLocal`` is the force
+    on marker 0 and ``TorqueLocal`` the torque on marker 1, so with marker 1 =
+    body_i (every kind but the universal joint, whose markers are swapped)
+    ``F_i = −A_0 f_0 F_local`` and ``M_i = A_0 f_0 T_local``.  A drive merged
+    into its revolute (translational) joint takes the torque (force) along the
+    axis; the joint keeps the rest — the reference's split between a joint and
+    its drive.  Both act at the joint point (the markers coincide there).
+    """
+    J, n = local.shape[1], local.shape[2]
+    force, moment = np.zeros((n, J, 3)), np.zeros((n, J, 3))
+    drives = {id(_partner(domain, j)): j for j in domain.joints if j.kind in MERGES}
+    for k, j in enumerate(domain.joints):
+        carrier = _partner(domain, j) if j.kind in MERGES else j  # the Exudyn joint (and its markers)
+        swapped = carrier.kind == "universal"
+        par = carrier.body_fixed()
+        body, f0 = (carrier.body_i, par[6:15]) if swapped else (carrier.body_j, par[15:24])
+        f0 = f0.reshape(3, 3)
+        for t in range(n):
+            R = (np.eye(3) if body is None else _matrix(rot[t, body.id])) @ f0
+            sign = 1.0 if swapped else -1.0
+            F, M = sign * R @ local[0, k, t], -sign * R @ local[1, k, t]
+            axis = R[:, 2]
+            if j.kind == "rotation_drive":
+                F, M = np.zeros(3), np.dot(M, axis) * axis
+            elif j.kind == "displacement_drive":
+                F, M = np.dot(F, axis) * axis, np.zeros(3)
+            elif id(j) in drives:
+                if drives[id(j)].kind == "rotation_drive":
+                    M = M - np.dot(M, axis) * axis
+                else:
+                    F = F - np.dot(F, axis) * axis
+            force[t, k], moment[t, k] = F, M
+    return force, moment
 
 
 def measured(domain, times, pos, rot, vel, omg, wall, dt):

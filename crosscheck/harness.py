@@ -6,9 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from crosscheck.compare import compare, observable, _last_node
+from crosscheck.compare import compare, pointwise
 from crosscheck.exudyn_model import check_supported
 from crosscheck.exudyn_model import solve as solve_exudyn
+from reference.observables import default_crosscheck, parse
 
 
 def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float | None = None,
@@ -38,6 +39,9 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     ex = solve_exudyn(ex_domain, dt=dt_ex, results_path=out / "results_exudyn.h5", progress=exudyn_progress)
     exr = ex["results"]
     checks = {name: spec for name, spec in ref_domain.crosscheck.items() if int(spec.get("refine", 1)) == refine}
+    default = not ref_domain.crosscheck
+    if default:
+        checks = default_crosscheck()
     cmp = compare(ref, exr, checks)
     name = ref_domain.name + (f"_refine{refine}" if refine != 1 else "")
     lines = [f"### Cross-check: `{Path(deck).name}`" + (f", flexible beams refined ×{refine}" if refine != 1 else ""), "",
@@ -50,6 +54,8 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
              f"| max ‖Φ‖ | {cmp['drift']['a']['violation_max']:.2e} | {cmp['drift']['b']['violation_max']:.2e} |",
              f"| max ‖B V + Φ_t‖ | {cmp['drift']['a']['velocity_violation_max']:.2e} | "
              f"{cmp['drift']['b']['velocity_violation_max']:.2e} |", "",
+             *([f"The deck has no `[crosscheck]` table: default comparison of every node's position "
+                f"(tolerance {checks['all_nodes']['tolerance']:g} of the length).", ""] if default else []),
              "| observable | max difference | RMS | relative to | measure | tolerance | result | reason |",
              "|---|---|---|---|---|---|---|---|"]
     for v in cmp["verdicts"]:
@@ -58,12 +64,13 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     specs = list(dict.fromkeys(v.observable for v in cmp["verdicts"]))
     fig, axes = plt.subplots(len(specs) + 2, 1, figsize=(6.4, 2.4 * (len(specs) + 2)), sharex=True, squeeze=False)
     for ax, spec in zip(axes[:, 0], specs):
-        va, vb = observable(ref, spec, _last_node(ref)), observable(exr, spec, _last_node(exr))
-        if va.ndim == 2:
-            va, vb = np.linalg.norm(va - va[0], axis=1), np.linalg.norm(vb - vb[0], axis=1)
-            ax.set_ylabel("|Δ position|", fontsize=8)
+        obs = parse(spec, ref)
+        va, vb = obs.evaluate(ref), parse(spec, exr).evaluate(exr)
+        if va.ndim > 1:
+            va, vb = pointwise(va - va[0]), pointwise(vb - vb[0])
+            ax.set_ylabel(f"|Δ {obs.kind}| [{obs.unit}]", fontsize=8)
         else:
-            ax.set_ylabel(spec.split(":")[0], fontsize=8)
+            ax.set_ylabel(f"{spec} [{obs.unit}]", fontsize=8)
         ax.plot(ref.time, va, label="reference")
         ax.plot(exr.time, vb, "--", label="Exudyn")
         ax.plot(ref.time, va - np.interp(ref.time, exr.time, vb), ":", label="difference")
@@ -85,5 +92,5 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     plt.close(fig)
     lines += ["", f"![cross-check]({'figures/' if figures else ''}{figure.name})", ""]
     (out / "crosscheck.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    cmp.update(markdown=lines, figure=figure, reference=ref, exudyn=exr, exudyn_wall=ex["wall_time"])
+    cmp.update(default=default, markdown=lines, figure=figure, reference=ref, exudyn=exr, exudyn_wall=ex["wall_time"])
     return cmp

@@ -70,6 +70,7 @@ def cmd_derive(args) -> int:
 def cmd_crosscheck(args) -> int:
     Unsupported = _module("crosscheck.exudyn_model", "crosscheck").Unsupported
     run = _module("crosscheck.harness", "crosscheck").run
+    from reference.observables import ObservableError
     from flexmbs.progress import ProgressBar
 
     out = Path(args.out) if args.out else Path("out") / (Path(args.deck).stem + "_crosscheck")
@@ -78,6 +79,10 @@ def cmd_crosscheck(args) -> int:
                   progress=ProgressBar("reference"), exudyn_progress=ProgressBar("Exudyn   "))
     except Unsupported as exc:
         raise CommandError(f"{args.deck}: cannot be cross-checked in Exudyn: {exc}") from None
+    except ObservableError as exc:
+        raise CommandError(f"{args.deck}: {exc}") from None
+    if cmp.get("default"):
+        print("the deck has no [crosscheck] table: compared every node's position (default, 1 % of the length)")
     failed = [v for v in cmp["verdicts"] if not v.passed]
     for v in cmp["verdicts"]:
         print(f"{'pass' if v.passed else 'FAIL'}  {v.observable}: {v.measure:.3e} (tolerance {v.tolerance:g}, "
