@@ -92,7 +92,12 @@ def cmd_crosscheck(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    return _module("flexmbs.plot", "plot").main(args)
+    from reference.observables import ObservableError
+
+    try:
+        return _module("flexmbs.plot", "plot").main(args)
+    except ObservableError as exc:
+        raise CommandError(f"{args.results}: --observable: {exc}") from None
 
 
 def cmd_report(args) -> int:
@@ -125,6 +130,8 @@ def parser() -> argparse.ArgumentParser:
     pl = sub.add_parser("plot", help="time histories, drift, energies and an animation from a results file")
     pl.add_argument("results")
     pl.add_argument("--node", action="append", help="node label (repeatable)")
+    pl.add_argument("--observable", action="append", metavar="EXPR",
+                    help="any observable, e.g. 'reaction_moment.z:crank drive' (repeatable; docs/observables.md)")
     pl.add_argument("--drift", action="store_true", help="constraint violation history")
     pl.add_argument("--energy", action="store_true", help="energy histories")
     pl.add_argument("--animate", metavar="NAME.gif", help="animation of the motion")

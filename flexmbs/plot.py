@@ -1,4 +1,4 @@
-"""``flexmbs plot RESULTS.h5``: time histories, constraint drift, energies and an animation.
+"""``flexmbs plot RESULTS.h5``: time histories, any observable, constraint drift, energies and an animation.
 
 Works on any results file honouring the contract (either engine).
 """
@@ -50,11 +50,38 @@ def main(args) -> int:
         ax.set_xlabel("t")
         ax.legend(fontsize=8)
         written.append(save_figure(fig, out / "energy.png"))
+    for text in getattr(args, "observable", None) or []:
+        written.append(plot_observable(r, text, out, plt))
     if args.animate:
         written.append(animate(r, out / args.animate, every=args.every))
     for path in written:
         print(f"wrote {path}")
     return 0
+
+
+def plot_observable(r, text: str, out: Path, plt) -> Path:
+    """Figure of one observable (``reference/observables.py``) over time: a scalar, the components of a
+    vector, or every node's displacement for ``position:*``."""
+    from reference.observables import parse
+
+    obs = parse(text, r)
+    values = obs.evaluate(r)
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    if values.ndim == 1:
+        ax.plot(r.time, values)
+    elif values.ndim == 2:
+        names = {4: ["q0", "q1", "q2", "q3"]}.get(values.shape[1], ["1", "2", "3"] if "section" in obs.kind
+                                                  else ["x", "y", "z"])
+        for k in range(values.shape[1]):
+            ax.plot(r.time, values[:, k], label=names[k])
+        ax.legend(fontsize=8)
+    else:
+        ax.plot(r.time, np.linalg.norm(values - values[:1], axis=2), lw=0.8)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(f"{obs.text} [{obs.unit}]", fontsize=8)
+    ax.set_title(f"{obs.describe()} ({r.attrs.get('engine', '')})", fontsize=9)
+    safe = "".join(c if c.isalnum() or c in "._-" else "_" for c in text)
+    return save_figure(fig, out / f"observable_{safe}.png")
 
 
 def save_figure(fig, path: Path, dpi: int = 120) -> Path:
