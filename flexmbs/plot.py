@@ -5,6 +5,7 @@ Works on any results file honouring the contract (either engine).
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -79,7 +80,7 @@ def plot_observable(r, text: str, out: Path, plt) -> Path:
         ax.plot(r.time, np.linalg.norm(values - values[:1], axis=2), lw=0.8)
     ax.set_xlabel("t [s]")
     ax.set_ylabel(f"{obs.text} [{obs.unit}]", fontsize=8)
-    ax.set_title(f"{obs.describe()} ({r.attrs.get('engine', '')})", fontsize=9)
+    ax.set_title(textwrap.fill(f"{obs.describe()} ({r.attrs.get('engine', '')})", 80), fontsize=8)
     safe = "".join(c if c.isalnum() or c in "._-" else "_" for c in text)
     return save_figure(fig, out / f"observable_{safe}.png")
 

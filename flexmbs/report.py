@@ -345,6 +345,7 @@ def three_bar_section(out: Path, quick: bool, figures: Path) -> tuple[list[str],
 def crosscheck_section(out: Path, quick: bool, figures: Path) -> tuple[list[str], list[Check]]:
     """Every deck in models/ in both engines (issue: the cross-check harness), compared."""
     from crosscheck.harness import run
+    from crosscheck.reactions import reaction_comparison
 
     lines = ["## 3. Cross-check with Exudyn", "",
              "Every deck is translated item by item into Exudyn 1.13 (`crosscheck/exudyn_model.py`) and solved "
@@ -359,6 +360,9 @@ def crosscheck_section(out: Path, quick: bool, figures: Path) -> tuple[list[str]
         t_end = 3.0 if quick and deck.stem == "three_bar" else None
         cmp = run(deck, out / f"crosscheck_{deck.stem}_{refine}", refine=refine, t_end=t_end, figures=figures)
         lines += cmp["markdown"]
+        if deck.stem == "three_bar" and refine == 1:  # the crank torque and pin A's force, both engines
+            lines += ["Joint reactions (Exudyn's joint sensors against the reference's multipliers):", ""]
+            lines += reaction_comparison(cmp["reference"], cmp["exudyn"], path=figures / "three_bar_reactions.png")["markdown"] + [""]
         for v in cmp["verdicts"]:
             checks.append(Check(f"Exudyn cross-check {deck.stem}" + (f" ×{refine}" if refine > 1 else "")
                                 + f": {v.observable}", f"Exudyn, relative to {v.relative_to}", v.measure,
