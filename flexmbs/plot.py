@@ -24,8 +24,10 @@ def main(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for label in args.node or []:
-        if label not in r.labels:
-            raise KeyError(f"{args.results}: no node {label!r}; nodes are e.g. {', '.join(r.labels[:6])}")
+        try:
+            r.index(label)  # a label or BEAM:start / BEAM:end
+        except KeyError:
+            raise KeyError(f"{args.results}: no node {label!r}; nodes are e.g. {', '.join(r.labels[:6])}") from None
         fig, axes = plt.subplots(2, 1, figsize=(6.4, 5.0), sharex=True)
         for k, comp in enumerate("xyz"):
             axes[0].plot(r.time, r.position(label)[:, k], label=comp)
