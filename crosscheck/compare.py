@@ -60,14 +60,6 @@ class Verdict:
         return bool(np.isfinite(self.measure) and self.measure <= self.tolerance)
 
 
-def observable(results, spec: str, end_label=None) -> np.ndarray:
-    """Time history of an observable text (see :mod:`reference.observables`) from ``results``.
-
-    ``end_label`` is ignored (kept for callers of the earlier signature; ``BEAM:end`` is an alias now).
-    """
-    return parse(spec, results).evaluate(results)
-
-
 def pointwise(values) -> np.ndarray:
     """Per output time: ``|v|`` of a scalar, ``‖v‖`` of a vector, max over points of ``‖v‖`` for (n, N, 3)."""
     values = np.asarray(values)
@@ -76,13 +68,6 @@ def pointwise(values) -> np.ndarray:
     if values.ndim == 2:
         return np.linalg.norm(values, axis=1)
     return np.linalg.norm(values, axis=2).max(axis=1)
-
-
-def _last_node(results):
-    def label(beam):
-        return results.labels[results.index(f"{beam}:end")]
-
-    return label
 
 
 def _on_times(values, t_from, t_to):

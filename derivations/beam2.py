@@ -1,6 +1,6 @@
 """The two-node geometrically exact beam (Beam2), one-point integration, in sympy.
 
-Kinematics (Simo & Vu-Quoc 1986; FORMULATION.md), strains at the midpoint::
+Kinematics (Simo & Vu-Quoc 1986; docs/formulation.md §3), strains at the midpoint::
 
     x' = (x2 − x1)/L0
     r  = q1* ⊗ q2 (shortest branch),  ψ = log r       relative rotation

@@ -17,6 +17,7 @@
 
 # %%
 import os
+from pathlib import Path
 
 import numpy as np
 
@@ -25,7 +26,11 @@ from reference.domain import Domain
 from reference.elements import Beam2Formulation, Section
 from reference.rotation import RotationVector
 
+import reference
+
 QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
+# the repository, wherever the notebook runs from (the editable install points here)
+ROOT = Path(reference.__file__).resolve().parents[1]
 section = Section(EA=10.0, GA2=3.0, GA3=4.0, GJ=2.0, EI2=5.0, EI3=7.0, rhoA=1.0, rhoJ1=0.2, rhoJ2=0.1, rhoJ3=0.1)
 beam = Beam2Formulation(section)
 x_ref = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
@@ -71,7 +76,7 @@ assert gap < 1e-8
 # unstrained chords; the dynamic run (k is the time) adds a small damping lag.
 
 # %%
-domain = Domain.from_deck("models/embedded_beam.toml")
+domain = Domain.from_deck(ROOT / "models/embedded_beam.toml")
 result = domain.solve()
 for k in (0.5, 1.0, 1.5, 2.0):
     i = int(np.argmin(abs(result.time - k)))

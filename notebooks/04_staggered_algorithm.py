@@ -70,9 +70,14 @@ assert 1.0 <= lo / h_crit <= 1.25  # safe, and not needlessly small
 
 # %%
 import os
+from pathlib import Path
+
+import reference
 
 QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
-d = Domain.from_deck("models/three_bar.toml", overrides={"t_end": 2.0 if QUICK else 10.0})
+# the repository, wherever the notebook runs from (the editable install points here)
+ROOT = Path(reference.__file__).resolve().parents[1]
+d = Domain.from_deck(ROOT / "models/three_bar.toml", overrides={"t_end": 2.0 if QUICK else 10.0})
 r = d.solve()
 print("max ‖Φ‖ = %.2e over %g s" % (r.constraint_violation.max(), r.time[-1]))
 assert r.constraint_violation.max() < 5e-5

@@ -18,13 +18,18 @@
 
 # %%
 import os
+from pathlib import Path
 import tempfile
 
 from crosscheck.harness import run
 
+import reference
+
 QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
+# the repository, wherever the notebook runs from (the editable install points here)
+ROOT = Path(reference.__file__).resolve().parents[1]
 with tempfile.TemporaryDirectory() as out:
-    cmp = run("models/three_bar.toml", out, t_end=2.0 if QUICK else 10.0)
+    cmp = run(ROOT / "models/three_bar.toml", out, t_end=2.0 if QUICK else 10.0)
 for v in cmp["verdicts"]:
     print(f"{v.observable}: {v.measure:.3e} (tolerance {v.tolerance:g}, relative to {v.relative_to})")
 print("max ‖Φ‖: reference %.1e, Exudyn %.1e" % (cmp["drift"]["a"]["violation_max"], cmp["drift"]["b"]["violation_max"]))

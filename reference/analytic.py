@@ -9,7 +9,7 @@ def elastica_tip(length: float, k: float) -> np.ndarray:
     """Tip of a cantilever along +x under an end moment ``M = k π EI/L`` bending it towards +z.
 
     The elastica is a circular arc of curvature ``M/EI`` (exact for any EA, GA):
-    with ``t = k π``, ``x = L sin t / t``, ``z = L (1 − cos t)/t`` (BENCHMARKS.md §1).
+    with ``t = k π``, ``x = L sin t / t``, ``z = L (1 − cos t)/t`` (docs/benchmarks.md §1).
     """
     t = k * np.pi
     if abs(t) < 1e-12:

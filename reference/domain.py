@@ -21,14 +21,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from reference.algorithms import StaggeredCentralDifference
+from reference.algorithms import ALGORITHMS, Algorithm
 from reference.algorithms.staggered import OK
 from reference.elements import Beam2Formulation, Element, Section
 from reference.elements.formulation import beam2_resultants
 from reference.interactions import Constant, FixedCoordinates, Gravity, Interaction, NodalLoad, TimeFunction
 from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
 from reference.joints.master_slave import master_slave_parameters
-from reference.joints.assembly import SINGULAR, apply_inverse_mass, assemble_constraints
+from reference.joints.assembly import apply_inverse_mass, assemble_constraints
 from reference.joints.joint import ROWS
 from reference.joints.reactions import reactions
 from reference.nodes import Node
@@ -47,11 +47,12 @@ class SolverSettings:
     Parameters
     ----------
     algorithm : str
-        ``"staggered_central_difference"`` (Park).
+        A name of :data:`reference.algorithms.ALGORITHMS`: ``"staggered_central_difference"``
+        (Park, explicit), ``"static"`` (load stepping, Newton), ``"generalized_alpha"`` (implicit).
     dt : float
-        Time step [s].
+        Time step [s] (static: ``t_end / load_steps``).
     t_end : float
-        End time [s].
+        End time [s] (static: the final load factor).
     damping : float
         Mass-proportional damping coefficient c [1/s] (force −c m v and moment
         −c J ω on every node), for quasi-static runs.
@@ -61,6 +62,12 @@ class SolverSettings:
         Project the initial velocities onto the velocity constraints at t = 0
         (``B V + Φ_t = 0``, the change of least kinetic energy), e.g. to start a
         mechanism at its full driving speed.
+    load_steps : int
+        Static: number of equal load steps from 0 to ``t_end``.
+    rho_inf : float
+        Generalized-α: spectral radius at infinite frequency (1: no numerical dissipation).
+    tolerance, max_iterations : float, int, optional
+        Newton settings of the implicit algorithms (None: the algorithm's default).
     """
 
     algorithm: str = "staggered_central_difference"
@@ -69,6 +76,10 @@ class SolverSettings:
     damping: float = 0.0
     output_every: int = 1
     consistent_initial_velocities: bool = False
+    load_steps: int = 1
+    rho_inf: float = 0.8
+    tolerance: float | None = None
+    max_iterations: int | None = None
 
 
 def beam_triad(axis: np.ndarray, axis2_hint) -> np.ndarray:
@@ -567,10 +578,11 @@ class Domain:
         V = (V0 - BM.T @ lam).reshape(-1, 6)
         state.v[:], state.w[:] = V[:, :3], V[:, 3:]
 
-    def algorithm(self, dt: float | None = None) -> StaggeredCentralDifference:
-        if self.solver.algorithm != StaggeredCentralDifference.name:
-            raise ValueError(f"unknown algorithm {self.solver.algorithm!r}; available: {StaggeredCentralDifference.name!r}")
-        return StaggeredCentralDifference(dt or self.solver.dt)
+    def algorithm(self, dt: float | None = None) -> Algorithm:
+        """The solver's algorithm, looked up by name in :data:`reference.algorithms.ALGORITHMS`."""
+        if self.solver.algorithm not in ALGORITHMS:
+            raise ValueError(f"unknown algorithm {self.solver.algorithm!r}; available: {', '.join(ALGORITHMS)}")
+        return ALGORITHMS[self.solver.algorithm].from_settings(self.solver, dt)
 
     def solve_at(self, time: float) -> State:
         """Advance the current state (initialised on first use) to ``time`` (paper: Solve_at)."""
@@ -591,7 +603,7 @@ class Domain:
         t_end, dt : float, optional
             Override the deck's end time and step.
         results_path : path, optional
-            HDF5 results file written incrementally (DESIGN.md contract).
+            HDF5 results file written incrementally (the contract of reference/io/results.py).
         progress : callable(fraction, t), optional
             Called after every output.
 
@@ -626,20 +638,9 @@ class Domain:
                 t_record = state.t
                 code = algo.advance(model, state, chunk, rec, scratch)
                 self._store(rec, t_record, records, writer)
-                if code == SINGULAR:
-                    status = f"singular constraints after t = {records[-1]['time']:.6g}"
-                    raise SolverDiverged(
-                        f"the constraint matrix became singular after t = {records[-1]['time']:.6g} "
-                        "(redundant or degenerate joints); results up to that time are kept. "
-                        "Regularise the joints (epsilon > 0) or remove the redundancy."
-                    )
                 if code != OK:
-                    status = f"diverged after t = {records[-1]['time']:.6g}"
-                    raise SolverDiverged(
-                        f"the solution became non-finite after t = {records[-1]['time']:.6g} "
-                        f"(step {state.n}); results up to that time are kept. "
-                        f"Reduce dt below the critical estimate {self.critical_time_step():.3g} or check the loads."
-                    )
+                    status, message = algo.failure(code, records[-1]["time"], self)
+                    raise SolverDiverged(message)
                 done += chunk
                 if progress is not None and chunk > 0:
                     progress(done / n_total, state.t)

@@ -127,7 +127,7 @@ class Beam2Formulation(ElementFormulation):
 
         The minimum of the axial ``L0 √(ρA/EA)``, torsional ``L0 √(ρJ1/GJ)``,
         bending–rotation ``L0 √(ρJ/EI)`` limits and the coupled shear–rotation
-        mode ``2/√((GA/ρA)(4/L0² + ρA/ρJ))`` (FORMULATION.md; each matched the
+        mode ``2/√((GA/ρA)(4/L0² + ρA/ρJ))`` (docs/formulation.md §3; each matched the
         eigenvalue limit within 0.5 %, the last is ~9 % conservative).
         """
         s = self.section

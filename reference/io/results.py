@@ -1,4 +1,4 @@
-"""The results file (HDF5), the contract both engines honour (DESIGN.md).
+"""The results file (HDF5), the contract both engines honour.
 
 Layout::
 
