@@ -303,19 +303,52 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
     return {"results": results, "wall_time": wall, "steps": steps, "exudyn_version": exu.__version__}
 
 
+PAIRS_ALL = ((2, 1), (2, 0), (0, 1))
+"""Exudyn's generic joint with all three rotations locked: its rotation equations are
+``t_z0·t_y1``, ``t_z0·t_x1``, ``t_x0·t_y1`` (axes of the marker frames J0, J1)."""
+PAIRS_ONE = {0: (1, 2), 1: (2, 0), 2: (0, 1)}
+"""One rotation k locked: the equation ``t_a0·t_b1`` with (a, b) = PAIRS_ONE[k]."""
+
+
+def _marker_torque(locked, lam, J0, J1) -> np.ndarray:
+    """Torque on marker 1 (inertial) from the multipliers ``lam`` of Exudyn's rotation equations.
+
+    Each equation ``g = t_a0 · t_b1 = 0`` contributes ``λ (t_a0 × t_b1)`` to the torque on
+    marker 1 (δg = δθ₁ · (t_b1 × t_a0), and the constraint force is −λ ∂g).  With two rotations
+    locked and f free the equations are ``t_f0·t_k1`` for the locked k; with one, PAIRS_ONE;
+    with three, PAIRS_ALL (Exudyn's ObjectJointGeneric documentation).
+    """
+    ks = [k for k in range(3) if locked[k]]
+    if len(ks) == 3:
+        pairs = {k: PAIRS_ALL[k] for k in ks}
+    elif len(ks) == 2:
+        free = next(k for k in range(3) if not locked[k])
+        pairs = {k: (free, k) for k in ks}
+    else:
+        pairs = {k: PAIRS_ONE[k] for k in ks}
+    torque = np.zeros(3)
+    for k, (a, b) in pairs.items():
+        torque += lam[k] * np.cross(J0[:, a], J1[:, b])
+    return torque
+
+
 def joint_reactions(domain, rot, local) -> tuple[np.ndarray, np.ndarray]:
     """Reactions on each joint's body_i, inertial, from Exudyn's joint sensors.
 
     ``local`` (2, J, n, 3): ``ForceLocal`` and ``TorqueLocal`` of the generic joint
-    carrying each deck joint, in the frame J0 of its marker 0 (``A_0(t) f_0``, the
-    joint frame fixed on that body).  Measured on static cases (a pinned bar under
-    gravity, ``tests/test_reactions.py``): Exudyn's ``ForceLocal`` is the force
-    on marker 0 and ``TorqueLocal`` the torque on marker 1, so with marker 1 =
-    body_i (every kind but the universal joint, whose markers are swapped)
-    ``F_i = −A_0 f_0 F_local`` and ``M_i = A_0 f_0 T_local``.  A drive merged
-    into its revolute (translational) joint takes the torque (force) along the
-    axis; the joint keeps the rest — the reference's split between a joint and
-    its drive.  Both act at the joint point (the markers coincide there).
+    carrying each deck joint.  ``ForceLocal`` holds the multipliers of the
+    translational equations, in the joint frame J0 of marker 0 (``A_0(t) f_0``): the
+    force on marker 1 is ``−J0 F_local``.  ``TorqueLocal`` holds the multipliers of
+    the rotation equations, which are not torque components in general (Exudyn's
+    documentation says so): the torque is rebuilt by :func:`_marker_torque` from
+    the current marker frames.  Marker 1 is body_i for every kind but the universal
+    joint, whose markers are swapped (then the reactions on body_i are the
+    opposite).  Checked against the reference for every joint kind on a tilted,
+    spinning bar (``tests/test_crosscheck.py``) and on a held bar against the closed
+    form (``tests/test_observables.py``).  A drive merged into its revolute
+    (translational) joint takes the torque (force) along the axis; the joint keeps
+    the rest — the reference's split between a joint and its drive.  Both act at the
+    joint point (the markers coincide there).
     """
     J, n = local.shape[1], local.shape[2]
     force, moment = np.zeros((n, J, 3)), np.zeros((n, J, 3))
@@ -323,14 +356,16 @@ def joint_reactions(domain, rot, local) -> tuple[np.ndarray, np.ndarray]:
     for k, j in enumerate(domain.joints):
         carrier = _partner(domain, j) if j.kind in MERGES else j  # the Exudyn joint (and its markers)
         swapped = carrier.kind == "universal"
+        locked = [1] * 6 if id(carrier) in drives else AXES[carrier.kind]
         par = carrier.body_fixed()
-        body, f0 = (carrier.body_i, par[6:15]) if swapped else (carrier.body_j, par[15:24])
-        f0 = f0.reshape(3, 3)
+        frames = {"i": (carrier.body_i, par[6:15].reshape(3, 3)), "j": (carrier.body_j, par[15:24].reshape(3, 3))}
+        m0, m1 = (frames["i"], frames["j"]) if swapped else (frames["j"], frames["i"])
+        sign = -1.0 if swapped else 1.0  # marker 1 is body_i unless swapped
         for t in range(n):
-            R = (np.eye(3) if body is None else _matrix(rot[t, body.id])) @ f0
-            sign = 1.0 if swapped else -1.0
-            F, M = sign * R @ local[0, k, t], -sign * R @ local[1, k, t]
-            axis = R[:, 2]
+            J0, J1 = ((np.eye(3) if body is None else _matrix(rot[t, body.id])) @ f for body, f in (m0, m1))
+            F = -sign * J0 @ local[0, k, t]
+            M = sign * _marker_torque(locked[3:], local[1, k, t], J0, J1)
+            axis = J0[:, 2]
             if j.kind == "rotation_drive":
                 F, M = np.zeros(3), np.dot(M, axis) * axis
             elif j.kind == "displacement_drive":
