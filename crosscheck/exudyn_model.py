@@ -275,7 +275,7 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
     results = measured(domain, times, pos, rot, vel, omg, wall, dt)
     results.joint_labels = [j.label for j in domain.joints]
     results.reaction_forces, results.reaction_moments = joint_reactions(
-        domain, rot, np.array([[mbs.GetSensorStoredData(s)[:, 1:4] for s in sensors[k]]
+        domain, times, rot, np.array([[mbs.GetSensorStoredData(s)[:, 1:4] for s in sensors[k]]
                                for k in ("joint_force", "joint_torque")]).reshape(2, len(domain.joints), len(times), 3))
     results.element_labels = [e.label for e in domain.elements]
     section = {k: np.array([mbs.GetSensorStoredData(s)[:, 1:4] for s in sensors[k]]).reshape(-1, len(times), 3)
@@ -332,7 +332,7 @@ def _marker_torque(locked, lam, J0, J1) -> np.ndarray:
     return torque
 
 
-def joint_reactions(domain, rot, local) -> tuple[np.ndarray, np.ndarray]:
+def joint_reactions(domain, times, rot, local) -> tuple[np.ndarray, np.ndarray]:
     """Reactions on each joint's body_i, inertial, from Exudyn's joint sensors.
 
     ``local`` (2, J, n, 3): ``ForceLocal`` and ``TorqueLocal`` of the generic joint
@@ -361,10 +361,19 @@ def joint_reactions(domain, rot, local) -> tuple[np.ndarray, np.ndarray]:
         frames = {"i": (carrier.body_i, par[6:15].reshape(3, 3)), "j": (carrier.body_j, par[15:24].reshape(3, 3))}
         m0, m1 = (frames["i"], frames["j"]) if swapped else (frames["j"], frames["i"])
         sign = -1.0 if swapped else 1.0  # marker 1 is body_i unless swapped
+        drive = drives.get(id(carrier))
         for t in range(n):
             J0, J1 = ((np.eye(3) if body is None else _matrix(rot[t, body.id])) @ f for body, f in (m0, m1))
             F = -sign * J0 @ local[0, k, t]
-            M = sign * _marker_torque(locked[3:], local[1, k, t], J0, J1)
+            J0_rot = J0
+            if drive is not None and drive.kind == "rotation_drive":
+                # the offset user function turns J0 about its z axis by the prescribed angle: the
+                # rotation equations use the turned axes
+                tf = drive.time_function
+                th = tf.integral(times[t]) if drive.mode == "velocity" else tf(times[t])
+                c, s_ = np.cos(th), np.sin(th)
+                J0_rot = J0 @ np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]])
+            M = sign * _marker_torque(locked[3:], local[1, k, t], J0_rot, J1)
             axis = J0[:, 2]
             if j.kind == "rotation_drive":
                 F, M = np.zeros(3), np.dot(M, axis) * axis
