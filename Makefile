@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: report test bench derive notebooks clean
+.PHONY: report test fuzz bench derive notebooks clean
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
@@ -21,6 +21,10 @@ report: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
+
+# 10,000 mutated decks through the deck reader (the test suite runs 1,000)
+fuzz: $(STAMP)
+	$(BIN)/python tests/fuzz_decks.py --cases 10000
 
 bench: $(STAMP)
 	$(BIN)/flexmbs bench

@@ -251,6 +251,18 @@ def _table(checks: list[Check]) -> list[str]:
     return lines
 
 
+def reaction_lines(cmp, figure: Path) -> list[str]:
+    """The joint reactions a deck cross-checks, both engines over time (``crosscheck/reactions.py``)."""
+    from crosscheck.reactions import reaction_comparison
+
+    scalar = [o if "." in o.split(":", 1)[0] else o.replace(":", ".norm:", 1)
+              for o in dict.fromkeys(v.observable for v in cmp["verdicts"]) if o.startswith("reaction_")]
+    if not scalar:
+        return []
+    head = ["Joint reactions, Exudyn's joint sensors against the reference's multipliers:", ""]
+    return head + reaction_comparison(cmp["reference"], cmp["exudyn"], scalar, path=figure)["markdown"] + [""]
+
+
 def crosscheck_lines(ctx: Context, domain) -> tuple[list[str], list[Check]]:
     """The deck in Exudyn at every refinement its ``[crosscheck]`` tables name (only the first in --quick)."""
     if not domain.crosscheck:
@@ -283,6 +295,7 @@ def crosscheck_lines(ctx: Context, domain) -> tuple[list[str], list[Check]]:
         ctx.timings.append((label + " (cross-check run)", "reference", steps * refine, cmp["reference"].wall_time))
         ctx.timings.append((label + " (cross-check run)", "Exudyn", steps, cmp["exudyn_wall"]))
         lines += cmp["markdown"]
+        lines += reaction_lines(cmp, ctx.figures / f"{ctx.deck.stem}_reactions_{refine}.png")
         for v in cmp["verdicts"]:
             checks.append(Check(f"Exudyn cross-check{f' ×{refine}' if refine > 1 else ''}: {v.observable}",
                                 f"Exudyn, relative to {v.relative_to}", v.measure, v.tolerance, v.reason.replace("|", "/")))
