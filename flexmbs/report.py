@@ -367,6 +367,7 @@ def main(args=None) -> int:
     figures = reports / "figures"
     figures.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
+    header = provenance_header(quick)  # the commit and tree state the numbers come from: taken before the runs
     decks = [d for d in sorted(MODELS.glob("*.toml"))]
     # the paper's two examples first, then the gallery in alphabetical order
     first = [MODELS / "embedded_beam.toml", MODELS / "three_bar.toml"]
@@ -379,7 +380,7 @@ def main(args=None) -> int:
         print(f"[{number}/{len(decks)}] {deck.name}: {len(more_checks) - len(failed_here)}/{len(more_checks)} checks pass",
               file=sys.stderr)
     failed = [c for c in checks if not c.passed]
-    head = provenance_header(quick) + [
+    head = header + [
         f"**{len(checks) - len(failed)} of {len(checks)} checks pass** over {len(decks)} decks." + (
             "  Failed: " + "; ".join(c.name for c in failed) if failed else ""),
         "",
