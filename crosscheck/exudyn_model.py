@@ -231,6 +231,7 @@ def _build(domain, progress, t_end):
             nodeNumbers=ends, length=float(model.L0[e]), sectionData=section)))
 
     time_functions = []
+    joint_objects = {}
     drives = {id(_partner(domain, j)): j for j in domain.joints if j.kind in MERGES}
     for j in domain.joints:
         if j.kind in MERGES:
@@ -258,7 +259,10 @@ def _build(domain, progress, t_end):
         # a universal joint's locked rotation pairs the pin of body i (u1) with the pin of body j (u2):
         # Exudyn's generic joint locks marker 0's x against marker 1's y, so body i goes first there
         order = [m1, m0] if j.kind == "universal" else [m0, m1]
-        mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=order, constrainedAxes=axes, **options))
+        number = mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=order, constrainedAxes=axes, **options))
+        joint_objects[id(j)] = number
+        if drive is not None:
+            joint_objects[id(drive)] = number
 
     for bc in domain.boundary_conditions:
         node = domain.node(bc.node)
@@ -308,6 +312,14 @@ def _build(domain, progress, t_end):
                                                    outputVariableType=ov)) for nd in nodes]
                for kind, ov in (("position", OV.Position), ("velocity", OV.Velocity),
                                 ("angular_velocity", OV.AngularVelocityLocal), ("rotation", OV.RotationMatrix))}
+    for kind, ov in (("joint_force", OV.ForceLocal), ("joint_torque", OV.TorqueLocal)):
+        sensors[kind] = [mbs.AddSensor(eii.SensorObject(objectNumber=joint_objects[id(j)], storeInternal=True,
+                                                        writeToFile=False, outputVariableType=ov))
+                         for j in domain.joints]
+    for kind, ov in (("section_force", OV.ForceLocal), ("section_moment", OV.TorqueLocal)):
+        sensors[kind] = [mbs.AddSensor(eii.SensorBody(bodyNumber=obj, localPosition=[0.0, 0.0, 0.0], storeInternal=True,
+                                                      writeToFile=False, outputVariableType=ov))
+                         for obj in beam_objects]
     mbs.Assemble()
     return SC, mbs, sensors, primary
 
@@ -353,19 +365,119 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
     rot = np.array([[EulerParameters.from_matrix(R.reshape(3, 3) @ Op[n].T).q for R in data["rotation"][n, :, 1:10]]
                     for n in range(len(domain.nodes))]).transpose(1, 0, 2)
     results = measured(domain, times, pos, rot, vel, omg, wall, dt)
+    results.joint_labels = [j.label for j in domain.joints]
+    results.reaction_forces, results.reaction_moments = joint_reactions(
+        domain, times, rot, np.array([[mbs.GetSensorStoredData(s)[:, 1:4] for s in sensors[k]]
+                               for k in ("joint_force", "joint_torque")]).reshape(2, len(domain.joints), len(times), 3))
+    results.element_labels = [e.label for e in domain.elements]
+    section = {k: np.array([mbs.GetSensorStoredData(s)[:, 1:4] for s in sensors[k]]).reshape(-1, len(times), 3)
+               for k in ("section_force", "section_moment")}
+    results.section_forces = np.transpose(section["section_force"], (1, 0, 2))
+    results.section_moments = np.transpose(section["section_moment"], (1, 0, 2))
     if results_path is not None:
-        writer = ResultsWriter(results_path, labels=results.labels, ids=[n.id for n in domain.nodes], attrs={
+        writer = ResultsWriter(results_path, labels=results.labels, ids=[n.id for n in domain.nodes],
+                               items={"joints": results.joint_labels, "elements": results.element_labels}, attrs={
             "engine": "exudyn", "engine_version": exu.__version__, "deck": domain.deck_text,
             "deck_path": str(domain.deck_path), "algorithm": "generalized-alpha (Exudyn)", "dt": dt,
             "energy_note": "evaluated with the reference's definitions on Exudyn's states; external work "
-                           "excludes driving motions"})
+                           "excludes driving motions",
+            "reaction_note": "joint reactions from Exudyn's joint sensors (ForceLocal, TorqueLocal of "
+                             "ObjectJointGeneric), section resultants from the beams' own ForceLocal/TorqueLocal "
+                             "output at the element midpoint; no multipliers (Exudyn's are another set)"})
         for i, t in enumerate(times):
             writer.append({"time": t, "position": pos[i], "rotation": rot[i], "velocity": vel[i],
                            "angular_velocity": omg[i], "violation_norm": results.constraint_violation[i],
+                           "reaction_force": results.reaction_forces[i], "reaction_moment": results.reaction_moments[i],
+                           "section_force": results.section_forces[i], "section_moment": results.section_moments[i],
                            "velocity_violation_norm": results.velocity_constraint_violation[i],
                            **{k: v[i] for k, v in results.energy.items()}})
         writer.close("completed")
     return {"results": results, "wall_time": wall, "steps": steps, "exudyn_version": exu.__version__}
+
+
+PAIRS_ALL = ((2, 1), (2, 0), (0, 1))
+"""Exudyn's generic joint with all three rotations locked: its rotation equations are
+``t_z0·t_y1``, ``t_z0·t_x1``, ``t_x0·t_y1`` (axes of the marker frames J0, J1)."""
+PAIRS_ONE = {0: (1, 2), 1: (2, 0), 2: (0, 1)}
+"""One rotation k locked: the equation ``t_a0·t_b1`` with (a, b) = PAIRS_ONE[k]."""
+
+
+def _marker_torque(locked, lam, J0, J1) -> np.ndarray:
+    """Torque on marker 1 (inertial) from the multipliers ``lam`` of Exudyn's rotation equations.
+
+    Each equation ``g = t_a0 · t_b1 = 0`` contributes ``λ (t_a0 × t_b1)`` to the torque on
+    marker 1 (δg = δθ₁ · (t_b1 × t_a0), and the constraint force is −λ ∂g).  With two rotations
+    locked and f free the equations are ``t_f0·t_k1`` for the locked k; with one, PAIRS_ONE;
+    with three, PAIRS_ALL (Exudyn's ObjectJointGeneric documentation).
+    """
+    ks = [k for k in range(3) if locked[k]]
+    if len(ks) == 3:
+        pairs = {k: PAIRS_ALL[k] for k in ks}
+    elif len(ks) == 2:
+        free = next(k for k in range(3) if not locked[k])
+        pairs = {k: (free, k) for k in ks}
+    else:
+        pairs = {k: PAIRS_ONE[k] for k in ks}
+    torque = np.zeros(3)
+    for k, (a, b) in pairs.items():
+        torque += lam[k] * np.cross(J0[:, a], J1[:, b])
+    return torque
+
+
+def joint_reactions(domain, times, rot, local) -> tuple[np.ndarray, np.ndarray]:
+    """Reactions on each joint's body_i, inertial, from Exudyn's joint sensors.
+
+    ``local`` (2, J, n, 3): ``ForceLocal`` and ``TorqueLocal`` of the generic joint
+    carrying each deck joint.  ``ForceLocal`` holds the multipliers of the
+    translational equations, in the joint frame J0 of marker 0 (``A_0(t) f_0``): the
+    force on marker 1 is ``−J0 F_local``.  ``TorqueLocal`` holds the multipliers of
+    the rotation equations, which are not torque components in general (Exudyn's
+    documentation says so): the torque is rebuilt by :func:`_marker_torque` from
+    the current marker frames.  Marker 1 is body_i for every kind but the universal
+    joint, whose markers are swapped (then the reactions on body_i are the
+    opposite).  Checked against the reference for every joint kind on a tilted,
+    spinning bar (``tests/test_crosscheck.py``) and on a held bar against the closed
+    form (``tests/test_observables.py``).  A drive merged into its revolute
+    (translational) joint takes the torque (force) along the axis; the joint keeps
+    the rest — the reference's split between a joint and its drive.  Both act at the
+    joint point (the markers coincide there).
+    """
+    J, n = local.shape[1], local.shape[2]
+    force, moment = np.zeros((n, J, 3)), np.zeros((n, J, 3))
+    drives = {id(_partner(domain, j)): j for j in domain.joints if j.kind in MERGES}
+    for k, j in enumerate(domain.joints):
+        carrier = _partner(domain, j) if j.kind in MERGES else j  # the Exudyn joint (and its markers)
+        swapped = carrier.kind == "universal"
+        locked = [1] * 6 if id(carrier) in drives else AXES[carrier.kind]
+        par = carrier.body_fixed()
+        frames = {"i": (carrier.body_i, par[6:15].reshape(3, 3)), "j": (carrier.body_j, par[15:24].reshape(3, 3))}
+        m0, m1 = (frames["i"], frames["j"]) if swapped else (frames["j"], frames["i"])
+        sign = -1.0 if swapped else 1.0  # marker 1 is body_i unless swapped
+        drive = drives.get(id(carrier))
+        for t in range(n):
+            J0, J1 = ((np.eye(3) if body is None else _matrix(rot[t, body.id])) @ f for body, f in (m0, m1))
+            F = -sign * J0 @ local[0, k, t]
+            J0_rot = J0
+            if drive is not None and drive.kind == "rotation_drive":
+                # the offset user function turns J0 about its z axis by the prescribed angle: the
+                # rotation equations use the turned axes
+                tf = drive.time_function
+                th = tf.integral(times[t]) if drive.mode == "velocity" else tf(times[t])
+                c, s_ = np.cos(th), np.sin(th)
+                J0_rot = J0 @ np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]])
+            M = sign * _marker_torque(locked[3:], local[1, k, t], J0_rot, J1)
+            axis = J0[:, 2]
+            if j.kind == "rotation_drive":
+                F, M = np.zeros(3), np.dot(M, axis) * axis
+            elif j.kind == "displacement_drive":
+                F, M = np.dot(F, axis) * axis, np.zeros(3)
+            elif id(j) in drives:
+                if drives[id(j)].kind == "rotation_drive":
+                    M = M - np.dot(M, axis) * axis
+                else:
+                    F = F - np.dot(F, axis) * axis
+            force[t, k], moment[t, k] = F, M
+    return force, moment
 
 
 def measured(domain, times, pos, rot, vel, omg, wall, dt):

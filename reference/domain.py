@@ -24,11 +24,13 @@ import numpy as np
 from reference.algorithms import ALGORITHMS, Algorithm
 from reference.algorithms.staggered import OK
 from reference.elements import Beam2Formulation, Element, Section
+from reference.elements.formulation import beam2_resultants
 from reference.interactions import Constant, FixedCoordinates, Gravity, Interaction, NodalLoad, TimeFunction
 from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
 from reference.joints.master_slave import master_slave_parameters
 from reference.joints.assembly import apply_inverse_mass, assemble_constraints
 from reference.joints.joint import ROWS
+from reference.joints.reactions import reactions
 from reference.nodes import Node
 from reference.generated import rotation_maps as rm
 from reference.rotation import EulerParameters
@@ -163,6 +165,15 @@ class Results:
     ``time`` (n,), ``position``/``velocity``/``angular_velocity`` (n,N,3),
     ``rotation`` (n,N,4), ``energy`` dict of (n,) arrays, ``labels`` (N,),
     ``status`` ("completed" or why it stopped), ``wall_time`` [s].
+    Joints (J): ``joint_labels``, ``reaction_forces`` and ``reaction_moments``
+    (n,J,3), the force and the moment about the joint point that each joint
+    exerts on its body_i, inertial [N], [N m] (NaN where not computed:
+    master/slave joints).  Elements (E): ``element_labels`` (``"beam/i"``),
+    ``section_forces``/``section_moments`` (n,E,3) at the midpoint, section
+    frame.  ``multipliers`` (n,m) the Lagrange multipliers (``M a + Bᵀλ = Q``).
+
+    Node keys are ids, labels, or the aliases ``BEAM:start`` and ``BEAM:end``
+    (the first and last node ``BEAM:i`` of a meshed beam).
     """
 
     time: np.ndarray
@@ -177,14 +188,27 @@ class Results:
     status: str = "completed"
     wall_time: float = 0.0
     attrs: dict = field(default_factory=dict)
+    joint_labels: list = field(default_factory=list)
+    reaction_forces: np.ndarray | None = None
+    reaction_moments: np.ndarray | None = None
+    element_labels: list = field(default_factory=list)
+    section_forces: np.ndarray | None = None
+    section_moments: np.ndarray | None = None
+    multipliers: np.ndarray | None = None
 
     def index(self, key) -> int:
+        """Column of a node: an id, a label, or ``BEAM:start`` / ``BEAM:end``."""
         if isinstance(key, (int, np.integer)):
             return int(key)
-        try:
+        if key in self.labels:
             return self.labels.index(key)
-        except ValueError:
-            raise KeyError(f"no node labelled {key!r}; labels are e.g. {self.labels[:4]}") from None
+        beam, _, which = str(key).rpartition(":")
+        if which in ("start", "end"):
+            numbered = [(int(lbl.rpartition(":")[2]), k) for k, lbl in enumerate(self.labels)
+                        if lbl.rpartition(":")[0] == beam and lbl.rpartition(":")[2].isdigit()]
+            if numbered:
+                return (min if which == "start" else max)(numbered)[1]
+        raise KeyError(f"no node labelled {key!r}; labels are e.g. {self.labels[:4]}")
 
     def position(self, key) -> np.ndarray:
         return self.positions[:, self.index(key)]
@@ -197,6 +221,32 @@ class Results:
 
     def angular_velocity(self, key) -> np.ndarray:
         return self.angular_velocities[:, self.index(key)]
+
+    def joint_index(self, joint) -> int:
+        if joint in self.joint_labels:
+            return self.joint_labels.index(joint)
+        raise KeyError(f"no joint labelled {joint!r}; joints are {self.joint_labels}")
+
+    def element_index(self, beam, element=None) -> int:
+        """Column of an element: its label ``"beam/i"``, or ``(beam, i)``."""
+        label = str(beam) if element is None else f"{beam}/{int(element)}"
+        if label in self.element_labels:
+            return self.element_labels.index(label)
+        raise KeyError(f"no element labelled {label!r}; elements are e.g. {self.element_labels[:4]}")
+
+    def reaction(self, joint) -> tuple[np.ndarray, np.ndarray]:
+        """``(force, moment)`` (n, 3) each: what ``joint`` exerts on its body_i, moment about the
+        joint point, inertial components [N], [N m]."""
+        k = self.joint_index(joint)
+        return self.reaction_forces[:, k], self.reaction_moments[:, k]
+
+    def section_force(self, beam, element=None) -> np.ndarray:
+        """Force resultant N (n, 3) at the midpoint of element ``beam/element``, section frame [N]."""
+        return self.section_forces[:, self.element_index(beam, element)]
+
+    def section_moment(self, beam, element=None) -> np.ndarray:
+        """Moment resultant M (n, 3) at the midpoint of element ``beam/element``, section frame [N m]."""
+        return self.section_moments[:, self.element_index(beam, element)]
 
 
 class Domain:
@@ -698,6 +748,20 @@ class Domain:
                 writer.close(status)
         return self._results(records, status, _time.perf_counter() - wall0, algo)
 
+    def outputs(self, model: Model, x, q, lam, t: float) -> dict:
+        """Derived outputs of one record: joint reactions (all joints, NaN for master/slave ones)
+        and element section resultants (``reference/joints/reactions.py``, :func:`beam2_resultants`)."""
+        force, moment = reactions(model, x, q, lam, t)
+        J = len(self.joints)
+        out = {"reaction_force": np.full((J, 3), np.nan), "reaction_moment": np.full((J, 3), np.nan)}
+        rows = [k for k, j in enumerate(self.joints) if not isinstance(j.formulation, MasterSlave)]
+        out["reaction_force"][rows], out["reaction_moment"][rows] = force, moment
+        E = model.conn.shape[0]
+        out["section_force"], out["section_moment"] = np.zeros((E, 3)), np.zeros((E, 3))
+        beam2_resultants(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
+                         out["section_force"], out["section_moment"], np.zeros(32))
+        return out
+
     def _store(self, rec: Record, t: float, records: list, writer) -> None:
         entry = {
             "time": t, "position": rec.x.copy(), "rotation": rec.q.copy(), "velocity": rec.v.copy(),
@@ -705,6 +769,7 @@ class Domain:
             "velocity_violation_norm": rec.constraint[1], "multipliers": rec.lam.copy(),
             "kinetic": rec.energy[0], "strain": rec.energy[1], "external_work": rec.energy[2],
             "dissipated": rec.energy[3],
+            **self.outputs(self.model, rec.x, rec.q, rec.lam, t),
         }
         records.append(entry)
         if writer is not None:
@@ -722,4 +787,8 @@ class Domain:
             constraint_violation=stack("violation_norm"),
             velocity_constraint_violation=stack("velocity_violation_norm"),
             status=status, wall_time=wall, attrs={"algorithm": algo.name, "dt": algo.dt},
+            joint_labels=[j.label for j in self.joints], reaction_forces=stack("reaction_force"),
+            reaction_moments=stack("reaction_moment"), element_labels=[e.label for e in self.elements],
+            section_forces=stack("section_force"), section_moments=stack("section_moment"),
+            multipliers=stack("multipliers").reshape(len(records), -1),
         )

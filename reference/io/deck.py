@@ -26,6 +26,8 @@ from reference.interactions import (
 )
 from reference.joints import Jacobian, MasterSlave
 from reference.joints.joint import ROWS as JOINT_KINDS
+from reference.observables import ObservableError
+from reference.observables import parse as parse_observable
 
 
 class DeckError(ValueError):
@@ -247,6 +249,17 @@ def _suggest_dt(t_end: float, limit: float) -> str:
                 return f"dt = {dt:g} ({round(t_end / dt)} steps to t_end = {t_end:g})"
     n = math.ceil(t_end / limit)
     return f"dt = {t_end / n!r} ({n} steps to t_end = {t_end:g})"
+
+
+def _observable(rd: _Reader, text, entry: str, domain: Domain):
+    """Check an observable text against the model (``reference/observables.py``): one-line DeckError."""
+    if not isinstance(text, str):
+        raise rd.fail(entry, f"expected an observable text, got {_show(text)}",
+                      "e.g. 'position:beam:end'; free text goes in 'description' (docs/observables.md)")
+    try:
+        return parse_observable(text, domain)
+    except ObservableError as exc:
+        raise rd.fail(entry, f"{text!r}: {exc}", "" if ";" in str(exc) else "see docs/observables.md") from None
 
 
 def load_deck(path, overrides: dict | None = None) -> Domain:
@@ -596,12 +609,16 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     for name, spec in checks.items():
         if not isinstance(spec, dict):
             raise rd.fail(f"checks.{name}", f"expected a table, got {_show(spec)}", f"write it as [checks.{name}]")
+        if "observable" in spec:
+            _observable(rd, spec["observable"], f"checks.{name}.observable", domain)
     domain.checks = checks
     crosscheck = rd.tables(deck, "crosscheck")
     for name, spec in crosscheck.items():
         entry = f"crosscheck.{name}"
         rd.keys(spec, entry, required=["observable", "tolerance", "reason"], optional=["relative_to", "refine"])
+        _observable(rd, spec["observable"], f"{entry}.observable", domain)
         rd.number(spec["tolerance"], f"{entry}.tolerance", positive=True)
+        rd.string(spec["reason"], f"{entry}.reason")
         if spec.get("relative_to", "absolute") not in ("length", "peak", "absolute"):
             raise rd.fail(f"{entry}.relative_to", f"unknown scale {_show(spec['relative_to'])}", "'length', 'peak' or 'absolute'")
         rd.integer(spec.get("refine", 1), f"{entry}.refine")

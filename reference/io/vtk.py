@@ -56,6 +56,8 @@ def write_vtk(domain, results, directory, name: str = "flexmbs") -> Path:
                   for k in range(len(domain.elements))]
     sections = np.zeros((2, 4))
     point_of = {nid: k for k, nid in enumerate(beam_nodes)}
+    stored = getattr(results, "section_forces", None) is not None and results.section_forces.shape[1:] == (
+        len(domain.elements), 3)
     entries = []
     for step, t in enumerate(results.time):
         X, Q, V = results.positions[step], results.rotations[step], results.velocities[step]
@@ -69,12 +71,16 @@ def write_vtk(domain, results, directory, name: str = "flexmbs") -> Path:
         for k, (e, ref) in enumerate(zip(domain.elements, references)):
             i, j = e.nodes
             lines.append((point_of[i], point_of[j]))
-            # the element's section triads p_a = q_a ⊗ o_a (Model.offset)
-            section_quaternion(Q[i], model.offset[k, 0], sections[0])
-            section_quaternion(Q[j], model.offset[k, 1], sections[1])
-            _, stress = e.formulation.section_resultants(X[[i, j]], sections, ref)
-            forces.append(stress[:3])
-            moments.append(stress[3:])
+            if stored:  # the results' own section resultants (/elements/section_force, _moment)
+                forces.append(results.section_forces[step, k])
+                moments.append(results.section_moments[step, k])
+            else:
+                # the element's section triads p_a = q_a ⊗ o_a (Model.offset)
+                section_quaternion(Q[i], model.offset[k, 0], sections[0])
+                section_quaternion(Q[j], model.offset[k, 1], sections[1])
+                _, stress = e.formulation.section_resultants(X[[i, j]], sections, ref)
+                forces.append(stress[:3])
+                moments.append(stress[3:])
         for body in rigid:
             A = _matrix(Q[body.id])
             centre = len(pts)
