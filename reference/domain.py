@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -29,13 +29,16 @@ from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
 from reference.joints.master_slave import master_slave_parameters
 from reference.joints.assembly import SINGULAR, apply_inverse_mass, assemble_constraints
 from reference.joints.joint import ROWS
+from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor
 from reference.nodes import Node
 from reference.rotation import EulerParameters
 from reference.state import Model, Record, Scratch, State
 
 
+
+
 class SolverDiverged(RuntimeError):
-    """The run produced non-finite values; the results written so far are kept."""
+    """The run failed or blew up; the results written so far are kept."""
 
 
 @dataclass
@@ -85,27 +88,77 @@ def beam_triad(axis: np.ndarray, axis2_hint) -> np.ndarray:
     return np.column_stack([e1, e2, np.cross(e1, e2)])
 
 
-@dataclass
 class Results:
-    """Time histories of a run, as arrays in memory (the results file holds the same).
+    """Time histories of a run, from the results file (read on demand) or from memory.
 
-    ``time`` (n,), ``position``/``velocity``/``angular_velocity`` (n,N,3),
-    ``rotation`` (n,N,4), ``energy`` dict of (n,) arrays, ``labels`` (N,),
-    ``status`` ("completed" or why it stopped), ``wall_time`` [s].
+    ``time`` (n,), ``positions``/``velocities``/``angular_velocities`` (n,N,3),
+    ``rotations`` (n,N,4), ``energy`` dict of (n,) arrays, ``constraint_violation``,
+    ``velocity_constraint_violation`` (n,), ``labels`` (N,), ``status`` ("completed"
+    or why the run stopped), ``wall_time`` [s], ``attrs`` (the file's attributes).
+    ``position("beam:12")`` and the like read one node's history (from a file, only
+    that node's column).  :meth:`data` gives any dataset by its path in the file
+    (``"constraints/multipliers"``).
+
+    Parameters
+    ----------
+    source : path, optional
+        A results file: the arrays not given are read from it on first use.
     """
 
-    time: np.ndarray
-    labels: list
-    positions: np.ndarray
-    rotations: np.ndarray
-    velocities: np.ndarray
-    angular_velocities: np.ndarray
-    energy: dict
-    constraint_violation: np.ndarray
-    velocity_constraint_violation: np.ndarray
-    status: str = "completed"
-    wall_time: float = 0.0
-    attrs: dict = field(default_factory=dict)
+    ARRAYS = {
+        "time": "time", "positions": "nodes/position", "rotations": "nodes/rotation",
+        "velocities": "nodes/velocity", "angular_velocities": "nodes/angular_velocity",
+        "constraint_violation": "constraints/violation_norm",
+        "velocity_constraint_violation": "constraints/velocity_violation_norm",
+    }
+    ENERGIES = ("kinetic", "strain", "external_work", "dissipated")
+
+    def __init__(self, time=None, labels=None, positions=None, rotations=None, velocities=None,
+                 angular_velocities=None, energy=None, constraint_violation=None, velocity_constraint_violation=None,
+                 status: str = "completed", wall_time: float = 0.0, attrs=None, source=None, extra=None):
+        given = {"time": time, "positions": positions, "rotations": rotations, "velocities": velocities,
+                 "angular_velocities": angular_velocities, "energy": energy,
+                 "constraint_violation": constraint_violation,
+                 "velocity_constraint_violation": velocity_constraint_violation}
+        self.__dict__.update({k: v for k, v in given.items() if v is not None})
+        self.source = source
+        self.extra = dict(extra or {})
+        self.wall_time = wall_time
+        self.labels, self.status, self.attrs = labels, status, dict(attrs or {})
+        if source is not None:
+            import h5py
+
+            with h5py.File(source, "r") as f:
+                self.labels = [s.decode() if isinstance(s, bytes) else str(s) for s in f["nodes/label"][()]]
+                self.attrs = dict(f.attrs)
+                self.status = str(f.attrs.get("status", ""))
+
+    def __getattr__(self, name):
+        if name == "energy":
+            value = {k: self.data(f"energy/{k}") for k in self.ENERGIES}
+        elif name in self.ARRAYS:
+            value = self.data(self.ARRAYS[name])
+        else:
+            raise AttributeError(name)
+        self.__dict__[name] = value
+        return value
+
+    def data(self, path: str, index=()) -> np.ndarray:
+        """The dataset at ``path`` (e.g. ``"constraints/multipliers"``), or its ``[:, index]`` part;
+        NaN where a file lacks it."""
+        if path in self.extra:
+            return self.extra[path][(slice(None), *np.atleast_1d(index))] if index != () else self.extra[path]
+        if self.source is None:
+            raise KeyError(f"no output {path!r}")
+        import h5py
+
+        with h5py.File(self.source, "r") as f:
+            if path not in f:
+                return np.full(f["time"].shape, np.nan)
+            return f[path][(slice(None), index)] if index != () else f[path][()]
+
+    def __len__(self) -> int:
+        return len(self.time)
 
     def index(self, key) -> int:
         if isinstance(key, (int, np.integer)):
@@ -115,17 +168,57 @@ class Results:
         except ValueError:
             raise KeyError(f"no node labelled {key!r}; labels are e.g. {self.labels[:4]}") from None
 
+    def _node(self, name: str, key) -> np.ndarray:
+        if name in self.__dict__ or self.source is None:
+            return getattr(self, name)[:, self.index(key)]
+        return self.data(self.ARRAYS[name], self.index(key))
+
     def position(self, key) -> np.ndarray:
-        return self.positions[:, self.index(key)]
+        return self._node("positions", key)
 
     def rotation(self, key) -> np.ndarray:
-        return self.rotations[:, self.index(key)]
+        return self._node("rotations", key)
 
     def velocity(self, key) -> np.ndarray:
-        return self.velocities[:, self.index(key)]
+        return self._node("velocities", key)
 
     def angular_velocity(self, key) -> np.ndarray:
-        return self.angular_velocities[:, self.index(key)]
+        return self._node("angular_velocities", key)
+
+
+class MemoryRecorder:
+    """Keeps the records of a run in preallocated arrays (``Domain.solve`` without a results file).
+
+    Parameters
+    ----------
+    capacity : int
+        Number of records the run will take.
+    labels : list
+        Node labels.
+    """
+
+    def __init__(self, capacity: int, labels: list):
+        self.capacity, self.labels, self.n = capacity, labels, 0
+        self.arrays: dict[str, np.ndarray] = {}
+
+    def append(self, entry: dict) -> None:
+        if not self.arrays:
+            self.arrays = {k: np.empty((self.capacity, *np.shape(v))) for k, v in entry.items()}
+        for k, v in entry.items():
+            self.arrays[k][self.n] = v
+        self.n += 1
+
+    def close(self, status: str) -> None:
+        self.status = status
+
+    def results(self, wall_time: float = 0.0) -> Results:
+        from reference.io.results import dataset_path
+
+        by_path = {dataset_path(k): a[: self.n] for k, a in self.arrays.items()}
+        fields = {name: by_path.pop(path, np.zeros((self.n, 0))) for name, path in Results.ARRAYS.items()}
+        energy = {k: by_path.pop(f"energy/{k}", np.full(self.n, np.nan)) for k in Results.ENERGIES}
+        return Results(labels=self.labels, energy=energy, status=self.status, wall_time=wall_time, extra=by_path,
+                       **fields)
 
 
 class Domain:
@@ -533,41 +626,57 @@ class Domain:
         return state
 
     def solve(self, t_end: float | None = None, dt: float | None = None, results_path=None,
-              progress=None) -> Results:
+              progress=None, monitor: bool = True) -> Results:
         """Run from t = 0 to ``t_end`` (paper: Solve, Fig. 9) and return the time histories.
+
+        Records stream to the results file and are not kept in memory; the returned
+        :class:`Results` reads them from the file when asked.  Without a file they are
+        kept in preallocated arrays.  Whatever stops the run, the file is closed with
+        a status saying how it ended (``"completed"``, ``"diverged after t = …"``,
+        ``"interrupted at t = …"`` on Ctrl-C, ``"terminated at t = …"`` on SystemExit —
+        the command line raises it on SIGTERM and SIGHUP — or ``"failed: <reason>"``),
+        and :attr:`last_run` says where and how.
 
         Parameters
         ----------
         t_end, dt : float, optional
             Override the deck's end time and step.
         results_path : path, optional
-            HDF5 results file written incrementally (DESIGN.md contract).
+            HDF5 results file (:mod:`reference.io.results`).
         progress : callable(fraction, t), optional
             Called after every output.
+        monitor : bool
+            Stop a run that blows up while finite (:mod:`reference.monitor`): the algorithm
+            checks the energy balance every step (``Scratch.guard``), the Domain the energy
+            balance and the deformation at every output.
 
         Raises
         ------
         SolverDiverged
-            When the state becomes non-finite; records up to then are kept
-            (and the file, if any, is closed with that status).
+            When the algorithm fails (non-finite state, singular constraints) or the
+            monitor sees a blow-up; records up to then are kept.
         """
         t_end = self.solver.t_end if t_end is None else float(t_end)
         algo = self.algorithm(dt)
-        n_total = int(round(t_end / algo.dt))
+        steps = t_end / algo.dt
+        n_total = int(round(steps)) if steps < 2.0**62 else 0
         if n_total < 1 or abs(n_total * algo.dt - t_end) > 1e-9 * max(t_end, 1.0):
             raise ValueError(f"t_end = {t_end} is not a whole number of steps of dt = {algo.dt}")
+        self.last_run = {"path": None, "status": "not started", "t": 0.0}
         model = self.initialization()
         state = self.initial_conditions()
         every = max(int(self.solver.output_every), 1)
-        N = len(self.nodes)
-        scratch, rec = Scratch.for_model(model), Record.empty(N, model.n_constraints)
-        records = []
-        writer = None
+        scratch, rec = Scratch.for_model(model), Record.empty(len(self.nodes), model.n_constraints)
+        watch = BlowUpMonitor(self, algo.dt) if monitor else None
+        scratch.guard[2] = GUARD_TOLERANCE if monitor else 0.0
         if results_path is not None:
             from reference.io.results import ResultsWriter
 
-            writer = ResultsWriter(results_path, self, algo)
-        status = "completed"
+            sink = ResultsWriter(results_path, self, algo, template=self._record(rec, 0.0))
+            self.last_run["path"] = str(results_path)
+        else:
+            sink = MemoryRecorder(n_total // every + 2, [n.label for n in self.nodes])
+        status = "failed: stopped before the first step"
         wall0 = _time.perf_counter()
         try:
             done = 0
@@ -575,56 +684,48 @@ class Domain:
                 chunk = min(every, n_total - done)
                 t_record = state.t
                 code = algo.advance(model, state, chunk, rec, scratch)
-                self._store(rec, t_record, records, writer)
-                if code == SINGULAR:
-                    status = f"singular constraints after t = {records[-1]['time']:.6g}"
-                    raise SolverDiverged(
-                        f"the constraint matrix became singular after t = {records[-1]['time']:.6g} "
-                        "(redundant or degenerate joints); results up to that time are kept. "
-                        "Regularise the joints (epsilon > 0) or remove the redundancy."
-                    )
+                entry = self._record(rec, t_record)
+                sink.append(entry)
+                why = watch.check(rec.energy, rec.x) if watch is not None and code == OK else ""
+                if why:
+                    status = f"diverged after t = {t_record:.6g}"
+                    raise SolverDiverged(f"{why} (stopped at t = {t_record:.6g}); results up to then are kept")
                 if code != OK:
-                    status = f"diverged after t = {records[-1]['time']:.6g}"
-                    raise SolverDiverged(
-                        f"the solution became non-finite after t = {records[-1]['time']:.6g} "
-                        f"(step {state.n}); results up to that time are kept. "
-                        f"Reduce dt below the critical estimate {self.critical_time_step():.3g} or check the loads."
-                    )
+                    word, why = algo.failure(code)
+                    status = f"{word} after t = {state.t:.6g}"
+                    if word == "diverged" and watch is not None:
+                        why = watch.cause(why + watch.guard_report(scratch.guard, state.clock[2]))
+                    raise SolverDiverged(f"{why} (after t = {state.t:.6g}, step {state.n}); results up to that "
+                                         "time are kept")
                 done += chunk
                 if progress is not None and chunk > 0:
                     progress(done / n_total, state.t)
                 if chunk == 0:
                     break
+            status = "completed"
+        except SolverDiverged:
+            raise
         except KeyboardInterrupt:
             status = f"interrupted at t = {state.t:.6g}"
             raise
+        except Exception as exc:
+            status = f"failed: {type(exc).__name__}: {exc}"[:500]
+            raise
+        except BaseException:
+            status = f"terminated at t = {state.t:.6g}"
+            raise
         finally:
-            if writer is not None:
-                writer.close(status)
-        return self._results(records, status, _time.perf_counter() - wall0, algo)
+            self.last_run.update(status=status, t=state.t, energy=float(scratch.guard[4]),
+                                 work=float(state.clock[2]))
+            sink.close(status)
+        return sink.results(_time.perf_counter() - wall0)
 
-    def _store(self, rec: Record, t: float, records: list, writer) -> None:
-        entry = {
+    def _record(self, rec: Record, t: float) -> dict:
+        """One output record: record key → value (:data:`reference.io.results.DATASETS`)."""
+        return {
             "time": t, "position": rec.x.copy(), "rotation": rec.q.copy(), "velocity": rec.v.copy(),
             "angular_velocity": rec.w.copy(), "violation_norm": rec.constraint[0],
             "velocity_violation_norm": rec.constraint[1], "multipliers": rec.lam.copy(),
             "kinetic": rec.energy[0], "strain": rec.energy[1], "external_work": rec.energy[2],
             "dissipated": rec.energy[3],
         }
-        records.append(entry)
-        if writer is not None:
-            writer.append(entry)
-
-    def _results(self, records, status, wall, algo) -> Results:
-        def stack(key):
-            return np.array([r[key] for r in records])
-
-        return Results(
-            time=stack("time"), labels=[n.label for n in self.nodes], positions=stack("position"),
-            rotations=stack("rotation"), velocities=stack("velocity"),
-            angular_velocities=stack("angular_velocity"),
-            energy={k: stack(k) for k in ("kinetic", "strain", "external_work", "dissipated")},
-            constraint_violation=stack("violation_norm"),
-            velocity_constraint_violation=stack("velocity_violation_norm"),
-            status=status, wall_time=wall, attrs={"algorithm": algo.name, "dt": algo.dt},
-        )

@@ -153,6 +153,9 @@ class Scratch(NamedTuple):
     TMT: np.ndarray
     rhs: np.ndarray
     r4: np.ndarray
+    guard: np.ndarray
+    """Energy-balance guard ``[E₀, S, tolerance, residual, energy]`` (:mod:`reference.monitor`): an
+    algorithm that supports it stops when the residual exceeds tolerance × S; tolerance 0 turns it off."""
 
     @classmethod
     def for_model(cls, model: Model) -> "Scratch":
@@ -161,4 +164,4 @@ class Scratch(NamedTuple):
                    np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((m, 6 * N)), np.zeros((m, 6 * N)),
                    np.zeros((m, m)), np.zeros(m), np.zeros(6), np.zeros((6, 12)), np.zeros(6), np.zeros(10),
                    np.zeros(120), np.zeros((12, 9)), np.zeros(9), np.zeros(9), np.zeros((12, 9)), np.zeros((9, 9)),
-                   np.zeros(9), np.zeros(4))
+                   np.zeros(9), np.zeros(4), np.zeros(5))
