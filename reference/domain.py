@@ -562,15 +562,32 @@ class Domain:
                 redundant.append(r)
             else:
                 basis.append((vec / np.sqrt(remainder), mv / np.sqrt(remainder)))
-        bad = sorted({owner[r].label for r in redundant if owner[r].formulation.epsilon == 0.0},
-                     key=[j.label for j in self.joints].index)
-        if bad:
-            raise ValueError(
-                f"redundant constraints: {len(redundant)} equation(s) of joint(s) {', '.join(bad)} depend on "
-                "the others (e.g. a planar linkage of rigid bodies closed in 3D); give those joints a "
-                "formulation with epsilon > 0 to regularise them, or replace a revolute joint by a "
-                "spherical or universal one"
-            )
+        if not any(owner[r].formulation.epsilon == 0.0 for r in redundant):
+            return
+        loop = self._redundant_loop(model, Bg, owner)
+        stiff = [j.label for j in loop if j.formulation.epsilon == 0.0]
+        revolute = [j.label for j in loop if j.kind == "revolute"]
+        fix = f"regularise one of {', '.join(stiff)} (epsilon > 0, a compliance)"
+        if len(revolute) >= 2:
+            fix += (f", or replace revolute {revolute[-1]} by a spherical and {revolute[-2]} by a universal joint "
+                    "(a spherical alone leaves one redundant)")
+        raise ValueError(f"redundant constraints: {len(redundant)} equation(s) depend on the others in the loop of "
+                         f"joints {', '.join(j.label for j in loop)}; {fix}")
+
+    def _redundant_loop(self, model: Model, Bg: np.ndarray, owner: list) -> list:
+        """The joints whose equations take part in a dependency: the rows with a non-zero entry in a
+        left null vector of ``B M^{-1/2}`` (the metric of ``B M⁻¹ Bᵀ``)."""
+        N = len(self.nodes)
+        scale = np.zeros((N, 6, 6))
+        scale[:, [0, 1, 2], [0, 1, 2]] = (model.free[:, :3] / np.sqrt(model.mass[:, None]))
+        scale[:, 3:, 3:] = np.linalg.cholesky(model.inertia_inv) * model.free[:, 3:, None]
+        Bs = np.einsum("rna,nab->rnb", Bg.reshape(len(Bg), N, 6), scale).reshape(len(Bg), -1)
+        U, sv, _ = np.linalg.svd(Bs, full_matrices=True)
+        rank = int(np.sum(sv > 1e-9 * sv.max())) if sv.size else 0
+        null = U[:, rank:]
+        rows = np.flatnonzero(np.abs(null).max(axis=1) > 1e-8) if null.size else []
+        labels = {owner[r].label for r in rows}
+        return [j for j in self.multiplier_joints() if j.label in labels]
 
     @staticmethod
     def _minv_apply(model: Model, row: np.ndarray) -> np.ndarray:
