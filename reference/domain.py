@@ -27,7 +27,7 @@ from reference.elements import Beam2Formulation, Element, Section
 from reference.interactions import Constant, FixedCoordinates, Gravity, Interaction, NodalLoad, TimeFunction
 from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
 from reference.joints.master_slave import master_slave_parameters
-from reference.joints.assembly import SINGULAR, apply_inverse_mass, assemble_constraints
+from reference.joints.assembly import apply_inverse_mass, assemble_constraints
 from reference.joints.joint import ROWS
 from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor
 from reference.nodes import Node

@@ -4,7 +4,8 @@
   is either absent (killed before it was created) or opens, with its records up to the last flush;
 - SIGTERM / SIGHUP / SIGINT during the run: exit 128 + the signal, one line on stderr that names
   the file only when it exists, and a file whose status is ``"terminated at t = …"`` (or
-  ``"interrupted at t = …"`` for SIGINT).
+  ``"interrupted at t = …"`` for SIGINT);
+- Ctrl-C at any moment of the start-up: exit 130, at most one line, no traceback.
 
 ``python tests/stop_runs.py --kills 20 --terms 10`` (``make signals``) runs the long version; the
 test suite runs a few trials of each (``tests/test_signals.py``).
@@ -91,6 +92,25 @@ def stop_trial(tmp: Path, k: int, sig: int, delay: float) -> str:
     return f"{status} ({n_time} records)"
 
 
+def early_interrupt_trial(tmp: Path, k: int, delay: float) -> str:
+    """Ctrl-C (SIGINT) ``delay`` s after the start, often before the run: exit 130, at most one quiet
+    line, no traceback, and a file named only if it exists."""
+    out = tmp / f"early{k}"
+    proc = start(deck(tmp), out)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    lines = err.strip().splitlines()
+    # before Python has installed its handler the default action ends the process silently (-2)
+    assert proc.returncode in (130, -signal.SIGINT) and "Traceback" not in err, (proc.returncode, err[-2000:])
+    assert len(lines) <= 1 and all(line.startswith("flexmbs: interrupted") for line in lines), err[-2000:]
+    path = out / "results.h5"
+    if lines and "kept in" in lines[0]:
+        assert path.exists() and open_results(path)[0].startswith("interrupted at t = "), lines[0]
+        return "interrupted, file kept"
+    return "interrupted" + (" (quietly)" if not lines else "") + (", file without claim" if path.exists() else "")
+
+
 def main(argv=None) -> int:
     import tempfile
 
@@ -112,6 +132,13 @@ def main(argv=None) -> int:
             except Exception as exc:
                 failures += 1
                 print(f"SIGKILL {when}: FAILED {type(exc).__name__}: {exc}", flush=True)
+        for k in range(args.terms // 2):
+            delay = rng.uniform(0.0, 3.0)
+            try:
+                print(f"SIGINT {delay:.2f} s after the start: {early_interrupt_trial(tmp, k, delay)}", flush=True)
+            except Exception as exc:
+                failures += 1
+                print(f"SIGINT {delay:.2f} s after the start: FAILED {type(exc).__name__}: {exc}", flush=True)
         for k in range(args.terms):
             sig = signal.SIGTERM if k % 5 else signal.SIGHUP
             try:
@@ -119,7 +146,8 @@ def main(argv=None) -> int:
             except Exception as exc:
                 failures += 1
                 print(f"{signal.Signals(sig).name}: FAILED {type(exc).__name__}: {exc}", flush=True)
-    print(f"{args.kills} SIGKILL and {args.terms} SIGTERM/SIGHUP trials: {failures} failures")
+    print(f"{args.kills} SIGKILL, {args.terms // 2} early SIGINT and {args.terms} SIGTERM/SIGHUP trials: "
+          f"{failures} failures")
     return 1 if failures else 0
 
 

@@ -7,6 +7,8 @@ stop before that energy is 10 × the work done."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -16,7 +18,7 @@ from reference.io.results import load_results
 
 from test_reliability import EXAMPLE
 
-MODELS = __import__("pathlib").Path(__file__).resolve().parent.parent / "models"
+MODELS = Path(__file__).resolve().parent.parent / "models"
 
 
 def test_dt_just_above_the_critical_estimate_is_stopped_naming_the_time_step(tmp_path):

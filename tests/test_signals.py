@@ -28,6 +28,10 @@ def test_sigkill_at_random_moments_leaves_no_file_or_a_readable_one(tmp_path):
     assert any(s.startswith("running") for s in left[1:]), left  # the run was killed while writing
 
 
+def test_ctrl_c_during_start_up_is_quiet(tmp_path):
+    assert stop_runs.early_interrupt_trial(tmp_path, 0, random.Random(7).uniform(0.0, 1.5))
+
+
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_signal_stops_the_run_with_a_status_and_one_line(tmp_path, sig):
     assert stop_runs.stop_trial(tmp_path, 0, sig, 0.3)
