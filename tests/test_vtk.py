@@ -49,7 +49,7 @@ def test_vtk_round_trip(tmp_path):
         assert np.allclose(poly.GetPoints().GetPoint(4), r.position("beam:4")[step], atol=1e-15)
         t1 = np.array(pd.GetArray("triad_1").GetTuple3(4))
         t2 = np.array(pd.GetArray("triad_2").GetTuple3(4))
-        assert abs(t1 @ t2) < 1e-12 and abs(np.linalg.norm(t1) - 1.0) < 1e-12
+        assert abs(t1 @ t2) < 1e-6 and abs(np.linalg.norm(t1) - 1.0) < 1e-6  # single precision arrays
         # the bar's end (its points are start, end, centre) moves with it: half the length from the centre
         assert np.linalg.norm(np.subtract(poly.GetPoints().GetPoint(7), poly.GetPoints().GetPoint(5))) == \
             pytest.approx(0.5, abs=1e-12)
@@ -60,7 +60,7 @@ def test_vtk_round_trip(tmp_path):
     _, expected = d.elements[0].formulation.section_resultants(
         r.positions[-1][[0, 1]], r.rotations[-1][[0, 1]],
         d.elements[0].formulation.reference_state(r.positions[0][[0, 1]], r.rotations[0][[0, 1]]))
-    assert np.allclose(M[0], expected[3:], rtol=1e-12, atol=1e-15)
+    assert np.allclose(M[0], expected[3:], rtol=1e-6, atol=1e-12)  # single precision arrays
 
 
 def test_rotation_matrices_match_the_reference_convention(rng):

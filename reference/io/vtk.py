@@ -13,8 +13,9 @@ Each output step holds
   element, zero on rigid-body cells.
 
 The topology is written once and replayed for every step (the format's offsets),
-the per-step arrays are computed for all points at once and written in blocks, so
-the cost is a small part of a run (``--vtk-every`` thins it further).  The file is
+the per-step arrays are computed for all points at once and written in blocks;
+point coordinates are double precision, the other arrays single (plotting needs no
+more, and it halves the file).  ``--vtk-every`` thins the output further.  The file is
 written with h5py (VTKHDF is HDF5); ``vtk`` is not needed to write it.
 """
 
@@ -139,11 +140,11 @@ def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1)
             g.create_dataset("NumberOfConnectivityIds", data=np.array([conn.size], dtype=np.int64))
             g.create_dataset("Offsets", data=np.arange(0, conn.size + 1, max(conn.shape[1], 1), dtype=np.int64))
             g.create_dataset("Connectivity", data=conn.reshape(-1).astype(np.int64))
-        points = root.create_dataset("Points", shape=(n * P, 3), dtype="f8")
+        points = root.create_dataset("Points", shape=(n * P, 3), dtype="f8")  # positions keep full precision
         pd, cd = root.create_group("PointData"), root.create_group("CellData")
-        arrays = {name: pd.create_dataset(name, shape=(n * P, 3), dtype="f8")
+        arrays = {name: pd.create_dataset(name, shape=(n * P, 3), dtype="f4")
                   for name in ("displacement", "velocity", "triad_1", "triad_2", "triad_3")}
-        forces = {name: cd.create_dataset(name, shape=(n * C, 3), dtype="f8") for name in ("N", "M")}
+        forces = {name: cd.create_dataset(name, shape=(n * C, 3), dtype="f4") for name in ("N", "M")}
         st = root.create_group("Steps")
         st.attrs["NSteps"] = n
         st.create_dataset("Values", data=np.asarray(results.time, dtype=float)[steps])
