@@ -4,13 +4,17 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: report test fuzz signals bench derive clean
+.PHONY: report test fuzz signals bench derive notebooks clean
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,test]"
 	touch $(STAMP)
+
+$(VENV)/.notebooks: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,test,notebooks]"
+	touch $(VENV)/.notebooks
 
 report: $(STAMP)
 	$(BIN)/flexmbs report
@@ -31,6 +35,10 @@ bench: $(STAMP)
 
 derive: $(STAMP)
 	$(BIN)/flexmbs derive
+
+# JupyterLab on the lessons: a double click on notebooks/NN_*.py opens it as a notebook (jupytext)
+notebooks: $(VENV)/.notebooks
+	$(BIN)/jupyter lab --notebook-dir=notebooks
 
 clean:
 	rm -rf $(VENV) .pytest_cache

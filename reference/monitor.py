@@ -59,13 +59,16 @@ class BlowUpMonitor:
         For the element connectivity, lengths and the critical step estimate.
     dt : float
         The run's step [s].
+    explicit : bool
+        Whether the algorithm's step is bounded by the critical step (then a step above
+        ``SAFETY ×`` the estimate is named as the likely cause).
     """
 
-    def __init__(self, domain, dt: float):
+    def __init__(self, domain, dt: float, explicit: bool = True):
         model = domain.model
         self.conn = model.conn
         self.L0 = model.L0
-        self.dt = dt
+        self.dt, self.explicit = dt, explicit
         self.critical = domain.critical_time_step()
         self.labels = [e.label for e in domain.elements]
         self.E0 = None
@@ -101,12 +104,13 @@ class BlowUpMonitor:
 
     @staticmethod
     def guard_report(guard, work: float) -> str:
-        """``": kinetic + strain energy … against … of work done"`` when the algorithm's per-step guard
-        (:attr:`reference.state.Scratch.guard`) stopped the run, else ``""``."""
+        """``" (kinetic + strain energy … against … of work done)"`` when the algorithm's per-step
+        guard (:attr:`reference.state.Scratch.guard`) stopped the run, else ``""``."""
         E0, S, tol, r, E = guard
         if not (tol > 0.0 and r > tol * S):  # the guard stopped the run (its lag allowance only adds)
             return ""
-        return f": kinetic + strain energy {E:.3g} against {work:.3g} of work done (residual {r / max(S, 1e-300):.2g} × the energy put in)"
+        return (f" (kinetic + strain energy {E:.3g} against {work:.3g} of work done, residual "
+                f"{r / max(S, 1e-300):.2g} × the energy put in)")
 
     def stretch(self, x: np.ndarray) -> str | None:
         if not len(self.L0):
@@ -122,10 +126,16 @@ class BlowUpMonitor:
 
     def cause(self, what: str) -> str:
         """``what`` happened; add the likely cause and the fix."""
-        ratio = self.dt / self.critical if self.critical > 0 else math.inf
-        if ratio > SAFETY:
-            return (f"{what}: the run went unstable; likely cause: the time step, dt = {self.dt:.3g} is "
-                    f"{ratio:.3g} × the critical estimate {self.critical:.3g}; use dt ≤ {0.8 * self.critical:.3g}")
-        return (f"{what}: the run went unstable with dt = {ratio:.2f} × the critical estimate; likely cause: the "
-                "loads (too large for the structure, or not ramped in); check their magnitude and units, ramp "
-                "them in (a time_function), or reduce dt if the deformed model is much stiffer")
+        return f"{what}: {likely_cause(self.dt, self.critical, self.explicit)}"
+
+
+def likely_cause(dt: float, critical: float, explicit: bool = True) -> str:
+    """The likely cause of a blow-up, and the fix: the time step when an explicit step is above
+    ``SAFETY ×`` the critical estimate, else the loads."""
+    ratio = dt / critical if critical > 0 else math.inf
+    if explicit and ratio > SAFETY:
+        return (f"the run went unstable; likely cause: the time step, dt = {dt:.3g} is {ratio:.3g} × the critical "
+                f"estimate {critical:.3g}; use dt ≤ {0.8 * critical:.3g}")
+    return ("the run went unstable" + (f" with dt = {ratio:.2f} × the critical estimate" if explicit else "")
+            + "; likely cause: the loads (too large for the structure, or not ramped in); check their magnitude "
+            "and units, ramp them in (a time_function), or reduce dt if the deformed model is much stiffer")

@@ -201,7 +201,7 @@ VOCABULARY = {
     "beams[]": {"label": ["c", "b"], "start": [[0.0, 0.0, 1.0]], "end": [[1.0, 0.0, 1.0]],
                 "start_node": ["hub", "b:end", "rb"], "end_node": ["b:2", "hub"], "elements": [1, 2, 8],
                 "section": ["s", "steel_rod", "rollup"], "axis2": [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
-                "rigid": [True, False]},
+                "rigid": [True, False], "center": [[0.5, 0.0, 1.0], [0.5, -0.5, 1.0], [0.0, 0.0, 0.0]]},
     "rigid_bodies[]": {"label": ["rb2", "rb"], "mass": [1.0, 1e-6], "inertia": [[1.0, 2.0, 3.0]],
                        "position": [[0.0, 0.0, 3.0]], "rotation": [[0.0, 0.0, 0.0, 1.0]],
                        "points": [{"p": [0.0, 0.0, 0.0]}, {}]},
@@ -441,7 +441,14 @@ def check(path: Path, overrides: dict) -> str:
 def run(cases: int, seed: int, workdir: Path, report=None) -> dict:
     """Run ``cases`` cases from ``seed``; return counts, failures (with their decks) and timings."""
     rng = random.Random(seed)
-    bases = base_decks()
+    bases = {}
+    for name, text in base_decks().items():  # a base deck must itself load: mutations are made from valid decks
+        path = workdir / "base.toml"
+        path.write_text(text, encoding="utf-8")
+        if check(path, {}) == "accepted":
+            bases[name] = text
+        elif report:
+            report(f"base deck {name} does not load; left out")
     counts = {"error": 0, "accepted": 0}
     failures = []
     slowest = (0.0, "")

@@ -28,7 +28,7 @@ def test_dt_just_above_the_critical_estimate_is_stopped_naming_the_time_step(tmp
     with pytest.raises(SolverDiverged) as info:
         d.solve(results_path=tmp_path / "r.h5")
     message = str(info.value)
-    assert "energy balance fails" in message and "likely cause: the time step" in message, message
+    assert "energy balance failed" in message and "likely cause: the time step" in message, message
     run = d.last_run
     assert run["energy"] < 10.0 * abs(run["work"]) and run["t"] < 5000 * dt, run
     back = load_results(tmp_path / "r.h5")

@@ -6,23 +6,29 @@ from abc import ABC, abstractmethod
 
 
 class Algorithm(ABC):
-    """A time-integration algorithm over the Domain's plain-data state.
+    """A time-integration (or load-stepping) algorithm over the Domain's plain-data state.
 
-    Subclasses provide ``name``, ``dt`` and
+    Subclasses provide ``name`` (the deck's ``[solver] algorithm``), ``dt``,
+    ``explicit`` (True if the step is bounded by the critical time step),
+    ``from_settings(settings, dt=None)`` (build from
+    :class:`~reference.domain.SolverSettings`, ``dt`` an override),
     ``advance(model, state, n_steps, record, scratch) → status``, which moves
     the :class:`~reference.state.State` forward in place by ``n_steps`` steps
     and, when ``record`` is given, fills it with the output at the starting
-    time.  Status 0 is success; :meth:`failure` explains any other.
+    time, and ``failure(code, t_last, domain) → (status, message)`` for a
+    status other than 0 (success).
     """
 
     name: str
     dt: float
+    explicit: bool = False
+
+    @classmethod
+    @abstractmethod
+    def from_settings(cls, settings, dt=None) -> "Algorithm": ...
 
     @abstractmethod
     def advance(self, model, state, n_steps, record, scratch) -> int: ...
 
-    def failure(self, code: int) -> tuple[str, str]:
-        """``(status, explanation)`` of a non-zero status code of :meth:`advance`, for the results
-        file and the message (e.g. ``("diverged", "the solution became non-finite")``).
-        Subclasses with codes of their own override it."""
-        return "diverged", f"the {self.name} algorithm stopped with status {code}"
+    @abstractmethod
+    def failure(self, code: int, t_last: float, domain) -> tuple[str, str]: ...

@@ -6,9 +6,17 @@ Layout::
     /nodes/position (n,N,3)  /nodes/rotation (n,N,4)  /nodes/velocity (n,N,3)
     /nodes/angular_velocity (n,N,3)          (body frame)
     /constraints/violation_norm (n,)   /constraints/velocity_violation_norm (n,)
-    /constraints/multipliers (n,m)           (when the model has multiplier joints)
     /energy/kinetic, /energy/strain, /energy/external_work (n,)
     /energy/dissipated (n,)
+    /constraints/multipliers (n,m)           Lagrange multipliers, M a + Bᵀλ = Q
+    /joints/label (J,)   /joints/reaction_force (n,J,3)   /joints/reaction_moment (n,J,3)
+                                             on body_i, about the joint point, inertial
+    /elements/label (E,) /elements/section_force (n,E,3)  /elements/section_moment (n,E,3)
+                                             midpoint, section frame
+
+Every dataset is documented in ``docs/results.md``.  The per-item datasets are
+written when there are items (J, E, m > 0); a reader treats a missing one as
+"not computed".
 
 Attributes: engine, engine_version, deck, deck_sha256, algorithm, dt, created,
 flexmbs_version, status (``"running"`` while written, then ``"completed"``,
@@ -51,6 +59,10 @@ DATASETS = {
     "strain": "energy/strain",
     "external_work": "energy/external_work",
     "dissipated": "energy/dissipated",
+    "reaction_force": "joints/reaction_force",
+    "reaction_moment": "joints/reaction_moment",
+    "section_force": "elements/section_force",
+    "section_moment": "elements/section_moment",
 }
 """Record key → dataset path."""
 
@@ -79,6 +91,9 @@ class ResultsWriter:
         Give the labels, ids and attributes (engine, algorithm, dt, deck …).
     labels, ids : sequences
         Node labels and stable ids (without a domain).
+    items : dict, optional
+        Labels of the joints and elements (``{"joints": [...], "elements": [...]}``);
+        taken from the domain when one is given.
     attrs : dict
         Further file attributes.
     template : dict, optional
@@ -87,11 +102,13 @@ class ResultsWriter:
         other key gets its dataset at its first block.
     """
 
-    def __init__(self, path, domain=None, algorithm=None, *, labels=None, ids=None, attrs=None, template=None):
+    def __init__(self, path, domain=None, algorithm=None, *, labels=None, ids=None, attrs=None, items=None,
+                 template=None):
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         if domain is not None:
             labels = [n.label for n in domain.nodes]
+            items = {"joints": [j.label for j in domain.joints], "elements": [e.label for e in domain.elements]}
             ids = [n.id for n in domain.nodes]
             deck = domain.deck_text or ""
             attrs = {
@@ -117,6 +134,8 @@ class ResultsWriter:
         self.f.attrs["status"] = "running"
         self.f.create_dataset("nodes/id", data=np.asarray(ids, dtype=np.int64))
         self.f.create_dataset("nodes/label", data=np.array(labels, dtype=h5py.string_dtype()))
+        for group, names in (items or {}).items():
+            self.f.create_dataset(f"{group}/label", data=np.array(list(names), dtype=h5py.string_dtype()))
         for key, value in template.items():
             self._create(key, np.asarray(value, dtype=float).shape)
         self.f.flush()

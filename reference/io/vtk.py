@@ -10,7 +10,8 @@ Each output step holds
 - point data: ``displacement`` and ``velocity`` (inertial), the nodal triad as
   ``triad_1``, ``triad_2``, ``triad_3`` (inertial components of the body axes);
 - cell data: section forces ``N`` and moments ``M`` (section frame) of each
-  element, zero on rigid-body cells.
+  element (from the results when they hold them, else computed), zero on
+  rigid-body cells.
 
 The topology is written once and replayed for every step (the format's offsets),
 the per-step arrays are computed for all points at once and written in blocks;
@@ -27,8 +28,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from reference.generated import beam2 as generated_beam2
-from reference.jit import kernel
+from reference.elements.formulation import beam2_resultants
 
 BLOCK = 64
 """Output steps computed and written together."""
@@ -49,17 +49,6 @@ def rotation_matrices(q: np.ndarray) -> np.ndarray:
     A[..., 1, 2] -= 2.0 * e0 * e[..., 0]
     A[..., 2, 1] += 2.0 * e0 * e[..., 0]
     return A
-
-
-@kernel
-def section_resultants(x, q, conn, L0, psi0, gamma0, stiff, out, s_el):
-    """Section resultants ``[N, M]`` (E, 6) of all Beam2 elements at one configuration."""
-    for e in range(conn.shape[0]):
-        i, j = conn[e, 0], conn[e, 1]
-        generated_beam2.internal_forces(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e],
-                                        s_el[:12], s_el[12:18], s_el[18:])
-        for k in range(6):
-            out[e, k] = s_el[18 + k]
 
 
 def safe_name(name: str) -> str:
@@ -128,6 +117,8 @@ def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1)
     n, P, C = len(steps), lay.n_points, lay.n_cells
     model = domain.model
     s_el = np.zeros(24)
+    E = lay.n_elements
+    stored = results.section_forces.shape[1:] == (E, 3) and not np.isnan(results.section_forces).all()
     with h5py.File(path, "w") as f:
         root = f.create_group("VTKHDF")
         root.attrs["Version"] = np.array([2, 1], dtype=np.int64)
@@ -171,11 +162,15 @@ def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1)
             arrays["velocity"][rows] = vel.reshape(-1, 3)
             for c in range(3):
                 arrays[f"triad_{c + 1}"][rows] = A[..., :, c].reshape(-1, 3)
-            NM = np.zeros((k, C, 6))
-            for s in range(k):
-                section_resultants(X[s], Q[s], model.conn, model.L0, model.psi0, model.gamma0, model.stiff,
-                                   NM[s, len(lay.vertices):len(lay.vertices) + lay.n_elements], s_el)
+            NM = np.zeros((2, k, C, 3))
+            beams = slice(len(lay.vertices), len(lay.vertices) + E)
+            if stored:
+                NM[0, :, beams], NM[1, :, beams] = results.section_forces[idx], results.section_moments[idx]
+            else:
+                for s in range(k):
+                    beam2_resultants(X[s], Q[s], model.conn, model.L0, model.psi0, model.gamma0, model.stiff,
+                                     NM[0, s, beams], NM[1, s, beams], s_el)
             cells = slice(b0 * C, (b0 + k) * C)
-            forces["N"][cells] = NM[..., :3].reshape(-1, 3)
-            forces["M"][cells] = NM[..., 3:].reshape(-1, 3)
+            forces["N"][cells] = NM[0].reshape(-1, 3)
+            forces["M"][cells] = NM[1].reshape(-1, 3)
     return path
