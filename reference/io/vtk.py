@@ -15,8 +15,8 @@ Each output step holds
 
 The topology is written once and replayed for every step (the format's offsets),
 the per-step arrays are computed for all points at once and written in blocks;
-point coordinates are double precision, the other arrays single (plotting needs no
-more, and it halves the file).  ``--vtk-every`` thins the output further.  The file is
+the arrays are single precision (plotting needs no more, and it halves the file;
+``displacement`` keeps small motions that single-precision coordinates would round).  ``--vtk-every`` thins the output further.  The file is
 written with h5py (VTKHDF is HDF5); ``vtk`` is not needed to write it.
 """
 
@@ -83,6 +83,7 @@ class _Layout:
                 vertices.append(centre)
         self.node_of_point = np.array(self.node_of_point, dtype=np.int64)
         self.offsets = np.array(self.offsets, dtype=float).reshape(-1, 3)
+        self.with_offset = np.flatnonzero(np.any(self.offsets != 0.0, axis=1))  # rigid-body points off the centre
         self.lines = np.array(lines, dtype=np.int64).reshape(-1, 2)
         self.vertices = np.array(vertices, dtype=np.int64)
         self.n_elements = len(domain.elements)
@@ -101,7 +102,11 @@ class _Layout:
     def points(self, X, Q):
         """Point positions (k, P, 3) and triads (k, P, 3, 3) from node positions (k, N, 3), rotations (k, N, 4)."""
         A = rotation_matrices(Q[:, self.node_of_point])
-        return X[:, self.node_of_point] + np.einsum("kpij,pj->kpi", A, self.offsets), A
+        pts = X[:, self.node_of_point]
+        off = self.with_offset
+        if len(off):
+            pts[:, off] += np.einsum("kpij,pj->kpi", A[:, off], self.offsets[off])
+        return pts, A
 
 
 def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1) -> Path:
@@ -131,7 +136,7 @@ def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1)
             g.create_dataset("NumberOfConnectivityIds", data=np.array([conn.size], dtype=np.int64))
             g.create_dataset("Offsets", data=np.arange(0, conn.size + 1, max(conn.shape[1], 1), dtype=np.int64))
             g.create_dataset("Connectivity", data=conn.reshape(-1).astype(np.int64))
-        points = root.create_dataset("Points", shape=(n * P, 3), dtype="f8")  # positions keep full precision
+        points = root.create_dataset("Points", shape=(n * P, 3), dtype="f4")
         pd, cd = root.create_group("PointData"), root.create_group("CellData")
         arrays = {name: pd.create_dataset(name, shape=(n * P, 3), dtype="f4")
                   for name in ("displacement", "velocity", "triad_1", "triad_2", "triad_3")}
@@ -158,7 +163,11 @@ def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1)
             rows = slice(b0 * P, (b0 + k) * P)
             points[rows] = pts.reshape(-1, 3)
             arrays["displacement"][rows] = (pts - lay.p0[None]).reshape(-1, 3)
-            vel = V[:, node_rows] + np.einsum("kpij,kpj->kpi", A, np.cross(W[:, node_rows], lay.offsets[None]))
+            vel = V[:, node_rows]
+            off = lay.with_offset
+            if len(off):
+                vel[:, off] += np.einsum("kpij,kpj->kpi", A[:, off],
+                                         np.cross(W[:, node_rows[off]], lay.offsets[off][None]))
             arrays["velocity"][rows] = vel.reshape(-1, 3)
             for c in range(3):
                 arrays[f"triad_{c + 1}"][rows] = A[..., :, c].reshape(-1, 3)
