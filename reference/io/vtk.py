@@ -121,7 +121,7 @@ def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1)
     steps = np.arange(0, len(results.time), max(int(every), 1))
     n, P, C = len(steps), lay.n_points, lay.n_cells
     model = domain.model
-    s_el = np.zeros(24)
+    s_el = np.zeros(32)
     E = lay.n_elements
     stored = results.section_forces.shape[1:] == (E, 3) and not np.isnan(results.section_forces).all()
     with h5py.File(path, "w") as f:
@@ -177,8 +177,8 @@ def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1)
                 NM[0, :, beams], NM[1, :, beams] = results.section_forces[idx], results.section_moments[idx]
             else:
                 for s in range(k):
-                    beam2_resultants(X[s], Q[s], model.conn, model.L0, model.psi0, model.gamma0, model.stiff,
-                                     NM[0, s, beams], NM[1, s, beams], s_el)
+                    beam2_resultants(X[s], Q[s], model.conn, model.offset, model.L0, model.psi0, model.gamma0,
+                                     model.stiff, NM[0, s, beams], NM[1, s, beams], s_el)
             cells = slice(b0 * C, (b0 + k) * C)
             forces["N"][cells] = NM[0].reshape(-1, 3)
             forces["M"][cells] = NM[1].reshape(-1, 3)
