@@ -1,5 +1,10 @@
 """``flexmbs bench``: solve times of the reference engine and of Exudyn, side by side.
 
+Then the scaling of the constraint stage: the per-step cost of a chain of K
+rigid links joined by spherical joints (K = 50 … 400; linear in K with the
+sparse stage) and of two beams welded by a ``fixed`` joint against the same
+beams sharing a node.
+
 Both engines solve the same dynamic problem from the same deck data, with the
 same load history and time step, in one process, one after the other; each is
 warmed up once (numba compilation, Exudyn's first-call set-up) and then timed
@@ -49,6 +54,95 @@ CASES = {
 }
 
 
+LINK = dict(EA=1.0, GA2=1.0, GA3=1.0, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=0.02, rhoJ2=0.01, rhoJ3=0.01)
+"""A rigid link's section (only the inertia is used): 1 kg/m."""
+
+
+def spherical_chain(K: int, length: float = 0.1, dt: float = 1e-4, steps: int = 1000):
+    """K rigid links of ``length`` [m] along x, joined end to end by spherical joints, the first
+    pinned to the ground at the origin; gravity −9.81 ẑ; ``steps`` steps of ``dt``."""
+    import numpy as np
+
+    from reference.domain import Domain, SolverSettings
+    from reference.elements import Section
+    from reference.interactions import Gravity
+
+    d = Domain(f"spherical chain of {K} links")
+    prev = None
+    for k in range(K):
+        a, b = np.array([k * length, 0.0, 0.0]), np.array([(k + 1) * length, 0.0, 0.0])
+        link = d.add_rigid_bar(f"link{k}", a, b, Section(**LINK))
+        d.add_joint("spherical", link, prev, a, label=f"J{k}")
+        prev = link
+    d.add_interaction(Gravity(np.array([0.0, 0.0, -9.81])))
+    d.solver = SolverSettings(dt=dt, t_end=steps * dt, output_every=steps)
+    return d
+
+
+def two_beams(welded: bool, n_elements: int = 32, steps: int = 1000):
+    """A cantilever of two straight beams (1 m each along x, ``n_elements`` Beam2 each), clamped at
+    the origin, under gravity: the second beam shares the first one's end node, or (``welded``)
+    starts at a node of its own joined to it by a ``fixed`` joint.  Step: half the critical one."""
+    import numpy as np
+
+    from reference.domain import Domain, SolverSettings
+    from reference.elements import Section
+    from reference.interactions import Clamp, Gravity
+
+    section = Section(EA=1e6, GA2=1e6, GA3=1e6, GJ=1e3, EI2=1e3, EI3=1e3, rhoA=1.0, rhoJ1=1e-2, rhoJ2=1e-2,
+                      rhoJ3=1e-2)
+    d = Domain("two welded beams" if welded else "two beams sharing a node")
+    first = d.add_beam("a", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), n_elements, section)
+    if welded:
+        second = d.add_beam("b", (1.0, 0.0, 0.0), (2.0, 0.0, 0.0), n_elements, section)
+        d.add_joint("fixed", second[0], first[-1], (1.0, 0.0, 0.0), axis=(1.0, 0.0, 0.0), label="weld")
+    else:
+        d.add_beam("b", (1.0, 0.0, 0.0), (2.0, 0.0, 0.0), n_elements, section, start_node=first[-1])
+    d.add_interaction(Clamp(first[0]))
+    d.add_interaction(Gravity(np.array([0.0, 0.0, -9.81])))
+    dt = 0.5 * d.critical_time_step()
+    d.solver = SolverSettings(dt=dt, t_end=steps * dt, output_every=steps)
+    return d
+
+
+def _per_step(domain, repeat: int) -> float:
+    """Median wall time per step of ``domain.solve()`` after a warm-up [s]."""
+    domain.solve()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        domain.solve()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times) / int(round(domain.solver.t_end / domain.solver.dt))
+
+
+def chain_scaling(repeat: int = 3, sizes=(50, 100, 200, 400)) -> list[tuple[int, float]]:
+    """Per-step cost of :func:`spherical_chain` for each K [s]; printed with the ratio to the smallest K."""
+    rows = [(K, _per_step(spherical_chain(K), repeat)) for K in sizes]
+    print(f"spherical chain (rigid links, dt = 1e-4, 1000 steps): per-step cost, median of {repeat}")
+    print(f"{'K':>5}  {'per step [µs]':>13}  {'ratio to K = ' + str(sizes[0]):>16}  {'K ratio':>7}")
+    for K, t in rows:
+        print(f"{K:5d}  {t * 1e6:13.2f}  {t / rows[0][1]:16.2f}  {K / sizes[0]:7.1f}")
+    print(f"target: K = {sizes[-1]} costs ≤ 12× K = {sizes[0]} (linear: {sizes[-1] / sizes[0]:.0f}×)")
+    return rows
+
+
+def welded_vs_shared(repeat: int = 3) -> tuple[float, float]:
+    """Per-step cost of :func:`two_beams` welded by a ``fixed`` joint and sharing the node [s], and
+    the tip deflection of both (the weld must not change the answer)."""
+    out = []
+    for welded in (False, True):
+        d = two_beams(welded)
+        t = _per_step(d, repeat)
+        tip = d.solve().position("b:32")[-1, 2]
+        out.append((t, tip))
+    (t_s, z_s), (t_w, z_w) = out
+    print("two beams (2 × 32 Beam2, gravity, 1000 steps): per-step cost")
+    print(f"  sharing the node {t_s * 1e6:9.2f} µs   tip z {z_s:.9f} m")
+    print(f"  welded (fixed)   {t_w * 1e6:9.2f} µs   tip z {z_w:.9f} m   ratio {t_w / t_s:.2f} (target ≤ 2)")
+    return t_s, t_w
+
+
 def main(args=None) -> int:
     repeat = getattr(args, "repeat", 3) or 3
     rows = []
@@ -62,4 +156,8 @@ def main(args=None) -> int:
     for name, t_ref, n_ref, t_exu, n_exu in rows:
         print(f"{name:<{width}}  {t_ref:13.4f}  {t_exu:10.4f}  {t_ref / t_exu:6.3f}  {n_ref}/{n_exu}")
     print("ratio = reference time / Exudyn time (target ≤ 0.3)")
+    print()
+    chain_scaling(repeat)
+    print()
+    welded_vs_shared(repeat)
     return 0

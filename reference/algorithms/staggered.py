@@ -37,7 +37,7 @@ from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
 from reference.jit import kernel
 from reference.joints.assembly import (
-    SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints,
+    SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
 )
 from reference.joints.master_slave import master_slave_positions, master_slave_project
 from reference.state import Model, Record, Scratch, State
@@ -147,7 +147,8 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     x, q, v, w, f_prev, clock = state
     S, F, v_new, w_new, s_el = scratch.S, scratch.F, scratch.v_new, scratch.w_new, scratch.s_el
     q_tmp, A = scratch.q_tmp, scratch.A
-    PHI, PHIt, Bg, BM, W, lam = scratch.PHI, scratch.PHIt, scratch.Bg, scratch.BM, scratch.W, scratch.lam
+    PHI, PHIt, Bj, BMj, Lx, lam = scratch.PHI, scratch.PHIt, scratch.Bj, scratch.BMj, scratch.Lx, scratch.lam
+    work = scratch.work
     N = x.shape[0]
     n_rows = PHI.shape[0]
     n_ms = model.ms_master.shape[0]
@@ -173,9 +174,8 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         hk = h if n > 0 else 0.5 * h
         _kick(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, False)
         if n_rows > 0:
-            assemble_constraints(model, x, q, t, PHI, PHIt, Bg, scratch.jphi, scratch.jB, scratch.jphit,
-                                 scratch.prim_phi, scratch.prim_B)
-            if factor_constraints(model, Bg, BM, W, h, hk) != OK:
+            assemble_constraints(model, x, q, t, PHI, PHIt, Bj, scratch.prim_phi, scratch.prim_B)
+            if factor_constraints(model, Bj, BMj, Lx, work, h, hk) != OK:
                 return SINGULAR
         if n_rows > 0 or n_ms > 0:
             # The constraint stage changes ω^{n+½}: redo the predictor with the midpoint
@@ -187,7 +187,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
                 if sweep > 0:
                     _kick(model, v, w, S, F, hk, v_new, w_new, 1, True)
                 if n_rows > 0:
-                    constraint_impulse(model, Bg, BM, W, PHI, PHIt, v_new, w_new, h, hk, lam)
+                    constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v_new, w_new, h, hk, lam)
                 if n_ms > 0:
                     master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
                                          scratch.TMT, scratch.rhs)
@@ -205,11 +205,10 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             rec.energy[3] = clock[3]
             rec.constraint[0] = 0.0
             rec.constraint[1] = 0.0
+            if n_rows > 0:
+                jacobian_times(model, Bj, rec.v, rec.w, work)
             for r in range(n_rows):
-                res = PHIt[r]
-                for i in range(N):
-                    for a in range(3):
-                        res += Bg[r, 6 * i + a] * rec.v[i, a] + Bg[r, 6 * i + 3 + a] * rec.w[i, a]
+                res = PHIt[r] + work[r]
                 rec.constraint[0] += PHI[r] ** 2
                 rec.constraint[1] += res**2
                 rec.lam[r] = lam[r]
@@ -219,7 +218,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             break
         if n_rows > 0:
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
-            clock[2] += hk * constraint_power(model, Bg, lam, v, w, v_new, w_new)
+            clock[2] += hk * constraint_power(model, Bj, lam, v, w, v_new, w_new)
         for i in range(N):
             for a in range(3):
                 if not math.isfinite(v_new[i, a]) or not math.isfinite(w_new[i, a]):
