@@ -387,6 +387,11 @@ class Domain:
             jt["jt_tf"][k] = tf_index(joint.time_function)
             row0 += joint.n_equations
             row_eps += [joint.formulation.epsilon] * joint.n_equations
+        node_constrained = np.zeros(N, dtype=np.int64)
+        for joint in lagrange + ms:
+            for body in (joint.body_i, joint.body_j):
+                if body is not None:
+                    node_constrained[body.id] = 1
         pars = [tf.parameters() for tf in tfs]
         width = max([len(p) for p in pars] + [1])
         tf_par = np.zeros((max(len(tfs), 1), width))
@@ -403,6 +408,7 @@ class Domain:
             tf_par=tf_par, gravity=gravity, damping=float(self.solver.damping),
             row_eps=np.array(row_eps, dtype=float),
             **self._constraint_pattern(jt, [joint.formulation.epsilon > 0.0 for joint in lagrange]),
+            node_constrained=node_constrained, constrained_nodes=np.flatnonzero(node_constrained).astype(np.int64),
             ms_master=np.array([j.body_j.id for j in ms], dtype=np.int64),
             ms_slave=np.array([j.body_i.id for j in ms], dtype=np.int64),
             ms_kind=np.array([0 if j.kind == "spherical" else 1 for j in ms], dtype=np.int64),

@@ -39,6 +39,8 @@ class Model(NamedTuple):
     ``L_colptr`` (m+1,), ``L_rowidx`` (nnz,), its row view ``L_rowptr``
     (m+1,), ``L_rowcol``, ``L_rowpos`` (nnz−m,); the block products
     ``wc_joints`` (T,4) and their slots ``wc_pos`` (T,6,6).
+    ``node_constrained`` (N,) 1 for a node of a joint (either formulation),
+    else 0; ``constrained_nodes`` (C,) those nodes.
     Master/slave joints (K): ``ms_master``, ``ms_slave`` (K,) node indices,
     ``ms_kind`` (K,) 0 spherical 1 revolute, ``ms_par`` (K,9) the master's
     body-fixed offset and axis and the slave's body-fixed axis.
@@ -78,6 +80,8 @@ class Model(NamedTuple):
     L_rowpos: np.ndarray
     wc_joints: np.ndarray
     wc_pos: np.ndarray
+    node_constrained: np.ndarray
+    constrained_nodes: np.ndarray
     ms_master: np.ndarray
     ms_slave: np.ndarray
     ms_kind: np.ndarray

@@ -85,15 +85,20 @@ def external_forces(model, x, q, t, F, A):
 
 
 @kernel
-def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess):
+def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sweeps, only_constrained):
     """Explicit predictor of the half-step velocities (stage 2), fixed coordinates kept at rest.
 
     The midpoint gyroscopic term is solved by ``sweeps`` fixed-point sweeps
     starting from ``w`` or, if ``from_guess``, from the current ``w_new`` (the
-    constrained velocities of the previous pass, see :func:`advance`).
+    constrained velocities of the previous pass, see :func:`advance`); nodes of
+    no joint get ``extra_free_sweeps`` more.  ``only_constrained``: visit only
+    the nodes of joints (``model.constrained_nodes``).
     """
     c = model.damping
-    for i in range(v.shape[0]):
+    count = model.constrained_nodes.shape[0] if only_constrained else v.shape[0]
+    for p in range(count):
+        i = model.constrained_nodes[p] if only_constrained else p
+        n_sweeps = sweeps if model.node_constrained[i] else sweeps + extra_free_sweeps
         m = model.mass[i]
         for k in range(3):
             v_new[i, k] = model.free[i, k] * (v[i, k] + hk * ((F[i, k] - S[i, k]) / m - c * v[i, k]))
@@ -108,7 +113,7 @@ def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess):
         n0, n1, n2 = w0, w1, w2
         if from_guess:
             n0, n1, n2 = w_new[i, 0], w_new[i, 1], w_new[i, 2]
-        for _ in range(sweeps):
+        for _ in range(n_sweeps):
             b0, b1, b2 = 0.5 * (w0 + n0), 0.5 * (w1 + n1), 0.5 * (w2 + n2)
             j0 = J[0, 0] * b0 + J[0, 1] * b1 + J[0, 2] * b2
             j1 = J[1, 0] * b0 + J[1, 1] * b1 + J[1, 2] * b2
@@ -172,7 +177,10 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             clock[2] += h * dW
             clock[3] += h * c * dD
         hk = h if n > 0 else 0.5 * h
-        _kick(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, False)
+        # a node outside every joint keeps its predicted velocity through the constrained passes
+        # below, which would only add gyroscopic sweeps to it: it gets all of them at once
+        _kick(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, False,
+              CONSTRAINED_SWEEPS if n_rows > 0 or n_ms > 0 else 0, False)
         if n_rows > 0:
             assemble_constraints(model, x, q, t, PHI, PHIt, Bj, scratch.prim_phi, scratch.prim_B)
             if factor_constraints(model, Bj, BMj, Lx, work, h, hk) != OK:
@@ -185,7 +193,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             # multiplier and master/slave joints the passes also alternate the two projections.
             for sweep in range(1 + CONSTRAINED_SWEEPS):
                 if sweep > 0:
-                    _kick(model, v, w, S, F, hk, v_new, w_new, 1, True)
+                    _kick(model, v, w, S, F, hk, v_new, w_new, 1, True, 0, True)
                 if n_rows > 0:
                     constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v_new, w_new, h, hk, lam)
                 if n_ms > 0:
