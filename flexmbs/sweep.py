@@ -20,7 +20,7 @@ per case: the grid values, the status (``completed`` or the error of a failed
 case), the wall time and the case's values (:func:`case_values`).
 
 Dask is imported only here (the engine, ``reference/``, never needs it); the
-pieces are usable from Python: :func:`load_study`, :func:`cases`,
+pieces are usable from Python: :func:`load_study` (or :func:`make_study`), :func:`cases`,
 :func:`run_case` (one case, in this process) and :func:`run_study`.
 """
 
@@ -81,7 +81,19 @@ def load_study(path) -> Study:
     if not deck.is_file():
         raise _fail(path, "deck", f"no such deck file {data['deck']!r} (looked for {deck})",
                     "the path is relative to the study file")
-    grid = data.get("grid")
+    return make_study(deck, data.get("grid"), str(data.get("description", "")), path)
+
+
+def make_study(deck, grid: dict, description: str = "", path=None) -> Study:
+    """A study from Python: ``deck`` (path) and ``grid`` (name → list), validated as a study file is.
+
+    E.g. a convergence study, ``run_study(make_study("models/embedded_beam.toml",
+    {"refine": [1, 2, 4, 8]}), "out/convergence")``.
+    """
+    deck = Path(deck).resolve()
+    path = Path(path) if path is not None else deck
+    if not deck.is_file():
+        raise _fail(path, "deck", f"no such deck file {str(deck)!r}")
     if not isinstance(grid, dict) or not grid:
         raise _fail(path, "grid", "missing or empty [grid] table", "e.g. [grid] with refine = [1, 2]")
     for name, values in grid.items():
@@ -95,7 +107,7 @@ def load_study(path) -> Study:
             raise _fail(path, entry, "unknown name",
                         f"use {', '.join(DECK_OVERRIDES + SOLVER_KEYS)} or a deck value's dotted name "
                         "(e.g. sections.NAME.EI2)")
-    study = Study(path, deck, dict(grid), str(data.get("description", "")))
+    study = Study(path, deck, dict(grid), description)
     from reference.io.deck import load_deck
 
     try:
