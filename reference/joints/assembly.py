@@ -6,7 +6,7 @@ the joint's own block of B, ``Bj[k]`` (m_k × 12, columns ``[v_i | ω_i | v_j |
 ω_j]``): B is never formed as an m × 6N array.
 
 ``constraint_impulse`` is the implicit stage of Park's staggered step with the
-Park–Chiou stabilisation (FORMULATION.md, a reconstruction): with the predicted
+Park–Chiou stabilisation (docs/formulation.md §7, a reconstruction): with the predicted
 velocities ``V*`` and the kick length ``h_k`` (``h``, or ``h/2`` at start-up),
 the impulse ``Λ = h_k λ`` solves::
 

@@ -25,9 +25,11 @@ This module does the symbolic work once, in Python, when the model is built:
 The numeric factorisation over that fixed pattern is compiled
 (``reference/joints/assembly.py``: a left-looking column Cholesky, George &
 Liu ch. 2, without supernodes).  For solvers that build their own sparse
-systems (scipy.sparse), :func:`jacobian_csr_structure` gives B's CSR
-structure and the map from the per-joint blocks to its data, so there is one
-description of B's sparsity.
+systems (scipy.sparse), :func:`jacobian_row_columns` gives the global column
+of every entry of the joint blocks (the implicit algorithms' Newton matrix is
+laid out with it) and :func:`jacobian_csr_structure` B's CSR structure with the
+map from the per-joint blocks to its data, so there is one description of B's
+sparsity.
 """
 
 from __future__ import annotations
@@ -246,6 +248,24 @@ def constraint_pattern(jt_i: np.ndarray, jt_j: np.ndarray, jt_neq: np.ndarray, g
     )
 
 
+def jacobian_row_columns(jt_i, jt_j, jt_neq, dof6: np.ndarray) -> np.ndarray:
+    """The global column of each entry of the joint blocks of B: (m, 12) ints, −1 dropped.
+
+    Row r of joint k has the block columns ``[v_i | ω_i | v_j | ω_j]``; ``dof6``
+    (N, 6) maps a node coordinate to its global column (−1: not an unknown, e.g.
+    a fixed coordinate).  The ground's columns are −1.  Both the explicit
+    scheme's sparse stage (:func:`jacobian_csr_structure`) and the implicit
+    algorithms' Newton matrix (``reference.algorithms.implicit.newton_pattern``)
+    lay out B with it.
+    """
+    none = np.full(6, -1, dtype=np.int64)
+    out = []
+    for i, j, m in zip(np.asarray(jt_i).tolist(), np.asarray(jt_j).tolist(), np.asarray(jt_neq).tolist()):
+        idx = np.concatenate([dof6[n] if n >= 0 else none for n in (i, j)])
+        out += [idx] * m
+    return np.array(out, dtype=np.int64).reshape(-1, 12)
+
+
 def jacobian_csr_structure(jt_i, jt_j, jt_neq, n_nodes: int):
     """CSR structure of the global B (m × 6N, columns ``[v_n | ω_n]`` per node) from the joint blocks.
 
@@ -255,17 +275,19 @@ def jacobian_csr_structure(jt_i, jt_j, jt_neq, n_nodes: int):
     shape=(m, 6 * n_nodes))`` is B; the structure is fixed for a model, so only
     the gather ``Bj.reshape(-1)[source]`` is repeated per evaluation.
     """
-    indptr, indices, source = [0], [], []
-    for k, (i, j, m) in enumerate(zip(np.asarray(jt_i).tolist(), np.asarray(jt_j).tolist(),
-                                      np.asarray(jt_neq).tolist())):
-        if i == j:
-            raise ValueError(f"joint {k} joins node {i} to itself")
-        sides = sorted((n, side) for side, n in enumerate((i, j)) if n >= 0)
-        for r in range(m):
-            for n, side in sides:
-                indices.extend(range(6 * n, 6 * n + 6))
-                source.extend((k * 6 + r) * 12 + 6 * side + c for c in range(6))
-            indptr.append(len(indices))
-    if not 0 <= max(indices, default=0) < 6 * max(n_nodes, 1):
+    jt_i, jt_j, jt_neq = (np.asarray(a, dtype=np.int64) for a in (jt_i, jt_j, jt_neq))
+    if np.any(jt_i == jt_j):
+        raise ValueError(f"joint {int(np.flatnonzero(jt_i == jt_j)[0])} joins a node to itself")
+    if max(jt_i.max(initial=-1), jt_j.max(initial=-1)) >= n_nodes:
         raise ValueError("a joint refers to a node beyond n_nodes")
+    columns = jacobian_row_columns(jt_i, jt_j, jt_neq, np.arange(6 * n_nodes, dtype=np.int64).reshape(-1, 6))
+    joint = np.repeat(np.arange(len(jt_i)), jt_neq)
+    local = np.concatenate([np.arange(m) for m in jt_neq.tolist()]) if len(jt_i) else np.zeros(0, np.int64)
+    indptr, indices, source = [0], [], []
+    for r in range(columns.shape[0]):
+        order = np.argsort(columns[r], kind="stable")
+        order = order[columns[r][order] >= 0]
+        indices.extend(columns[r][order].tolist())
+        source.extend(((joint[r] * 6 + local[r]) * 12 + order).tolist())
+        indptr.append(len(indices))
     return np.array(indptr, dtype=np.int64), np.array(indices, dtype=np.int64), np.array(source, dtype=np.int64)
