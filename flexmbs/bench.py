@@ -1,15 +1,18 @@
 """``flexmbs bench``: solve times of the reference engine and of Exudyn, side by side.
 
-Then the scaling of the constraint stage: the per-step cost of a chain of K
-rigid links joined by spherical joints (K = 50 … 400; linear in K with the
-sparse stage) and of two beams welded by a ``fixed`` joint against the same
-beams sharing a node.
-
 Both engines solve the same dynamic problem from the same deck data, with the
 same load history and time step, in one process, one after the other; each is
 warmed up once (numba compilation, Exudyn's first-call set-up) and then timed
 ``repeat`` times; the table shows the median solve times and their ratio.
 Only the solve is timed (model building excluded) on both sides.
+
+Then the scaling of the constraint stage — the per-step cost of a chain of K
+rigid links joined by spherical joints (K = 50 … 400; linear in K with the
+sparse stage) and of two beams welded by a ``fixed`` joint against the same
+beams sharing a node — and the Beam2 throughput (µs per element-step, 768
+elements) beside PyElastica's on the same clamped rod (the ``bench`` extra),
+with both tips printed: the same answer at the same step.  Per-step costs time
+the compiled stepping alone (median of ``repeat`` after a warm-up).
 """
 
 from __future__ import annotations
@@ -151,6 +154,102 @@ def welded_vs_shared(repeat: int = 3) -> tuple[float, float]:
     return t_s, t_w
 
 
+THROUGHPUT = dict(elements=768, length=10.0, radius=0.05, density=1000.0, E=1e7, G=1e7 / 3.0, torque=0.01,
+                  dt=1e-4, steps=1000)
+"""The beam-throughput case: a clamped straight rod (circular section) under a constant end torque
+about an axis normal to the rod, both codes at the same step; G = E/3 (ν = 0.5, PyElastica's
+default relation)."""
+
+
+def _throughput_section():
+    import math
+
+    from reference.elements import Section
+
+    c = THROUGHPUT
+    A, I = math.pi * c["radius"] ** 2, math.pi * c["radius"] ** 4 / 4.0
+    rho = c["density"]
+    return Section(EA=c["E"] * A, GA2=c["G"] * A, GA3=c["G"] * A, GJ=c["G"] * 2.0 * I, EI2=c["E"] * I,
+                   EI3=c["E"] * I, rhoA=rho * A, rhoJ1=rho * 2.0 * I, rhoJ2=rho * I, rhoJ3=rho * I)
+
+
+def throughput_cantilever():
+    """The throughput case in flexmbs: Beam2 elements, clamp at x = 0, dead end moment about y."""
+    import numpy as np
+
+    from reference.domain import Domain, SolverSettings
+    from reference.interactions import Clamp, NodalLoad
+
+    c = THROUGHPUT
+    d = Domain(f"cantilever of {c['elements']} elements")
+    nodes = d.add_beam("rod", (0.0, 0.0, 0.0), (c["length"], 0.0, 0.0), c["elements"], _throughput_section())
+    d.add_interaction(Clamp(nodes[0]))
+    d.add_interaction(NodalLoad(nodes[-1], np.array([0.0, c["torque"], 0.0]), moment=True))
+    d.solver = SolverSettings(dt=c["dt"], t_end=c["steps"] * c["dt"], output_every=c["steps"])
+    return d
+
+
+def _elastica_per_element_step(repeat: int) -> tuple[float, float]:
+    """PyElastica (numba, position Verlet) on the same case: median seconds per element-step and the tip z."""
+    import elastica as ea
+    import numpy as np
+
+    c = THROUGHPUT
+
+    class EndTorque(ea.NoForces):
+        def __init__(self, torque):
+            super().__init__()
+            self.torque = np.asarray(torque, dtype=float)
+
+        def apply_torques(self, system, time=np.float64(0.0)):
+            system.external_torques[..., -1] += system.director_collection[..., -1] @ self.torque
+
+    def run(steps):
+        class Sim(ea.BaseSystemCollection, ea.Constraints, ea.Forcing):
+            pass
+
+        sim = Sim()
+        rod = ea.CosseratRod.straight_rod(c["elements"], np.zeros(3), np.array([1.0, 0.0, 0.0]),
+                                          np.array([0.0, 0.0, 1.0]), c["length"], c["radius"], c["density"],
+                                          youngs_modulus=c["E"], shear_modulus=c["G"])
+        sim.append(rod)
+        sim.constrain(rod).using(ea.OneEndFixedBC, constrained_position_idx=(0,), constrained_director_idx=(0,))
+        sim.add_forcing_to(rod).using(EndTorque, torque=[0.0, c["torque"], 0.0])
+        sim.finalize()
+        t0 = time.perf_counter()
+        ea.integrate(ea.PositionVerlet(), sim, steps * c["dt"], steps, progress_bar=False)
+        return time.perf_counter() - t0, float(rod.position_collection[2, -1])
+
+    run(10)  # warm-up: PyElastica's numba kernels compile
+    times, tip = [], 0.0
+    for _ in range(repeat):
+        wall, tip = run(c["steps"])
+        times.append(wall)
+    return statistics.median(times) / (c["steps"] * c["elements"]), tip
+
+
+def beam_throughput(repeat: int = 3) -> tuple[float, float | None]:
+    """Per element-step cost of the Beam2 kernel in the explicit step (768 elements) and of PyElastica
+    on the same cantilever, side by side [s]; PyElastica is skipped (None) when not installed."""
+    from reference.jit import threads
+
+    c = THROUGHPUT
+    d = throughput_cantilever()
+    t_ref = _per_step(d, repeat) / c["elements"]
+    tip_ref = d.solve().positions[-1, -1, 2]
+    print(f"beam throughput: clamped rod, end torque, {c['elements']} elements, dt = {c['dt']:g}, {c['steps']} steps "
+          f"(FLEXMBS_THREADS = {threads()})")
+    print(f"  flexmbs    {t_ref * 1e6:7.3f} µs per element-step   tip z {tip_ref:.6e} m")
+    try:
+        t_ela, tip_ela = _elastica_per_element_step(repeat)
+    except ImportError:
+        print("  PyElastica not installed (pip install -e '.[bench]'): comparison skipped")
+        return t_ref, None
+    print(f"  PyElastica {t_ela * 1e6:7.3f} µs per element-step   tip z {tip_ela:.6e} m")
+    print(f"  ratio flexmbs / PyElastica {t_ref / t_ela:.2f} (target ≤ 1.0, and ≤ 0.15 µs)")
+    return t_ref, t_ela
+
+
 def main(args=None) -> int:
     repeat = getattr(args, "repeat", 3) or 3
     rows = []
@@ -168,4 +267,6 @@ def main(args=None) -> int:
     chain_scaling(repeat)
     print()
     welded_vs_shared(repeat)
+    print()
+    beam_throughput(repeat)
     return 0

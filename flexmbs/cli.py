@@ -181,6 +181,12 @@ def main(argv=None) -> int:
     from reference.io.deck import DeckError
 
     try:
+        from reference.jit import threads
+
+        try:
+            threads()
+        except ValueError as exc:
+            raise CommandError(f"{exc}; unset it or give e.g. FLEXMBS_THREADS=2") from None
         return args.func(args)
     except (DeckError, SolverDiverged, CommandError, OSError, KeyError) as exc:
         # one line: the deck reader's messages name file, entry and fix; OSError covers a missing

@@ -160,7 +160,9 @@ class Scratch(NamedTuple):
 
     Constraints: ``PHI``, ``PHIt``, ``lam``, ``work`` (m,); the joints' blocks of
     B and of B M⁻¹, ``Bj`` and ``BMj`` (J,6,12); the values of the sparse
-    Cholesky factor ``Lx`` (nnz,).
+    Cholesky factor ``Lx`` (nnz,).  Beam2 elements: ``W_el`` (E,40) one row per
+    element for the parallel element loop
+    (:func:`reference.elements.formulation.beam2_assemble_parallel`).
     """
 
     S: np.ndarray
@@ -186,6 +188,7 @@ class Scratch(NamedTuple):
     TMT: np.ndarray
     rhs: np.ndarray
     r4: np.ndarray
+    W_el: np.ndarray
 
     @classmethod
     def for_model(cls, model: Model) -> "Scratch":
@@ -194,4 +197,4 @@ class Scratch(NamedTuple):
                    np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12)),
                    np.zeros(model.L_rowidx.shape[0]), np.zeros(m), np.zeros(m), np.zeros(10),
                    np.zeros(120), np.zeros((12, 9)), np.zeros(9), np.zeros(9), np.zeros((12, 9)), np.zeros((9, 9)),
-                   np.zeros(9), np.zeros(4))
+                   np.zeros(9), np.zeros(4), np.zeros((model.conn.shape[0], 40)))

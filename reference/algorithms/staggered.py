@@ -32,10 +32,10 @@ import math
 
 
 from reference.algorithms.base import Algorithm
-from reference.elements.formulation import beam2_assemble
+from reference.elements.formulation import beam2_assemble_parallel
 from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
-from reference.jit import kernel
+from reference.jit import kernel, use_threads
 from reference.joints.assembly import (
     SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
 )
@@ -150,7 +150,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     or ``SINGULAR`` (the constraint matrix lost rank).
     """
     x, q, v, w, f_prev, clock = state
-    S, F, v_new, w_new, s_el = scratch.S, scratch.F, scratch.v_new, scratch.w_new, scratch.s_el
+    S, F, v_new, w_new = scratch.S, scratch.F, scratch.v_new, scratch.w_new
     q_tmp, A = scratch.q_tmp, scratch.A
     PHI, PHIt, Bj, BMj, Lx, lam = scratch.PHI, scratch.PHIt, scratch.Bj, scratch.BMj, scratch.Lx, scratch.lam
     work = scratch.work
@@ -160,7 +160,8 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     c = model.damping
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
-        U = beam2_assemble(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
+        U = beam2_assemble_parallel(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
+                                    S, scratch.W_el)
         external_forces(model, x, q, t, F, A)
         if n > 0:
             # trapezoidal work of the external forces over the last increment h V^{n-1/2},
@@ -282,6 +283,7 @@ class StaggeredCentralDifference(Algorithm):
 
     def advance(self, model: Model, state: State, n_steps: int, record: Record | None, scratch: Scratch) -> int:
         rec = record if record is not None else Record.empty(state.x.shape[0], model.n_constraints)
+        use_threads()
         return advance(model, state, self.dt, int(n_steps), record is not None, rec, scratch)
 
 
