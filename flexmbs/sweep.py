@@ -113,6 +113,8 @@ def make_study(deck, grid: dict, description: str = "", path=None) -> Study:
     try:
         load_deck(deck, overrides=deck_overrides(cases(study)[0]))
     except DeckError as exc:
+        if path == deck:
+            raise
         raise DeckError(f"{path}: grid (first case): {exc}") from None
     return study
 

@@ -154,3 +154,15 @@ def test_dotted_overrides_reach_the_model():
     d = load_deck(deck, overrides={"sections.rollup.EI2": 120.0, "beams.0.elements": 6, "solver.damping": 20.0})
     assert d.elements[0].formulation.section.EI2 == 120.0
     assert len(d.elements) == 6 and d.solver.damping == 20.0
+
+
+def test_make_study_from_python_validates_like_a_file():
+    """The Python face (for the report's convergence studies): the same cases and the same checks."""
+    from flexmbs.sweep import make_study
+    from reference.io.deck import DeckError
+
+    deck = ROOT / "models" / "embedded_beam.toml"
+    study = make_study(deck, {"refine": [1, 2, 4], "t_end": [0.05]})
+    assert cases(study) == [{"refine": r, "t_end": 0.05} for r in (1, 2, 4)]
+    with pytest.raises(DeckError, match=r"sections\.rollup\.EJ2: unknown key; did you mean 'EI2'\?"):
+        make_study(deck, {"sections.rollup.EJ2": [1.0]})
