@@ -54,3 +54,9 @@ def use_threads(n: int | None = None) -> int:
     n = threads() if n is None else max(1, min(int(n), numba.config.NUMBA_NUM_THREADS))
     numba.set_num_threads(n)
     return n
+
+
+try:  # for the importing thread; ``Algorithm.advance`` sets it again for the thread it runs on
+    use_threads()
+except ValueError:  # a bad FLEXMBS_THREADS is reported where the thread count is used
+    pass

@@ -290,6 +290,7 @@ class StaggeredCentralDifference(Algorithm):
 def step(model: Model, state: State, h: float) -> State:
     """One staggered step as a pure function: returns the state at ``t_{n+1}``."""
     new = state.copy()
+    use_threads()
     status = advance(model, new, h, 1, False, Record.empty(new.x.shape[0], model.n_constraints),
                      Scratch.for_model(model))
     if status != OK:
