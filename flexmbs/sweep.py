@@ -135,34 +135,39 @@ def case_values(domain, results) -> dict:
 
     The final time, the final energies (kinetic, strain, external work,
     dissipated), the largest constraint violation ‖Φ‖, and for each of the
-    deck's ``[checks.NAME]`` that names a ``node``, that node's final position
-    (``NAME.x``, ``NAME.y``, ``NAME.z``).
+    deck's ``[checks.NAME]`` with an ``observable`` (``docs/observables.md``)
+    its value at the final time: ``NAME`` for a scalar, ``NAME.x`` … for the
+    components of a vector.  A check with a ``node`` but no observable gives
+    that node's final position.
     """
+    import numpy as np
+
+    from reference.observables import KINDS, parse
+
     out = {"t_final": float(results.time[-1])}
     for key, series in results.energy.items():
         out[f"{key}_final"] = float(series[-1])
     out["max_violation"] = float(results.constraint_violation.max()) if len(results.constraint_violation) else 0.0
     for name, spec in domain.checks.items():
-        node = spec.get("node") if isinstance(spec, dict) else None
-        if isinstance(node, str):
-            label = _node_label(results.labels, node)
-            if label is None:
-                continue
-            xyz = results.position(label)[-1]
-            out.update({f"{name}.{c}": float(v) for c, v in zip("xyz", xyz)})
+        if not isinstance(spec, dict):
+            continue
+        text = spec.get("observable")
+        if text is None and isinstance(spec.get("node"), str):
+            text = f"position:{spec['node']}"
+        if not isinstance(text, str):
+            continue
+        try:
+            observable = parse(text, domain)
+            value = np.asarray(observable.evaluate(results), dtype=float)[-1]
+        except (ValueError, KeyError, IndexError, AttributeError):  # not computable from these results
+            continue
+        if value.ndim == 0:
+            out[name] = float(value)
+        elif value.ndim == 1:
+            comps = KINDS.get(observable.kind, (None, ()))[1]
+            labels = comps[: value.size] if len(comps) >= value.size else [str(i) for i in range(value.size)]
+            out.update({f"{name}.{c}": float(v) for c, v in zip(labels, value)})
     return out
-
-
-def _node_label(labels: list, ref: str) -> str | None:
-    """A node label, or a beam's ``NAME:start`` / ``NAME:end`` resolved to its first / last node."""
-    if ref in labels:
-        return ref
-    beam, _, end = ref.rpartition(":")
-    indices = sorted(int(lbl.rsplit(":", 1)[1]) for lbl in labels
-                     if lbl.startswith(beam + ":") and lbl.rsplit(":", 1)[1].isdigit())
-    if end in ("start", "end") and indices:
-        return f"{beam}:{indices[0] if end == 'start' else indices[-1]}"
-    return None
 
 
 def run_case(deck, case: dict, out_dir) -> dict:
