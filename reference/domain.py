@@ -29,7 +29,7 @@ from reference.interactions import Constant, FixedCoordinates, Gravity, Interact
 from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
 from reference.joints.master_slave import master_slave_parameters
 from reference.joints.assembly import (
-    SINGULAR, apply_inverse_mass, assemble_constraints, assemble_w, jacobian_times, sparse_cholesky, sparse_solve,
+    apply_inverse_mass, assemble_constraints, assemble_w, jacobian_times, sparse_cholesky, sparse_solve,
     subtract_transpose,
 )
 from reference.joints.sparse import constraint_pattern
