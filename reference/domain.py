@@ -842,8 +842,8 @@ class Domain:
         out["reaction_force"][rows], out["reaction_moment"][rows] = force, moment
         E = model.conn.shape[0]
         out["section_force"], out["section_moment"] = np.zeros((E, 3)), np.zeros((E, 3))
-        beam2_resultants(x, q, model.conn, model.L0, model.psi0, model.gamma0, model.stiff,
-                         out["section_force"], out["section_moment"], np.zeros(24))
+        beam2_resultants(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
+                         out["section_force"], out["section_moment"], np.zeros(32))
         return out
 
     def _store(self, rec: Record, t: float, records: list, writer) -> None:

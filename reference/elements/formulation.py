@@ -279,18 +279,22 @@ def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
 
 
 @kernel
-def beam2_resultants(x, q, conn, L0, psi0, gamma0, stiff, N, M, s_el):
+def beam2_resultants(x, q, conn, offset, L0, psi0, gamma0, stiff, N, M, s_el):
     """Section resultants of all Beam2 elements at their midpoints, section frame.
 
     ``N`` (E, 3) the force resultant ``C_Γ (Γ − Γ0)`` [N] (component 1 the axial
     force, positive in tension; 2, 3 the shear forces) and ``M`` (E, 3) the moment
     ``C_K K`` [N m] (1 torsion, 2, 3 bending), in the midpoint section frame
-    ``A_m`` of the generated kernel (``derivations/beam2.py``); ``s_el`` (24,) scratch.
+    ``A_m`` of the generated kernel (``derivations/beam2.py``), evaluated with the
+    ends' section triads ``p_a = q_a ⊗ o_a`` (``offset`` (E,2,4)); ``s_el`` (32,) scratch.
     """
+    p1, p2 = s_el[24:28], s_el[28:32]
     for e in range(conn.shape[0]):
         i, j = conn[e, 0], conn[e, 1]
-        generated_beam2.internal_forces(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e],
-                                        s_el[:12], s_el[12:18], s_el[18:])
+        section_quaternion(q[i], offset[e, 0], p1)
+        section_quaternion(q[j], offset[e, 1], p2)
+        generated_beam2.internal_forces(x[i], x[j], p1, p2, L0[e], psi0[e], gamma0[e], stiff[e],
+                                        s_el[:12], s_el[12:18], s_el[18:24])
         for k in range(3):
             N[e, k] = s_el[18 + k]
             M[e, k] = s_el[21 + k]
