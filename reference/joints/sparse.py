@@ -57,12 +57,18 @@ def joint_graph(jt_i: np.ndarray, jt_j: np.ndarray) -> list[set[int]]:
     return adj
 
 
+FILL_DEGREE = 24
+"""Above this many neighbours a vertex's fill is taken as its upper bound ``d(d−1)/2``
+instead of being counted (a hub joins many joints, which are mostly one clique already)."""
+
+
 def elimination_order(adjacency: list[set[int]], weight: np.ndarray, group=None) -> np.ndarray:
     """Minimum-fill elimination order of a graph (the joints, weighted by their rows).
 
     Eliminating a vertex joins its remaining neighbours into a clique; the
     vertex chosen next is the one adding the fewest new edges (minimum fill,
-    "minimum deficiency", George & Liu 1981 §5.1), then the one of least degree
+    "minimum deficiency", George & Liu 1981 §5.1; counted up to ``FILL_DEGREE``
+    neighbours), then the one of least degree
     (total weight of its neighbours), then the lowest index (the deck's order).
     The joint graph of a chain or a tree is chordal: it always has a vertex of
     zero fill, so this order factors it without any fill.  Vertices of a lower
@@ -84,7 +90,10 @@ def elimination_order(adjacency: list[set[int]], weight: np.ndarray, group=None)
 
     def key(a):
         nb = list(adj[a])
-        fill = sum(1 for u in range(len(nb)) for v in nb[u + 1:] if v not in adj[nb[u]])
+        if len(nb) <= FILL_DEGREE:
+            fill = sum(1 for u in range(len(nb)) for v in nb[u + 1:] if v not in adj[nb[u]])
+        else:  # a hub: its bound, without the quadratic count
+            fill = len(nb) * (len(nb) - 1) // 2
         return (int(group[a]), fill, int(sum(weight[b] for b in nb)), a)
 
     current = [key(a) for a in range(n)]
