@@ -9,7 +9,7 @@ STAMP := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,test]"
+	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,sweep,test]"
 	touch $(STAMP)
 
 $(VENV)/.notebooks: $(STAMP)
@@ -30,7 +30,11 @@ fuzz: $(STAMP)
 signals: $(STAMP)
 	$(BIN)/python tests/stop_runs.py --kills 20 --terms 10
 
-bench: $(STAMP)
+$(VENV)/.bench: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,sweep,test,bench]"
+	touch $(VENV)/.bench
+
+bench: $(VENV)/.bench
 	$(BIN)/flexmbs bench
 
 derive: $(STAMP)
