@@ -4,12 +4,12 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: report test fuzz bench derive notebooks clean
+.PHONY: report test fuzz signals bench derive notebooks clean
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,test]"
+	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,sweep,test]"
 	touch $(STAMP)
 
 $(VENV)/.notebooks: $(STAMP)
@@ -26,7 +26,15 @@ test: $(STAMP)
 fuzz: $(STAMP)
 	$(BIN)/python tests/fuzz_decks.py --cases 10000
 
-bench: $(STAMP)
+# 20 SIGKILL and 10 SIGTERM/SIGHUP trials of `flexmbs run` (the test suite runs a few)
+signals: $(STAMP)
+	$(BIN)/python tests/stop_runs.py --kills 20 --terms 10
+
+$(VENV)/.bench: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,sweep,test,bench]"
+	touch $(VENV)/.bench
+
+bench: $(VENV)/.bench
 	$(BIN)/flexmbs bench
 
 derive: $(STAMP)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -28,8 +28,13 @@ from reference.elements.formulation import beam2_resultants
 from reference.interactions import Constant, FixedCoordinates, Gravity, Interaction, NodalLoad, TimeFunction
 from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
 from reference.joints.master_slave import master_slave_parameters
-from reference.joints.assembly import apply_inverse_mass, assemble_constraints
+from reference.joints.assembly import (
+    apply_inverse_mass, assemble_constraints, assemble_w, jacobian_times, sparse_cholesky, sparse_solve,
+    subtract_transpose,
+)
+from reference.joints.sparse import constraint_pattern
 from reference.joints.joint import ROWS
+from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor
 from reference.joints.reactions import reactions
 from reference.nodes import Node
 from reference.generated import rotation_maps as rm
@@ -37,8 +42,16 @@ from reference.rotation import EulerParameters
 from reference.state import Model, Record, Scratch, State
 
 
+DEPENDENT_PIVOT = 1e-10
+"""A constraint row whose Cholesky pivot in ``B M⁻¹ Bᵀ`` is below this fraction of
+its diagonal entry (its remainder's M⁻¹-norm below 1e-5 of its own) depends on
+the rows before it.  The pivot is a difference of squares, so round-off leaves
+~1e-15 of the diagonal in a truly dependent row; the independent rows of the
+rigid four-bar (tests/test_pendulum.py) stay above 3e-4."""
+
+
 class SolverDiverged(RuntimeError):
-    """The run produced non-finite values; the results written so far are kept."""
+    """The run failed or blew up; the results written so far are kept."""
 
 
 @dataclass
@@ -158,13 +171,13 @@ def arc_geometry(start, end, center, n_elements: int) -> tuple[np.ndarray, np.nd
     return points, tangents
 
 
-@dataclass
 class Results:
-    """Time histories of a run, as arrays in memory (the results file holds the same).
+    """Time histories of a run, from the results file (read on demand) or from memory.
 
-    ``time`` (n,), ``position``/``velocity``/``angular_velocity`` (n,N,3),
-    ``rotation`` (n,N,4), ``energy`` dict of (n,) arrays, ``labels`` (N,),
-    ``status`` ("completed" or why it stopped), ``wall_time`` [s].
+    ``time`` (n,), ``positions``/``velocities``/``angular_velocities`` (n,N,3),
+    ``rotations`` (n,N,4), ``energy`` dict of (n,) arrays, ``constraint_violation``,
+    ``velocity_constraint_violation`` (n,), ``labels`` (N,), ``status`` ("completed"
+    or why the run stopped), ``wall_time`` [s], ``attrs`` (the file's attributes).
     Joints (J): ``joint_labels``, ``reaction_forces`` and ``reaction_moments``
     (n,J,3), the force and the moment about the joint point that each joint
     exerts on its body_i, inertial [N], [N m] (NaN where not computed:
@@ -173,28 +186,97 @@ class Results:
     frame.  ``multipliers`` (n,m) the Lagrange multipliers (``M a + Bᵀλ = Q``).
 
     Node keys are ids, labels, or the aliases ``BEAM:start`` and ``BEAM:end``
-    (the first and last node ``BEAM:i`` of a meshed beam).
+    (the first and last node ``BEAM:i`` of a meshed beam).  ``position("beam:12")``
+    and the like read one node's history (from a file, only that node's column);
+    :meth:`data` gives any dataset by its path in the file.
+
+    Parameters
+    ----------
+    source : path, optional
+        A results file: the arrays not given are read from it on first use, so a
+        long run's histories are not held in memory unless asked for.
     """
 
-    time: np.ndarray
-    labels: list
-    positions: np.ndarray
-    rotations: np.ndarray
-    velocities: np.ndarray
-    angular_velocities: np.ndarray
-    energy: dict
-    constraint_violation: np.ndarray
-    velocity_constraint_violation: np.ndarray
-    status: str = "completed"
-    wall_time: float = 0.0
-    attrs: dict = field(default_factory=dict)
-    joint_labels: list = field(default_factory=list)
-    reaction_forces: np.ndarray | None = None
-    reaction_moments: np.ndarray | None = None
-    element_labels: list = field(default_factory=list)
-    section_forces: np.ndarray | None = None
-    section_moments: np.ndarray | None = None
-    multipliers: np.ndarray | None = None
+    ARRAYS = {
+        "time": "time", "positions": "nodes/position", "rotations": "nodes/rotation",
+        "velocities": "nodes/velocity", "angular_velocities": "nodes/angular_velocity",
+        "constraint_violation": "constraints/violation_norm",
+        "velocity_constraint_violation": "constraints/velocity_violation_norm",
+        "reaction_forces": "joints/reaction_force", "reaction_moments": "joints/reaction_moment",
+        "section_forces": "elements/section_force", "section_moments": "elements/section_moment",
+        "multipliers": "constraints/multipliers",
+    }
+    """Attribute → dataset path in the results file."""
+    ENERGIES = ("kinetic", "strain", "external_work", "dissipated")
+    WIDTHS = {"joints/reaction_force": "joint_labels", "joints/reaction_moment": "joint_labels",
+              "elements/section_force": "element_labels", "elements/section_moment": "element_labels"}
+    """Per-item datasets (n, items, 3): NaN of that shape when a file lacks them."""
+
+    def __init__(self, time=None, labels=None, positions=None, rotations=None, velocities=None,
+                 angular_velocities=None, energy=None, constraint_violation=None, velocity_constraint_violation=None,
+                 status: str = "completed", wall_time: float = 0.0, attrs=None, joint_labels=None,
+                 reaction_forces=None, reaction_moments=None, element_labels=None, section_forces=None,
+                 section_moments=None, multipliers=None, source=None, extra=None):
+        given = {"time": time, "positions": positions, "rotations": rotations, "velocities": velocities,
+                 "angular_velocities": angular_velocities, "energy": energy,
+                 "constraint_violation": constraint_violation,
+                 "velocity_constraint_violation": velocity_constraint_violation,
+                 "reaction_forces": reaction_forces, "reaction_moments": reaction_moments,
+                 "section_forces": section_forces, "section_moments": section_moments, "multipliers": multipliers}
+        self.__dict__.update({k: v for k, v in given.items() if v is not None})
+        self.source = source
+        self.extra = dict(extra or {})
+        self.wall_time = wall_time
+        self.labels, self.status, self.attrs = labels, status, dict(attrs or {})
+        self.joint_labels, self.element_labels = list(joint_labels or []), list(element_labels or [])
+        if source is not None:
+            import h5py
+
+            def names(f, name):
+                return [s.decode() if isinstance(s, bytes) else str(s) for s in f[name][()]] if name in f else []
+
+            with h5py.File(source, "r") as f:
+                self.labels = names(f, "nodes/label")
+                self.joint_labels, self.element_labels = names(f, "joints/label"), names(f, "elements/label")
+                self.attrs = dict(f.attrs)
+                self.status = str(f.attrs.get("status", ""))
+
+    def __getattr__(self, name):
+        if name.startswith("__") or name in ("source", "extra"):
+            raise AttributeError(name)
+        if name == "energy":
+            value = {k: self.data(f"energy/{k}") for k in self.ENERGIES}
+        elif name in self.ARRAYS:
+            value = self.data(self.ARRAYS[name])
+        else:
+            raise AttributeError(name)
+        self.__dict__[name] = value
+        return value
+
+    def data(self, path: str, index=()) -> np.ndarray:
+        """The dataset at ``path`` (e.g. ``"constraints/multipliers"``), or its ``[:, index]`` part;
+        NaN (zero columns for the multipliers) where the run did not compute it."""
+        if path in self.extra:
+            return self.extra[path][(slice(None), *np.atleast_1d(index))] if index != () else self.extra[path]
+        if self.source is None:
+            n = len(self.time)
+            return self._missing(path, n)
+        import h5py
+
+        with h5py.File(self.source, "r") as f:
+            if path not in f:
+                return self._missing(path, f["time"].shape[0])
+            return f[path][(slice(None), index)] if index != () else f[path][()]
+
+    def _missing(self, path: str, n: int) -> np.ndarray:
+        if path == "constraints/multipliers":
+            return np.zeros((n, 0))
+        if path in self.WIDTHS:
+            return np.full((n, len(getattr(self, self.WIDTHS[path])), 3), np.nan)
+        return np.full(n, np.nan)
+
+    def __len__(self) -> int:
+        return len(self.time)
 
     def index(self, key) -> int:
         """Column of a node: an id, a label, or ``BEAM:start`` / ``BEAM:end``."""
@@ -210,17 +292,84 @@ class Results:
                 return (min if which == "start" else max)(numbered)[1]
         raise KeyError(f"no node labelled {key!r}; labels are e.g. {self.labels[:4]}")
 
+    def _node(self, name: str, key) -> np.ndarray:
+        if name in self.__dict__ or self.source is None:
+            return getattr(self, name)[:, self.index(key)]
+        return self.data(self.ARRAYS[name], self.index(key))
+
     def position(self, key) -> np.ndarray:
-        return self.positions[:, self.index(key)]
+        return self._node("positions", key)
 
     def rotation(self, key) -> np.ndarray:
-        return self.rotations[:, self.index(key)]
+        return self._node("rotations", key)
 
     def velocity(self, key) -> np.ndarray:
-        return self.velocities[:, self.index(key)]
+        return self._node("velocities", key)
 
     def angular_velocity(self, key) -> np.ndarray:
-        return self.angular_velocities[:, self.index(key)]
+        return self._node("angular_velocities", key)
+
+    def joint_index(self, joint) -> int:
+        if joint in self.joint_labels:
+            return self.joint_labels.index(joint)
+        raise KeyError(f"no joint labelled {joint!r}; joints are {self.joint_labels}")
+
+    def element_index(self, beam, element=None) -> int:
+        """Column of an element: its label ``"beam/i"``, or ``(beam, i)``."""
+        label = str(beam) if element is None else f"{beam}/{int(element)}"
+        if label in self.element_labels:
+            return self.element_labels.index(label)
+        raise KeyError(f"no element labelled {label!r}; elements are e.g. {self.element_labels[:4]}")
+
+    def reaction(self, joint) -> tuple[np.ndarray, np.ndarray]:
+        """``(force, moment)`` (n, 3) each: what ``joint`` exerts on its body_i, moment about the
+        joint point, inertial components [N], [N m]."""
+        k = self.joint_index(joint)
+        return self.reaction_forces[:, k], self.reaction_moments[:, k]
+
+    def section_force(self, beam, element=None) -> np.ndarray:
+        """Force resultant N (n, 3) at the midpoint of element ``beam/element``, section frame [N]."""
+        return self.section_forces[:, self.element_index(beam, element)]
+
+    def section_moment(self, beam, element=None) -> np.ndarray:
+        """Moment resultant M (n, 3) at the midpoint of element ``beam/element``, section frame [N m]."""
+        return self.section_moments[:, self.element_index(beam, element)]
+
+
+class MemoryRecorder:
+    """Keeps the records of a run in preallocated arrays (``Domain.solve`` without a results file).
+
+    Parameters
+    ----------
+    capacity : int
+        Number of records the run will take.
+    labels : list
+        Node labels.
+    """
+
+    def __init__(self, capacity: int, labels: list, joint_labels=(), element_labels=()):
+        self.capacity, self.labels, self.n = capacity, labels, 0
+        self.joint_labels, self.element_labels = list(joint_labels), list(element_labels)
+        self.arrays: dict[str, np.ndarray] = {}
+
+    def append(self, entry: dict) -> None:
+        if not self.arrays:
+            self.arrays = {k: np.empty((self.capacity, *np.shape(v))) for k, v in entry.items()}
+        for k, v in entry.items():
+            self.arrays[k][self.n] = v
+        self.n += 1
+
+    def close(self, status: str) -> None:
+        self.status = status
+
+    def results(self, wall_time: float = 0.0) -> Results:
+        from reference.io.results import dataset_path
+
+        by_path = {dataset_path(k): a[: self.n] for k, a in self.arrays.items()}
+        fields = {name: by_path.pop(path) for name, path in Results.ARRAYS.items() if path in by_path}
+        energy = {k: by_path.pop(f"energy/{k}", np.full(self.n, np.nan)) for k in Results.ENERGIES}
+        return Results(labels=self.labels, energy=energy, status=self.status, wall_time=wall_time, extra=by_path,
+                       joint_labels=self.joint_labels, element_labels=self.element_labels, **fields)
 
     def joint_index(self, joint) -> int:
         if joint in self.joint_labels:
@@ -530,6 +679,11 @@ class Domain:
             jt["jt_tf"][k] = tf_index(joint.time_function)
             row0 += joint.n_equations
             row_eps += [joint.formulation.epsilon] * joint.n_equations
+        node_constrained = np.zeros(N, dtype=np.int64)
+        for joint in lagrange + ms:
+            for body in (joint.body_i, joint.body_j):
+                if body is not None:
+                    node_constrained[body.id] = 1
         pars = [tf.parameters() for tf in tfs]
         width = max([len(p) for p in pars] + [1])
         tf_par = np.zeros((max(len(tfs), 1), width))
@@ -545,8 +699,8 @@ class Domain:
             tf_kind=np.array([tf.kind for tf in tfs] or [0], dtype=np.int64),
             tf_par=tf_par, gravity=gravity, damping=float(self.solver.damping),
             row_eps=np.array(row_eps, dtype=float),
-            row_nodes=np.array([[j.body_i.id, -1 if j.body_j is None else j.body_j.id]
-                                for j in lagrange for _ in range(j.n_equations)], dtype=np.int64).reshape(-1, 2),
+            **self._constraint_pattern(jt, [joint.formulation.epsilon > 0.0 for joint in lagrange]),
+            node_constrained=node_constrained, constrained_nodes=np.flatnonzero(node_constrained).astype(np.int64),
             ms_master=np.array([j.body_j.id for j in ms], dtype=np.int64),
             ms_slave=np.array([j.body_i.id for j in ms], dtype=np.int64),
             ms_kind=np.array([0 if j.kind == "spherical" else 1 for j in ms], dtype=np.int64),
@@ -590,59 +744,124 @@ class Domain:
                 raise ValueError(f"joint {j.label!r}: {problem}")
         return joints
 
+    @staticmethod
+    def _constraint_pattern(jt: dict, regularised: list) -> dict:
+        """The Model's sparsity fields of ``B M⁻¹ Bᵀ`` (:func:`reference.joints.sparse.constraint_pattern`).
+
+        The regularised joints (ε > 0) are eliminated last, so that
+        :meth:`check_constraints` attributes a redundancy to them where it can.
+        """
+        pattern = constraint_pattern(jt["jt_i"], jt["jt_j"], jt["jt_neq"], np.array(regularised, dtype=np.int64))
+        return {"row_iperm": pattern.row_iperm, "L_colptr": pattern.L_colptr, "L_rowidx": pattern.L_rowidx,
+                "L_rowptr": pattern.L_rowptr, "L_rowcol": pattern.L_rowcol, "L_rowpos": pattern.L_rowpos,
+                "wc_joints": pattern.wc_joints, "wc_pos": pattern.wc_pos}
+
+    def _configuration(self, x=None, q=None):
+        x = np.array([n.position for n in self.nodes]).reshape(-1, 3) if x is None else np.asarray(x, dtype=float)
+        q = np.array([n.rotation for n in self.nodes]).reshape(-1, 4) if q is None else np.asarray(q, dtype=float)
+        return x, q
+
+    @staticmethod
+    def _constraint_blocks(model: Model, x, q, t: float):
+        """Φ, Φ_t and the joints' blocks of B and B M⁻¹ at a configuration."""
+        m, J = model.n_constraints, model.jt_i.shape[0]
+        PHI, PHIt, Bj, BMj = np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12))
+        assemble_constraints(model, x, q, float(t), PHI, PHIt, Bj, np.zeros(10), np.zeros(120))
+        apply_inverse_mass(model, Bj, BMj)
+        return PHI, PHIt, Bj, BMj
+
+    @staticmethod
+    def _dependent_rows(model: Model, Bj, BMj):
+        """Sparse Cholesky of ``B M⁻¹ Bᵀ`` dropping dependent rows: the factor and the dropped rows' flags.
+
+        A row is dropped when its pivot — the squared M⁻¹-norm of what remains of
+        it after the rows eliminated before it are projected out, as in
+        Gram–Schmidt — is below ``DEPENDENT_PIVOT`` of its own squared norm.
+        """
+        Lx, dependent = np.zeros(model.L_rowidx.shape[0]), np.zeros(model.n_constraints, dtype=np.int64)
+        assemble_w(model, Bj, BMj, Lx)
+        sparse_cholesky(model, Lx, np.zeros(model.n_constraints), 0.0, DEPENDENT_PIVOT, dependent)
+        return Lx, dependent
+
+    @staticmethod
+    def _dependency_rows(model: Model, Lx, dependent, positions) -> list[int]:
+        """The constraint rows taking part in the dependencies of the dropped rows at ``positions``.
+
+        A dropped row p is ``Σ_k c_k`` (earlier rows k) with ``Lᵀ c = L[p, :p]ᵀ``
+        (its factor row in the orthonormalised basis mapped back to the rows);
+        the rows with ``|c_k| > 1e-8 max |c|`` and p itself are returned.
+        """
+        if len(positions) == 0:
+            return []
+        import scipy.sparse
+        import scipy.sparse.linalg
+
+        m = model.n_constraints
+        ncol = np.diff(model.L_colptr)
+        cols = np.repeat(np.arange(m), ncol)
+        values = Lx.copy()
+        values[model.L_colptr[:-1][dependent == 1]] = 1.0  # dropped rows: unit pivot, zero column
+        L = scipy.sparse.csr_matrix((values, (model.L_rowidx, cols)), shape=(m, m))
+        row_perm = np.argsort(model.row_iperm)
+        rows: set[int] = set()
+        for p in positions:
+            rhs = np.zeros(m)
+            lrow = L.getrow(p)
+            rhs[lrow.indices] = lrow.data
+            rhs[p] = 0.0
+            rhs[dependent == 1] = 0.0
+            c = scipy.sparse.linalg.spsolve_triangular(L.T.tocsr(), rhs, lower=False)
+            big = np.abs(c) > 1e-8 * max(np.abs(c).max(), 1e-300)
+            rows.update(row_perm[np.flatnonzero(big)].tolist() + [int(row_perm[p])])
+        return sorted(rows)
+
     def constraint_matrices(self, model: Model, x=None, q=None, t: float = 0.0):
-        """Global Φ (m,), Φ_t (m,), B (m, 6N) and B M⁻¹ at a configuration (default: initial)."""
+        """Global Φ (m,), Φ_t (m,), B (m, 6N) and B M⁻¹ at a configuration (default: initial), dense.
+
+        A convenience for tests and tools (the step never forms these arrays).
+        """
+        x, q = self._configuration(x, q)
+        PHI, PHIt, Bj, BMj = self._constraint_blocks(model, x, q, t)
         N, m = len(self.nodes), model.n_constraints
-        x = np.array([n.position for n in self.nodes]) if x is None else x
-        q = np.array([n.rotation for n in self.nodes]) if q is None else q
-        PHI, PHIt, Bg, BM = np.zeros(m), np.zeros(m), np.zeros((m, 6 * N)), np.zeros((m, 6 * N))
-        assemble_constraints(model, x, q, float(t), PHI, PHIt, Bg, np.zeros(6), np.zeros((6, 12)), np.zeros(6),
-                             np.zeros(10), np.zeros(120))
-        apply_inverse_mass(model, Bg, BM)
+        Bg, BM = np.zeros((m, 6 * N)), np.zeros((m, 6 * N))
+        for k in range(Bj.shape[0]):
+            r0, mk = model.jt_row0[k], model.jt_neq[k]
+            for side, n in enumerate((model.jt_i[k], model.jt_j[k])):
+                if n >= 0:
+                    Bg[r0:r0 + mk, 6 * n:6 * n + 6] += Bj[k, :mk, 6 * side:6 * side + 6]
+                    BM[r0:r0 + mk, 6 * n:6 * n + 6] += BMj[k, :mk, 6 * side:6 * side + 6]
         return PHI, PHIt, Bg, BM
 
     def check_constraints(self, model: Model) -> None:
         """Refuse redundant constraints that are not regularised (ε = 0), naming the joints.
 
-        Gram–Schmidt on the rows of B in the M⁻¹ inner product ``⟨a, b⟩ = a M⁻¹ bᵀ``
-        (the metric of ``B M⁻¹ Bᵀ``): a row whose remainder is below 1e-9 of its
-        own norm depends on the earlier rows.
+        The rows of B are orthogonalised in the M⁻¹ inner product ``⟨a, b⟩ = a M⁻¹ bᵀ``
+        (the metric of ``B M⁻¹ Bᵀ``) by the sparse Cholesky factorisation of
+        ``B M⁻¹ Bᵀ`` in the elimination order of the step
+        (:meth:`_dependent_rows`): a row whose pivot is negligible depends on the
+        rows eliminated before it.  Cost as for one step's factorisation.
         """
         if model.n_constraints == 0:
             return
-        _, _, Bg, _ = self.constraint_matrices(model)
+        x, q = self._configuration()
+        _, _, Bj, BMj = self._constraint_blocks(model, x, q, 0.0)
+        Lx, dependent = self._dependent_rows(model, Bj, BMj)
+        redundant = np.flatnonzero(dependent[model.row_iperm])
         owner = [joint for joint in self.multiplier_joints() for _ in range(joint.n_equations)]
-        basis, redundant = [], []
-        for r, row in enumerate(Bg):
-            own = row @ self._minv_apply(model, row)
-            vec = row.copy()
-            for e, me in basis:
-                vec -= (vec @ me) * e
-            mv = self._minv_apply(model, vec)
-            remainder = vec @ mv
-            if remainder <= 1e-18 * own:
-                redundant.append(r)
-            else:
-                basis.append((vec / np.sqrt(remainder), mv / np.sqrt(remainder)))
-        bad = sorted({owner[r].label for r in redundant if owner[r].formulation.epsilon == 0.0},
-                     key=[j.label for j in self.joints].index)
-        if bad:
-            raise ValueError(
-                f"redundant constraints: {len(redundant)} equation(s) of joint(s) {', '.join(bad)} depend on "
-                "the others (e.g. a planar linkage of rigid bodies closed in 3D); give those joints a "
-                "formulation with epsilon > 0 to regularise them, or replace a revolute joint by a "
-                "spherical or universal one"
-            )
-
-    @staticmethod
-    def _minv_apply(model: Model, row: np.ndarray) -> np.ndarray:
-        """``M⁻¹ row`` with the lumped, block-diagonal M (fixed coordinates: M⁻¹ = 0)."""
-        blocks = row.reshape(-1, 6)
-        out = np.empty_like(blocks)
-        out[:, :3] = blocks[:, :3] * model.free[:, :3] / model.mass[:, None]
-        rot = blocks[:, 3:] * model.free[:, 3:]
-        out[:, 3:] = np.einsum("nab,nb->na", model.inertia_inv, rot) * model.free[:, 3:]
-        return out.reshape(-1)
+        unregularised = [r for r in redundant if owner[r].formulation.epsilon == 0.0]
+        involved = self._dependency_rows(model, Lx, dependent, model.row_iperm[unregularised])
+        labels = {owner[r].label for r in involved}
+        loop = [j for j in self.multiplier_joints() if j.label in labels]
+        stiff = [j.label for j in loop if j.formulation.epsilon == 0.0]
+        if not stiff:
+            return
+        revolute = [j.label for j in loop if j.kind == "revolute"]
+        fix = f"regularise one of {', '.join(stiff)} (epsilon > 0, a compliance)"
+        if len(revolute) >= 2:
+            fix += (f", or replace revolute {revolute[-1]} by a spherical and {revolute[-2]} by a universal joint "
+                    "(a spherical alone leaves one redundant)")
+        raise ValueError(f"redundant constraints: {len(redundant)} equation(s) depend on the others in the loop of "
+                         f"joints {', '.join(j.label for j in loop)}; {fix}")
 
     def initial_conditions(self) -> State:
         """State at t = 0 from the nodes' initial positions, rotations and velocities."""
@@ -664,13 +883,18 @@ class Domain:
 
         The M-orthogonal projection changes the kinetic energy least; for a
         mechanism driven from rest it gives the velocities of the driven motion.
+        Solved with the sparse factor of the step's pattern; dependent
+        (regularised redundant) rows are dropped, which leaves the projection
+        unchanged when the velocity constraints are consistent.
         """
-        _, PHIt, Bg, BM = self.constraint_matrices(model, state.x, state.q, state.t)
-        V0 = np.concatenate([state.v, state.w], axis=1).reshape(-1)
-        W = BM @ Bg.T
-        lam = np.linalg.lstsq(W, Bg @ V0 + PHIt, rcond=1e-12)[0]
-        V = (V0 - BM.T @ lam).reshape(-1, 6)
-        state.v[:], state.w[:] = V[:, :3], V[:, 3:]
+        _, PHIt, Bj, BMj = self._constraint_blocks(model, state.x, state.q, state.t)
+        Lx, _ = self._dependent_rows(model, Bj, BMj)
+        rhs = np.zeros(model.n_constraints)
+        jacobian_times(model, Bj, state.v, state.w, rhs)
+        y = np.zeros_like(rhs)
+        y[model.row_iperm] = rhs + PHIt
+        sparse_solve(model, Lx, y)
+        subtract_transpose(model, BMj, y[model.row_iperm], state.v, state.w)
 
     def algorithm(self, dt: float | None = None) -> Algorithm:
         """The solver's algorithm, looked up by name in :data:`reference.algorithms.ALGORITHMS`."""
@@ -689,41 +913,58 @@ class Domain:
         return state
 
     def solve(self, t_end: float | None = None, dt: float | None = None, results_path=None,
-              progress=None) -> Results:
+              progress=None, monitor: bool = True) -> Results:
         """Run from t = 0 to ``t_end`` (paper: Solve, Fig. 9) and return the time histories.
+
+        Records stream to the results file and are not kept in memory; the returned
+        :class:`Results` reads them from the file when asked.  Without a file they are
+        kept in preallocated arrays.  Whatever stops the run, the file is closed with
+        a status saying how it ended (``"completed"``, ``"diverged after t = …"``,
+        ``"interrupted at t = …"`` on Ctrl-C, ``"terminated at t = …"`` on SystemExit —
+        the command line raises it on SIGTERM and SIGHUP — or ``"failed: <reason>"``),
+        and :attr:`last_run` says where and how.
 
         Parameters
         ----------
         t_end, dt : float, optional
             Override the deck's end time and step.
         results_path : path, optional
-            HDF5 results file written incrementally (the contract of reference/io/results.py).
+            HDF5 results file (:mod:`reference.io.results`).
         progress : callable(fraction, t), optional
             Called after every output.
+        monitor : bool
+            Stop a run that blows up while finite (:mod:`reference.monitor`): the algorithm
+            checks the energy balance every step (``Scratch.guard``), the Domain the energy
+            balance and the deformation at every output.
 
         Raises
         ------
         SolverDiverged
-            When the state becomes non-finite; records up to then are kept
-            (and the file, if any, is closed with that status).
+            When the algorithm fails (non-finite state, singular constraints) or the
+            monitor sees a blow-up; records up to then are kept.
         """
         t_end = self.solver.t_end if t_end is None else float(t_end)
         algo = self.algorithm(dt)
-        n_total = int(round(t_end / algo.dt))
+        steps = t_end / algo.dt
+        n_total = int(round(steps)) if steps < 2.0**62 else 0
         if n_total < 1 or abs(n_total * algo.dt - t_end) > 1e-9 * max(t_end, 1.0):
             raise ValueError(f"t_end = {t_end} is not a whole number of steps of dt = {algo.dt}")
+        self.last_run = {"path": None, "status": "not started", "t": 0.0}
         model = self.initialization()
         state = self.initial_conditions()
         every = max(int(self.solver.output_every), 1)
-        N = len(self.nodes)
-        scratch, rec = Scratch.for_model(model), Record.empty(N, model.n_constraints)
-        records = []
-        writer = None
+        scratch, rec = Scratch.for_model(model), Record.empty(len(self.nodes), model.n_constraints)
+        watch = BlowUpMonitor(self, algo.dt, getattr(algo, "explicit", True)) if monitor else None
+        scratch.guard[2] = GUARD_TOLERANCE if monitor else 0.0
         if results_path is not None:
             from reference.io.results import ResultsWriter
 
-            writer = ResultsWriter(results_path, self, algo)
-        status = "completed"
+            sink = ResultsWriter(results_path, self, algo, template=self._record(rec, 0.0))
+            self.last_run["path"] = str(results_path)
+        else:
+            sink = MemoryRecorder(n_total // every + 2, [n.label for n in self.nodes], [j.label for j in self.joints],
+                                  [e.label for e in self.elements])
+        status = "failed: stopped before the first step"
         wall0 = _time.perf_counter()
         try:
             done = 0
@@ -731,22 +972,39 @@ class Domain:
                 chunk = min(every, n_total - done)
                 t_record = state.t
                 code = algo.advance(model, state, chunk, rec, scratch)
-                self._store(rec, t_record, records, writer)
+                entry = self._record(rec, t_record)
+                sink.append(entry)
+                why = watch.check(rec.energy, rec.x) if watch is not None and code == OK else ""
+                if why:
+                    status = f"diverged after t = {t_record:.6g}"
+                    raise SolverDiverged(f"{why} (stopped at t = {t_record:.6g}); results up to then are kept")
                 if code != OK:
-                    status, message = algo.failure(code, records[-1]["time"], self)
+                    status, message = algo.failure(code, state.t, self)
+                    if watch is not None:
+                        message += watch.guard_report(scratch.guard, state.clock[2])
                     raise SolverDiverged(message)
                 done += chunk
                 if progress is not None and chunk > 0:
                     progress(done / n_total, state.t)
                 if chunk == 0:
                     break
+            status = "completed"
+        except SolverDiverged:
+            raise
         except KeyboardInterrupt:
             status = f"interrupted at t = {state.t:.6g}"
             raise
+        except Exception as exc:
+            status = f"failed: {type(exc).__name__}: {exc}"[:500]
+            raise
+        except BaseException:
+            status = f"terminated at t = {state.t:.6g}"
+            raise
         finally:
-            if writer is not None:
-                writer.close(status)
-        return self._results(records, status, _time.perf_counter() - wall0, algo)
+            self.last_run.update(status=status, t=state.t, energy=float(scratch.guard[4]),
+                                 work=float(state.clock[2]))
+            sink.close(status)
+        return sink.results(_time.perf_counter() - wall0)
 
     def outputs(self, model: Model, x, q, lam, t: float) -> dict:
         """Derived outputs of one record: joint reactions (all joints, NaN for master/slave ones)
@@ -762,8 +1020,9 @@ class Domain:
                          out["section_force"], out["section_moment"], np.zeros(32))
         return out
 
-    def _store(self, rec: Record, t: float, records: list, writer) -> None:
-        entry = {
+    def _record(self, rec: Record, t: float) -> dict:
+        """One output record: record key → value (:data:`reference.io.results.DATASETS`)."""
+        return {
             "time": t, "position": rec.x.copy(), "rotation": rec.q.copy(), "velocity": rec.v.copy(),
             "angular_velocity": rec.w.copy(), "violation_norm": rec.constraint[0],
             "velocity_violation_norm": rec.constraint[1], "multipliers": rec.lam.copy(),
@@ -771,24 +1030,3 @@ class Domain:
             "dissipated": rec.energy[3],
             **self.outputs(self.model, rec.x, rec.q, rec.lam, t),
         }
-        records.append(entry)
-        if writer is not None:
-            writer.append(entry)
-
-    def _results(self, records, status, wall, algo) -> Results:
-        def stack(key):
-            return np.array([r[key] for r in records])
-
-        return Results(
-            time=stack("time"), labels=[n.label for n in self.nodes], positions=stack("position"),
-            rotations=stack("rotation"), velocities=stack("velocity"),
-            angular_velocities=stack("angular_velocity"),
-            energy={k: stack(k) for k in ("kinetic", "strain", "external_work", "dissipated")},
-            constraint_violation=stack("violation_norm"),
-            velocity_constraint_violation=stack("velocity_violation_norm"),
-            status=status, wall_time=wall, attrs={"algorithm": algo.name, "dt": algo.dt},
-            joint_labels=[j.label for j in self.joints], reaction_forces=stack("reaction_force"),
-            reaction_moments=stack("reaction_moment"), element_labels=[e.label for e in self.elements],
-            section_forces=stack("section_force"), section_moments=stack("section_moment"),
-            multipliers=stack("multipliers").reshape(len(records), -1),
-        )

@@ -32,14 +32,15 @@ import math
 
 
 from reference.algorithms.base import Algorithm
-from reference.elements.formulation import beam2_assemble
+from reference.elements.formulation import beam2_assemble_parallel
 from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
-from reference.jit import kernel
+from reference.jit import kernel, use_threads
 from reference.joints.assembly import (
-    SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints,
+    SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
 )
 from reference.joints.master_slave import master_slave_positions, master_slave_project
+from reference.monitor import likely_cause
 from reference.state import Model, Record, Scratch, State
 
 GYRO_SWEEPS = 4
@@ -49,9 +50,10 @@ GYRO_SWEEPS = 4
 CONSTRAINED_SWEEPS = 3
 """Extra (kick, projection) passes when there are joints (contraction ≈ h|ω|)."""
 
-OK, DIVERGED = 0, 1
+OK, DIVERGED, BLOWUP = 0, 1, 3
 """Status codes of :func:`advance`; ``SINGULAR`` (2, from the joint assembly) means
-the constraint matrix lost rank (redundant or degenerate joints)."""
+the constraint matrix lost rank (redundant or degenerate joints); ``BLOWUP`` that the
+energy balance failed (:attr:`reference.state.Scratch.guard`)."""
 
 
 @kernel
@@ -85,15 +87,20 @@ def external_forces(model, x, q, t, F, A):
 
 
 @kernel
-def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess):
+def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sweeps, only_constrained):
     """Explicit predictor of the half-step velocities (stage 2), fixed coordinates kept at rest.
 
     The midpoint gyroscopic term is solved by ``sweeps`` fixed-point sweeps
     starting from ``w`` or, if ``from_guess``, from the current ``w_new`` (the
-    constrained velocities of the previous pass, see :func:`advance`).
+    constrained velocities of the previous pass, see :func:`advance`); nodes of
+    no joint get ``extra_free_sweeps`` more.  ``only_constrained``: visit only
+    the nodes of joints (``model.constrained_nodes``).
     """
     c = model.damping
-    for i in range(v.shape[0]):
+    count = model.constrained_nodes.shape[0] if only_constrained else v.shape[0]
+    for p in range(count):
+        i = model.constrained_nodes[p] if only_constrained else p
+        n_sweeps = sweeps if model.node_constrained[i] else sweeps + extra_free_sweeps
         m = model.mass[i]
         for k in range(3):
             v_new[i, k] = model.free[i, k] * (v[i, k] + hk * ((F[i, k] - S[i, k]) / m - c * v[i, k]))
@@ -108,7 +115,7 @@ def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess):
         n0, n1, n2 = w0, w1, w2
         if from_guess:
             n0, n1, n2 = w_new[i, 0], w_new[i, 1], w_new[i, 2]
-        for _ in range(sweeps):
+        for _ in range(n_sweeps):
             b0, b1, b2 = 0.5 * (w0 + n0), 0.5 * (w1 + n1), 0.5 * (w2 + n2)
             j0 = J[0, 0] * b0 + J[0, 1] * b1 + J[0, 2] * b2
             j1 = J[1, 0] * b0 + J[1, 1] * b1 + J[1, 2] * b2
@@ -135,6 +142,46 @@ def _kinetic(model, v, w):
 
 
 @kernel
+def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
+    """The energy-balance guard of one step (:mod:`reference.monitor`): ``True`` when
+    ``E − E₀ − W + D > tolerance × S + h (|F·V⁻| + |F·V⁺| + |P_drive|)`` (energy gained
+    that no force put in; energy lost, e.g. to the constraint stabilisation, is no blow-up)
+    and ``E − E₀ > tolerance × S`` (the energy itself has grown).  E is the kinetic
+    energy at the integer-step velocities plus the strain energy ``U``; W and D come from
+    ``clock``; S is the largest ``|E₀| + |W| + |D|`` so far; the last term, a step of the
+    external power ``F`` at the half-step velocities V⁻ (``v``, ``w``) and V⁺ (``v_new``,
+    ``w_new``) and of the constraint forces' power ``P_drive``, covers the half-step lag or
+    lead of the work behind or ahead of E.
+    ``guard`` = [E₀, S, tolerance, residual, E]."""
+    c = 0.5 if mean else 1.0
+    d = 0.5 if mean else 0.0
+    T = 0.0
+    P_old = 0.0
+    P_new = 0.0
+    for i in range(v.shape[0]):
+        J = model.inertia[i]
+        for a in range(3):
+            va = c * v[i, a] + d * v_new[i, a]
+            T += 0.5 * model.mass[i] * va * va
+            P_old += F[i, a] * v[i, a] + F[i, 3 + a] * w[i, a]
+            P_new += F[i, a] * v_new[i, a] + F[i, 3 + a] * w_new[i, a]
+            wa = c * w[i, a] + d * w_new[i, a]
+            for b in range(3):
+                T += 0.5 * wa * J[a, b] * (c * w[i, b] + d * w_new[i, b])
+    E = T + U
+    if not mean:  # the first step: E₀ only
+        guard[0] = E
+        guard[1] = abs(E)
+        return False
+    guard[1] = max(guard[1], abs(guard[0]) + abs(clock[2]) + abs(clock[3]))
+    r = E - guard[0] - clock[2] + clock[3]
+    guard[3], guard[4] = r, E
+    # the energy itself must have grown too: negative work at round-off level on a held model
+    # (W ≈ −1e-20, E = 0) is no blow-up
+    return r > guard[2] * guard[1] + h * (abs(P_old) + abs(P_new) + abs(P_drive)) and E - guard[0] > guard[2] * guard[1]
+
+
+@kernel
 def advance(model, state, h, n_steps, record, rec, scratch):
     """Advance ``state`` in place by ``n_steps`` steps of size ``h``.
 
@@ -145,16 +192,18 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     or ``SINGULAR`` (the constraint matrix lost rank).
     """
     x, q, v, w, f_prev, clock = state
-    S, F, v_new, w_new, s_el = scratch.S, scratch.F, scratch.v_new, scratch.w_new, scratch.s_el
+    S, F, v_new, w_new = scratch.S, scratch.F, scratch.v_new, scratch.w_new
     q_tmp, A = scratch.q_tmp, scratch.A
-    PHI, PHIt, Bg, BM, W, lam = scratch.PHI, scratch.PHIt, scratch.Bg, scratch.BM, scratch.W, scratch.lam
+    PHI, PHIt, Bj, BMj, Lx, lam = scratch.PHI, scratch.PHIt, scratch.Bj, scratch.BMj, scratch.Lx, scratch.lam
+    work = scratch.work
     N = x.shape[0]
     n_rows = PHI.shape[0]
     n_ms = model.ms_master.shape[0]
     c = model.damping
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
-        U = beam2_assemble(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
+        U = beam2_assemble_parallel(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
+                                    S, scratch.W_el)
         external_forces(model, x, q, t, F, A)
         if n > 0:
             # trapezoidal work of the external forces over the last increment h V^{n-1/2},
@@ -171,11 +220,13 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             clock[2] += h * dW
             clock[3] += h * c * dD
         hk = h if n > 0 else 0.5 * h
-        _kick(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, False)
+        # a node outside every joint keeps its predicted velocity through the constrained passes
+        # below, which would only add gyroscopic sweeps to it: it gets all of them at once
+        _kick(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, False,
+              CONSTRAINED_SWEEPS if n_rows > 0 or n_ms > 0 else 0, False)
         if n_rows > 0:
-            assemble_constraints(model, x, q, t, PHI, PHIt, Bg, scratch.jphi, scratch.jB, scratch.jphit,
-                                 scratch.prim_phi, scratch.prim_B)
-            if factor_constraints(model, Bg, BM, W, h, hk) != OK:
+            assemble_constraints(model, x, q, t, PHI, PHIt, Bj, scratch.prim_phi, scratch.prim_B)
+            if factor_constraints(model, Bj, BMj, Lx, work, h, hk) != OK:
                 return SINGULAR
         if n_rows > 0 or n_ms > 0:
             # The constraint stage changes ω^{n+½}: redo the predictor with the midpoint
@@ -185,9 +236,9 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             # multiplier and master/slave joints the passes also alternate the two projections.
             for sweep in range(1 + CONSTRAINED_SWEEPS):
                 if sweep > 0:
-                    _kick(model, v, w, S, F, hk, v_new, w_new, 1, True)
+                    _kick(model, v, w, S, F, hk, v_new, w_new, 1, True, 0, True)
                 if n_rows > 0:
-                    constraint_impulse(model, Bg, BM, W, PHI, PHIt, v_new, w_new, h, hk, lam)
+                    constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v_new, w_new, h, hk, lam)
                 if n_ms > 0:
                     master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
                                          scratch.TMT, scratch.rhs)
@@ -205,11 +256,10 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             rec.energy[3] = clock[3]
             rec.constraint[0] = 0.0
             rec.constraint[1] = 0.0
+            if n_rows > 0:
+                jacobian_times(model, Bj, rec.v, rec.w, work)
             for r in range(n_rows):
-                res = PHIt[r]
-                for i in range(N):
-                    for a in range(3):
-                        res += Bg[r, 6 * i + a] * rec.v[i, a] + Bg[r, 6 * i + 3 + a] * rec.w[i, a]
+                res = PHIt[r] + work[r]
                 rec.constraint[0] += PHI[r] ** 2
                 rec.constraint[1] += res**2
                 rec.lam[r] = lam[r]
@@ -217,9 +267,14 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             rec.constraint[1] = math.sqrt(rec.constraint[1])
         if n_steps == 0:
             break
+        P_drive = 0.0
         if n_rows > 0:
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
-            clock[2] += hk * constraint_power(model, Bg, lam, v, w, v_new, w_new)
+            P_drive = constraint_power(model, Bj, lam, v, w, v_new, w_new)
+            clock[2] += hk * P_drive
+        if scratch.guard[2] > 0.0 and _balance(model, v, w, v_new, w_new, F, h, P_drive, n > 0, U, clock,
+                                               scratch.guard):
+            return BLOWUP
         for i in range(N):
             for a in range(3):
                 if not math.isfinite(v_new[i, a]) or not math.isfinite(w_new[i, a]):
@@ -269,18 +324,21 @@ class StaggeredCentralDifference(Algorithm):
                     f"the constraint matrix became singular after t = {t_last:.6g} "
                     "(redundant or degenerate joints); results up to that time are kept. "
                     "Regularise the joints (epsilon > 0) or remove the redundancy.")
+        what = "the energy balance failed" if code == BLOWUP else "the solution became non-finite"
         return (f"diverged after t = {t_last:.6g}",
-                f"the solution became non-finite after t = {t_last:.6g}; results up to that time are kept. "
-                f"Reduce dt below the critical estimate {domain.critical_time_step():.3g} or check the loads.")
+                f"{what} after t = {t_last:.6g}: {likely_cause(self.dt, domain.critical_time_step())}; "
+                "results up to that time are kept")
 
     def advance(self, model: Model, state: State, n_steps: int, record: Record | None, scratch: Scratch) -> int:
         rec = record if record is not None else Record.empty(state.x.shape[0], model.n_constraints)
+        use_threads()
         return advance(model, state, self.dt, int(n_steps), record is not None, rec, scratch)
 
 
 def step(model: Model, state: State, h: float) -> State:
     """One staggered step as a pure function: returns the state at ``t_{n+1}``."""
     new = state.copy()
+    use_threads()
     status = advance(model, new, h, 1, False, Record.empty(new.x.shape[0], model.n_constraints),
                      Scratch.for_model(model))
     if status != OK:
