@@ -256,7 +256,9 @@ def sketch(domain, path: Path) -> Path:
 def _table(checks: list[Check]) -> list[str]:
     lines = ["| check | reference | computed | tolerance | result | why this tolerance |", "|---|---|---|---|---|---|"]
     for c in checks:
-        lines.append(f"| {c.name} | {c.reference} | {c.computed:.3e} | {c.tolerance:.1e} | "
+        # a bar inside a cell would split the table: absolute values are written with "∣" (U+2223)
+        name, reference = (text.replace("|", "∣") for text in (c.name, c.reference))
+        lines.append(f"| {name} | {reference} | {c.computed:.3e} | {c.tolerance:.1e} | "
                      f"{'pass' if c.passed else '**FAIL**'} | {c.why} |")
     return lines
 
