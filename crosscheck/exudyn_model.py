@@ -7,8 +7,14 @@ translates the resulting :class:`~reference.domain.Domain` item by item:
 ============================  ==========================================================
 deck                          Exudyn
 ============================  ==========================================================
-node                          ``NodeRigidBodyEP`` (position, Euler parameters, velocities)
+node                          ``NodeRigidBodyEP`` (position, Euler parameters, velocities);
+                              a beam node's Exudyn node carries the section frame of its
+                              first element end (markers turn back to the node frame)
 Beam2 element                 ``ObjectBeamGeometricallyExact`` (same length and section)
+                              between Exudyn nodes in its own section frames; an end whose
+                              section frame differs from the node's (a kink at a shared
+                              node, the chords of an arc) gets its own Exudyn node, welded
+                              to the node's by an ``ObjectJointGeneric`` locking all axes
 rigid body / rigid bar        ``ObjectRigidBody`` (mass, body-frame inertia)
 joint (any kind)              ``ObjectJointGeneric`` between markers carrying the joint
                               frame; the locked axes of the kind
@@ -25,8 +31,20 @@ mass-proportional damping     a ``ObjectConnectorRigidBodySpringDamper`` per nod
 A deck feature Exudyn cannot express is refused with :class:`Unsupported`,
 naming it — never dropped or approximated: regularised redundant joints
 (ε > 0: Exudyn's constraint Jacobian would be singular), a drive without its
-revolute/translational joint, curved beam references, point masses on beam
-nodes.  The joint *formulation* (multipliers or master/slave) is a choice of
+revolute/translational joint, a joint attached to a beam node away from the
+node (Exudyn's node markers have no offset; offsets below 1e-12 of the model
+size are round-off and snapped to zero), point masses on beam nodes.  Any
+error Exudyn raises while the model is built becomes :class:`Unsupported`
+with its first line (:func:`preflight` builds it before either engine runs).
+
+Kinked and curved references: Exudyn's ``ObjectBeamGeometricallyExact`` has
+no reference-curvature parameter; it subtracts the strains of its nodes'
+reference coordinates (tried: a single element whose node frames are turned
+against each other is unstressed at rest), with its own strain measure, which
+is not the section-frame one for a kinked pair.  The translation therefore
+never gives Exudyn a kinked element: each element runs between Exudyn nodes in
+the element's own (straight) section frames, exactly as the reference's
+offsets ``o_a`` do, and the extra nodes are welded to the node.  The joint *formulation* (multipliers or master/slave) is a choice of
 the reference engine; Exudyn enforces every joint by its own multipliers.
 
 The results file has ``engine = "exudyn"``.  Its constraint residuals and
@@ -69,24 +87,34 @@ def _matrix(q) -> np.ndarray:
     return out.reshape(3, 3)
 
 
+def _qmul(a, b) -> np.ndarray:
+    out = np.empty(4)
+    rm.quat_product(np.asarray(a, dtype=float), np.asarray(b, dtype=float), out)
+    return out
+
+
 def _ht(R, p) -> list:
     ht = np.eye(4)
     ht[:3, :3], ht[:3, 3] = R, p
     return ht.tolist()
 
 
+def _scale(domain) -> float:
+    return max([1.0] + [float(np.max(np.abs(n.position))) for n in domain.nodes])
+
+
+def _node_offset(domain, node, s):
+    """A joint's body-fixed offset at a beam node, snapped to zero below round-off (else None)."""
+    return np.zeros(3) if np.linalg.norm(s) <= 1e-12 * _scale(domain) else None
+
+
 def check_supported(domain) -> None:
     """Raise :class:`Unsupported` naming the first feature Exudyn cannot express."""
     beam_nodes = {i for e in domain.elements for i in e.nodes}
-    model = domain.model
     for j in domain.joints:
         if j.formulation.epsilon > 0.0:
             raise Unsupported(f"joint {j.label!r} is regularised (epsilon = {j.formulation.epsilon:g}): redundant "
                               "constraints cannot be expressed in Exudyn, whose constraint Jacobian would be singular")
-    for e, element in enumerate(domain.elements):
-        if np.linalg.norm(model.psi0[e]) > 1e-12 or np.linalg.norm(model.gamma0[e] - [1.0, 0.0, 0.0]) > 1e-12:
-            raise Unsupported(f"element {element.label!r} has a curved or kinked reference: the translation "
-                              "supports straight beams whose node triads are the section triads")
     for n in domain.nodes:
         if n.id in beam_nodes and n.mass > 0.0:
             raise Unsupported(f"node {n.label!r} carries a point mass on a beam node")
@@ -94,6 +122,21 @@ def check_supported(domain) -> None:
         if j.kind in MERGES and _partner(domain, j) is None:
             raise Unsupported(f"joint {j.label!r} ({j.kind}) has no {MERGES[j.kind]} joint between the same bodies "
                               "at the same point and axis: Exudyn's generic joint drives a locked axis")
+        par = j.body_fixed()
+        for body, s in ((j.body_i, par[0:3]), (j.body_j, par[3:6])):
+            if body is not None and body.id in beam_nodes and _node_offset(domain, body, s) is None:
+                raise Unsupported(f"joint {j.label!r} attaches to beam node {body.label!r} at {np.linalg.norm(s):.3g} "
+                                  "from it: Exudyn's node markers have no offset; put the joint point on the node")
+
+
+def preflight(domain) -> None:
+    """Refuse what cannot be translated, then build the Exudyn model once, before anything runs.
+
+    Raises :class:`Unsupported` (one line) for an untranslatable feature or any
+    error Exudyn raises while the model is built and assembled.
+    """
+    check_supported(domain)
+    build(domain, domain.solver.dt, 1)
 
 
 def _partner(domain, drive):
@@ -105,11 +148,27 @@ def _partner(domain, drive):
 
 
 def build(domain, dt: float, output_every: int, progress=None, t_end: float = 1.0):
-    """Translate ``domain`` into an Exudyn system; return ``(SC, mbs, sensors, pre_step_items)``."""
+    """Translate ``domain`` into an Exudyn system; return ``(SC, mbs, sensors, primary)``.
+
+    ``primary`` (N,4): per node, the offset from the node frame to the frame of
+    its Exudyn node (identity except at beam nodes whose first element end is
+    kinked against the node frame).  Raises :class:`Unsupported` (one line) for
+    anything untranslatable or refused by Exudyn.
+    """
+    check_supported(domain)
+    try:
+        return _build(domain, progress, t_end)
+    except Unsupported:
+        raise
+    except Exception as exc:  # Exudyn's own errors (RuntimeError, ValueError, …): one line, before any run
+        first = next((ln.strip() for ln in str(exc).splitlines() if ln.strip()), type(exc).__name__)
+        raise Unsupported(f"Exudyn refused the translated model: {first}") from None
+
+
+def _build(domain, progress, t_end):
     import exudyn as exu
     import exudyn.itemInterface as eii
 
-    check_supported(domain)
     model = domain.model
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
@@ -118,16 +177,39 @@ def build(domain, dt: float, output_every: int, progress=None, t_end: float = 1.
     x0 = np.array([n.position for n in domain.nodes])
     q0 = np.array([n.rotation for n in domain.nodes])
     state = domain.initial_conditions()  # includes the consistent projection if the deck asks for it
+    # each node's Exudyn node carries the section frame of the node's first element end: offset o_p
+    primary = np.tile([1.0, 0.0, 0.0, 0.0], (len(domain.nodes), 1))
+    seen = set()
+    for e, element in enumerate(domain.elements):
+        for a, i in enumerate(element.nodes):
+            if i not in seen:
+                seen.add(i)
+                primary[i] = model.offset[e, a]
+
+    def exudyn_node(i, o):
+        p = _qmul(q0[i], o)
+        w = _matrix(o).T @ state.w[i]
+        qd = EulerParameters(p).kinematic_rate(w)
+        return mbs.AddNode(eii.NodeRigidBodyEP(referenceCoordinates=list(x0[i]) + list(p),
+                                               initialVelocities=list(state.v[i]) + list(qd)))
+
     nodes, bodies = [], {}
     for n in domain.nodes:
-        qd = EulerParameters(state.q[n.id]).kinematic_rate(state.w[n.id])
-        nodes.append(mbs.AddNode(eii.NodeRigidBodyEP(
-            referenceCoordinates=list(x0[n.id]) + list(q0[n.id]),
-            initialVelocities=list(state.v[n.id]) + list(qd))))
+        nodes.append(exudyn_node(n.id, primary[n.id]))
         if n.id not in beam_nodes:
             J = n.inertia
             bodies[n.id] = mbs.AddObject(eii.ObjectRigidBody(
                 mass=n.mass, inertia=[J[0, 0], J[1, 1], J[2, 2], J[1, 2], J[0, 2], J[0, 1]], nodeNumber=nodes[-1]))
+
+    def marker(node, R=np.eye(3), p=np.zeros(3)):
+        if node is None:
+            return mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=ground, localHT=_ht(R, p)))
+        if node.id in bodies:
+            return mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=bodies[node.id], localHT=_ht(R, p)))
+        # a beam node: the Exudyn node's frame is the node frame turned by o_p; no offset (snapped)
+        Op = _matrix(primary[node.id])
+        return mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=nodes[node.id], localHT=_ht(Op.T @ R, np.zeros(3))))
+
     beam_objects = []
     for e, element in enumerate(domain.elements):
         sec = element.formulation.section
@@ -135,15 +217,18 @@ def build(domain, dt: float, output_every: int, progress=None, t_end: float = 1.
         section.stiffnessMatrix = np.diag(sec.stiffness).tolist()
         section.massPerLength = sec.rhoA
         section.inertia = np.diag(sec.rotary_inertia).tolist()
+        ends = []
+        for a, i in enumerate(element.nodes):
+            o = model.offset[e, a]
+            if abs(abs(o @ primary[i]) - 1.0) < 1e-14:
+                ends.append(nodes[i])
+                continue
+            ends.append(exudyn_node(i, o))
+            weld = mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=ends[-1]))
+            mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[marker(domain.nodes[i], _matrix(o)), weld],
+                                                 constrainedAxes=[1] * 6))
         beam_objects.append(mbs.AddObject(eii.ObjectBeamGeometricallyExact(
-            nodeNumbers=[nodes[i] for i in element.nodes], length=float(model.L0[e]), sectionData=section)))
-
-    def marker(node, R=np.eye(3), p=np.zeros(3)):
-        if node is None:
-            return mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=ground, localHT=_ht(R, p)))
-        if node.id in bodies:
-            return mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=bodies[node.id], localHT=_ht(R, p)))
-        return mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=nodes[node.id], localHT=_ht(R, p)))
+            nodeNumbers=ends, length=float(model.L0[e]), sectionData=section)))
 
     time_functions = []
     joint_objects = {}
@@ -153,6 +238,8 @@ def build(domain, dt: float, output_every: int, progress=None, t_end: float = 1.
             continue
         par = j.body_fixed()
         s_i, s_j, f_i, f_j = par[0:3], par[3:6], par[6:15].reshape(3, 3), par[15:24].reshape(3, 3)
+        s_i = s_i if j.body_i is None or j.body_i.id in bodies else _node_offset(domain, j.body_i, s_i)
+        s_j = s_j if j.body_j is None or j.body_j.id in bodies else _node_offset(domain, j.body_j, s_j)
         m1 = marker(j.body_i, f_i, s_i)
         m0 = marker(j.body_j, f_j, s_j)
         axes = list(AXES[j.kind])
@@ -199,12 +286,15 @@ def build(domain, dt: float, output_every: int, progress=None, t_end: float = 1.
     if domain.solver.damping > 0.0:
         c = domain.solver.damping
         for n in domain.nodes:
-            d = [c * model.mass[n.id]] * 3 + [c * model.inertia[n.id, k, k] for k in range(3)]
-            # the node as marker 0: the connector damps the relative angular velocity in marker 0's
-            # frame, i.e. the body frame, as the reference's −c J ω (translations: isotropic c m)
+            d = np.zeros((6, 6))
+            d[:3, :3] = c * model.mass[n.id] * np.eye(3)
+            d[3:, 3:] = c * model.inertia[n.id]
+            # the node as marker 0 (in the node frame): the connector damps the relative angular velocity
+            # in marker 0's frame, i.e. the body frame, as the reference's −c J ω (full J at a kinked node;
+            # translations: isotropic c m)
             mbs.AddObject(eii.ObjectConnectorRigidBodySpringDamper(
                 markerNumbers=[marker(n), marker(None, _matrix(n.rotation), n.position)],
-                stiffness=np.zeros((6, 6)).tolist(), damping=np.diag(d).tolist()))
+                stiffness=np.zeros((6, 6)).tolist(), damping=d.tolist()))
 
     def pre_step(mbs_, t):
         # Exudyn passes the step's end time (the implicit solver's equilibrium time): the loads are
@@ -231,7 +321,7 @@ def build(domain, dt: float, output_every: int, progress=None, t_end: float = 1.
                                                       writeToFile=False, outputVariableType=ov))
                          for obj in beam_objects]
     mbs.Assemble()
-    return SC, mbs, sensors
+    return SC, mbs, sensors, primary
 
 
 def solve(domain, dt: float | None = None, t_end: float | None = None, results_path=None, progress=None) -> dict:
@@ -247,7 +337,7 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
     dt = float(dt or domain.solver.dt)
     t_end = float(t_end or domain.solver.t_end)
     every = max(int(round(domain.solver.output_every * domain.solver.dt / dt)), 1)
-    SC, mbs, sensors = build(domain, dt, every, progress, t_end)
+    SC, mbs, sensors, primary = build(domain, dt, every, progress, t_end)
     settings = exu.SimulationSettings()
     settings.solution.file.write = False
     settings.solution.sensors.writePeriod = every * dt
@@ -269,8 +359,10 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
     times = data["position"][0, :, 0]
     pos = np.transpose(data["position"][:, :, 1:4], (1, 0, 2))
     vel = np.transpose(data["velocity"][:, :, 1:4], (1, 0, 2))
-    omg = np.transpose(data["angular_velocity"][:, :, 1:4], (1, 0, 2))
-    rot = np.array([[EulerParameters.from_matrix(R.reshape(3, 3)).q for R in data["rotation"][n, :, 1:10]]
+    # back from each Exudyn node's frame (the node frame turned by o_p) to the node frame
+    Op = np.array([_matrix(o) for o in primary])
+    omg = np.einsum("nab,tnb->tna", Op, np.transpose(data["angular_velocity"][:, :, 1:4], (1, 0, 2)))
+    rot = np.array([[EulerParameters.from_matrix(R.reshape(3, 3) @ Op[n].T).q for R in data["rotation"][n, :, 1:10]]
                     for n in range(len(domain.nodes))]).transpose(1, 0, 2)
     results = measured(domain, times, pos, rot, vel, omg, wall, dt)
     results.joint_labels = [j.label for j in domain.joints]
@@ -399,7 +491,7 @@ def measured(domain, times, pos, rot, vel, omg, wall, dt):
     phi = np.zeros(n)
     phid = np.zeros(n)
     kinetic, strain, work = np.zeros(n), np.zeros(n), np.zeros(n)
-    S, F, s_el, A = np.zeros((N, 6)), np.zeros((N, 6)), np.zeros(24), np.zeros(9)
+    S, F, s_el, A = np.zeros((N, 6)), np.zeros((N, 6)), np.zeros(40), np.zeros(9)
     power = np.zeros(n)
     for i in range(n):
         if model.n_constraints:
@@ -407,7 +499,7 @@ def measured(domain, times, pos, rot, vel, omg, wall, dt):
             V = np.concatenate([vel[i], omg[i]], axis=1).reshape(-1)
             phi[i], phid[i] = np.linalg.norm(PHI), np.linalg.norm(Bg @ V + PHIt)
         kinetic[i] = 0.5 * np.sum(model.mass[:, None] * vel[i] ** 2) + 0.5 * np.einsum("ni,nij,nj->", omg[i], model.inertia, omg[i])
-        strain[i] = beam2_assemble(pos[i], rot[i], model.conn, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
+        strain[i] = beam2_assemble(pos[i], rot[i], model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
         external_forces(model, pos[i], rot[i], times[i], F, A)
         power[i] = np.sum(F[:, :3] * vel[i]) + np.sum(F[:, 3:] * omg[i])
         if i > 0:

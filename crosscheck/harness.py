@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from crosscheck.compare import compare, pointwise
-from crosscheck.exudyn_model import check_supported
+from crosscheck.exudyn_model import preflight
 from crosscheck.exudyn_model import solve as solve_exudyn
 from reference.observables import default_crosscheck, parse, wrap
 
@@ -32,7 +32,7 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     out.mkdir(parents=True, exist_ok=True)
     overrides = {"refine": refine, **({"t_end": t_end} if t_end else {})}
     ex_domain = Domain.from_deck(deck, overrides=overrides)
-    check_supported(ex_domain)  # refuse before running anything
+    preflight(ex_domain)  # refuse (one line) before running anything: untranslatable or refused by Exudyn
     ref_domain = Domain.from_deck(deck, overrides=overrides)
     ref = ref_domain.solve(results_path=out / "results_reference.h5", progress=progress)
     dt_ex = exudyn_dt or ref_domain.solver.dt * refine

@@ -389,7 +389,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     for i, bm in enumerate(rd.items(deck, "beams")):
         entry = f"beams[{i}]"
         rd.keys(bm, entry, required=["label", "elements", "section"],
-                optional=["start", "end", "start_node", "end_node", "axis2", "rigid"])
+                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center"])
         label = rd.label(bm["label"], f"{entry}.label")
         if label in beams:
             raise rd.fail(f"{entry}.label", f"duplicate beam label {_show(label)}")
@@ -416,6 +416,9 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         if np.linalg.norm(ends[1][0] - ends[0][0]) <= 0.0:
             raise rd.fail(entry, "start and end coincide (zero-length beam)")
         axis2 = rd.direction(bm.get("axis2", [0.0, 1.0, 0.0]), f"{entry}.axis2")
+        center = rd.vector(bm["center"], f"{entry}.center") if "center" in bm else None
+        if center is not None and rigid:
+            raise rd.fail(f"{entry}.center", "a rigid bar is straight", "remove `center` or `rigid`")
         try:
             if rigid:
                 if ends[0][1] is not None or ends[1][1] is not None:
@@ -424,7 +427,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                 domain.add_rigid_bar(label, ends[0][0], ends[1][0], sections[sec_name], axis2)
             else:
                 beams[label] = domain.add_beam(label, ends[0][0], ends[1][0], n, sections[sec_name], axis2,
-                                               start_node=ends[0][1], end_node=ends[1][1])
+                                               start_node=ends[0][1], end_node=ends[1][1], center=center)
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
 
