@@ -372,32 +372,6 @@ class MemoryRecorder:
         return Results(labels=self.labels, energy=energy, status=self.status, wall_time=wall_time, extra=by_path,
                        joint_labels=self.joint_labels, element_labels=self.element_labels, **fields)
 
-    def joint_index(self, joint) -> int:
-        if joint in self.joint_labels:
-            return self.joint_labels.index(joint)
-        raise KeyError(f"no joint labelled {joint!r}; joints are {self.joint_labels}")
-
-    def element_index(self, beam, element=None) -> int:
-        """Column of an element: its label ``"beam/i"``, or ``(beam, i)``."""
-        label = str(beam) if element is None else f"{beam}/{int(element)}"
-        if label in self.element_labels:
-            return self.element_labels.index(label)
-        raise KeyError(f"no element labelled {label!r}; elements are e.g. {self.element_labels[:4]}")
-
-    def reaction(self, joint) -> tuple[np.ndarray, np.ndarray]:
-        """``(force, moment)`` (n, 3) each: what ``joint`` exerts on its body_i, moment about the
-        joint point, inertial components [N], [N m]."""
-        k = self.joint_index(joint)
-        return self.reaction_forces[:, k], self.reaction_moments[:, k]
-
-    def section_force(self, beam, element=None) -> np.ndarray:
-        """Force resultant N (n, 3) at the midpoint of element ``beam/element``, section frame [N]."""
-        return self.section_forces[:, self.element_index(beam, element)]
-
-    def section_moment(self, beam, element=None) -> np.ndarray:
-        """Moment resultant M (n, 3) at the midpoint of element ``beam/element``, section frame [N m]."""
-        return self.section_moments[:, self.element_index(beam, element)]
-
 
 class Domain:
     """A multibody problem: nodes, elements, joints, interactions, solver settings.
