@@ -11,7 +11,7 @@ sparse column (CSC) arrays, repeated entries summed.  Every Newton iteration
 then only scatters the new block values into the CSC data (one
 ``numpy.bincount``) and refactorises numerically (:func:`factorize`, SuperLU
 with partial pivoting, which handles the zero block of the saddle-point
-systems).
+systems).  Compiled loops solve with the factors through :func:`lu_solve`.
 """
 
 from __future__ import annotations
@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
+
+from reference.jit import kernel
 
 
 class SingularMatrix(ArithmeticError):
@@ -75,3 +77,46 @@ def factorize(matrix: sps.csc_matrix):
     if diag.size and np.min(np.abs(diag)) <= 1e-14 * big:
         raise SingularMatrix("pivot below 1e-14 of the largest (the matrix is numerically singular)")
     return lu
+
+
+def factor_arrays(lu) -> tuple:
+    """The SuperLU factors as plain arrays for :func:`lu_solve`:
+    ``(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c)`` with ``Pr A Pc = L U`` (CSC L and U)."""
+    L, U = lu.L.tocsc(), lu.U.tocsc()
+    return (L.indptr.astype(np.int64), L.indices.astype(np.int64), L.data, U.indptr.astype(np.int64),
+            U.indices.astype(np.int64), U.data, lu.perm_r.astype(np.int64), lu.perm_c.astype(np.int64))
+
+
+@kernel
+def lu_solve(f, b, work, x):
+    """Solve ``A x = b`` with the factor arrays ``f`` of :func:`factor_arrays` (compiled, no allocation).
+
+    ``y[perm_r] = b``, forward substitution with L, back substitution with U,
+    ``x = w[perm_c]`` (SuperLU's ``Pr A Pc = L U``).
+    """
+    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c = f
+    n = b.shape[0]
+    for i in range(n):
+        work[perm_r[i]] = b[i]
+    for j in range(n):
+        d = 1.0
+        for p in range(Lp[j], Lp[j + 1]):
+            if Li[p] == j:
+                d = Lx[p]
+        zj = work[j] / d
+        work[j] = zj
+        for p in range(Lp[j], Lp[j + 1]):
+            if Li[p] > j:
+                work[Li[p]] -= Lx[p] * zj
+    for j in range(n - 1, -1, -1):
+        d = 1.0
+        for p in range(Up[j], Up[j + 1]):
+            if Ui[p] == j:
+                d = Ux[p]
+        zj = work[j] / d
+        work[j] = zj
+        for p in range(Up[j], Up[j + 1]):
+            if Ui[p] < j:
+                work[Ui[p]] -= Ux[p] * zj
+    for i in range(n):
+        x[i] = work[perm_c[i]]

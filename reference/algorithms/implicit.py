@@ -251,12 +251,17 @@ def load_tangent(model, q, t, i, K6, A):
 
 
 @kernel
-def tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, values, w_, small, K12):
+def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, hx, values, w_, small, K12):
     """Block values of the Newton matrix (order of :func:`newton_pattern`) into ``values``.
 
     ``c_e`` multiplies the −ε diagonal (``1/c_k`` in Newton); with ``c_k = 0`` the
     stiffness blocks are zero and not computed (the mass matrix of the initial accelerations).
+    ``psi`` (N,3): when the unknown rotation δ enters as ``q = q_n ⊗ exp(ψ + δ)`` (generalized-α),
+    the configuration-dependent blocks are multiplied on the right by the tangent operator
+    ``J_r(ψ)`` of each node (``exp(ψ + δ) = exp(ψ) exp(J_r(ψ) δ) + O(δ²)``); zeros for the
+    static update ``q ⊗ exp(δ)``.
     """
+    Jr = small[7, :9]
     N = x.shape[0]
     E = model.conn.shape[0]
     NJ = model.jt_i.shape[0]
@@ -274,6 +279,7 @@ def tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, values, w_, small
         for a in range(6):
             for b in range(6):
                 blk[a, b] *= ck
+        _right_jacobian_columns(blk, 3, psi[i], Jr)
         for a in range(3):
             blk[a, a] += model.mass[i] * (cm + cc * c)
         jw0 = J[0, 0] * w[i, 0] + J[0, 1] * w[i, 1] + J[0, 2] * w[i, 2]
@@ -306,6 +312,8 @@ def tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, values, w_, small
                              hx, K12, small, s_el)
         else:
             K12[:, :] = 0.0
+        _right_jacobian_columns(K12, 3, psi[i], Jr)
+        _right_jacobian_columns(K12, 9, psi[j], Jr)
         for a in range(12):
             for b in range(12):
                 values[p] = ck * K12[a, b]
@@ -315,14 +323,24 @@ def tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, values, w_, small
             joint_hessian_fd(model, k, x, q, t, lam, hx, K12, w_, small)
         else:
             K12[:, :] = 0.0
+        _right_jacobian_columns(K12, 3, psi[model.jt_i[k]], Jr)
+        if model.jt_j[k] >= 0:
+            _right_jacobian_columns(K12, 9, psi[model.jt_j[k]], Jr)
         for a in range(12):
             for b in range(12):
                 values[p] = ck * K12[a, b]
                 p += 1
-    for rr in range(m):
-        for b in range(12):
-            values[p] = Bl[rr, b]
-            p += 1
+    Bs = small[5:7, :]
+    for k in range(NJ):
+        for rr in range(model.jt_row0[k], model.jt_row0[k] + model.jt_neq[k]):
+            for b in range(12):
+                Bs[0, b] = Bl[rr, b]
+            _right_jacobian_columns(Bs[:1], 3, psi[model.jt_i[k]], Jr)
+            if model.jt_j[k] >= 0:
+                _right_jacobian_columns(Bs[:1], 9, psi[model.jt_j[k]], Jr)
+            for b in range(12):
+                values[p] = Bs[0, b]
+                p += 1
     for rr in range(m):
         for b in range(12):
             values[p] = Bl[rr, b]
@@ -331,6 +349,18 @@ def tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, values, w_, small
         values[p] = -model.row_eps[rr] * ce
         p += 1
     return p
+
+
+@kernel
+def _right_jacobian_columns(K, c0, psi, Jr):
+    """``K[:, c0:c0+3] ← K[:, c0:c0+3] J_r(ψ)`` (skipped for ψ = 0)."""
+    if psi[0] == 0.0 and psi[1] == 0.0 and psi[2] == 0.0:
+        return
+    rm.right_jacobian(psi, Jr)
+    for a in range(K.shape[0]):
+        k0, k1, k2 = K[a, c0], K[a, c0 + 1], K[a, c0 + 2]
+        for b in range(3):
+            K[a, c0 + b] = k0 * Jr[b] + k1 * Jr[3 + b] + k2 * Jr[6 + b]
 
 
 def work_tuple(w: Work):
@@ -437,6 +467,7 @@ class ImplicitAlgorithm(Algorithm):
         self.n_free = int(self.free.sum())
         self.work = Work(model)
         self.wt = work_tuple(self.work)
+        self.zero_psi = np.zeros((model.mass.shape[0], 3))
 
     def length_scale(self, x: np.ndarray) -> float:
         span = float(np.max(np.ptp(x, axis=0))) if x.shape[0] > 1 else 0.0
@@ -452,14 +483,15 @@ class ImplicitAlgorithm(Algorithm):
         phi = self.work.PHI - model.row_eps * lam
         return float(math.sqrt(ck * ck * r @ r + phi @ phi))
 
-    def factor(self, model, x, q, w, t, lam, cm, cc, ck, hx, ce=None):
+    def factor(self, model, x, q, w, t, lam, cm, cc, ck, hx, ce=None, psi=None):
         """Assemble and factor the Newton matrix at ``(x, q, ω, t, λ)``.
 
         Raises :class:`reference.linalg.SingularMatrix` when the matrix is singular.
         """
         wk = self.work
         ce = 1.0 / ck if ce is None else ce
-        tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, wk.values, self.wt, wk.small, wk.K12)
+        psi = self.zero_psi if psi is None else psi
+        tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, hx, wk.values, self.wt, wk.small, wk.K12)
         return factorize(self.pattern.matrix(wk.values))
 
     def solve(self, lu, rhs_nodes: np.ndarray, rhs_rows: np.ndarray):
@@ -478,25 +510,19 @@ class ImplicitAlgorithm(Algorithm):
         """Correction from the last :meth:`evaluate`: right-hand side ``−[c_k r; Φ − ελ]``."""
         return self.solve(lu, -ck * self.work.r, -(self.work.PHI - model.row_eps * lam))
 
+    def correction_size(self, delta: np.ndarray, L: float) -> float:
+        """Largest correction: translations over the model size L, rotations in rad."""
+        return max(float(np.max(np.abs(delta[:, :3]), initial=0.0)) / L, float(np.max(np.abs(delta[:, 3:]), initial=0.0)))
+
     def converged(self, delta: np.ndarray, L: float) -> bool:
-        return (float(np.max(np.abs(delta[:, :3]), initial=0.0)) <= self.tolerance * L
-                and float(np.max(np.abs(delta[:, 3:]), initial=0.0)) <= self.tolerance)
+        return self.correction_size(delta, L) <= self.tolerance
 
     def write_record(self, rec, model, x, q, v, w, U, energy_clock, lam) -> None:
         """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B)."""
-        rec.x[:] = x
-        rec.q[:] = q
-        rec.v[:] = v
-        rec.w[:] = w
-        J = model.inertia
-        T = 0.5 * float(np.sum(model.mass[:, None] * v * v)) + 0.5 * float(np.einsum("na,nab,nb->", w, J, w))
-        rec.energy[:] = (T, U, energy_clock[2], energy_clock[3])
-        rec.constraint[0] = float(np.linalg.norm(self.work.PHI))
-        rec.constraint[1] = float(np.linalg.norm(self.work.PHIt + self.constraint_rate(model, v, w)))
-        rec.lam[:] = lam
+        write_record(model, x, q, v, w, U, energy_clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl, rec)
 
     def constraint_rate(self, model, v, w) -> np.ndarray:
-        """``B V`` from the last evaluation's local rows."""
+        """``B V`` (m,) from the last evaluation's local rows."""
         Bl = self.work.Bl
         out = np.zeros(Bl.shape[0])
         V = np.concatenate([v, w], axis=1)
@@ -519,8 +545,9 @@ class ImplicitAlgorithm(Algorithm):
                     "Constrain the free motion, regularise the joints (epsilon > 0) or stop before the limit point.")
         if code == NO_CONVERGENCE:
             return (f"Newton did not converge at {where}",
-                    f"Newton did not converge beyond {where} within {self.max_iterations} iterations "
-                    f"{self.cut_note}; results up to there are kept. {self.no_convergence_fix}")
+                    f"Newton did not converge beyond {where} within {self.max_iterations} iterations"
+                    f"{' ' + self.cut_note if self.cut_note else ''}; results up to there are kept. "
+                    f"{self.no_convergence_fix}")
         return (f"diverged after {where}",
                 f"the solution became non-finite after {where}; results up to there are kept. Check the loads.")
 
@@ -550,3 +577,39 @@ def relative_rotation(q0, q1, out, tmp):
             conj[a] = -q0[n, a]
         rm.quat_product(conj, q1[n], tmp)
         rm.log_quaternion(tmp, out[n])
+
+
+@kernel
+def write_record(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
+    """Record: configuration, velocities, energies [T, U, W, D], ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
+    T = 0.0
+    for i in range(x.shape[0]):
+        J = model.inertia[i]
+        for a in range(3):
+            rec.x[i, a] = x[i, a]
+            rec.v[i, a] = v[i, a]
+            rec.w[i, a] = w[i, a]
+            T += 0.5 * model.mass[i] * v[i, a] * v[i, a]
+            for b in range(3):
+                T += 0.5 * w[i, a] * J[a, b] * w[i, b]
+        for a in range(4):
+            rec.q[i, a] = q[i, a]
+    rec.energy[0] = T
+    rec.energy[1] = U
+    rec.energy[2] = clock[2]
+    rec.energy[3] = clock[3]
+    c0 = 0.0
+    c1 = 0.0
+    for k in range(model.jt_i.shape[0]):
+        i, j = model.jt_i[k], model.jt_j[k]
+        for r in range(model.jt_row0[k], model.jt_row0[k] + model.jt_neq[k]):
+            acc = PHIt[r]
+            for a in range(3):
+                acc += Bl[r, a] * v[i, a] + Bl[r, 3 + a] * w[i, a]
+                if j >= 0:
+                    acc += Bl[r, 6 + a] * v[j, a] + Bl[r, 9 + a] * w[j, a]
+            c0 += PHI[r] ** 2
+            c1 += acc**2
+            rec.lam[r] = lam[r]
+    rec.constraint[0] = math.sqrt(c0)
+    rec.constraint[1] = math.sqrt(c1)

@@ -1,0 +1,266 @@
+"""The implicit algorithms: static load stepping and Lie-group generalized-α.
+
+Static roll-up against the closed-form discrete polygon (quadratic Newton), generalized-α
+against the explicit scheme on the three-bar linkage, its order of convergence, energy
+conservation with ρ∞ = 1, numerical dissipation with ρ∞ < 1, finite-difference checks of the
+load tangents, and the failure paths (each one message and a results file saying where it stopped).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from reference import observables as ob
+from reference.algorithms import ALGORITHMS, GeneralizedAlpha, Static
+from reference.algorithms.generalized_alpha import parameters
+from reference.algorithms.implicit import Work, evaluate, load_tangent, work_tuple
+from reference.domain import Domain, SolverDiverged, SolverSettings
+from reference.elements import Section
+from reference.interactions import Clamp, Gravity, NodalLoad, Ramp
+from reference.io.deck import DeckError
+from reference.rotation import RotationVector
+
+MODELS = Path(__file__).resolve().parents[1] / "models"
+SOFT = Section(1e4, 1e4, 1e4, 10.0, 10.0, 10.0, rhoA=1.0, rhoJ1=2e-3, rhoJ2=1e-3, rhoJ3=1e-3)
+
+
+def rollup(load_steps=20, **solver):
+    d = Domain.from_deck(MODELS / "embedded_beam.toml")
+    d.solver = SolverSettings(algorithm="static", t_end=2.0, load_steps=load_steps, **solver)
+    return d
+
+
+def polygon_tip(k, n=12, L=10.0):
+    """Tip of the discrete Beam2 roll-up: under a pure end moment every element keeps its
+    length and axis (Γ = Γ0), each chord turns by ψ = k π / n, the i-th at (i + ½) ψ."""
+    psi = k * np.pi / n
+    angles = (np.arange(n) + 0.5) * psi
+    return (L / n) * np.array([np.cos(angles).sum(), 0.0, np.sin(angles).sum()])
+
+
+def test_registry():
+    assert set(ALGORITHMS) == {"staggered_central_difference", "static", "generalized_alpha"}
+    assert ALGORITHMS["generalized_alpha"] is GeneralizedAlpha
+
+
+def deck_variants():
+    text = (MODELS / "embedded_beam.toml").read_text()
+    solver = text[text.index("[solver]"):text.index("[checks")]
+    static = text.replace(solver, '[solver]\nalgorithm = "static"\nt_end = 2.0\nload_steps = 20\n\n')
+    ga = text.replace(solver, '[solver]\nalgorithm = "generalized_alpha"\ndt = 0.01\nt_end = 2.0\nrho_inf = 1.5\n\n')
+    wrong = text.replace(solver, '[solver]\nalgorithm = "static"\nt_end = 2.0\nload_steps = 20\ndamping = 2.0\n\n')
+    return static, ga, wrong
+
+
+def test_deck_validation(tmp_path):
+    static, ga, wrong = deck_variants()
+    good = tmp_path / "static.toml"
+    good.write_text(static)
+    d = Domain.from_deck(good)
+    assert isinstance(d.algorithm(), Static) and d.algorithm().dt == pytest.approx(0.1)
+    for text, entry in ((ga, "solver.rho_inf"), (wrong, "solver.damping")):
+        bad = tmp_path / "bad.toml"
+        bad.write_text(text)
+        with pytest.raises(DeckError, match=entry) as err:
+            Domain.from_deck(bad)
+        assert "\n" not in str(err.value)
+    # an implicit step far above the explicit critical step is accepted
+    big = tmp_path / "ga.toml"
+    big.write_text(ga.replace("rho_inf = 1.5", "rho_inf = 0.8"))
+    assert Domain.from_deck(big).algorithm().dt == 0.01
+
+
+def test_static_rollup_polygon_and_quadratic_newton():
+    """Tip at k = 1 and 2 equal to the discrete polygon within 1e-8 L (the explicit run is
+    4e-4 L away at k = 1: its dynamic lag); each load step's Newton residuals fall
+    quadratically (r_{i+1}/r_0 ≤ 10 (r_i/r_0)² above round-off) to 1e-9 r_0 in ≤ 5 iterations;
+    the strain energy at k = 2 equals the work of the torque and the closed form M²L/(2EI)."""
+    d = rollup()
+    algo = d.algorithm()
+    d.algorithm = lambda dt=None: algo
+    r = d.solve()
+    assert r.status == "completed"
+    tip = r.position("beam:12")
+    for k in (1.0, 2.0):
+        n = int(np.argmin(np.abs(r.time - k)))
+        err = np.linalg.norm(tip[n] - polygon_tip(k)) / 10.0
+        print(f"k = {k}: |tip − polygon| = {err:.2e} L")
+        assert err <= 1e-8
+    for step, hist in enumerate(algo.history):
+        print(f"load step {step}: residuals", " ".join(f"{v:.2e}" for v in hist))
+        r0 = hist[0]
+        if r0 == 0.0:
+            continue
+        assert len(hist) <= 6 and hist[-1] <= 1e-9 * r0
+        for a, b in zip(hist, hist[1:]):
+            if b > 1e-11 * r0:
+                assert b / r0 <= 10.0 * (a / r0) ** 2
+    M = 2.0 * np.pi * 100.0 / 10.0
+    assert r.energy["strain"][-1] == pytest.approx(M**2 * 10.0 / 200.0, rel=1e-9)
+    assert r.energy["external_work"][-1] == pytest.approx(r.energy["strain"][-1], rel=1e-9)
+    assert np.all(r.positions[:, :, 1] == 0.0)
+
+
+def test_load_tangents_match_finite_differences():
+    """The analytic follower-force and dead-moment tangents against central differences of
+    the external forces under q → q ⊗ exp(δθ) (relative 1e-7: the difference's truncation)."""
+    d = Domain("loads")
+    nodes = d.add_beam("b", (0, 0, 0), (1, 0, 0), 1, SOFT)
+    rng = np.random.default_rng(3)
+    d.add_interaction(NodalLoad(nodes[1], np.array([1.0, -2.0, 0.5]), follower=True))
+    d.add_interaction(NodalLoad(nodes[1], np.array([0.3, 0.7, -1.1]), moment=True))
+    model = d.initialization()
+    q = rng.normal(size=(2, 4))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    x = rng.normal(size=(2, 3))
+    w = Work(model)
+    K = np.zeros((6, 6))
+    load_tangent(model, q, 0.0, 1, K, np.zeros(9))
+    from reference.algorithms.implicit import compose
+
+    z = np.zeros((2, 6))
+    num = np.zeros((6, 6))
+    for c in range(3):
+        F = []
+        for s in (1e-5, -1e-5):
+            psi = np.zeros((2, 3))
+            psi[1, c] = s
+            qp = np.empty_like(q)
+            compose(q, psi, qp, np.empty(4))
+            evaluate(model, x, qp, z[:, :3], z[:, :3], z, np.zeros(0), 0.0, False, work_tuple(w))
+            F.append(w.F[1].copy())
+        num[:, 3 + c] = -(F[0] - F[1]) / 2e-5
+    assert np.allclose(K, num, rtol=0, atol=1e-7 * np.abs(num).max())
+
+
+@pytest.fixture(scope="module")
+def three_bar_runs():
+    """Explicit (the deck's dt = 2e-4) and generalized-α (dt = 5e-3) over 4 s of the three-bar."""
+    out = {}
+    for algo, dt in (("staggered_central_difference", 2e-4), ("generalized_alpha", 5e-3)):
+        d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 4.0})
+        d.solver.algorithm, d.solver.dt, d.solver.output_every = algo, dt, int(round(0.01 / dt))
+        out[algo] = d.solve()
+    return out
+
+
+def test_generalized_alpha_three_bar_matches_explicit(three_bar_runs):
+    """Same mesh, dt = 5e-3 (25× the explicit step): rocker angle within 2e-4 rad and the
+    coupler's mid-span deflection within 3 % of its peak (issue targets; measured over 10 s:
+    4.1e-6 rad and 0.21 %); ‖Φ‖ within the Newton tolerance 1e-8 × model size 5 m
+    (position-level constraints: no drift)."""
+    ex, ga = three_bar_runs["staggered_central_difference"], three_bar_runs["generalized_alpha"]
+    assert np.allclose(ex.time, ga.time)
+    d_rock = np.abs(ob.wrap(ob.rocker_angle(ga) - ob.rocker_angle(ex))).max()
+    de, dg = ob.midspan_deflection(ex), ob.midspan_deflection(ga)
+    d_defl = np.abs(dg - de).max() / np.abs(de).max()
+    print(f"rocker {d_rock:.2e} rad, deflection {d_defl:.2%} of peak {np.abs(de).max():.3e}")
+    assert d_rock <= 2e-4 and d_defl <= 0.03
+    assert ga.constraint_violation.max() <= 5e-8
+
+
+def heavy_top(dt, t_end=1.0):
+    """A rigid bar on a spherical joint under gravity, tilted 60°, precessing and spinning
+    about its own axis at 5 rad/s: rotation group, gyroscopic terms and a constraint."""
+    d = Domain("heavy top")
+    th = np.radians(60.0)
+    com = 0.5 * np.array([np.sin(th), 0.0, -np.cos(th)])
+    R = RotationVector([0.0, np.pi / 2 - th, 0.0])
+    bar = d.add_rigid_body("bar", 1.0, [1e-3, 1 / 12, 1 / 12], com, R.to_euler_parameters().q)
+    d.add_joint("spherical", bar, None, [0.0, 0.0, 0.0])
+    d.add_interaction(Gravity(np.array([0.0, 0.0, -9.81])))
+    bar.velocity = np.cross([0.0, 0.0, 2.0], com)
+    bar.angular_velocity = R.matrix().T @ np.array([0.0, 0.0, 2.0]) + np.array([5.0, 0.0, 0.0])
+    d.solver = SolverSettings(algorithm="generalized_alpha", dt=dt, t_end=t_end, output_every=int(round(t_end / dt)),
+                              tolerance=1e-11)
+    r = d.solve()
+    return np.concatenate([r.positions[-1].ravel(), r.rotations[-1].ravel()])
+
+
+def test_generalized_alpha_second_order():
+    """Heavy top, t = 1 s: error of position and Euler parameters against dt = 1.25e-4 for
+    dt = 0.02 … 0.00125; least-squares slope of log error against log dt ≥ 1.9 (measured
+    2.00).  On the three-bar (t = 1 s, dt = 0.04 … 0.00125) the slope is 1.88 with pairwise
+    orders 1.6–2.1: the coupler's vibration modes, not resolved at the larger steps, add a
+    wiggle to the smooth error, so it is not used for the order."""
+    dts = np.array([0.02, 0.01, 0.005, 0.0025, 0.00125])
+    ref = heavy_top(1.25e-4)
+    errs = np.array([np.linalg.norm(heavy_top(dt) - ref) for dt in dts])
+    order = np.polyfit(np.log(dts), np.log(errs), 1)[0]
+    print("errors", errs, "observed order", order)
+    assert order >= 1.9
+
+
+def free_beam(dt, t_end, rho_inf):
+    d = Domain("free beam")
+    nodes = d.add_beam("b", (0, 0, 0), (1, 0, 0), 4, SOFT, axis2=(0, 0, 1))
+    for n in nodes:
+        s = n.position[0]
+        n.velocity = np.array([0.0, 0.0, 0.2 * np.cos(2 * np.pi * s)]) + np.cross([0, 0, 1.0], n.position - [0.5, 0, 0])
+        n.angular_velocity = np.array([0.0, 0.0, 0.0])
+    d.solver = SolverSettings(algorithm="generalized_alpha", dt=dt, t_end=t_end, rho_inf=rho_inf,
+                              output_every=int(round(t_end / dt / 200)), tolerance=1e-11)
+    return d.solve()
+
+
+def test_free_beam_energy_conserved_with_rho_one_and_dissipated_below():
+    """Free-flying undamped beam (spinning 1 rad/s and vibrating in its first mode, period
+    T1 = 2π/(22.37 √(EI/ρA L⁴)) = 0.089 s), 100 periods at T1/25 per step: with ρ∞ = 1 the
+    energy stays within 1e-3 of its initial value (measured in the print); with ρ∞ = 0.5 the
+    vibration energy decays (numerical dissipation) and never grows."""
+    T1 = 2 * np.pi / (22.37 * np.sqrt(10.0))
+    dt = 0.00356
+    t_end = round(100 * T1 / dt) * dt
+    E = {}
+    for rho in (1.0, 0.5):
+        r = free_beam(dt, t_end, rho)
+        E[rho] = r.energy["kinetic"] + r.energy["strain"]
+    drift = np.abs(E[1.0] - E[1.0][0]).max() / E[1.0][0]
+    print(f"rho_inf = 1: max |E − E0|/E0 = {drift:.2e}; rho_inf = 0.5: final/initial {E[0.5][-1] / E[0.5][0]:.4f}")
+    assert drift <= 1e-3
+    assert E[0.5][-1] < E[0.5][0] and np.all(np.diff(E[0.5]) <= 1e-9 * E[0.5][0])
+
+
+def test_parameters_of_chung_hulbert():
+    am, af, g, b = parameters(1.0)
+    assert (am, af, g, b) == (0.5, 0.5, 0.5, 0.25)
+    am, af, g, b = parameters(0.0)
+    assert (am, af, g, b) == (-1.0, 0.0, 1.5, 1.0)
+
+
+def test_failures_end_with_one_message_and_a_valid_file(tmp_path):
+    """Singular tangent (a free beam under a load: rigid-body motions), a load step that does
+    not converge even halved, and a Newton failure of generalized-α: each raises one message
+    naming where it stopped, and the results file keeps the records with that status."""
+    cases = []
+    d = Domain("free")
+    d.add_beam("b", (0, 0, 0), (1, 0, 0), 2, SOFT)
+    d.add_interaction(NodalLoad("b:2", np.array([0.0, 0.0, 1.0]), time_function=Ramp(0.0, 1.0)))
+    d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=4)
+    cases.append((d, "singular tangent at load factor 0"))
+    d = Domain("cantilever")
+    d.add_beam("b", (0, 0, 0), (1, 0, 0), 4, SOFT)
+    d.add_interaction(Clamp("b:0"))
+    d.add_interaction(NodalLoad("b:4", np.array([0.0, 0.0, -30.0]), time_function=Ramp(0.0, 1.0)))
+    d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=4, max_iterations=1)
+    cases.append((d, "Newton did not converge at load factor 0"))
+    d = Domain("pendulum")
+    d.add_beam("b", (0, 0, 0), (1, 0, 0), 2, SOFT)
+    d.add_joint("spherical", d.node("b:0"), None, (0, 0, 0))
+    d.add_interaction(Gravity(np.array([0.0, 0.0, -9.81])))
+    d.solver = SolverSettings(algorithm="generalized_alpha", dt=0.05, t_end=1.0, max_iterations=1, tolerance=1e-14)
+    cases.append((d, "Newton did not converge at t = 0"))
+    for i, (d, status) in enumerate(cases):
+        path = tmp_path / f"r{i}.h5"
+        with pytest.raises(SolverDiverged) as err:
+            d.solve(results_path=path)
+        msg = str(err.value)
+        print(msg)
+        assert "\n" not in msg and "results up to there are kept" in msg
+        with h5py.File(path, "r") as f:
+            assert f.attrs["status"].startswith(status), f.attrs["status"]
+            assert f["time"].shape[0] >= 1
