@@ -102,7 +102,6 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         N, m = x.shape[0], model.n_constraints
         t = clock[0]
         self.L = self.length_scale(x)
-        self.hx = 6e-6 * self.L
         self.lu = None
         self._no_factor = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
                            np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
@@ -123,7 +122,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             rate = (g[0] - g[1]) / (2.0 * tau)
             U = self.evaluate(model, x, q, v, w, vd, lam, t, True)
         try:
-            lu = self.factor(model, x, q, w, t, lam, 1.0, 0.0, 0.0, self.hx, ce=0.0)
+            lu = self.factor(model, x, q, w, t, lam, 1.0, 0.0, 0.0, ce=0.0)
             vd, lam = self.solve(lu, -r0, -rate)
         except SingularMatrix:
             return SINGULAR
@@ -175,7 +174,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             if code == REFACTOR and par[9] != 1.0:
                 try:
                     self.lu = self.factor(model, x1, q1, np.ascontiguousarray(Vn[:, 3:]), clock[0] + h, lamn, 1.0, cc,
-                                          ck, self.hx, psi=np.ascontiguousarray(h * dq[:, 3:]))
+                                          ck, psi=np.ascontiguousarray(h * dq[:, 3:]))
                 except SingularMatrix:
                     self.stopped_at = clock[0]
                     self.P, self.D = energy

@@ -24,14 +24,12 @@ generalized-α: 1, γ'/β', 1/β')::
     [ c_m M + c_c C + c_k K    Bᵀ  ] [δ]      [c_k r]
     [ B                      −ε/c_k] [μ]  = − [Φ − ελ]      λ ← λ + μ / c_k
 
-``C = ∂r/∂V`` (damping and gyroscopic, analytic), ``K = ∂r/∂δ`` at fixed
-velocities: the Beam2 tangent stiffness, the joints' λ-weighted constraint
-Hessian ``∂(Bᵀλ)/∂δ`` and the follower-load tangents.  The Beam2 and joint
-parts are taken here by central differences of the generated kernels under
-the update above (step ``FD_STEP`` relative; truncation and round-off both
-≈ 1e-10 relative), the load tangents analytically:
-``∂(f A b)/∂δθ = −f A b̃`` (follower force) and ``∂(f Aᵀ m)/∂δθ = f (Aᵀm)~``
-(dead moment in the body frame).
+``C = ∂r/∂V`` (damping, and the gyroscopic tangent), ``K = ∂r/∂δ`` at fixed
+velocities: the Beam2 tangent stiffness (material + geometric), the joints'
+λ-weighted constraint Hessian ``∂(Bᵀλ)/∂δ`` and the follower-load tangents —
+all sympy-derived kernels (``reference/generated/tangents.py``,
+``reference/joints/hessian.py``; docs/tangents.md), exact derivatives under the
+update above, so that Newton converges quadratically.
 
 Values are written by :func:`tangent_values` block by block in the order that
 :func:`newton_pattern` lays out once per model (:class:`reference.linalg.BlockPattern`).
@@ -45,17 +43,14 @@ import numpy as np
 
 from reference.algorithms.staggered import external_forces
 from reference.elements.formulation import beam2_assemble
-from reference.generated import beam2 as generated_beam2
 from reference.generated import rotation_maps as rm
+from reference.generated import tangents as generated_tangents
 from reference.interactions import tf_value
 from reference.jit import kernel
 from reference.joints.assembly import joint_rows
+from reference.joints.hessian import joint_rows_hessian
 from reference.algorithms.base import Algorithm
 from reference.linalg import BlockPattern, SingularMatrix, factorize
-
-FD_STEP = 6e-6
-"""Central-difference step of the finite-difference tangents (relative to the model size for
-translations, in radians for rotations): ≈ ε_machine^(1/3)."""
 
 
 class Work:
@@ -126,99 +121,9 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
 
 
 @kernel
-def _perturb(x0, q0, k, h, x, q, dq):
-    """``x = x0 + h e_k`` (k < 3) or ``q = q0 ⊗ exp(h e_{k−3})``."""
-    for a in range(3):
-        x[a] = x0[a]
-    for a in range(4):
-        q[a] = q0[a]
-    if k < 3:
-        x[k] += h
-    else:
-        half = 0.5 * h
-        s, c = math.sin(half), math.cos(half)
-        dq[0], dq[1], dq[2], dq[3] = c, 0.0, 0.0, 0.0
-        dq[k - 2] = s
-        rm.quat_product(q0, dq, q)
-
-
-@kernel
-def beam2_tangent_fd(x1, x2, q1, q2, L0, psi0, gamma0, stiff, hx, K, small, s_el):
-    """Central-difference tangent ``K = ∂s/∂δ`` (12×12) of one Beam2 element's internal forces."""
-    xp, qp = small[0, :3], small[1, :4]
-    dq = small[2, :4]
-    fp, fm = small[3, :12], small[4, :12]
-    for col in range(12):
-        node = col // 6
-        k = col % 6
-        h = hx if k < 3 else FD_STEP
-        for sgn in range(2):
-            step = h if sgn == 0 else -h
-            out = fp if sgn == 0 else fm
-            if node == 0:
-                _perturb(x1, q1, k, step, xp, qp, dq)
-                generated_beam2.internal_forces(xp, x2, qp, q2, L0, psi0, gamma0, stiff, s_el[:12], s_el[12:18],
-                                                s_el[18:])
-            else:
-                _perturb(x2, q2, k, step, xp, qp, dq)
-                generated_beam2.internal_forces(x1, xp, q1, qp, L0, psi0, gamma0, stiff, s_el[:12], s_el[12:18],
-                                                s_el[18:])
-            for a in range(12):
-                out[a] = s_el[a]
-        for a in range(12):
-            K[a, col] = (fp[a] - fm[a]) / (2.0 * h)
-
-
-@kernel
-def joint_hessian_fd(model, k, x, q, t, lam, hx, H, w_, small):
-    """Central-difference ``H = ∂(Bᵀλ)/∂δ`` (12×12, nodes i then j) of joint k; x and q restored."""
-    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B = w_
-    neq = model.jt_neq[k]
-    r0 = model.jt_row0[k]
-    i, j = model.jt_i[k], model.jt_j[k]
-    tf = model.jt_tf[k]
-    xs, qs = small[0, :3], small[1, :4]
-    dq = small[2, :4]
-    fp, fm = small[3, :12], small[4, :12]
-    xn, qn = small[5, :3], small[6, :4]
-    for col in range(12):
-        node = i if col < 6 else j
-        kk = col % 6
-        if node < 0:
-            for a in range(12):
-                H[a, col] = 0.0
-            continue
-        h = hx if kk < 3 else FD_STEP
-        for a in range(3):
-            xs[a] = x[node, a]
-        for a in range(4):
-            qs[a] = q[node, a]
-        for sgn in range(2):
-            step = h if sgn == 0 else -h
-            out = fp if sgn == 0 else fm
-            _perturb(xs, qs, kk, step, xn, qn, dq)
-            for a in range(3):
-                x[node, a] = xn[a]
-            for a in range(4):
-                q[node, a] = qn[a]
-            joint_rows(x, q, i, j, model.jt_par[k], model.jt_rows[k], model.jt_drive[k], model.tf_kind[tf],
-                       model.tf_par[tf], t, jphi[:neq], jB[:neq], jphit[:neq], prim_phi, prim_B)
-            for a in range(12):
-                acc = 0.0
-                for rr in range(neq):
-                    acc += jB[rr, a] * lam[r0 + rr]
-                out[a] = acc
-        for a in range(3):
-            x[node, a] = xs[a]
-        for a in range(4):
-            q[node, a] = qs[a]
-        for a in range(12):
-            H[a, col] = (fp[a] - fm[a]) / (2.0 * h)
-
-
-@kernel
-def load_tangent(model, q, t, i, K6, A):
-    """Add ``−∂F/∂δ`` of the loads on node i into the 6×6 block ``K6`` (follower force, dead moment)."""
+def load_tangent(model, q, t, i, K6, T9):
+    """Add ``−∂F/∂δ`` of the configuration-dependent loads on node i into the 6×6 block ``K6``:
+    follower forces (generated ``follower_force_tangent``) and dead moments (``dead_moment_tangent``)."""
     for l in range(model.load_node.shape[0]):
         if model.load_node[l] != i:
             continue
@@ -227,31 +132,19 @@ def load_tangent(model, q, t, i, K6, A):
             continue
         tf = model.load_tf[l]
         f = tf_value(model.tf_kind[tf], model.tf_par[tf], t)
-        b = model.load_vec[l]
-        rm.rotation_matrix(q[i], A)
         if code == 1:
-            # F_u = f A b: ∂/∂δθ = −f A b̃, so −∂F_u/∂δθ = f A b̃
-            for a in range(3):
-                a0, a1, a2 = A[3 * a], A[3 * a + 1], A[3 * a + 2]
-                # row a of A b̃: (A b̃)_{a,c} = Σ_k A_{ak} b̃_{kc}
-                K6[a, 3] += f * (a1 * b[2] - a2 * b[1])
-                K6[a, 4] += f * (a2 * b[0] - a0 * b[2])
-                K6[a, 5] += f * (a0 * b[1] - a1 * b[0])
+            generated_tangents.follower_force_tangent(q[i], model.load_vec[l], T9)
+            r0 = 0
         else:
-            # F_θ = f Aᵀ m: ∂/∂δθ = f (Aᵀm)~, so −∂F_θ/∂δθ = −f (Aᵀm)~
-            g0 = A[0] * b[0] + A[3] * b[1] + A[6] * b[2]
-            g1 = A[1] * b[0] + A[4] * b[1] + A[7] * b[2]
-            g2 = A[2] * b[0] + A[5] * b[1] + A[8] * b[2]
-            K6[3, 4] += f * g2
-            K6[3, 5] -= f * g1
-            K6[4, 3] -= f * g2
-            K6[4, 5] += f * g0
-            K6[5, 3] += f * g1
-            K6[5, 4] -= f * g0
+            generated_tangents.dead_moment_tangent(q[i], model.load_vec[l], T9)
+            r0 = 3
+        for a in range(3):
+            for b in range(3):
+                K6[r0 + a, 3 + b] -= f * T9[3 * a + b]
 
 
 @kernel
-def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, hx, values, w_, small, K12):
+def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, small, K12):
     """Block values of the Newton matrix (order of :func:`newton_pattern`) into ``values``.
 
     ``c_e`` multiplies the −ε diagonal (``1/c_k`` in Newton); with ``c_k = 0`` the
@@ -262,6 +155,9 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, hx, values, w_, 
     static update ``q ⊗ exp(δ)``.
     """
     Jr = small[7, :9]
+    J9 = small[6, :9]
+    wts = small[5, :10]
+    K144 = K12.reshape(144)
     N = x.shape[0]
     E = model.conn.shape[0]
     NJ = model.jt_i.shape[0]
@@ -282,25 +178,17 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, hx, values, w_, 
         _right_jacobian_columns(blk, 3, psi[i], Jr)
         for a in range(3):
             blk[a, a] += model.mass[i] * (cm + cc * c)
-        jw0 = J[0, 0] * w[i, 0] + J[0, 1] * w[i, 1] + J[0, 2] * w[i, 2]
-        jw1 = J[1, 0] * w[i, 0] + J[1, 1] * w[i, 1] + J[1, 2] * w[i, 2]
-        jw2 = J[2, 0] * w[i, 0] + J[2, 1] * w[i, 1] + J[2, 2] * w[i, 2]
         for a in range(3):
             for b in range(3):
                 blk[3 + a, 3 + b] += (cm + cc * c) * J[a, b]
         if cc != 0.0:
-            # ∂(ω × Jω)/∂ω = ω̃ J − (Jω)~
-            for b in range(3):
-                y0, y1, y2 = J[0, b], J[1, b], J[2, b]
-                blk[3, 3 + b] += cc * (w[i, 1] * y2 - w[i, 2] * y1)
-                blk[4, 3 + b] += cc * (w[i, 2] * y0 - w[i, 0] * y2)
-                blk[5, 3 + b] += cc * (w[i, 0] * y1 - w[i, 1] * y0)
-            blk[3, 4] -= cc * (-jw2)
-            blk[3, 5] -= cc * jw1
-            blk[4, 3] -= cc * jw2
-            blk[4, 5] -= cc * (-jw0)
-            blk[5, 3] -= cc * (-jw1)
-            blk[5, 4] -= cc * jw0
+            for a in range(3):
+                for b in range(3):
+                    J9[3 * a + b] = J[a, b]
+            generated_tangents.gyroscopic_tangent(J9, w[i], A)
+            for a in range(3):
+                for b in range(3):
+                    blk[3 + a, 3 + b] += cc * A[3 * a + b]
         for a in range(6):
             for b in range(6):
                 values[p] = blk[a, b]
@@ -308,8 +196,8 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, hx, values, w_, 
     for e in range(E):
         i, j = model.conn[e, 0], model.conn[e, 1]
         if ck != 0.0:
-            beam2_tangent_fd(x[i], x[j], q[i], q[j], model.L0[e], model.psi0[e], model.gamma0[e], model.stiff[e],
-                             hx, K12, small, s_el)
+            generated_tangents.beam2_tangent(x[i], x[j], q[i], q[j], model.L0[e], model.psi0[e], model.gamma0[e],
+                                             model.stiff[e], s_el[:12], K144)
         else:
             K12[:, :] = 0.0
         _right_jacobian_columns(K12, 3, psi[i], Jr)
@@ -320,7 +208,12 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, hx, values, w_, 
                 p += 1
     for k in range(NJ):
         if ck != 0.0:
-            joint_hessian_fd(model, k, x, q, t, lam, hx, K12, w_, small)
+            neq = model.jt_neq[k]
+            r0 = model.jt_row0[k]
+            tf = model.jt_tf[k]
+            joint_rows_hessian(x, q, model.jt_i[k], model.jt_j[k], model.jt_par[k], model.jt_rows[k],
+                               model.jt_drive[k], model.tf_kind[tf], model.tf_par[tf], t, lam[r0:r0 + neq],
+                               jphi[:neq], jB[:neq], jphit[:neq], K12, prim_phi, prim_B, wts)
         else:
             K12[:, :] = 0.0
         _right_jacobian_columns(K12, 3, psi[model.jt_i[k]], Jr)
@@ -483,7 +376,7 @@ class ImplicitAlgorithm(Algorithm):
         phi = self.work.PHI - model.row_eps * lam
         return float(math.sqrt(ck * ck * r @ r + phi @ phi))
 
-    def factor(self, model, x, q, w, t, lam, cm, cc, ck, hx, ce=None, psi=None):
+    def factor(self, model, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
         """Assemble and factor the Newton matrix at ``(x, q, ω, t, λ)``.
 
         Raises :class:`reference.linalg.SingularMatrix` when the matrix is singular.
@@ -491,7 +384,7 @@ class ImplicitAlgorithm(Algorithm):
         wk = self.work
         ce = 1.0 / ck if ce is None else ce
         psi = self.zero_psi if psi is None else psi
-        tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, hx, wk.values, self.wt, wk.small, wk.K12)
+        tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12)
         return factorize(self.pattern.matrix(wk.values))
 
     def solve(self, lu, rhs_nodes: np.ndarray, rhs_rows: np.ndarray):

@@ -78,7 +78,7 @@ class Static(ImplicitAlgorithm):
             if not np.isfinite(hist[-1]):
                 return DIVERGED
             try:
-                lu = self.factor(model, x, q, x, t, lam, 0.0, 0.0, 1.0, 6e-6 * L)
+                lu = self.factor(model, x, q, x, t, lam, 0.0, 0.0, 1.0)
                 delta, mu = self.newton_correction(lu, model, 1.0, lam)
             except SingularMatrix:
                 return SINGULAR
