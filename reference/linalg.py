@@ -52,10 +52,16 @@ class BlockPattern:
         self.indptr = np.zeros(self.n + 1, dtype=np.int32)
         np.cumsum(np.bincount(unique // self.n, minlength=self.n), out=self.indptr[1:])
 
+        self._matrix = sps.csc_matrix((np.zeros(self.nnz), self.indices, self.indptr), shape=(self.n, self.n))
+        self._matrix.has_sorted_indices = True
+
     def matrix(self, values: np.ndarray) -> sps.csc_matrix:
-        """The CSC matrix of the block ``values`` (K,) (same order as ``rows``/``cols``)."""
-        data = np.bincount(self.slot, weights=values[self.keep], minlength=self.nnz)
-        return sps.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+        """The CSC matrix of the block ``values`` (K,) (same order as ``rows``/``cols``).
+
+        The matrix object is made once; its data are overwritten in place on every call.
+        """
+        self._matrix.data[:] = np.bincount(self.slot, weights=values[self.keep], minlength=self.nnz)
+        return self._matrix
 
 
 def factorize(matrix: sps.csc_matrix):
