@@ -66,7 +66,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         Time step h [s] (no stability limit).
     rho_inf : float, default 0.8
         Spectral radius at infinite frequency, 0 ≤ ρ∞ ≤ 1 (1: no numerical dissipation).
-    tolerance : float, default 1e-8
+    tolerance : float, default 1e-10
         Newton stops when the largest correction is below ``tolerance`` × model size
         (translations) and ``tolerance`` rad (rotations).
     max_iterations : int, default 15
@@ -81,7 +81,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     below this fraction of the previous one; otherwise the matrix is refactored at the iterate."""
     full_newton = False
 
-    def __init__(self, dt: float, rho_inf: float = 0.8, tolerance: float = 1e-8, max_iterations: int = 15):
+    def __init__(self, dt: float, rho_inf: float = 0.8, tolerance: float = 1e-10, max_iterations: int = 15):
         super().__init__(dt, tolerance, max_iterations)
         if not 0.0 <= rho_inf <= 1.0:
             raise ValueError(f"rho_inf must lie in [0, 1], got {rho_inf!r}")
@@ -94,7 +94,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
 
     @classmethod
     def from_settings(cls, settings, dt=None):
-        return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or 1e-8, settings.max_iterations or 15)
+        return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or 1e-10, settings.max_iterations or 15)
 
     def _start(self, model, state):
         """Consistent initial accelerations and multipliers at the state's time."""
