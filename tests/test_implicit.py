@@ -287,3 +287,32 @@ def test_failures_end_with_one_message_and_a_valid_file(tmp_path):
         with h5py.File(path, "r") as f:
             assert f.attrs["status"].startswith(status), f.attrs["status"]
             assert f["time"].shape[0] >= 1
+
+
+def test_sparse_lu_refactorisation_keeps_structural_zeros():
+    """SparseLU: pivots and ordering from SuperLU, fill from the structure — an entry stored as
+    0.0 at the first factorisation and nonzero later is still factored exactly (residual at
+    round-off), a large change of values falls back to SuperLU, a singular matrix is refused."""
+    import scipy.sparse as sps
+
+    from reference.linalg import SingularMatrix, SparseLU
+
+    rng = np.random.default_rng(1)
+    n = 30
+    A = (sps.random(n, n, density=0.15, random_state=2, format="csc") + 2.0 * sps.eye(n, format="csc")).tocsc()
+    A.sort_indices()
+    zeros = rng.random(A.nnz) < 0.3
+    data = A.data.copy()
+    A.data[zeros & (A.indices != np.repeat(np.arange(n), np.diff(A.indptr)))] = 0.0
+    lu = SparseLU(n)
+    lu.factor(A)
+    A.data[:] = data * (1.0 + 0.05 * rng.normal(size=data.size))
+    lu.factor(A)
+    b = rng.normal(size=n)
+    assert lu.refactored == 1 and np.abs(A @ lu.solve(b) - b).max() <= 1e-12
+    A.data[:] = rng.normal(size=data.size)
+    lu.factor(A)
+    assert np.abs(A @ lu.solve(b) - b).max() <= 1e-9 * np.abs(b).max() * max(1.0, np.abs(A.data).max())
+    A.data[A.indices == 0] = 0.0  # row 0 empty: singular
+    with pytest.raises(SingularMatrix):
+        SparseLU(n).factor(A)

@@ -43,7 +43,7 @@ from reference.algorithms.implicit import (
     DIVERGED, NO_CONVERGENCE, OK, SINGULAR, ImplicitAlgorithm, compose, evaluate,
 )
 from reference.jit import kernel
-from reference.linalg import SingularMatrix, factor_arrays, lu_solve
+from reference.linalg import SingularMatrix, lu_solve
 
 REFACTOR = 4
 """Internal status of :func:`steps`: the kept factor contracts too slowly."""
@@ -179,7 +179,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                     self.stopped_at = clock[0]
                     self.P, self.D = energy
                     return SINGULAR
-                self.factors = factor_arrays(self.lu)
+                self.factors = self.lu
                 self.factorizations += 1
                 par[9] = 1.0  # the next step starts with a fresh factor
                 continue

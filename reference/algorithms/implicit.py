@@ -50,7 +50,7 @@ from reference.jit import kernel
 from reference.joints.assembly import joint_rows
 from reference.joints.hessian import joint_rows_hessian
 from reference.algorithms.base import Algorithm
-from reference.linalg import BlockPattern, SingularMatrix, factorize
+from reference.linalg import BlockPattern, SingularMatrix, SparseLU, lu_solve
 
 
 class Work:
@@ -361,6 +361,7 @@ class ImplicitAlgorithm(Algorithm):
         self.work = Work(model)
         self.wt = work_tuple(self.work)
         self.zero_psi = np.zeros((model.mass.shape[0], 3))
+        self.slu = SparseLU(self.pattern.n)
 
     def length_scale(self, x: np.ndarray) -> float:
         span = float(np.max(np.ptp(x, axis=0))) if x.shape[0] > 1 else 0.0
@@ -377,7 +378,8 @@ class ImplicitAlgorithm(Algorithm):
         return float(math.sqrt(ck * ck * r @ r + phi @ phi))
 
     def factor(self, model, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
-        """Assemble and factor the Newton matrix at ``(x, q, ω, t, λ)``.
+        """Assemble and factor the Newton matrix at ``(x, q, ω, t, λ)``; returns the factor arrays
+        (:class:`reference.linalg.SparseLU`: SuperLU once, compiled refactorisations after).
 
         Raises :class:`reference.linalg.SingularMatrix` when the matrix is singular.
         """
@@ -385,14 +387,15 @@ class ImplicitAlgorithm(Algorithm):
         ce = 1.0 / ck if ce is None else ce
         psi = self.zero_psi if psi is None else psi
         tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12)
-        return factorize(self.pattern.matrix(wk.values))
+        return self.slu.factor(self.pattern.matrix(wk.values))
 
     def solve(self, lu, rhs_nodes: np.ndarray, rhs_rows: np.ndarray):
-        """Solve with a factor: node part (N,6) and constraint part (m,) → (δ (N,6), μ (m,))."""
+        """Solve with the factor arrays ``lu``: node part (N,6) and constraint part (m,) → (δ (N,6), μ (m,))."""
         rhs = np.empty(self.pattern.n)
         rhs[: self.n_free] = rhs_nodes[self.free]
         rhs[self.n_free:] = rhs_rows
-        sol = lu.solve(rhs)
+        sol = np.empty_like(rhs)
+        lu_solve(lu, rhs, self.slu.work, sol)
         if not np.all(np.isfinite(sol)):
             raise SingularMatrix("non-finite Newton correction")
         delta = np.zeros_like(rhs_nodes)
