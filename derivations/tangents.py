@@ -117,15 +117,30 @@ def jacobian(vec: sp.Matrix, wrt) -> sp.Matrix:
 
 
 def stage_sparse(st: Stager, name: str, M: sp.Matrix) -> sp.Matrix:
-    """Stage the structurally non-zero entries of ``M``; exact zeros stay zeros."""
+    """Stage the distinct non-trivial entries of ``M`` (each once, up to sign).
+
+    Exact zeros stay zeros, entries that are ``±`` a symbol are used as they are, and
+    repeated entries (a symmetric Hessian, a negated block) share one staged symbol.
+    """
     M = sp.Matrix(M)
-    idx = [k for k, e in enumerate(M) if e != 0]
-    if not idx:
-        return sp.zeros(*M.shape)
-    syms = st.define(name, [M[k] for k in idx])
     out = sp.zeros(*M.shape)
-    for k, s in zip(idx, syms):
-        out[k // M.shape[1], k % M.shape[1]] = s
+    unique, where = [], {}
+    for k, e in enumerate(M):
+        if e == 0 or e.is_Symbol or (-e).is_Symbol:
+            out[k // M.shape[1], k % M.shape[1]] = e
+            continue
+        if e in where:
+            where[e][1].append((k, 1))
+        elif -e in where:
+            where[-e][1].append((k, -1))
+        else:
+            where[e] = (len(unique), [(k, 1)])
+            unique.append(e)
+    if unique:
+        syms = st.define(name, unique)
+        for e, (u, uses) in where.items():
+            for k, sign in uses:
+                out[k // M.shape[1], k % M.shape[1]] = sign * syms[u]
     return out
 
 
@@ -160,11 +175,12 @@ def beam2_tangent():
     Jh_expr = right_jacobian(psi / 2)
     Jinv = st.define("Ji", Jinv_expr)
     Jh = st.define("Jh", Jh_expr)
+    # Columns [δθ1, δu, δθ2], δu = δx2 − δx1 (S depends on x2 − x1 only); expanded to 12 below.
     dpsi1 = st.define("dps1", -Jinv * R.T)
-    dpsi = sp.Matrix.hstack(Z, dpsi1, Z, Jinv)
-    Jdpsi = sp.Matrix.hstack(Z, -R.T, Z, I)
-    dthm = stage_sparse(st, "dthm", sp.Matrix.hstack(Z, E.T + Jh * dpsi1 / 2, Z, Jh * Jinv / 2))
-    dgh = stage_sparse(st, "dgh", sp.Matrix.hstack(-Am.T / L0, Z, Am.T / L0, Z) + skew(gh) * dthm)
+    dpsi = sp.Matrix.hstack(dpsi1, Z, Jinv)
+    Jdpsi = sp.Matrix.hstack(-R.T, Z, I)
+    dthm = stage_sparse(st, "dthm", sp.Matrix.hstack(E.T + Jh * dpsi1 / 2, Z, Jh * Jinv / 2))
+    dgh = stage_sparse(st, "dgh", sp.Matrix.hstack(Z, Am.T / L0, Z) + skew(gh) * dthm)
     dN = CG * dgh
     dM = CK * dpsi / L0
     df = stage_sparse(st, "df", L0 * (skew(N) * dgh - skew(gh) * dN))
@@ -172,9 +188,10 @@ def beam2_tangent():
     dg = stage_sparse(st, "dg", dM + (Dh * dpsi + Jh.T * df) / 2)
     Di = st.define("Di", jacobian(Jinv_expr.T * g, psi))
     dst2 = stage_sparse(st, "dst2", Di * dpsi + Jinv.T * dg)
-    dst1 = -E * skew(f) * Jh * dpsi / 2 + E * df + R * skew(st2) * Jdpsi - R * dst2
+    dst1 = stage_sparse(st, "dst1", -E * skew(f) * Jh * dpsi / 2 + E * df + R * skew(st2) * Jdpsi - R * dst2)
     dn = stage_sparse(st, "dn", Am * (dN - skew(N) * dthm))
-    K = sp.Matrix.vstack(-dn, dst1, dn, dst2)
+    K9 = sp.Matrix.vstack(-dn, dst1, dn, dst2)
+    K = sp.Matrix.hstack(-K9[:, 3:6], K9[:, 0:3], K9[:, 3:6], K9[:, 6:9])
     return inp, out["S"], K, st.stages
 
 
@@ -213,11 +230,14 @@ def joint_hessian():
     ``B_p`` at a configuration already perturbed by ``η`` is the first-order term in
     ``δ`` of ``Φ_p(x + η_x + δ_x, A exp(η̃) (I + δ̃))``; so ``H_ab`` is the mixed second
     derivative ``∂²Φ/∂δ_a ∂η_b`` of ``Φ(x + εη_x + τδ_x, A (I + εη̃)(I + τδ̃))`` at zero.
-    With the raw coordinates ``z = (x_i, A_i, x_j, A_j)`` (24: the rotation matrices'
-    entries) and ``T = ∂z/∂δ`` (columns ``e_c`` for δx, ``vec(A ẽ_c)`` for δθ), the chain
-    rule gives::
+    The primitives depend on the positions only through ``Δ = x_j − x_i``, so the
+    derivatives are taken in the nine variables ``v = [δθ_i, δΔ, δθ_j]`` and expanded to
+    the twelve at the end (``H = Pᵀ H_v P``, P the 9 × 12 map with ``δΔ = δx_j − δx_i``).
+    With the raw coordinates ``z = (A_i, Δ, A_j)`` (21: the rotation matrices' entries)
+    and ``T = ∂z/∂v`` (columns ``vec(A ẽ_c)`` for δθ, ``e_c`` for δΔ), the chain rule
+    gives::
 
-        H = Tᵀ (∂²Φ_w/∂z²) T + [∂Φ_w/∂z · vec(A ẽ_b ẽ_a)]_ab      (a, b rotations of one body)
+        H_v = Tᵀ (∂²Φ_w/∂z²) T + [∂Φ_w/∂z · vec(A ẽ_b ẽ_a)]_ab      (a, b rotations of one body)
 
     with ``Φ_w = Σ_p w_p Φ_p``: the only derivatives sympy takes are those of the
     polynomials ``Φ_p`` with respect to plain symbols, which keeps the derivation fast.
@@ -232,27 +252,36 @@ def joint_hessian():
     st = Stager()
     Ai = st.define("Ai", rotation_matrix(qi))
     Aj = st.define("Aj", rotation_matrix(qj))
-    phi = primitives(xi, Ai, xj, Aj, si, sj, Ui, Uj)
-    z = list(xi) + list(Ai) + list(xj) + list(Aj)
+    delta = st.define("dx", xj - xi)
+    phi = primitives(sp.zeros(3, 1), Ai, delta, Aj, si, sj, Ui, Uj)
+    z = list(Ai) + list(delta) + list(Aj)
+    n = len(z)
     grads = [[sp.diff(p, v) for v in z] for p in phi]
-    grad_exprs = [sum(wp * gp[k] for wp, gp in zip(w, grads)) for k in range(24)]
-    hess = stage_sparse(st, "hz", sp.Matrix(24, 24, lambda r, c: sum(
+    grad = stage_sparse(st, "gz", sp.Matrix([sum(wp * gp[k] for wp, gp in zip(w, grads)) for k in range(n)]))
+    hess = stage_sparse(st, "hz", sp.Matrix(n, n, lambda r, c: sum(
         wp * sp.diff(gp[r], z[c]) for wp, gp in zip(w, grads) if gp[r] != 0)))
-    grad = stage_sparse(st, "gz", sp.Matrix(grad_exprs))
 
     units = [sp.Matrix([1 if k == c else 0 for k in range(3)]) for c in range(3)]
-    T = sp.zeros(24, 12)
-    for body, (A, row0) in enumerate(((Ai, 0), (Aj, 12))):
+    rotations = ((Ai, 0, 0), (Aj, 12, 6))  # (matrix, first row in z, first column in v)
+    T = sp.zeros(n, 9)
+    for A, row0, col0 in rotations:
         for c in range(3):
-            T[row0 + c, 6 * body + c] = 1
-            T[row0 + 3:row0 + 12, 6 * body + 3 + c] = (A * skew(units[c])).reshape(9, 1)
-    H = T.T * stage_sparse(st, "hT", hess * T)
-    for body, (A, row0) in enumerate(((Ai, 0), (Aj, 12))):
-        g = grad[row0 + 3:row0 + 12, 0]
+            T[row0:row0 + 9, col0 + c] = (A * skew(units[c])).reshape(9, 1)
+    T[9:12, 3:6] = sp.eye(3)
+    Hv = T.T * stage_sparse(st, "hT", hess * T)
+    for A, row0, col0 in rotations:
+        g = grad[row0:row0 + 9, 0]
         for a in range(3):
             for b in range(3):
                 second = (A * skew(units[b]) * skew(units[a])).reshape(9, 1)
-                H[6 * body + 3 + a, 6 * body + 3 + b] += (g.T * second)[0]
+                Hv[col0 + a, col0 + b] += (g.T * second)[0]
+    Hv = stage_sparse(st, "Hv", Hv)
+    P = sp.zeros(9, 12)
+    P[0:3, 3:6] = sp.eye(3)
+    P[3:6, 0:3] = -sp.eye(3)
+    P[3:6, 6:9] = sp.eye(3)
+    P[6:9, 9:12] = sp.eye(3)
+    H = P.T * Hv * P
     inputs = dict(xi=xi, qi=qi, xj=xj, qj=qj, si=si, sj=sj, fi=fi, fj=fj, w=w)
     return inputs, list(H), st.stages
 

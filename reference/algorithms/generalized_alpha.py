@@ -75,7 +75,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     name = "generalized_alpha"
     deck_required = ("dt", "t_end")
     deck_optional = ("rho_inf", "tolerance", "max_iterations", "damping", "output_every",
-                     "consistent_initial_velocities")
+                     "consistent_initial_velocities", "max_steps")
     contraction = 0.1
     """Modified Newton: the factor is kept over iterations and steps while each correction is
     below this fraction of the previous one; otherwise the matrix is refactored at the iterate."""

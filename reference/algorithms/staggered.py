@@ -1,6 +1,6 @@
 """Park's two-stage staggered explicit central difference (paper §3.3).
 
-One step from ``t_n`` to ``t_{n+1}`` (FORMULATION.md, "Park's two-stage
+One step from ``t_n`` to ``t_{n+1}`` (docs/formulation.md §6, "Park's two-stage
 staggered step"; the staging is a reconstruction, the originals of Park, Chiou
 & Downer 1990 not being at hand):
 
@@ -154,7 +154,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     c = model.damping
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
-        U = beam2_assemble(x, q, model.conn, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
+        U = beam2_assemble(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
         external_forces(model, x, q, t, F, A)
         if n > 0:
             # trapezoidal work of the external forces over the last increment h V^{n-1/2},
@@ -254,7 +254,7 @@ class StaggeredCentralDifference(Algorithm):
     name = "staggered_central_difference"
     explicit = True
     deck_required = ("dt", "t_end")
-    deck_optional = ("damping", "output_every", "consistent_initial_velocities")
+    deck_optional = ("damping", "output_every", "consistent_initial_velocities", "max_steps", "allow_unsafe_dt")
 
     @staticmethod
     def refusal(model):

@@ -52,7 +52,7 @@ class Static(ImplicitAlgorithm):
 
     name = "static"
     deck_required = ("t_end", "load_steps")
-    deck_optional = ("tolerance", "max_iterations", "output_every")
+    deck_optional = ("tolerance", "max_iterations", "output_every", "max_steps")
     progress_name = "load factor"
     no_convergence_fix = ("The structure may have reached a limit (buckling) point or the load step is too large: "
                           "raise load_steps or max_iterations, or stop t_end below the limit load.")
