@@ -149,16 +149,22 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             self.arrays = tuple(np.zeros((N, 6)) for _ in range(7)) + (
                 np.zeros(model.n_constraints), np.zeros(model.n_constraints), np.zeros(n), np.zeros(n), np.zeros(n),
                 np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4), np.zeros(2))
+            h = self.dt
+            am, af, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
+            self.par = np.array([h, am, af, gamma, beta, self.tolerance, self.L, self.contraction,
+                                 self.max_iterations, 0.0, 0.0, np.nan])
+            self.energy = np.array([self.P, self.D])
+        par, energy = self.par, self.energy
         if record is not None:
-            U = self.evaluate(model, x, q, v, w, self.vd, self.lam, clock[0], True)
+            # the last Newton evaluation of the previous step is this state within the tolerance
+            U = par[11] if np.isfinite(par[11]) else self.evaluate(model, x, q, v, w, self.vd, self.lam, clock[0], True)
             self.write_record(record, model, x, q, v, w, U, clock, self.lam)
         h = self.dt
         am, af, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
         bp = (1.0 - am) / (h * h * beta * (1.0 - af))
         ck, cc = 1.0 / bp, (gamma / (h * beta)) / bp
-        par = np.array([h, am, af, gamma, beta, self.tolerance, self.L, self.contraction, self.max_iterations, 0.0, 0.0])
-        energy = np.array([self.P, self.D])
-        dq, Vn, vdn, an, x1q = self.arrays[0], self.arrays[1], self.arrays[2], self.arrays[3], self.arrays[4]
+        par[10] = 0.0
+        dq, Vn = self.arrays[0], self.arrays[1]
         lamn = self.arrays[7]
         x1, q1 = self.arrays[12], self.arrays[13]
         left = int(n_steps)
@@ -228,8 +234,9 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
 
     Returns ``(status, steps done)``; ``REFACTOR`` leaves the iterate of the unfinished
     step in ``arr`` (x1, q1, V, λ, h Δq) for a new factor and the step is redone.
-    ``par`` = [h, α_m, α_f, γ, β, tolerance, L, contraction, max_iterations, fresh]
-    (fresh: 1 the factor is new, −1 there is none yet), iterations (counted here).
+    ``par`` = [h, α_m, α_f, γ, β, tolerance, L, contraction, max_iterations, fresh, iterations, U]
+    (fresh: 1 the factor is new, −1 there is none yet; iterations counted here; U the strain
+    energy of the last evaluation).
     """
     dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, _e = arr
     S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B = wt
@@ -261,7 +268,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                     x1[i, k] = x[i, k] + h * dq[i, k]
                     psi[i, k] = h * dq[i, 3 + k]
             compose(q, psi, q1, tmp)
-            evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
+            par[11] = evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
             if par[9] < 0.0:
                 return REFACTOR, step
             for i in range(N):
