@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from reference import observables as ob
+from reference.analytic import polygon_tip
 from reference.algorithms import ALGORITHMS, GeneralizedAlpha, Static
 from reference.algorithms.generalized_alpha import parameters
 from reference.algorithms.implicit import compose
@@ -32,14 +33,6 @@ def rollup(load_steps=20, **solver):
     d = Domain.from_deck(MODELS / "embedded_beam.toml")
     d.solver = SolverSettings(algorithm="static", t_end=2.0, load_steps=load_steps, dt=2.0 / load_steps, **solver)
     return d
-
-
-def polygon_tip(k, n=12, L=10.0):
-    """Tip of the discrete Beam2 roll-up: under a pure end moment every element keeps its
-    length and axis (Γ = Γ0), each chord turns by ψ = k π / n, the i-th at (i + ½) ψ."""
-    psi = k * np.pi / n
-    angles = (np.arange(n) + 0.5) * psi
-    return (L / n) * np.array([np.cos(angles).sum(), 0.0, np.sin(angles).sum()])
 
 
 def test_registry():
@@ -87,7 +80,7 @@ def test_static_rollup_polygon_and_quadratic_newton():
     tip = r.position("beam:12")
     for k in (1.0, 2.0):
         n = int(np.argmin(np.abs(r.time - k)))
-        err = np.linalg.norm(tip[n] - polygon_tip(k)) / 10.0
+        err = np.linalg.norm(tip[n] - polygon_tip(10.0, 12, k)) / 10.0
         print(f"k = {k}: |tip − polygon| = {err:.2e} L")
         assert err <= 1e-8
     for step, hist in enumerate(algo.history):
