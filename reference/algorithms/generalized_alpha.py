@@ -152,7 +152,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             h = self.dt
             am, af, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
             self.par = np.array([h, am, af, gamma, beta, self.tolerance, self.L, self.contraction,
-                                 self.max_iterations, 0.0, 0.0, np.nan])
+                                 self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0])
             self.energy = np.array([self.P, self.D])
         par, energy = self.par, self.energy
         if record is not None:
@@ -177,7 +177,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             left -= done
             if code == OK:
                 continue
-            if code == REFACTOR and par[9] != 1.0:
+            if code == REFACTOR:
                 try:
                     self.lu = self.factor(model, x1, q1, np.ascontiguousarray(Vn[:, 3:]), clock[0] + h, lamn, 1.0, cc,
                                           ck, psi=np.ascontiguousarray(h * dq[:, 3:]))
@@ -187,12 +187,13 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                     return SINGULAR
                 self.factors = self.lu
                 self.factorizations += 1
-                par[9] = 1.0  # the next step starts with a fresh factor
+                par[9] = 1.0  # the interrupted step resumes with a fresh factor
                 continue
             self.lu = None
+            par[12] = 0.0
             self.stopped_at = clock[0]
             self.P, self.D = energy
-            return NO_CONVERGENCE if code == REFACTOR else code
+            return code
         self.P, self.D = energy
         self.iterations += int(par[10])
         self._run = (state, clock[1])
@@ -232,11 +233,15 @@ def _dissipation(model, v, w):
 def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr):
     """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton).
 
-    Returns ``(status, steps done)``; ``REFACTOR`` leaves the iterate of the unfinished
-    step in ``arr`` (x1, q1, V, λ, h Δq) for a new factor and the step is redone.
-    ``par`` = [h, α_m, α_f, γ, β, tolerance, L, contraction, max_iterations, fresh, iterations, U]
-    (fresh: 1 the factor is new, −1 there is none yet; iterations counted here; U the strain
-    energy of the last evaluation).
+    Returns ``(status, steps done)``; ``REFACTOR`` (a correction shrank by less than
+    ``contraction``, or there is no factor yet) leaves the iterate of the unfinished step in
+    ``arr`` (x1, q1, V, λ, h Δq): the caller factors the Newton matrix there and calls again,
+    and the step resumes from that iterate.  At most ``max_iterations`` corrections per step
+    (``NO_CONVERGENCE`` otherwise).
+    ``par`` = [h, α_m, α_f, γ, β, tolerance, L, contraction, max_iterations, fresh, iterations, U,
+    resume, corrections of this step] (fresh: 1 the factor is new, −1 there is none yet;
+    iterations counted here; U the strain energy of the last evaluation; resume: 1 to continue
+    the interrupted step's iterate).
     """
     dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, _e = arr
     S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B = wt
@@ -251,18 +256,22 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     psi = np.empty((N, 3))
     for step in range(n_steps):
         t1 = clock[0] + h
-        for i in range(N):
-            for k in range(6):
-                Vk = v[i, k] if k < 3 else w[i, k - 3]
-                an[i, k] = (vd[i, k] - am * a[i, k]) / (1.0 - am)
-                vdn[i, k] = vd[i, k]
-                dq[i, k] = Vk + h * (0.5 - beta) * a[i, k] + h * beta * an[i, k]
-                Vn[i, k] = Vk + h * (1.0 - gamma) * a[i, k] + h * gamma * an[i, k]
-        for k in range(m):
-            lamn[k] = lam[k]
+        if not (step == 0 and par[12] == 1.0):
+            # predictor (unless resuming the iterate of an interrupted step with a new factor)
+            par[13] = 0.0
+            for i in range(N):
+                for k in range(6):
+                    Vk = v[i, k] if k < 3 else w[i, k - 3]
+                    an[i, k] = (vd[i, k] - am * a[i, k]) / (1.0 - am)
+                    vdn[i, k] = vd[i, k]
+                    dq[i, k] = Vk + h * (0.5 - beta) * a[i, k] + h * beta * an[i, k]
+                    Vn[i, k] = Vk + h * (1.0 - gamma) * a[i, k] + h * gamma * an[i, k]
+            for k in range(m):
+                lamn[k] = lam[k]
+        par[12] = 1.0  # an interruption from here on keeps the iterate
         previous = -1.0
         converged = False
-        for it in range(max_it):
+        while par[13] < max_it:
             for i in range(N):
                 for k in range(3):
                     x1[i, k] = x[i, k] + h * dq[i, k]
@@ -288,9 +297,10 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                     size = max(size, abs(d) / L if k < 3 else abs(d))
             if not math.isfinite(size):
                 return DIVERGED, step
-            if previous >= 0.0 and size > contraction * previous and par[9] != 1.0:
-                return REFACTOR, step
+            if previous >= 0.0 and size > contraction * previous:
+                return REFACTOR, step  # a new factor at this iterate (full Newton when it keeps happening)
             previous = size
+            par[13] += 1.0
             for i in range(N):
                 for k in range(6):
                     dq[i, k] += delta[i, k] / h
@@ -303,8 +313,10 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                 converged = True
                 break
         if not converged:
-            return REFACTOR, step
+            par[12] = 0.0
+            return NO_CONVERGENCE, step
         par[9] = 0.0
+        par[12] = 0.0
         for i in range(N):
             for k in range(3):
                 x1[i, k] = x[i, k] + h * dq[i, k]
