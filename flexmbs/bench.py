@@ -253,9 +253,14 @@ def main(args=None) -> int:
     print("ratio = reference time / Exudyn time (target ≤ 0.3)")
     quick = bool(getattr(args, "quick", False)) or os.environ.get("FLEXMBS_QUICK") == "1"
     print()
-    print("\n".join(static_rollup()))
+    lines = static_rollup()
+    print("\n".join(lines))
     data = work_precision(quick)
-    print("\n".join(work_precision_table(data)))
-    out = Path(getattr(args, "out", None) or ROOT / "bench")
-    print(f"figure: {work_precision_figure(data, out / 'work_precision.png')}")
+    table = work_precision_table(data)
+    print("\n".join(table))
+    out = Path(getattr(args, "out", None) or ROOT / "out" / "bench")
+    figure = work_precision_figure(data, out / "work_precision.png")
+    (out / "work_precision.md").write_text("\n".join(lines + table + [f"![work-precision]({figure.name})", ""]),
+                                           encoding="utf-8")
+    print(f"figure and tables: {figure}, {out / 'work_precision.md'}")
     return 0

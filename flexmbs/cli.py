@@ -157,7 +157,7 @@ def parser() -> argparse.ArgumentParser:
     ben = sub.add_parser("bench", help="solve times of flexmbs and Exudyn, side by side")
     ben.add_argument("--repeat", type=int, default=3)
     ben.add_argument("--quick", action="store_true", help="fewer steps in the work-precision part")
-    ben.add_argument("--out", help="folder of the work-precision figure (default: bench/)")
+    ben.add_argument("--out", help="folder of the work-precision figure and tables (default: out/bench/)")
     ben.set_defaults(func=cmd_bench)
     return p
 
