@@ -61,6 +61,13 @@ def test_deck_validation(tmp_path):
         with pytest.raises(DeckError, match=entry) as err:
             Domain.from_deck(bad)
         assert "\n" not in str(err.value)
+    # master/slave joints: refused with one line naming the fix
+    ms = tmp_path / "ms.toml"
+    text = (MODELS / "three_bar.toml").read_text().replace('label = "A"', 'label = "A"\nformulation = "master_slave"')
+    ms.write_text(text.replace('algorithm = "staggered_central_difference"', 'algorithm = "generalized_alpha"'))
+    with pytest.raises(DeckError, match="solver.algorithm.*master/slave.*jacobian") as err:
+        Domain.from_deck(ms)
+    assert "\n" not in str(err.value)
     # an implicit step far above the explicit critical step is accepted
     big = tmp_path / "ga.toml"
     big.write_text(ga.replace("rho_inf = 1.5", "rho_inf = 0.8"))
