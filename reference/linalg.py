@@ -9,9 +9,12 @@ every block entry, which entries survive (fixed coordinates are removed from
 the unknowns), and the position of each surviving entry in the compressed
 sparse column (CSC) arrays, repeated entries summed.  Every Newton iteration
 then only scatters the new block values into the CSC data (one
-``numpy.bincount``) and refactorises numerically (:func:`factorize`, SuperLU
-with partial pivoting, which handles the zero block of the saddle-point
-systems).  Compiled loops solve with the factors through :func:`lu_solve`.
+``numpy.bincount``) and refactorises numerically (:class:`SparseLU`: SuperLU
+with partial pivoting — which handles the zero block of the saddle-point
+systems — chooses the ordering and the pivots once, the fill pattern follows
+from the structure, and later matrices are refactored in compiled code with
+the same permutations).  Compiled loops solve with the factors through
+:func:`lu_solve`.
 """
 
 from __future__ import annotations
@@ -87,20 +90,10 @@ def factorize(matrix: sps.csc_matrix):
     return lu
 
 
-def factor_arrays(lu) -> tuple:
-    """The SuperLU factors as plain arrays for :func:`lu_solve`:
-    ``(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c)`` with ``Pr A Pc = L U`` (CSC L and U)."""
-    L, U = lu.L.tocsc(), lu.U.tocsc()
-    for M in (L, U):  # SuperLU's supernodes leave rows unsorted (and the flag may say otherwise)
-        M.has_sorted_indices = False
-        M.sort_indices()
-    return (L.indptr.astype(np.int64), L.indices.astype(np.int64), L.data, U.indptr.astype(np.int64),
-            U.indices.astype(np.int64), U.data, lu.perm_r.astype(np.int64), lu.perm_c.astype(np.int64))
-
-
 @kernel
 def lu_solve(f, b, work, x):
-    """Solve ``A x = b`` with the factor arrays ``f`` of :func:`factor_arrays` (compiled, no allocation).
+    """Solve ``A x = b`` with the factor arrays ``f = (Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c)`` of
+    :class:`SparseLU` (CSC L and U with ``Pr A Pc = L U``; compiled, no allocation).
 
     ``y[perm_r] = b``, forward substitution with L, back substitution with U,
     ``x = w[perm_c]`` (SuperLU's ``Pr A Pc = L U``).
