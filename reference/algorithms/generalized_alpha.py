@@ -299,6 +299,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                 return DIVERGED, step
             if previous >= 0.0 and size > contraction * previous:
                 return REFACTOR, step  # a new factor at this iterate (full Newton when it keeps happening)
+            theta = size / previous if previous > 0.0 else 1.0
             previous = size
             par[13] += 1.0
             for i in range(N):
@@ -309,7 +310,9 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
             for k in range(m):
                 lamn[k] += bp * sol[n_free + k]
             par[10] += 1.0
-            if size <= tol:
+            # the error left after this correction: about θ/(1 − θ) of it for a contraction θ
+            # (Hairer & Wanner 1996, §IV.8); the correction itself when θ is not known yet
+            if size <= tol or (theta < 1.0 and theta * size <= tol * (1.0 - theta)):
                 converged = True
                 break
         if not converged:
