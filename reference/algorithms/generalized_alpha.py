@@ -24,8 +24,12 @@ Newton iterates on the configuration correction δ (``h Δq += δ``,
 ``V += γ' δ``, ``V̇ += β' δ``, ``γ' = γ/(hβ)``, ``β' = (1 − α_m)/(h²β(1 − α_f))``)
 with the iteration matrix ``M + (γ'/β') C + K T/β'``, T the tangent operator
 ``J_r(h Δθ)`` of the exponential at each node (Brüls et al. 2012, §4).  The
-factor is kept over iterations and steps while it contracts well (modified
-Newton) and refactored otherwise.  The
+factor is kept over iterations and steps while every correction is below a
+tenth of the previous one (modified Newton); otherwise the matrix is refactored
+at the current iterate and the step goes on from there (full Newton if need
+be).  Newton stops when the correction, or the error it leaves for an observed
+contraction θ, ``θ/(1 − θ)·|δ|`` (Hairer & Wanner 1996, §IV.8), is below the
+tolerance (translations over the model size, rotations in rad).  The
 initial accelerations and multipliers are consistent: ``M V̇_0 + Bᵀλ_0 = −r_0``,
 ``B V̇_0 = −d/dt(B V + Φ_t)`` (the last by a central difference along the motion).
 
@@ -35,9 +39,9 @@ and drives), damping dissipation by the trapezoidal rule on ``c Vᵀ M V``.
 
 from __future__ import annotations
 
-import numpy as np
-
 import math
+
+import numpy as np
 
 from reference.algorithms.implicit import (
     DIVERGED, NO_CONVERGENCE, OK, SINGULAR, ImplicitAlgorithm, compose, evaluate,
@@ -67,9 +71,10 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     rho_inf : float, default 0.8
         Spectral radius at infinite frequency, 0 ≤ ρ∞ ≤ 1 (1: no numerical dissipation).
     tolerance : float, default 1e-10
-        Newton stops when the largest correction is below ``tolerance`` × model size
-        (translations) and ``tolerance`` rad (rotations).
+        Newton stops when the largest correction (or the error it leaves, see above) is
+        below ``tolerance`` × model size (translations) and ``tolerance`` rad (rotations).
     max_iterations : int, default 15
+        Newton corrections per step before the run stops.
     """
 
     name = "generalized_alpha"
@@ -79,7 +84,6 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     contraction = 0.1
     """Modified Newton: the factor is kept over iterations and steps while each correction is
     below this fraction of the previous one; otherwise the matrix is refactored at the iterate."""
-    full_newton = False
 
     def __init__(self, dt: float, rho_inf: float = 0.8, tolerance: float = 1e-10, max_iterations: int = 15):
         super().__init__(dt, tolerance, max_iterations)
