@@ -1,0 +1,469 @@
+"""Force elements: springs, dampers and bushings between bodies (the paper's loads between bodies).
+
+A force element connects body i to body j (a rigid body or a beam node) or to
+the ground.  Like a joint (:mod:`reference.joints.joint`) it is defined in the
+inertial frame at t = 0 by points and a frame stored body-fixed on both
+bodies, and it is evaluated with the same derived primitives
+(``reference/generated/joints.py``): the relative displacement
+``d = x_j + A_j s_j − x_i − A_i s_i``, the projections of the two bodies'
+frame vectors on each other, and their exact Jacobian ``B`` with respect to
+``[v_i, ω_i, v_j, ω_j]`` (ω in the body frames).
+
+Each element has one or six **measures** ``e(x, q)`` with Jacobian
+``B_e = ∂ė/∂V`` (a combination of primitive rows), a stiffness ``k`` and a
+damping ``c`` per measure, and a rest value ``e_0``; its generalised force on
+the two nodes is::
+
+    f = −B_eᵀ (k (e − e_0) + c B_e V)
+
+its energy ``½ k (e − e_0)²`` (added to the strain energy) and its dissipation
+rate ``c (B_e V)²`` (added to the dissipated energy).  The elastic force is the
+exact gradient of the energy, so the explicit scheme's energy balance holds
+with springs to its own accuracy.
+
+=============  ===========================================================  ========
+kind           measure                                                      measures
+=============  ===========================================================  ========
+point_to_point  ℓ = |d|, the distance between the two points (N = k(ℓ − ℓ0)   1
+               + c ℓ̇ + f_a(t), positive in tension)
+rotational     φ = atan2(u1_i·u2_j, u1_i·u1_j): the rotation of body i       1
+               relative to body j about the axis u3, measured like the
+               rotation drive's and continued through ±π (not wrapped)
+bushing        d in body i's frame (u1_i·d, u2_i·d, u3_i·d) and the small    6
+               rotation θ = (−u2_i·u3_j, u1_i·u3_j, −u1_i·u2_j) of body j
+               relative to body i in i's frame (= the rotation vector to
+               first order; sin φ for a rotation φ about one frame axis)
+=============  ===========================================================  ========
+
+The continuous angle of a rotational spring is carried in the state
+(``State.angle``): each evaluation adds to the last angle the wrapped
+difference to the new one, which is exact while the relative rotation changes
+by less than π per evaluation.
+
+All compiled work is in :func:`force_element_forces`, which every algorithm
+calls; an actuator force along a point-to-point line is an external load (its
+work counts as external work).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from reference.generated import joints as generated
+from reference.interactions import TimeFunction, tf_value
+from reference.jit import kernel
+from reference.joints.assembly import GROUND_Q, GROUND_X
+from reference.joints.joint import joint_frame
+from reference.rotation import EulerParameters
+
+POINT_TO_POINT, ROTATIONAL, BUSHING = 0, 1, 2
+KINDS = {"point_to_point": POINT_TO_POINT, "rotational": ROTATIONAL, "bushing": BUSHING}
+@kernel
+def force_element_dissipation(model, x, q, v, w, v_new, w_new, prim_phi, prim_B):
+    """Work rate of the dampers over a kick: ``Σ c (B_e V⁻)·(B_e V̄)``, ``V̄ = ½(V⁻ + V⁺)`` [W].
+
+    The damper force of an explicit step is evaluated at the old velocity V⁻;
+    the kinetic energy changes by the kick length times the force times the
+    mean velocity V̄, so this is the energy the dampers remove in that step
+    (exact for the scheme).
+    """
+    total = 0.0
+    for k in range(model.fe_kind.shape[0]):
+        damp = model.fe_c[k]
+        if damp[0] == 0.0 and damp[1] == 0.0 and damp[2] == 0.0 and damp[3] == 0.0 and damp[4] == 0.0 \
+                and damp[5] == 0.0:
+            continue
+        i, j = model.fe_i[k], model.fe_j[k]
+        _primitives(model, x, q, k, prim_phi, prim_B)
+        kind = model.fe_kind[k]
+        if kind == POINT_TO_POINT:
+            length = math.sqrt(prim_phi[0] ** 2 + prim_phi[1] ** 2 + prim_phi[2] ** 2)
+            if length <= 0.0:
+                continue
+            c0, c1, c2 = prim_phi[0] / length, prim_phi[1] / length, prim_phi[2] / length
+            old = _rate(prim_B, 0, c0, 1, c1, 2, c2, v, w, i, j)
+            new = _rate(prim_B, 0, c0, 1, c1, 2, c2, v_new, w_new, i, j)
+            total += damp[0] * old * 0.5 * (old + new)
+        elif kind == ROTATIONAL:
+            s, c = prim_phi[5], prim_phi[9]
+            r2 = s * s + c * c
+            old = _rate(prim_B, 5, c / r2, 9, -s / r2, 0, 0.0, v, w, i, j)
+            new = _rate(prim_B, 5, c / r2, 9, -s / r2, 0, 0.0, v_new, w_new, i, j)
+            total += damp[0] * old * 0.5 * (old + new)
+        else:
+            for m in range(6):
+                row, sg = BUSHING_ROWS_ARR[m], BUSHING_SIGNS_ARR[m]
+                old = _rate(prim_B, row, sg, 0, 0.0, 0, 0.0, v, w, i, j)
+                new = _rate(prim_B, row, sg, 0, 0.0, 0, 0.0, v_new, w_new, i, j)
+                total += damp[m] * old * 0.5 * (old + new)
+    return total
+
+
+BUSHING_ROWS_ARR = np.array([6, 7, 8, 4, 3, 5], dtype=np.int64)
+BUSHING_SIGNS_ARR = np.array([1.0, 1.0, 1.0, -1.0, 1.0, -1.0])
+"""The bushing's six measures: ``sign × primitive[row]`` (d in body i's frame, then θ)."""
+
+
+@kernel
+def _combined(prim_B, r0, c0, r1, c1, r2, c2, col):
+    return c0 * prim_B[12 * r0 + col] + c1 * prim_B[12 * r1 + col] + c2 * prim_B[12 * r2 + col]
+
+
+@kernel
+def _rate(prim_B, r0, c0, r1, c1, r2, c2, v, w, i, j):
+    """``B_e V`` of the measure ``Σ c_s (primitive row r_s)``."""
+    acc = 0.0
+    for a in range(3):
+        acc += _combined(prim_B, r0, c0, r1, c1, r2, c2, a) * v[i, a]
+        acc += _combined(prim_B, r0, c0, r1, c1, r2, c2, 3 + a) * w[i, a]
+        if j >= 0:
+            acc += _combined(prim_B, r0, c0, r1, c1, r2, c2, 6 + a) * v[j, a]
+            acc += _combined(prim_B, r0, c0, r1, c1, r2, c2, 9 + a) * w[j, a]
+    return acc
+
+
+@kernel
+def _spread(prim_B, r0, c0, r1, c1, r2, c2, f, i, j, F):
+    """``F −= B_eᵀ f`` on nodes i and j (inertial force, body moment)."""
+    for a in range(6):
+        F[i, a] -= f * _combined(prim_B, r0, c0, r1, c1, r2, c2, a)
+        if j >= 0:
+            F[j, a] -= f * _combined(prim_B, r0, c0, r1, c1, r2, c2, 6 + a)
+
+
+@kernel
+def _primitives(model, x, q, k, prim_phi, prim_B):
+    i, j = model.fe_i[k], model.fe_j[k]
+    par = model.fe_par[k]
+    if j >= 0:
+        generated.joint_primitives(x[i], q[i], x[j], q[j], par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
+    else:
+        generated.joint_primitives(x[i], q[i], GROUND_X, GROUND_Q, par[0:3], par[3:6], par[6:15], par[15:24],
+                                   prim_phi, prim_B)
+
+
+@kernel
+def force_element_forces(model, x, q, v, w, t, angle, F, F_ext, prim_phi, prim_B):
+    """Forces of all force elements at one configuration; returns ``(energy, dissipation rate)``.
+
+    Parameters
+    ----------
+    model : Model
+        ``fe_*`` fields (see :class:`reference.state.Model`).
+    x, q, v, w : arrays (N,3), (N,4), (N,3), (N,3)
+        Positions, Euler parameters, inertial and body-frame velocities.
+    t : float
+        Time [s] (actuator force functions).
+    angle : array (F,)
+        Continuous angles of the rotational springs, updated in place.
+    F : array (N,6)
+        The spring and damper forces are **added** (inertial force, body moment).
+    F_ext : array (N,6)
+        The actuator forces are added here (external loads; may be ``F`` itself).
+    prim_phi, prim_B : arrays (10,), (120,)
+        Work arrays.
+
+    Returns
+    -------
+    energy : float
+        ``Σ ½ k (e − e_0)²`` [J].
+    dissipation : float
+        ``Σ c (B_e V)²`` [W], ≥ 0 (an explicit step books
+        :func:`force_element_dissipation` instead).
+    """
+    energy = 0.0
+    dissipation = 0.0
+    for k in range(model.fe_kind.shape[0]):
+        i, j = model.fe_i[k], model.fe_j[k]
+        _primitives(model, x, q, k, prim_phi, prim_B)
+        kind = model.fe_kind[k]
+        stiff, damp = model.fe_k[k], model.fe_c[k]
+        if kind == POINT_TO_POINT:
+            length = math.sqrt(prim_phi[0] ** 2 + prim_phi[1] ** 2 + prim_phi[2] ** 2)
+            if length <= 0.0:
+                continue  # coincident points: no direction (the deck refuses a zero rest length)
+            c0, c1, c2 = prim_phi[0] / length, prim_phi[1] / length, prim_phi[2] / length
+            rate = _rate(prim_B, 0, c0, 1, c1, 2, c2, v, w, i, j)
+            stretch = length - model.fe_rest[k]
+            energy += 0.5 * stiff[0] * stretch * stretch
+            dissipation += damp[0] * rate * rate
+            _spread(prim_B, 0, c0, 1, c1, 2, c2, stiff[0] * stretch + damp[0] * rate, i, j, F)
+            tf = model.fe_tf[k]
+            if tf >= 0:
+                fa = tf_value(model.tf_kind[tf], model.tf_par[tf], t)
+                _spread(prim_B, 0, c0, 1, c1, 2, c2, fa, i, j, F_ext)
+        elif kind == ROTATIONAL:
+            s, c = prim_phi[5], prim_phi[9]
+            r2 = s * s + c * c
+            raw = math.atan2(s, c)
+            d = raw - angle[k]
+            d -= 2.0 * math.pi * math.floor(d / (2.0 * math.pi) + 0.5)
+            phi = angle[k] + d
+            angle[k] = phi
+            c0, c1 = c / r2, -s / r2
+            rate = _rate(prim_B, 5, c0, 9, c1, 0, 0.0, v, w, i, j)
+            twist = phi - model.fe_rest[k]
+            energy += 0.5 * stiff[0] * twist * twist
+            dissipation += damp[0] * rate * rate
+            _spread(prim_B, 5, c0, 9, c1, 0, 0.0, stiff[0] * twist + damp[0] * rate, i, j, F)
+        else:
+            for m in range(6):
+                row = BUSHING_ROWS_ARR[m]
+                sg = BUSHING_SIGNS_ARR[m]
+                e = sg * prim_phi[row]
+                rate = _rate(prim_B, row, sg, 0, 0.0, 0, 0.0, v, w, i, j)
+                energy += 0.5 * stiff[m] * e * e
+                dissipation += damp[m] * rate * rate
+                _spread(prim_B, row, sg, 0, 0.0, 0, 0.0, stiff[m] * e + damp[m] * rate, i, j, F)
+    return energy, dissipation
+
+
+def _matrix(q) -> np.ndarray:
+    return EulerParameters(np.asarray(q, dtype=float)).matrix()
+
+
+class ForceElement(ABC):
+    """A spring-damper between ``body_i`` and ``body_j`` (``None``: the ground).
+
+    Subclasses provide ``kind`` (a :data:`KINDS` value), :meth:`points`
+    (the attachment points on i and j, inertial at t = 0), :meth:`frame` (the
+    element frame, columns u1 u2 u3), :meth:`stiffness_damping` (k, c: 6 each,
+    unused ones 0), :meth:`rest` (e_0) and :meth:`stiffness_rate` (a bound on
+    the largest ω² the element adds, for the explicit step limit, given the
+    lumped ``mass_of(node) → (m, J)``).
+    """
+
+    kind: int
+    body_i: object
+    body_j: object
+    label: str
+
+    def points(self) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def frame(self) -> np.ndarray:
+        return np.eye(3)
+
+    def stiffness_damping(self) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def rest(self) -> float:
+        return 0.0
+
+    def stiffness_rate(self, mass_of) -> float:
+        raise NotImplementedError
+
+    def body_fixed(self) -> np.ndarray:
+        """``[s_i, s_j, f_i (9), f_j (9)]`` (24,), the joint layout of :meth:`Joint.body_fixed`."""
+        parts = []
+        for body, p in zip((self.body_i, self.body_j), self.points()):
+            x, A = (np.zeros(3), np.eye(3)) if body is None else (body.position, _matrix(body.rotation))
+            parts.append(A.T @ (np.asarray(p, dtype=float) - x))
+        for body in (self.body_i, self.body_j):
+            A = np.eye(3) if body is None else _matrix(body.rotation)
+            parts.append((A.T @ self.frame()).reshape(9))
+        return np.concatenate(parts)
+
+    @staticmethod
+    def _inverse_mass(mass_of, body, point=None, axis=None) -> float:
+        """Largest inverse effective mass of a body at a point (translation) or about an axis: a bound
+        ``1/m + r²/J_min`` (``J_min`` the smallest principal inertia) or ``1/J_min``."""
+        if body is None:
+            return 0.0
+        m, J = mass_of(body)
+        J_min = float(np.linalg.eigvalsh(0.5 * (J + J.T))[0])
+        if axis is not None:
+            return 1.0 / J_min
+        r = 0.0 if point is None else float(np.linalg.norm(np.asarray(point) - body.position))
+        return 1.0 / m + r * r / J_min
+
+
+def _check_bodies(body_i, body_j, label):
+    if body_i is None:
+        raise ValueError(f"force element {label!r}: body_i cannot be the ground")
+    if body_i is body_j:
+        raise ValueError(f"force element {label!r}: body_i and body_j are the same body")
+
+
+@dataclass
+class PointToPoint(ForceElement):
+    """Linear spring-damper between two points (Exudyn's SpringDamper).
+
+    Axial force ``N = k (ℓ − ℓ0) + c ℓ̇ + f_a(t)`` [N], positive in tension
+    (pulling the points together).
+
+    Parameters
+    ----------
+    body_i, body_j : Node or None
+    point_i, point_j : array (3,)
+        Attachment points, inertial at t = 0 [m] (body-fixed after).
+    stiffness : float
+        k [N/m] ≥ 0.
+    damping : float
+        c [N s/m] ≥ 0.
+    rest_length : float, optional
+        ℓ0 [m] (default: the initial distance).
+    force_function : TimeFunction, optional
+        Actuator force f_a(t) [N] along the line.
+    """
+
+    body_i: object
+    point_i: np.ndarray
+    body_j: object = None
+    point_j: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    stiffness: float = 0.0
+    damping: float = 0.0
+    rest_length: float | None = None
+    force_function: TimeFunction | None = None
+    label: str = "spring"
+    kind = POINT_TO_POINT
+
+    def __post_init__(self):
+        _check_bodies(self.body_i, self.body_j, self.label)
+        self.point_i = np.asarray(self.point_i, dtype=float).reshape(3)
+        self.point_j = np.asarray(self.point_j, dtype=float).reshape(3)
+        if self.stiffness < 0.0 or self.damping < 0.0:
+            raise ValueError(f"spring {self.label!r}: stiffness and damping must not be negative")
+        length = float(np.linalg.norm(self.point_j - self.point_i))
+        if self.rest_length is None:
+            if length <= 0.0:
+                raise ValueError(f"spring {self.label!r}: the points coincide, so the rest length cannot default "
+                                 "to the initial distance; give rest_length > 0")
+            self.rest_length = length
+        if not self.rest_length > 0.0:
+            raise ValueError(f"spring {self.label!r}: rest_length must be positive (a zero-length spring "
+                             "has no direction)")
+
+    def points(self):
+        return self.point_i, self.point_j
+
+    def stiffness_damping(self):
+        k, c = np.zeros(6), np.zeros(6)
+        k[0], c[0] = self.stiffness, self.damping
+        return k, c
+
+    def rest(self):
+        return float(self.rest_length)
+
+    def stiffness_rate(self, mass_of):
+        return self.stiffness * (self._inverse_mass(mass_of, self.body_i, self.point_i)
+                                 + self._inverse_mass(mass_of, self.body_j, self.point_j))
+
+
+@dataclass
+class Rotational(ForceElement):
+    """Torsional spring-damper about ``axis`` (Exudyn's TorsionalSpringDamper).
+
+    Moment ``M = k (φ − φ0) + c φ̇`` [N m] about the axis, φ the rotation of
+    body i relative to body j (continuous).
+
+    Parameters
+    ----------
+    body_i, body_j : Node or None
+    axis : array (3,)
+        Inertial at t = 0 (body-fixed on both bodies after).
+    stiffness : float
+        k [N m/rad] ≥ 0.
+    damping : float
+        c [N m s/rad] ≥ 0.
+    rest_angle : float
+        φ0 [rad] (0: the initial configuration is unstressed).
+    reference : array (3,), optional
+        u1 of the element frame (only its plane matters).
+    """
+
+    body_i: object
+    body_j: object = None
+    axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    stiffness: float = 0.0
+    damping: float = 0.0
+    rest_angle: float = 0.0
+    reference: np.ndarray | None = None
+    label: str = "torsion spring"
+    kind = ROTATIONAL
+
+    def __post_init__(self):
+        _check_bodies(self.body_i, self.body_j, self.label)
+        if self.stiffness < 0.0 or self.damping < 0.0:
+            raise ValueError(f"spring {self.label!r}: stiffness and damping must not be negative")
+        self._frame = joint_frame(self.axis, self.reference)
+
+    def points(self):
+        p = self.body_i.position
+        return p, p
+
+    def frame(self):
+        return self._frame
+
+    def stiffness_damping(self):
+        k, c = np.zeros(6), np.zeros(6)
+        k[0], c[0] = self.stiffness, self.damping
+        return k, c
+
+    def rest(self):
+        return float(self.rest_angle)
+
+    def stiffness_rate(self, mass_of):
+        u = self._frame[:, 2]
+        return self.stiffness * (self._inverse_mass(mass_of, self.body_i, axis=u)
+                                 + self._inverse_mass(mass_of, self.body_j, axis=u))
+
+
+@dataclass
+class Bushing(ForceElement):
+    """Six-component linear spring-damper in a frame at ``point`` (Exudyn's RigidBodySpringDamper,
+    small rotations).
+
+    Force ``K_t d + C_t ḋ`` along u1 u2 u3 of body i's frame and moment
+    ``K_r θ + C_r θ̇`` (θ the small-rotation measure of the module table).
+
+    Parameters
+    ----------
+    body_i, body_j : Node or None
+    point : array (3,)
+        Inertial at t = 0 [m].
+    axis, reference : array (3,)
+        u3 and u1 of the frame (as for a joint).
+    stiffness, damping : array (6,)
+        ``[k1, k2, k3 (N/m), k4, k5, k6 (N m/rad)]`` and the dampings [N s/m, N m s/rad], ≥ 0.
+    """
+
+    body_i: object
+    body_j: object = None
+    point: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    reference: np.ndarray | None = None
+    stiffness: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    damping: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    label: str = "bushing"
+    kind = BUSHING
+
+    def __post_init__(self):
+        _check_bodies(self.body_i, self.body_j, self.label)
+        self.point = np.asarray(self.point, dtype=float).reshape(3)
+        self.stiffness = np.asarray(self.stiffness, dtype=float).reshape(6)
+        self.damping = np.asarray(self.damping, dtype=float).reshape(6)
+        if np.any(self.stiffness < 0.0) or np.any(self.damping < 0.0):
+            raise ValueError(f"bushing {self.label!r}: stiffnesses and dampings must not be negative")
+        self._frame = joint_frame(self.axis, self.reference)
+
+    def points(self):
+        return self.point, self.point
+
+    def frame(self):
+        return self._frame
+
+    def stiffness_damping(self):
+        return self.stiffness.copy(), self.damping.copy()
+
+    def stiffness_rate(self, mass_of):
+        kt, kr = float(self.stiffness[:3].max()), float(self.stiffness[3:].max())
+        rate = 0.0
+        for body in (self.body_i, self.body_j):
+            rate += kt * self._inverse_mass(mass_of, body, self.point)
+            rate += kr * self._inverse_mass(mass_of, body, axis=self._frame[:, 2])
+        return rate
