@@ -322,8 +322,8 @@ class Domain:
 
         A force element of stiffness k adds the limit ``2/ω``, ``ω² = k (1/m_i + 1/m_j)``
         with each body's effective inverse mass at the attachment bounded by
-        ``1/m + r²/J_min`` (and ``1/J_min`` for a torsional stiffness): the period
-        of the element oscillating against the bodies it connects.
+        ``1/m + r²/J_min`` (and ``uᵀJ⁻¹u`` about the axis u of a torsional
+        stiffness): the element oscillating against the bodies it connects.
         """
         limits = [e.formulation.critical_time_step(self._length(e)) for e in self.elements]
         if self.force_elements:

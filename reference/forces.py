@@ -4,10 +4,11 @@ A force element connects body i to body j (a rigid body or a beam node) or to
 the ground.  Like a joint (:mod:`reference.joints.joint`) it is defined in the
 inertial frame at t = 0 by points and a frame stored body-fixed on both
 bodies, and it is evaluated with the same derived primitives
-(``reference/generated/joints.py``): the relative displacement
-``d = x_j + A_j s_j − x_i − A_i s_i``, the projections of the two bodies'
-frame vectors on each other, and their exact Jacobian ``B`` with respect to
-``[v_i, ω_i, v_j, ω_j]`` (ω in the body frames).
+with measures derived in sympy (``derivations/forces.py`` →
+``reference/generated/forces.py``) from the relative displacement
+``d = x_j + A_j s_j − x_i − A_i s_i`` and the projections of the two bodies'
+frame vectors on each other, with their exact Jacobian ``B`` with respect to
+``[v_i, ω_i, v_j, ω_j]`` (ω in the body frames) and its tangent.
 
 Each element has one or six **measures** ``e(x, q)`` with Jacobian
 ``B_e = ∂ė/∂V`` (a combination of primitive rows), a stiffness ``k`` and a
@@ -29,10 +30,11 @@ point_to_point  ℓ = |d|, the distance between the two points (N = k(ℓ − �
 rotational     φ = atan2(u1_i·u2_j, u1_i·u1_j): the rotation of body i       1
                relative to body j about the axis u3, measured like the
                rotation drive's and continued through ±π (not wrapped)
-bushing        d in body i's frame (u1_i·d, u2_i·d, u3_i·d) and the small    6
-               rotation θ = (−u2_i·u3_j, u1_i·u3_j, −u1_i·u2_j) of body j
-               relative to body i in i's frame (= the rotation vector to
-               first order; sin φ for a rotation φ about one frame axis)
+bushing        d in body i's frame (u1_i·d, u2_i·d, u3_i·d) and the          6
+               rotation of body j relative to body i, θ = ½ vee(R − Rᵀ),
+               R_ab = u_a,i·u_b,j (the axial vector of the skew part of the
+               relative rotation: sin|θ| along the rotation axis, equal to
+               the rotation vector up to third order)
 =============  ===========================================================  ========
 
 The continuous angle of a rotational spring is carried in the state
@@ -41,8 +43,9 @@ difference to the new one, which is exact while the relative rotation changes
 by less than π per evaluation.
 
 All compiled work is in :func:`force_element_forces`, which every algorithm
-calls; an actuator force along a point-to-point line is an external load (its
-work counts as external work).
+calls, and :func:`force_element_tangent` (stiffness and damping matrices of
+one element, for implicit algorithms); an actuator force along a
+point-to-point line is an external load (its work counts as external work).
 """
 
 from __future__ import annotations
@@ -53,7 +56,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from reference.generated import joints as generated
+from reference.generated import forces as generated
 from reference.interactions import TimeFunction, tf_value
 from reference.jit import kernel
 from reference.joints.assembly import GROUND_Q, GROUND_X
@@ -103,51 +106,73 @@ def force_element_dissipation(model, x, q, v, w, v_new, w_new, prim_phi, prim_B)
     return total
 
 
-BUSHING_ROWS_ARR = np.array([6, 7, 8, 4, 3, 5], dtype=np.int64)
-BUSHING_SIGNS_ARR = np.array([1.0, 1.0, 1.0, -1.0, 1.0, -1.0])
-"""The bushing's six measures: ``sign × primitive[row]`` (d in body i's frame, then θ)."""
 
 
 @kernel
-def _combined(prim_B, r0, c0, r1, c1, r2, c2, col):
-    return c0 * prim_B[12 * r0 + col] + c1 * prim_B[12 * r1 + col] + c2 * prim_B[12 * r2 + col]
+def _measures(model, x, q, k, e, B):
+    """Measures ``e`` and Jacobian ``B`` (row-major, 12 columns) of element k; returns their number.
+
+    A rotational element's raw generated pair (r sin φ, r cos φ) is turned into
+    the wrapped angle φ = atan2 and its Jacobian by the chain rule; the ground's
+    columns are zeroed.
+    """
+    i, j = model.fe_i[k], model.fe_j[k]
+    par = model.fe_par[k]
+    kind = model.fe_kind[k]
+    xj, qj = GROUND_X, GROUND_Q
+    if j >= 0:
+        xj, qj = x[j], q[j]
+    m = 6
+    if kind == POINT_TO_POINT:
+        generated.point_to_point_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
+        m = 1
+    elif kind == ROTATIONAL:
+        generated.rotational_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
+        sn, cs = e[0], e[1]
+        r2 = sn * sn + cs * cs
+        e[0] = math.atan2(sn, cs)
+        for col in range(12):
+            B[col] = (cs * B[col] - sn * B[12 + col]) / r2
+        m = 1
+    else:
+        generated.bushing_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
+    if j < 0:
+        for r in range(m):
+            for col in range(6, 12):
+                B[12 * r + col] = 0.0
+    return m
 
 
 @kernel
-def _rate(prim_B, r0, c0, r1, c1, r2, c2, v, w, i, j):
-    """``B_e V`` of the measure ``Σ c_s (primitive row r_s)``."""
+def _rate(B, r, v, w, i, j):
+    """``(B V)_r`` with V = [v_i, ω_i, v_j, ω_j]."""
     acc = 0.0
     for a in range(3):
-        acc += _combined(prim_B, r0, c0, r1, c1, r2, c2, a) * v[i, a]
-        acc += _combined(prim_B, r0, c0, r1, c1, r2, c2, 3 + a) * w[i, a]
+        acc += B[12 * r + a] * v[i, a] + B[12 * r + 3 + a] * w[i, a]
         if j >= 0:
-            acc += _combined(prim_B, r0, c0, r1, c1, r2, c2, 6 + a) * v[j, a]
-            acc += _combined(prim_B, r0, c0, r1, c1, r2, c2, 9 + a) * w[j, a]
+            acc += B[12 * r + 6 + a] * v[j, a] + B[12 * r + 9 + a] * w[j, a]
     return acc
 
 
 @kernel
-def _spread(prim_B, r0, c0, r1, c1, r2, c2, f, i, j, F):
-    """``F −= B_eᵀ f`` on nodes i and j (inertial force, body moment)."""
+def _spread(B, r, f, i, j, F):
+    """``F −= B_rᵀ f`` on nodes i and j (inertial force, body moment)."""
     for a in range(6):
-        F[i, a] -= f * _combined(prim_B, r0, c0, r1, c1, r2, c2, a)
+        F[i, a] -= f * B[12 * r + a]
         if j >= 0:
-            F[j, a] -= f * _combined(prim_B, r0, c0, r1, c1, r2, c2, 6 + a)
+            F[j, a] -= f * B[12 * r + 6 + a]
 
 
 @kernel
-def _primitives(model, x, q, k, prim_phi, prim_B):
-    i, j = model.fe_i[k], model.fe_j[k]
-    par = model.fe_par[k]
-    if j >= 0:
-        generated.joint_primitives(x[i], q[i], x[j], q[j], par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
-    else:
-        generated.joint_primitives(x[i], q[i], GROUND_X, GROUND_Q, par[0:3], par[3:6], par[6:15], par[15:24],
-                                   prim_phi, prim_B)
+def _continuous(angle, k, raw):
+    """The last angle plus the wrapped difference to ``raw``."""
+    d = raw - angle[k]
+    d -= 2.0 * math.pi * math.floor(d / (2.0 * math.pi) + 0.5)
+    return angle[k] + d
 
 
 @kernel
-def force_element_forces(model, x, q, v, w, t, angle, F, F_ext, prim_phi, prim_B):
+def force_element_forces(model, x, q, v, w, t, angle, F, F_ext, e, B):
     """Forces of all force elements at one configuration; returns ``(energy, dissipation rate)``.
 
     Parameters
@@ -164,7 +189,7 @@ def force_element_forces(model, x, q, v, w, t, angle, F, F_ext, prim_phi, prim_B
         The spring and damper forces are **added** (inertial force, body moment).
     F_ext : array (N,6)
         The actuator forces are added here (external loads; may be ``F`` itself).
-    prim_phi, prim_B : arrays (10,), (120,)
+    e, B : arrays (≥ 6,), (≥ 72,)
         Work arrays.
 
     Returns
@@ -179,47 +204,108 @@ def force_element_forces(model, x, q, v, w, t, angle, F, F_ext, prim_phi, prim_B
     dissipation = 0.0
     for k in range(model.fe_kind.shape[0]):
         i, j = model.fe_i[k], model.fe_j[k]
-        _primitives(model, x, q, k, prim_phi, prim_B)
         kind = model.fe_kind[k]
-        stiff, damp = model.fe_k[k], model.fe_c[k]
-        if kind == POINT_TO_POINT:
-            length = math.sqrt(prim_phi[0] ** 2 + prim_phi[1] ** 2 + prim_phi[2] ** 2)
-            if length <= 0.0:
-                continue  # coincident points: no direction (the deck refuses a zero rest length)
-            c0, c1, c2 = prim_phi[0] / length, prim_phi[1] / length, prim_phi[2] / length
-            rate = _rate(prim_B, 0, c0, 1, c1, 2, c2, v, w, i, j)
-            stretch = length - model.fe_rest[k]
-            energy += 0.5 * stiff[0] * stretch * stretch
-            dissipation += damp[0] * rate * rate
-            _spread(prim_B, 0, c0, 1, c1, 2, c2, stiff[0] * stretch + damp[0] * rate, i, j, F)
-            tf = model.fe_tf[k]
-            if tf >= 0:
-                fa = tf_value(model.tf_kind[tf], model.tf_par[tf], t)
-                _spread(prim_B, 0, c0, 1, c1, 2, c2, fa, i, j, F_ext)
-        elif kind == ROTATIONAL:
-            s, c = prim_phi[5], prim_phi[9]
-            r2 = s * s + c * c
-            raw = math.atan2(s, c)
-            d = raw - angle[k]
-            d -= 2.0 * math.pi * math.floor(d / (2.0 * math.pi) + 0.5)
-            phi = angle[k] + d
-            angle[k] = phi
-            c0, c1 = c / r2, -s / r2
-            rate = _rate(prim_B, 5, c0, 9, c1, 0, 0.0, v, w, i, j)
-            twist = phi - model.fe_rest[k]
-            energy += 0.5 * stiff[0] * twist * twist
-            dissipation += damp[0] * rate * rate
-            _spread(prim_B, 5, c0, 9, c1, 0, 0.0, stiff[0] * twist + damp[0] * rate, i, j, F)
-        else:
-            for m in range(6):
-                row = BUSHING_ROWS_ARR[m]
-                sg = BUSHING_SIGNS_ARR[m]
-                e = sg * prim_phi[row]
-                rate = _rate(prim_B, row, sg, 0, 0.0, 0, 0.0, v, w, i, j)
-                energy += 0.5 * stiff[m] * e * e
-                dissipation += damp[m] * rate * rate
-                _spread(prim_B, row, sg, 0, 0.0, 0, 0.0, stiff[m] * e + damp[m] * rate, i, j, F)
+        m = _measures(model, x, q, k, e, B)
+        if kind == ROTATIONAL:
+            e[0] = _continuous(angle, k, e[0])
+            angle[k] = e[0]
+        elif kind == POINT_TO_POINT and e[0] <= 0.0:
+            continue  # coincident points: no direction (the deck refuses a zero rest length)
+        for r in range(m):
+            stretch = e[r] - (model.fe_rest[k] if m == 1 else 0.0)
+            rate = _rate(B, r, v, w, i, j)
+            energy += 0.5 * model.fe_k[k, r] * stretch * stretch
+            dissipation += model.fe_c[k, r] * rate * rate
+            _spread(B, r, model.fe_k[k, r] * stretch + model.fe_c[k, r] * rate, i, j, F)
+        tf = model.fe_tf[k]
+        if tf >= 0:
+            _spread(B, 0, tf_value(model.tf_kind[tf], model.tf_par[tf], t), i, j, F_ext)
     return energy, dissipation
+
+
+@kernel
+def force_element_dissipation(model, x, q, v, w, v_new, w_new, e, B):
+    """Work rate of the dampers over a kick: ``Σ c (B_e V⁻)·(B_e V̄)``, ``V̄ = ½(V⁻ + V⁺)`` [W].
+
+    The damper force of an explicit step is evaluated at the old velocity V⁻;
+    the kinetic energy changes by the kick length times the force times the
+    mean velocity V̄, so this is the energy the dampers remove in that step
+    (exact for the scheme).
+    """
+    total = 0.0
+    for k in range(model.fe_kind.shape[0]):
+        damped = False
+        for r in range(6):
+            damped = damped or model.fe_c[k, r] != 0.0
+        if not damped:
+            continue
+        i, j = model.fe_i[k], model.fe_j[k]
+        m = _measures(model, x, q, k, e, B)
+        for r in range(m):
+            old = _rate(B, r, v, w, i, j)
+            new = _rate(B, r, v_new, w_new, i, j)
+            total += model.fe_c[k, r] * old * 0.5 * (old + new)
+    return total
+
+
+@kernel
+def force_element_tangent(model, x, q, v, w, angle, k, K, C, e, B, G):
+    """Tangent stiffness and damping matrices of force element k (for implicit algorithms).
+
+    ``K`` (12,12) ``= −∂f/∂δ`` and ``C`` (12,12) ``= −∂f/∂V`` of the element's
+    generalised force ``f = −Bᵀ s``, ``s = k (e − e0) + c B V``, with respect to
+    body-frame increments ``δ = [δx_i, δθ_i, δx_j, δθ_j]`` and velocities
+    ``V = [v_i, ω_i, v_j, ω_j]``: ``K = Bᵀ diag(k) B + Bᵀ diag(c) (G·V) + Σ_r s_r G_r``,
+    ``C = Bᵀ diag(c) B`` (``G`` the derived tangent of B, derivations/forces.py).
+    The ground's rows and columns are zero.  ``e``, ``B``, ``G`` are work arrays
+    (≥ 6, ≥ 72, ≥ 864); ``angle`` is read, not updated.
+    """
+    i, j = model.fe_i[k], model.fe_j[k]
+    par = model.fe_par[k]
+    kind = model.fe_kind[k]
+    xj, qj = GROUND_X, GROUND_Q
+    if j >= 0:
+        xj, qj = x[j], q[j]
+    if kind == POINT_TO_POINT:
+        generated.point_to_point_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
+    elif kind == ROTATIONAL:
+        # chain rule through φ = atan2(s, c): G_φ from the tangents of s and c
+        generated.rotational_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
+        generated.rotational_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
+        sn, cs = e[0], e[1]
+        r2 = sn * sn + cs * cs
+        for a in range(12):
+            bphi = (cs * B[a] - sn * B[12 + a]) / r2
+            for c in range(12):
+                g = (B[12 + c] * B[a] + cs * G[12 * a + c] - B[c] * B[12 + a] - sn * G[144 + 12 * a + c]) / r2
+                G[12 * a + c] = g - bphi * 2.0 * (sn * B[c] + cs * B[12 + c]) / r2
+    else:
+        generated.bushing_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
+    m = _measures(model, x, q, k, e, B)
+    if kind == ROTATIONAL:
+        e[0] = _continuous(angle, k, e[0])
+    K[:, :] = 0.0
+    C[:, :] = 0.0
+    for r in range(m):
+        stretch = e[r] - (model.fe_rest[k] if m == 1 else 0.0)
+        sr = model.fe_k[k, r] * stretch + model.fe_c[k, r] * _rate(B, r, v, w, i, j)
+        for c in range(12):
+            # ∂(B V)_r/∂δ_c = Σ_a G[r, a, c] V_a: the damper force changes with the configuration too
+            gv = 0.0
+            for a in range(3):
+                gv += G[144 * r + 12 * a + c] * v[i, a] + G[144 * r + 12 * (3 + a) + c] * w[i, a]
+                if j >= 0:
+                    gv += G[144 * r + 12 * (6 + a) + c] * v[j, a] + G[144 * r + 12 * (9 + a) + c] * w[j, a]
+            for a in range(12):
+                K[a, c] += B[12 * r + a] * (model.fe_k[k, r] * B[12 * r + c] + model.fe_c[k, r] * gv) \
+                    + sr * G[144 * r + 12 * a + c]
+                C[a, c] += model.fe_c[k, r] * B[12 * r + a] * B[12 * r + c]
+    if j < 0:
+        for a in range(6, 12):
+            for c in range(12):
+                K[a, c] = 0.0
+                K[c, a] = 0.0
+    return m
 
 
 def _matrix(q) -> np.ndarray:
@@ -270,14 +356,16 @@ class ForceElement(ABC):
 
     @staticmethod
     def _inverse_mass(mass_of, body, point=None, axis=None) -> float:
-        """Largest inverse effective mass of a body at a point (translation) or about an axis: a bound
-        ``1/m + r²/J_min`` (``J_min`` the smallest principal inertia) or ``1/J_min``."""
+        """Inverse effective mass of a body: about an inertial ``axis``, ``uᵀ J⁻¹ u`` (u in the body
+        frame, exact for a moment along u); at a point (translation), the bound ``1/m + r²/J_min``
+        (``J_min`` the smallest principal inertia)."""
         if body is None:
             return 0.0
         m, J = mass_of(body)
-        J_min = float(np.linalg.eigvalsh(0.5 * (J + J.T))[0])
         if axis is not None:
-            return 1.0 / J_min
+            u = _matrix(body.rotation).T @ np.asarray(axis, dtype=float)
+            return float(u @ np.linalg.solve(J, u))
+        J_min = float(np.linalg.eigvalsh(0.5 * (J + J.T))[0])
         r = 0.0 if point is None else float(np.linalg.norm(np.asarray(point) - body.position))
         return 1.0 / m + r * r / J_min
 
@@ -461,9 +549,10 @@ class Bushing(ForceElement):
         return self.stiffness.copy(), self.damping.copy()
 
     def stiffness_rate(self, mass_of):
-        kt, kr = float(self.stiffness[:3].max()), float(self.stiffness[3:].max())
+        kt = float(self.stiffness[:3].max())
         rate = 0.0
         for body in (self.body_i, self.body_j):
             rate += kt * self._inverse_mass(mass_of, body, self.point)
-            rate += kr * self._inverse_mass(mass_of, body, axis=self._frame[:, 2])
+            rate += max(self.stiffness[3 + a] * self._inverse_mass(mass_of, body, axis=self._frame[:, a])
+                        for a in range(3))
         return rate
