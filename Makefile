@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: report test bench derive clean
+.PHONY: report test fuzz bench derive notebooks clean
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
@@ -12,17 +12,29 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,test]"
 	touch $(STAMP)
 
+$(VENV)/.notebooks: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,test,notebooks]"
+	touch $(VENV)/.notebooks
+
 report: $(STAMP)
 	$(BIN)/flexmbs report
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
+# 10,000 mutated decks through the deck reader (the test suite runs 1,000)
+fuzz: $(STAMP)
+	$(BIN)/python tests/fuzz_decks.py --cases 10000
+
 bench: $(STAMP)
 	$(BIN)/flexmbs bench
 
 derive: $(STAMP)
 	$(BIN)/flexmbs derive
+
+# JupyterLab on the lessons: a double click on notebooks/NN_*.py opens it as a notebook (jupytext)
+notebooks: $(VENV)/.notebooks
+	$(BIN)/jupyter lab --notebook-dir=notebooks
 
 clean:
 	rm -rf $(VENV) .pytest_cache

@@ -1,7 +1,7 @@
 """Joint constraint equations and their velocity-level Jacobians, in sympy.
 
 Every joint kind is assembled from a few **primitives** between body i and
-body j (Nikravesh 1988, ch. 11; FORMULATION.md).  Each joint carries a joint
+body j (Nikravesh 1988, ch. 11; docs/formulation.md §5).  Each joint carries a joint
 frame ``(u1, u2, u3)`` (u3 the joint axis) and a joint point P, given in the
 inertial frame at t = 0 and stored body-fixed on both bodies: ``s'_k``,
 ``u'_{m,k}``.  With ``d = x_j + A_j s'_j − x_i − A_i s'_i`` and

@@ -8,6 +8,8 @@ import sys
 import time
 from pathlib import Path
 
+from flexmbs import __version__
+
 
 class CommandError(Exception):
     """An error to report in one line, without a traceback."""
@@ -70,24 +72,38 @@ def cmd_derive(args) -> int:
 def cmd_crosscheck(args) -> int:
     Unsupported = _module("crosscheck.exudyn_model", "crosscheck").Unsupported
     run = _module("crosscheck.harness", "crosscheck").run
+    from reference.observables import ObservableError
     from flexmbs.progress import ProgressBar
 
-    out = Path(args.out) if args.out else Path("out") / (Path(args.deck).stem + "_crosscheck")
+    refine = args.refine or 1
+    # a refined run has its own folder (and figure name): it never overwrites the unrefined run's files
+    default = Path(args.deck).stem + "_crosscheck" + (f"_refine{refine}" if refine != 1 else "")
+    out = Path(args.out) if args.out else Path("out") / default
     try:
-        cmp = run(args.deck, out, refine=args.refine or 1, exudyn_dt=args.exudyn_dt, t_end=args.t_end,
+        cmp = run(args.deck, out, refine=refine, exudyn_dt=args.exudyn_dt, t_end=args.t_end,
                   progress=ProgressBar("reference"), exudyn_progress=ProgressBar("Exudyn   "))
     except Unsupported as exc:
         raise CommandError(f"{args.deck}: cannot be cross-checked in Exudyn: {exc}") from None
+    except ObservableError as exc:
+        raise CommandError(f"{args.deck}: {exc}") from None
+    if cmp.get("default"):
+        print("the deck has no [crosscheck] table: compared every node's position (default, 1 % of the length)")
     failed = [v for v in cmp["verdicts"] if not v.passed]
     for v in cmp["verdicts"]:
         print(f"{'pass' if v.passed else 'FAIL'}  {v.observable}: {v.measure:.3e} (tolerance {v.tolerance:g}, "
               f"relative to {v.relative_to})")
-    print(f"reference {cmp['reference'].wall_time:.2f} s, Exudyn {cmp['exudyn_wall']:.2f} s → {out / 'crosscheck.md'}")
+    print(f"solve times: reference {cmp['reference'].wall_time:.2f} s (numba compilation included on a first run), "
+          f"Exudyn {cmp['exudyn_wall']:.2f} s → {out / 'crosscheck.md'}, {cmp['figure']}")
     return 1 if failed else 0
 
 
 def cmd_plot(args) -> int:
-    return _module("flexmbs.plot", "plot").main(args)
+    from reference.observables import ObservableError
+
+    try:
+        return _module("flexmbs.plot", "plot").main(args)
+    except ObservableError as exc:
+        raise CommandError(f"{args.results}: --observable: {exc}") from None
 
 
 def cmd_report(args) -> int:
@@ -101,6 +117,7 @@ def cmd_bench(args) -> int:
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="flexmbs", description="Flexible multibody dynamics: reference engine, "
                                 "Exudyn cross-check, verification report.")
+    p.add_argument("--version", action="version", version=f"flexmbs {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a model deck with the reference engine")
     run.add_argument("deck")
@@ -120,10 +137,14 @@ def parser() -> argparse.ArgumentParser:
     pl = sub.add_parser("plot", help="time histories, drift, energies and an animation from a results file")
     pl.add_argument("results")
     pl.add_argument("--node", action="append", help="node label (repeatable)")
+    pl.add_argument("--observable", action="append", metavar="EXPR",
+                    help="any observable, e.g. 'reaction_moment.z:crank drive' (repeatable; docs/observables.md)")
     pl.add_argument("--drift", action="store_true", help="constraint violation history")
     pl.add_argument("--energy", action="store_true", help="energy histories")
     pl.add_argument("--animate", metavar="NAME.gif", help="animation of the motion")
     pl.add_argument("--every", type=int, default=1, help="animate every n-th output")
+    pl.add_argument("--magnify", type=float, default=1.0,
+                    help="animation: multiply the beams' deflection from their chord (e.g. 50, as the paper's Fig. 14)")
     pl.add_argument("--out", help="folder for the figures (default: next to the results file)")
     pl.set_defaults(func=cmd_plot)
     rep = sub.add_parser("report", help="the verification report → reports/")

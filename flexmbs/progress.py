@@ -17,13 +17,15 @@ class ProgressBar:
         self.label, self.width = label, width
         self.stream = stream or sys.stderr
         self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
-        self.start = time.perf_counter()
+        self.start = None  # the clock starts at the first report, so that a bar made early times only its run
         self.last = 0.0
         self.open = False  # a partial line is on the terminal
         self.done = False
 
     def __call__(self, fraction: float, t: float) -> None:
         now = time.perf_counter()
+        if self.start is None:
+            self.start = now
         fraction = min(max(float(fraction), 0.0), 1.0)
         final = fraction >= 1.0
         if self.done or (not final and (not self.tty or now - self.last < 0.1)):

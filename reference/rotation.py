@@ -539,7 +539,7 @@ class EulerParameters(Rotation):
 
         References
         ----------
-        Park et al. (1991); paper §3.3; FORMULATION.md "Euler parameters by the
+        Park et al. (1991); paper §3.3; docs/formulation.md §8 "Euler parameters by the
         trapezoidal rule".
         """
         out = np.empty(4)

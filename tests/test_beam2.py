@@ -43,7 +43,7 @@ def test_internal_forces_are_energy_gradient(seed):
 
     Central differences with step 1e-6 have truncation error ~1e-12 and round-off
     ~1e-10 relative to |S| (U ~ 1): 1e-7 relative leaves a margin of 1000 and
-    still catches the non-gradient closed form of FORMULATION.md (off by ~1e-2).
+    still catches the non-gradient closed form of docs/formulation.md §3 (off by ~1e-2).
     """
     rng = np.random.default_rng(seed)
     f, ref, x, q = random_element(rng)

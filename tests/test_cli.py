@@ -14,6 +14,7 @@ from flexmbs.cli import main
 from flexmbs.progress import ProgressBar
 
 from test_deck import GOOD, write
+from test_docs import FORBIDDEN
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -135,7 +136,13 @@ def test_quick_report_runs_and_every_check_passes(tmp_path, capsys):
     assert main(["report", "--quick", "--out", str(tmp_path)]) == 0
     text = (tmp_path / "verification_quick.md").read_text()
     assert "**FAIL**" not in text and "checks pass" in text
-    for fig in ("rollup_fig12.png", "three_bar_fig14.png", "rollup_convergence.png"):
+    # a reviewer can trust it without the authors: commit, versions, warm times, limitations, no outside citations
+    for words in ("**Commit:**", "**Date:**", "numba ", "exudyn ", "sympy ", "## Solve times",
+                  "compilation", "## Limitations", "Over the whole history"):
+        assert words in text, words
+    assert not FORBIDDEN.search(text)  # no citation of files outside the repository
+    for fig in ("rollup_fig12.png", "three_bar_fig14.png", "rollup_convergence.png", "rollup_history.png",
+                "embedded_beam_sketch.png", "three_bar_sketch.png"):
         assert (tmp_path / "figures" / fig).stat().st_size > 10_000
 
 

@@ -65,7 +65,7 @@ def test_embedded_beam_deck_has_the_paper_data():
     assert np.allclose(load.vector * load.time_function(2.0), [0.0, -2 * np.pi * 100.0 / 10.0, 0.0])
     assert load.time_function(1.0) == pytest.approx(0.5)
     assert d.solver.dt == 2e-4 and d.solver.t_end == 2.0 and d.solver.damping == 25.0
-    assert d.critical_time_step() / d.solver.dt == pytest.approx(1.66, abs=0.01)  # BENCHMARKS: margin 1.67
+    assert d.critical_time_step() / d.solver.dt == pytest.approx(1.66, abs=0.01)  # docs/benchmarks.md §1: margin 1.66
 
 
 def test_refine_override_multiplies_elements_and_divides_the_step(tmp_path):
@@ -194,7 +194,7 @@ def test_embedded_beam_states_its_checks_with_tolerances_and_reasons():
     assert d.checks["out_of_plane"]["tolerance"] == 0.0
     assert all(spec.get("reason") for spec in d.checks.values())
     prov = d.metadata["provenance"]
-    assert "Kromer" in prov["paper"] and prov["section"] == "5.1" and "BENCHMARKS" in prov["data"]
+    assert "Kromer" in prov["paper"] and prov["section"] == "5.1" and "docs/benchmarks.md" in prov["data"]
     assert d.elements[0].formulation.section.rhoJ1 == 1.6e-5 and d.solver.output_every == 50
     assert [n.label for n in d.nodes][:: 12] == ["beam:0", "beam:12"]
 

@@ -42,7 +42,7 @@ def test_generated_files_have_header_and_documented_arguments():
 
 
 def test_derivations_do_not_import_the_engine():
-    """DESIGN.md: derivations never import the engine at run time."""
+    """Design rule: derivations never import the engine at run time."""
     for path in Path(derivations.__file__).parent.glob("*.py"):
         tree = ast.parse(path.read_text(encoding="utf-8"))
         for node in ast.walk(tree):

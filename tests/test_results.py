@@ -1,4 +1,4 @@
-"""The results file contract (DESIGN.md), and a run that blows up keeps what it wrote."""
+"""The results file contract (reference/io/results.py), and a run that blows up keeps what it wrote."""
 
 from __future__ import annotations
 

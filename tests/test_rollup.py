@@ -1,5 +1,5 @@
 """Acceptance: the paper's first example, the embedded beam rolled up into a circle
-by an end torque (BENCHMARKS.md §1, paper Figs. 11–12)."""
+by an end torque (docs/benchmarks.md §1, paper Figs. 11–12)."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ def rollup12():
 
 
 def test_closed_form_table():
-    """The closed form reproduces BENCHMARKS.md's table (to its 6 printed digits)."""
+    """The closed form reproduces docs/benchmarks.md §1's values (to its 6 printed digits)."""
     assert elastica_tip(10.0, 0.25) / 10.0 == pytest.approx([0.900316, 0.0, 0.372923], abs=6e-7)
     assert elastica_tip(10.0, 1.25) / 10.0 == pytest.approx([-0.180063, 0.0, 0.434711], abs=6e-7)
     assert elastica_tip(10.0, 2.0) == pytest.approx([0.0, 0.0, 0.0], abs=1e-12)
@@ -62,7 +62,7 @@ def test_closes_into_a_circle_at_k2(rollup12):
 
 def test_matches_discrete_polygon_up_to_dynamic_lag(rollup12):
     """The converged discrete answer is a regular polygon of unstrained chords; the
-    quasi-static run departs from it only by the damping lag (BENCHMARKS: < 0.09 % L)."""
+    quasi-static run departs from it only by the damping lag (docs/benchmarks.md §1: < 0.09 % L)."""
     d, r = rollup12
     for k in K_TABLE:
         err = np.linalg.norm(tip_at(r, "beam:12", k) - polygon_tip(10.0, 12, k))
@@ -90,7 +90,7 @@ def test_energy_balance(rollup12):
 
 def test_discretisation_error_falls_with_order_two():
     """Differences between successive meshes (12, 24, 48 elements; the step halves with
-    the element length) fall with observed order ≥ 1.9 (BENCHMARKS: exactly 4× per halving)."""
+    the element length) fall with observed order ≥ 1.9 (docs/benchmarks.md §1: exactly 4× per halving)."""
     runs = {n: solve(n // 12)[1] for n in (12, 24, 48)}
     d1 = max(np.linalg.norm(tip_at(runs[12], "beam:12", k) - tip_at(runs[24], "beam:24", k)) for k in K_TABLE)
     d2 = max(np.linalg.norm(tip_at(runs[24], "beam:24", k) - tip_at(runs[48], "beam:48", k)) for k in K_TABLE)

@@ -1,4 +1,4 @@
-"""Acceptance: the paper's second example, the three-bar mechanism (BENCHMARKS.md §2)."""
+"""Acceptance: the paper's second example, the three-bar mechanism (docs/benchmarks.md §2)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexmbs.report import rigid_coupler_deck
+from flexmbs.deckchecks.three_bar import rigid_coupler_deck
 from reference.analytic import fourbar_rocker_angle
 from reference.domain import Domain
 from reference.io.deck import load_deck
@@ -51,7 +51,7 @@ def test_flexible_run_drift_energy_and_departure(flexible):
     - the crank follows its prescribed angle (drive row, 1e-6 rad);
     - the rocker departs from the rigid linkage by about 5e-4 rad (Exudyn); [2e-4, 1e-3] is
       asserted: a much larger departure means an error, a much smaller one a too-stiff coupler;
-    - the coupler's peak mid-span deflection is about 0.019 (BENCHMARKS): within 20 %."""
+    - the coupler's peak mid-span deflection is about 0.019 (docs/benchmarks.md §2): within 20 %."""
     d, r = flexible
     phi = r.constraint_violation
     assert phi.max() <= 5e-5

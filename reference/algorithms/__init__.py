@@ -1,6 +1,16 @@
-"""Time-integration algorithms (paper §3.3, §4.2.4)."""
+"""Time-integration and load-stepping algorithms (paper §3.3, §4.2.4).
+
+``ALGORITHMS`` is the registry the Domain looks the deck's ``[solver]
+algorithm`` up in: a new algorithm is a subclass of :class:`Algorithm` in its
+own module, added here by name.
+"""
 
 from reference.algorithms.base import Algorithm
+from reference.algorithms.generalized_alpha import GeneralizedAlpha
 from reference.algorithms.staggered import StaggeredCentralDifference, step
+from reference.algorithms.static import Static
 
-__all__ = ["Algorithm", "StaggeredCentralDifference", "step"]
+ALGORITHMS = {cls.name: cls for cls in (StaggeredCentralDifference, Static, GeneralizedAlpha)}
+"""Algorithm classes by deck name."""
+
+__all__ = ["ALGORITHMS", "Algorithm", "GeneralizedAlpha", "StaggeredCentralDifference", "Static", "step"]

@@ -1,6 +1,6 @@
 """Park's two-stage staggered explicit central difference (paper §3.3).
 
-One step from ``t_n`` to ``t_{n+1}`` (FORMULATION.md, "Park's two-stage
+One step from ``t_n`` to ``t_{n+1}`` (docs/formulation.md §6, "Park's two-stage
 staggered step"; the staging is a reconstruction, the originals of Park, Chiou
 & Downer 1990 not being at hand):
 
@@ -175,7 +175,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     c = model.damping
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
-        U = beam2_assemble(x, q, model.conn, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
+        U = beam2_assemble(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
         external_forces(model, x, q, t, F, A)
         if n_fe > 0:
             # springs and dampers act like internal forces (S −= their force; energy in U), their
@@ -291,11 +291,26 @@ class StaggeredCentralDifference(Algorithm):
     """
 
     name = "staggered_central_difference"
+    explicit = True
 
     def __init__(self, dt: float):
         if not dt > 0.0:
             raise ValueError(f"time step must be positive, got {dt!r}")
         self.dt = float(dt)
+
+    @classmethod
+    def from_settings(cls, settings, dt=None):
+        return cls(dt or settings.dt)
+
+    def failure(self, code, t_last, domain):
+        if code == SINGULAR:
+            return (f"singular constraints after t = {t_last:.6g}",
+                    f"the constraint matrix became singular after t = {t_last:.6g} "
+                    "(redundant or degenerate joints); results up to that time are kept. "
+                    "Regularise the joints (epsilon > 0) or remove the redundancy.")
+        return (f"diverged after t = {t_last:.6g}",
+                f"the solution became non-finite after t = {t_last:.6g}; results up to that time are kept. "
+                f"Reduce dt below the critical estimate {domain.critical_time_step():.3g} or check the loads.")
 
     def advance(self, model: Model, state: State, n_steps: int, record: Record | None, scratch: Scratch) -> int:
         rec = record if record is not None else Record.empty(state.x.shape[0], model.n_constraints)

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 import tomllib
+import unicodedata
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +30,8 @@ from reference.interactions import (
 )
 from reference.joints import Jacobian, MasterSlave
 from reference.joints.joint import ROWS as JOINT_KINDS
+from reference.observables import ObservableError
+from reference.observables import parse as parse_observable
 
 
 class DeckError(ValueError):
@@ -55,6 +59,77 @@ SPRING_KEYS = {
 DOF_NAMES = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
 OVERRIDES = {"t_end", "dt", "refine"}
 
+MAX_BYTES = 4 * 2**20
+"""Largest deck file [bytes]: decks are hand-written; this bounds the parser's time and memory."""
+MAX_NESTING = 32
+"""Deepest nesting of arrays and inline tables, and most parts of one dotted key (``a.b.c``)."""
+MAX_ELEMENTS = 100_000
+"""Most Beam2 elements in one model, after ``refine`` (about 1 GB of model and scratch memory)."""
+MAX_STEPS = 10**9
+"""Default limit on the number of time steps; ``solver.max_steps`` raises it."""
+SAFETY = 0.9
+"""Largest accepted dt as a fraction of the critical estimate (``solver.allow_unsafe_dt`` lifts it).
+
+The estimate (:meth:`Domain.critical_time_step`) is the linear limit of the undeformed mesh and is
+tight: at 1.01 × the estimate the scheme blows up.  Tension, large rotations, joints and follower
+loads shift the highest frequency of the running model, so the reader keeps 10 % below it.
+"""
+SUGGEST = 0.8
+"""Fraction of the critical estimate used for the dt the messages suggest."""
+MAX_MAGNITUDE = 1e30
+"""Every number is 0 or of magnitude in [1e-30, 1e30]: no consistent set of units needs more, and the
+products the model forms of such numbers (inertias, constraint matrices) stay finite."""
+MESSAGE_VALUE = 60
+"""Longest rendering of an offending value in a message [characters]."""
+
+_TOKEN = re.compile(r'"""[\s\S]*?"""|\'\'\'[\s\S]*?\'\'\'|"(?:\\.|[^"\\\n])*"|\'[^\'\n]*\'|#[^\n]*'
+                    r"|[\[{]|[\]}]|(?<![0-9])\.|\.(?![0-9])|\n")
+
+
+MESSAGE_CHARS = 300
+"""Longest message after the file name [characters]."""
+
+
+def _clip(text: str, n: int) -> str:
+    return text if len(text) <= n else text[: n - 1] + "…"
+
+
+def _show(value) -> str:
+    """``repr(value)``, abbreviated to :data:`MESSAGE_VALUE` characters (huge lists stay readable)."""
+    text = repr(value)
+    if len(text) <= MESSAGE_VALUE:
+        return text
+    size = f" ({len(value)} items)" if isinstance(value, (list, dict, str)) else ""
+    return text[: MESSAGE_VALUE - 10] + "…" + text[-5:] + size
+
+
+def _structure_problem(text: str) -> str:
+    """Why ``text`` is too deeply nested for the TOML parser, or ``""``.
+
+    Scans brackets and dots outside strings and comments: more than :data:`MAX_NESTING` open
+    ``[``/``{`` at once, or a dotted key of more than :data:`MAX_NESTING` parts on one line,
+    would send :mod:`tomllib` into deep recursion or gigabytes of nested tables.
+    """
+    depth = deepest = dots = 0
+    line = 1
+    for m in _TOKEN.finditer(text):
+        tok = m.group()
+        if tok in "[{":
+            depth += 1
+            if depth > MAX_NESTING:
+                return f"line {line}: arrays or inline tables nested more than {MAX_NESTING} deep"
+        elif tok in "]}":
+            depth = max(depth - 1, 0)
+        elif tok == ".":
+            dots += 1
+            if dots >= MAX_NESTING:
+                return f"line {line}: a dotted key of more than {MAX_NESTING} parts"
+        elif tok == "\n":
+            line, dots = line + 1, 0
+        else:
+            line += tok.count("\n")
+    return ""
+
 
 class _Reader:
     """Validation helpers that know the file name for their messages."""
@@ -63,8 +138,22 @@ class _Reader:
         self.path = path
 
     def fail(self, entry: str, problem: str, fix: str = "") -> DeckError:
-        msg = f"{self.path}: {entry}: {problem}"
-        return DeckError(msg + (f"; {fix}" if fix else ""))
+        """``FILE: ENTRY: problem; fix``; the part after the file name is kept to :data:`MESSAGE_CHARS`."""
+        entry = _clip(entry, 60)
+        room = MESSAGE_CHARS - len(entry) - 4
+        if len(problem) + len(fix) > room:
+            fix = _clip(fix, max(room // 3, room - len(problem)))
+            problem = _clip(problem, room - len(fix))
+        return DeckError(f"{self.path}: {entry}: {problem}" + (f"; {fix}" if fix else ""))
+
+    def label(self, value, entry: str) -> str:
+        """A name used in references, messages and file names: printable, no path separators."""
+        self.string(value, entry)
+        bad = [c for c in value if unicodedata.category(c)[0] == "C" or c in "/\\"]
+        if not value.strip() or bad or value in (".", "..") or len(value) > 200:
+            raise self.fail(entry, f"unusable name {_show(value)}",
+                            "give 1–200 printable characters without '/' or '\\' (e.g. 'arm_2')")
+        return value
 
     def keys(self, table, entry: str, required=(), optional=()) -> None:
         if not isinstance(table, dict):
@@ -81,38 +170,59 @@ class _Reader:
 
     def number(self, value, entry: str, positive=False, nonnegative=False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.fail(entry, f"expected a number, got {value!r}")
+            raise self.fail(entry, f"expected a number, got {_show(value)}")
+        if value != 0 and not 1.0 / MAX_MAGNITUDE <= abs(value) <= MAX_MAGNITUDE:
+            raise self.fail(entry, f"{value:g} is outside the range of the format (0 or a magnitude from "
+                            f"{1 / MAX_MAGNITUDE:g} to {MAX_MAGNITUDE:g})", "check the units")
         if positive and not value > 0:
-            raise self.fail(entry, f"must be positive, got {value!r}", "give a value > 0")
+            raise self.fail(entry, f"must be positive, got {_show(value)}", "give a value > 0")
         if nonnegative and value < 0:
-            raise self.fail(entry, f"must not be negative, got {value!r}")
+            raise self.fail(entry, f"must not be negative, got {_show(value)}")
         return float(value)
 
-    def integer(self, value, entry: str, minimum=1) -> int:
+    def integer(self, value, entry: str, minimum=1, maximum=None, fix: str = "") -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            raise self.fail(entry, f"expected an integer ≥ {minimum}, got {value!r}")
+            raise self.fail(entry, f"expected an integer ≥ {minimum}, got {_show(value)}")
+        if maximum is not None and value > maximum:
+            raise self.fail(entry, f"{value} is above the limit of {maximum}", fix)
         return int(value)
 
     def vector(self, value, entry: str, n=3) -> np.ndarray:
         if not isinstance(value, list) or len(value) != n:
-            raise self.fail(entry, f"expected a list of {n} numbers, got {value!r}")
+            raise self.fail(entry, f"expected a list of {n} numbers, got {_show(value)}")
         return np.array([self.number(v, f"{entry}[{i}]") for i, v in enumerate(value)])
+
+    def direction(self, value, entry: str) -> np.ndarray:
+        """A non-zero 3-vector (a joint axis, a section axis)."""
+        vec = self.vector(value, entry)
+        if not math.hypot(*vec) > 0.0:
+            raise self.fail(entry, "a direction cannot be the zero vector", "give a non-zero direction, e.g. [0, 0, 1]")
+        return vec
+
+    def rotation(self, value, entry: str) -> np.ndarray:
+        """Euler parameters of unit norm (within 1e-6)."""
+        rot = self.vector(value, entry, 4)
+        norm = math.hypot(*rot)
+        if not abs(norm - 1.0) <= 1e-6:
+            raise self.fail(entry, f"Euler parameters must have unit norm, got |q| = {norm:.6g}",
+                            "normalise them (identity: [1, 0, 0, 0])")
+        return rot
 
     def string(self, value, entry: str) -> str:
         if not isinstance(value, str):
-            raise self.fail(entry, f"expected a string, got {value!r}")
+            raise self.fail(entry, f"expected a string, got {_show(value)}")
         return value
 
     def boolean(self, value, entry: str) -> bool:
         if not isinstance(value, bool):
-            raise self.fail(entry, f"expected true or false, got {value!r}")
+            raise self.fail(entry, f"expected true or false, got {_show(value)}")
         return value
 
     def choice(self, value, entry: str, options, what: str = "value", describe: str = "") -> str:
         """A string that must be one of ``options``; the fix is a close match or the list (or ``describe``)."""
         if not isinstance(value, str) or value not in options:
             close = difflib.get_close_matches(value, list(options), n=1) if isinstance(value, str) else []
-            raise self.fail(entry, f"unknown {what} {value!r}",
+            raise self.fail(entry, f"unknown {what} {_show(value)}",
                             f"did you mean '{close[0]}'?" if close else describe or f"one of: {', '.join(options)}")
         return value
 
@@ -120,7 +230,7 @@ class _Reader:
         """A table of named entries (``[sections.NAME]``, ``points.NAME``)."""
         value = parent.get(key, {})
         if not isinstance(value, dict):
-            raise self.fail(entry or key, f"expected a table of named entries, got {value!r}",
+            raise self.fail(entry or key, f"expected a table of named entries, got {_show(value)}",
                             f"write it as [{key}.NAME]" if entry is None else "write it as {NAME = ..., ...}")
         return value
 
@@ -133,12 +243,16 @@ class _Reader:
 
 def _whole_steps(t_end: float, dt: float) -> bool:
     steps = t_end / dt
+    if not steps < 2.0**62:
+        return False
     return abs(steps - round(steps)) <= 1e-9 * max(steps, 1.0) and round(steps) >= 1
 
 
 def _suggest_dt(t_end: float, limit: float) -> str:
     """A step ≤ ``limit`` that divides ``t_end``: a round number (1, 2, 2.5, 4, 5 × 10^k) if one
     does, else t_end / N to full precision."""
+    if not (limit > 0.0 and math.isfinite(limit) and t_end / limit < 2.0**62):
+        return f"a step that gives at most {MAX_STEPS:.0e} steps to t_end = {t_end:g}"
     for k in range(math.floor(math.log10(limit)), math.floor(math.log10(limit)) - 3, -1):
         for m in (5.0, 4.0, 2.5, 2.0, 1.0):
             dt = float(f"{m}e{k}")
@@ -146,6 +260,17 @@ def _suggest_dt(t_end: float, limit: float) -> str:
                 return f"dt = {dt:g} ({round(t_end / dt)} steps to t_end = {t_end:g})"
     n = math.ceil(t_end / limit)
     return f"dt = {t_end / n!r} ({n} steps to t_end = {t_end:g})"
+
+
+def _observable(rd: _Reader, text, entry: str, domain: Domain):
+    """Check an observable text against the model (``reference/observables.py``): one-line DeckError."""
+    if not isinstance(text, str):
+        raise rd.fail(entry, f"expected an observable text, got {_show(text)}",
+                      "e.g. 'position:beam:end'; free text goes in 'description' (docs/observables.md)")
+    try:
+        return parse_observable(text, domain)
+    except ObservableError as exc:
+        raise rd.fail(entry, f"{text!r}: {exc}", "" if ";" in str(exc) else "see docs/observables.md") from None
 
 
 def load_deck(path, overrides: dict | None = None) -> Domain:
@@ -163,21 +288,32 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     path = Path(path)
     if not path.is_file():
         raise DeckError(f"{path}: no such deck file" + ("" if not path.exists() else " (it is a directory)"))
+    size = path.stat().st_size
+    if size > MAX_BYTES:
+        raise DeckError(f"{path}: the file is {size / 2**20:.1f} MB, above the deck limit of "
+                        f"{MAX_BYTES / 2**20:.0f} MB; is it a deck? (decks are hand-written TOML of a few kB)")
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise DeckError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); "
                         "save the deck as UTF-8") from None
     rd = _Reader(path)
+    problem = _structure_problem(text)
+    if problem:
+        raise DeckError(f"{path}: {problem}; flatten the structure (a deck needs at most 3 levels)")
     try:
         deck = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise DeckError(f"{path}: not valid TOML: {exc}") from None
+    except (RecursionError, MemoryError):
+        raise DeckError(f"{path}: not a usable deck: too deeply nested for the TOML parser; "
+                        "flatten the structure") from None
     overrides = dict(overrides or {})
     for key in overrides:
         if key not in OVERRIDES:
-            raise DeckError(f"{path}: unknown override {key!r}; valid: {', '.join(sorted(OVERRIDES))}")
-    refine = rd.integer(overrides.get("refine", 1), "override refine")
+            raise DeckError(f"{path}: unknown override {_show(key)}; valid: {', '.join(sorted(OVERRIDES))}")
+    refine = rd.integer(overrides.get("refine", 1), "override refine (--refine)", maximum=MAX_ELEMENTS,
+                        fix=f"a model has at most {MAX_ELEMENTS} elements")
     rd.keys(deck, "deck", optional=sorted(TOP_LEVEL))
 
     meta = deck.get("meta", {})
@@ -186,9 +322,9 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         if key in meta:
             rd.string(meta[key], f"meta.{key}")
     if "provenance" in meta and not isinstance(meta["provenance"], (str, dict)):
-        raise rd.fail("meta.provenance", f"expected a string or a table, got {meta['provenance']!r}",
+        raise rd.fail("meta.provenance", f"expected a string or a table, got {_show(meta['provenance'])}",
                       'e.g. provenance = { paper = "...", figures = "...", data = "..." }')
-    domain = Domain(rd.string(meta["name"], "meta.name"), meta.get("description", ""))
+    domain = Domain(rd.label(meta["name"], "meta.name"), meta.get("description", ""))
     domain.metadata = dict(meta)
     domain.deck_text, domain.deck_path = text, str(path)
 
@@ -203,7 +339,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     for name, tf in rd.tables(deck, "time_functions").items():
         entry = f"time_functions.{name}"
         if not isinstance(tf, dict):
-            raise rd.fail(entry, f"expected a table, got {tf!r}", f"write it as [{entry}] with kind = ...")
+            raise rd.fail(entry, f"expected a table, got {_show(tf)}", f"write it as [{entry}] with kind = ...")
         if "kind" not in tf:
             raise rd.fail(entry, "missing required key 'kind'", f"one of: {', '.join(TIME_FUNCTIONS)}")
         kind = rd.choice(tf["kind"], f"{entry}.kind", TIME_FUNCTIONS, "kind")
@@ -236,7 +372,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
 
     def node_ref(ref, entry):
         if not isinstance(ref, str):
-            raise rd.fail(entry, f"expected a node reference (a label like 'beam:end'), got {ref!r}")
+            raise rd.fail(entry, f"expected a node reference (a label like 'beam:end'), got {_show(ref)}")
         if ":" in ref:
             beam, _, which = ref.rpartition(":")
             if beam in beams:
@@ -245,16 +381,16 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                     return nodes[0]
                 if which == "end":
                     return nodes[-1]
-                if which.isdigit() and int(which) < len(nodes):
+                if which.isascii() and which.isdigit() and int(which) < len(nodes):
                     return nodes[int(which)]
-                raise rd.fail(entry, f"beam '{beam}' has no node '{which}'",
+                raise rd.fail(entry, f"beam '{beam}' has no node {_show(which)}",
                               f"use '{beam}:start', '{beam}:end' or an index 0…{len(nodes) - 1}")
         try:
             return domain.node(ref)
         except KeyError:
             labels = [n.label for n in domain.nodes]
             close = difflib.get_close_matches(ref, labels + [f"{b}:start" for b in beams] + [f"{b}:end" for b in beams], n=1)
-            raise rd.fail(entry, f"no node {ref!r}", f"did you mean '{close[0]}'?" if close else
+            raise rd.fail(entry, f"no node {_show(ref)}", f"did you mean '{close[0]}'?" if close else
                           "reference a node label or '<beam>:start', '<beam>:end', '<beam>:<i>'") from None
 
     def time_function(table, entry):
@@ -265,34 +401,36 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         name = rd.string(table[key], f"{entry}.{key}")
         if name not in tfs:
             close = difflib.get_close_matches(name, list(tfs), n=1)
-            raise rd.fail(f"{entry}.{key}", f"no time function {name!r}",
+            raise rd.fail(f"{entry}.{key}", f"no time function {_show(name)}",
                           f"did you mean '{close[0]}'?" if close else f"defined: {', '.join(tfs) or 'none'}")
         return tfs[name]
 
     for i, nd in enumerate(rd.items(deck, "nodes")):
         entry = f"nodes[{i}]"
         rd.keys(nd, entry, required=["label", "position"], optional=["rotation"])
-        rot = rd.vector(nd["rotation"], f"{entry}.rotation", 4) if "rotation" in nd else None
-        if rot is not None and abs(np.linalg.norm(rot) - 1.0) > 1e-6:
-            raise rd.fail(f"{entry}.rotation", "Euler parameters must have unit norm", "normalise them")
-        label = rd.string(nd["label"], f"{entry}.label")
+        rot = rd.rotation(nd["rotation"], f"{entry}.rotation") if "rotation" in nd else None
+        label = rd.label(nd["label"], f"{entry}.label")
         if label in domain._labels:
-            raise rd.fail(f"{entry}.label", f"duplicate node label {label!r}")
+            raise rd.fail(f"{entry}.label", f"duplicate node label {_show(label)}")
         domain.add_node(rd.vector(nd["position"], f"{entry}.position"), rot, label)
 
     for i, bm in enumerate(rd.items(deck, "beams")):
         entry = f"beams[{i}]"
         rd.keys(bm, entry, required=["label", "elements", "section"],
-                optional=["start", "end", "start_node", "end_node", "axis2", "rigid"])
-        label = rd.string(bm["label"], f"{entry}.label")
+                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center"])
+        label = rd.label(bm["label"], f"{entry}.label")
         if label in beams:
-            raise rd.fail(f"{entry}.label", f"duplicate beam label {label!r}")
+            raise rd.fail(f"{entry}.label", f"duplicate beam label {_show(label)}")
         rigid = rd.boolean(bm.get("rigid", False), f"{entry}.rigid")
         n = rd.integer(bm["elements"], f"{entry}.elements") * (1 if rigid else refine)
+        if len(domain.elements) + n > MAX_ELEMENTS:
+            raise rd.fail(f"{entry}.elements", f"{n} elements" + (f" (× refine {refine})" if refine > 1 else "")
+                          + f" would exceed the limit of {MAX_ELEMENTS} elements in a model",
+                          "use fewer elements (memory and run time grow with the count)")
         sec_name = rd.string(bm["section"], f"{entry}.section")
         if sec_name not in sections:
             close = difflib.get_close_matches(sec_name, list(sections), n=1)
-            raise rd.fail(f"{entry}.section", f"no section {sec_name!r}",
+            raise rd.fail(f"{entry}.section", f"no section {_show(sec_name)}",
                           f"did you mean '{close[0]}'?" if close else f"defined sections: {', '.join(sections) or 'none'}")
         ends = []
         for side in ("start", "end"):
@@ -305,7 +443,10 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                 ends.append((node.position, node))
         if np.linalg.norm(ends[1][0] - ends[0][0]) <= 0.0:
             raise rd.fail(entry, "start and end coincide (zero-length beam)")
-        axis2 = rd.vector(bm.get("axis2", [0.0, 1.0, 0.0]), f"{entry}.axis2")
+        axis2 = rd.direction(bm.get("axis2", [0.0, 1.0, 0.0]), f"{entry}.axis2")
+        center = rd.vector(bm["center"], f"{entry}.center") if "center" in bm else None
+        if center is not None and rigid:
+            raise rd.fail(f"{entry}.center", "a rigid bar is straight", "remove `center` or `rigid`")
         try:
             if rigid:
                 if ends[0][1] is not None or ends[1][1] is not None:
@@ -314,27 +455,36 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                 domain.add_rigid_bar(label, ends[0][0], ends[1][0], sections[sec_name], axis2)
             else:
                 beams[label] = domain.add_beam(label, ends[0][0], ends[1][0], n, sections[sec_name], axis2,
-                                               start_node=ends[0][1], end_node=ends[1][1])
+                                               start_node=ends[0][1], end_node=ends[1][1], center=center)
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
 
     for i, rb in enumerate(rd.items(deck, "rigid_bodies")):
         entry = f"rigid_bodies[{i}]"
         rd.keys(rb, entry, required=["label", "mass", "inertia", "position"], optional=["rotation", "points"])
-        label = rd.string(rb["label"], f"{entry}.label")
+        label = rd.label(rb["label"], f"{entry}.label")
         if label in domain._labels:
-            raise rd.fail(f"{entry}.label", f"duplicate label {label!r}")
+            raise rd.fail(f"{entry}.label", f"duplicate label {_show(label)}")
         mass = rd.number(rb["mass"], f"{entry}.mass", positive=True)
         inertia = rb["inertia"]
         if isinstance(inertia, list) and len(inertia) == 3 and all(isinstance(r, list) for r in inertia):
             J = np.array([rd.vector(r, f"{entry}.inertia[{k}]") for k, r in enumerate(inertia)])
         else:
             J = np.diag(rd.vector(inertia, f"{entry}.inertia"))
-        rot = rd.vector(rb["rotation"], f"{entry}.rotation", 4) if "rotation" in rb else None
+        scale = float(np.abs(J).max())
+        if not np.all(np.abs(J - J.T) <= 1e-12 * scale):
+            raise rd.fail(f"{entry}.inertia", "the inertia matrix is not symmetric", "give J[a][b] = J[b][a]")
+        with np.errstate(all="ignore"):
+            eig = np.linalg.eigvalsh(J / scale) if scale > 0.0 and math.isfinite(scale) else np.zeros(3)
+        if not np.all(eig > 1e-12):
+            raise rd.fail(f"{entry}.inertia", "the inertia matrix is not positive definite",
+                          "give positive principal moments, e.g. [J1, J2, J3] with every Ji > 0")
+        rot = rd.rotation(rb["rotation"], f"{entry}.rotation") if "rotation" in rb else None
         points = {name: rd.vector(p, f"{entry}.points.{name}")
                   for name, p in rd.tables(rb, "points", f"{entry}.points").items()}
+        position = rd.vector(rb["position"], f"{entry}.position")
         try:
-            domain.add_rigid_body(label, mass, J, rd.vector(rb["position"], f"{entry}.position"), rot, points)
+            domain.add_rigid_body(label, mass, J, position, rot, points)
         except ValueError as exc:
             raise rd.fail(entry, str(exc), "mass > 0 and a positive definite inertia") from None
 
@@ -362,7 +512,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         vec = rd.vector(ld["moment" if moment else "force"], f"{entry}.{'moment' if moment else 'force'}")
         frame = ld.get("frame", "inertial")
         if frame not in ("inertial", "body"):
-            raise rd.fail(f"{entry}.frame", f"unknown frame {frame!r}",
+            raise rd.fail(f"{entry}.frame", f"unknown frame {_show(frame)}",
                           "'inertial' (a dead load) or 'body' (a follower load)")
         tf = time_function(ld, entry) or Constant(1.0)
         point = None
@@ -402,11 +552,11 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         kind = rd.string(jt["kind"], f"{entry}.kind")
         if kind not in JOINT_KINDS:
             close = difflib.get_close_matches(kind, list(JOINT_KINDS), n=1)
-            raise rd.fail(f"{entry}.kind", f"unknown joint kind {kind!r}",
+            raise rd.fail(f"{entry}.kind", f"unknown joint kind {_show(kind)}",
                           f"did you mean '{close[0]}'?" if close else f"one of: {', '.join(JOINT_KINDS)}")
         formulation = jt.get("formulation", "jacobian")
         if formulation not in ("jacobian", "master_slave"):
-            raise rd.fail(f"{entry}.formulation", f"unknown joint formulation {formulation!r}",
+            raise rd.fail(f"{entry}.formulation", f"unknown joint formulation {_show(formulation)}",
                           "'jacobian' (Lagrange multipliers, stabilised) or 'master_slave' (elimination; "
                           "spherical and revolute joints, slave = body_i a beam node)")
         body_i = node_ref(jt["body_i"], f"{entry}.body_i")
@@ -424,11 +574,11 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         if drive:
             name = rd.string(jt["time_function"], f"{entry}.time_function")
             if name not in tfs:
-                raise rd.fail(f"{entry}.time_function", f"no time function {name!r}", f"defined: {', '.join(tfs) or 'none'}")
+                raise rd.fail(f"{entry}.time_function", f"no time function {_show(name)}", f"defined: {', '.join(tfs) or 'none'}")
             tf = tfs[name]
         mode = jt.get("mode", "position")
         if mode not in ("position", "velocity"):
-            raise rd.fail(f"{entry}.mode", f"unknown mode {mode!r}",
+            raise rd.fail(f"{entry}.mode", f"unknown mode {_show(mode)}",
                           "'position' (the time function is the angle/displacement) or 'velocity' (its rate)")
         if tf is not None and mode == "velocity" and isinstance(tf, Expression) and not tf.with_integral:
             try:
@@ -437,9 +587,11 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                 raise rd.fail(f"time_functions.{jt['time_function']}.expr", str(exc)) from None
         eps = rd.number(jt.get("epsilon", 0.0), f"{entry}.epsilon", nonnegative=True)
         reference = rd.vector(jt["reference"], f"{entry}.reference") if "reference" in jt else None
-        label = rd.string(jt.get("label", f"{kind}:{i}"), f"{entry}.label")
+        label = rd.label(jt.get("label", f"{kind}:{i}"), f"{entry}.label")
         point = rd.vector(jt["point"], f"{entry}.point")
-        axis = rd.vector(jt.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis")
+        axis = rd.direction(jt.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis")
+        if reference is not None:
+            reference = rd.direction(jt["reference"], f"{entry}.reference")
         try:
             domain.add_joint(kind, body_i, body_j, point, axis, reference,
                              formulation=Jacobian(eps) if formulation == "jacobian" else MasterSlave(),
@@ -505,17 +657,18 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         raise rd.fail("solver", "missing [solver] table", "give at least dt and t_end")
     sv = deck["solver"]
     rd.keys(sv, "solver", required=["dt", "t_end"],
-            optional=["algorithm", "damping", "output_every", "consistent_initial_velocities"])
+            optional=["algorithm", "damping", "output_every", "consistent_initial_velocities", "max_steps",
+                      "allow_unsafe_dt"])
     algorithm = sv.get("algorithm", SolverSettings.algorithm)
     if algorithm != SolverSettings.algorithm:
-        raise rd.fail("solver.algorithm", f"unknown algorithm {algorithm!r}", f"available: '{SolverSettings.algorithm}'")
+        raise rd.fail("solver.algorithm", f"unknown algorithm {_show(algorithm)}", f"available: '{SolverSettings.algorithm}'")
     dt_entry = "dt override (--dt)" if "dt" in overrides else "solver.dt"
     t_entry = "t_end override (--t-end)" if "t_end" in overrides else "solver.t_end"
     deck_dt = rd.number(sv["dt"], "solver.dt", positive=True) / refine
     dt = rd.number(overrides.get("dt", deck_dt), dt_entry, positive=True)
     # keep the deck's output times when the step is overridden by a whole factor
     ratio = deck_dt / dt
-    output_scale = int(round(ratio)) if ratio >= 1 and abs(ratio - round(ratio)) < 1e-9 else 1
+    output_scale = int(round(ratio)) if 1 <= ratio < 2.0**62 and abs(ratio - round(ratio)) < 1e-9 else 1
     t_end = rd.number(overrides.get("t_end", sv["t_end"]), t_entry, positive=True)
     domain.solver = SolverSettings(
         algorithm=algorithm, dt=dt, t_end=t_end,
@@ -524,28 +677,46 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         consistent_initial_velocities=rd.boolean(sv.get("consistent_initial_velocities", False),
                                                  "solver.consistent_initial_velocities"),
     )
+    max_steps = rd.integer(sv.get("max_steps", MAX_STEPS), "solver.max_steps")
+    unsafe = rd.boolean(sv.get("allow_unsafe_dt", False), "solver.allow_unsafe_dt")
     if not domain.elements and not domain.nodes:
         raise rd.fail("deck", "the deck defines no nodes or beams")
     crit = domain.critical_time_step()
-    if dt > crit:
-        # a margin of 1.25 over the estimate, and a whole number of steps
+    if not crit > 0.0:
+        raise rd.fail("sections", f"the critical time step of the mesh is {crit:g} (a stiffness so large against "
+                      "the mass that no step is stable)", "check the units of the section data")
+    if dt > SAFETY * crit and not unsafe:
         raise rd.fail(dt_entry, f"dt = {dt:g} is above the critical time step {crit:.4g} of the explicit scheme "
-                      "(the run would blow up)", f"use dt ≤ {0.8 * crit:.3g}, e.g. {_suggest_dt(t_end, 0.8 * crit)}")
+                      f"× {SAFETY:g} (the safety margin)",
+                      f"use dt ≤ {SUGGEST * crit:.3g}, e.g. {_suggest_dt(t_end, SUGGEST * crit)}"
+                      if t_end / (SUGGEST * crit) <= max_steps else
+                      f"a stable step needs {t_end / (SUGGEST * crit):.3g} steps, above the limit of {max_steps:.3g}: "
+                      "check the units of the section data, or raise solver.max_steps")
+    steps = t_end / dt
+    if not steps <= max_steps:
+        raise rd.fail(t_entry if "t_end" in overrides else dt_entry if "dt" in overrides else "solver",
+                      f"t_end / dt = {t_end:g} / {dt:g} = {steps:.3g} steps, above the limit of {max_steps:.3g}",
+                      "use a larger dt or a shorter t_end, or raise solver.max_steps if the run is meant")
     if not _whole_steps(t_end, dt):
         steps = t_end / dt
         raise rd.fail(t_entry, f"t_end = {t_end:g} is not a whole number of steps dt = {dt:g} ({steps:.6g} steps)",
                       f"use t_end = {max(round(steps), 1) * dt:.10g} or {_suggest_dt(t_end, dt)}")
     checks = rd.tables(deck, "checks")
     for name, spec in checks.items():
-        rd.keys(spec, f"checks.{name}", optional=list(spec))
+        if not isinstance(spec, dict):
+            raise rd.fail(f"checks.{name}", f"expected a table, got {_show(spec)}", f"write it as [checks.{name}]")
+        if "observable" in spec:
+            _observable(rd, spec["observable"], f"checks.{name}.observable", domain)
     domain.checks = checks
     crosscheck = rd.tables(deck, "crosscheck")
     for name, spec in crosscheck.items():
         entry = f"crosscheck.{name}"
         rd.keys(spec, entry, required=["observable", "tolerance", "reason"], optional=["relative_to", "refine"])
+        _observable(rd, spec["observable"], f"{entry}.observable", domain)
         rd.number(spec["tolerance"], f"{entry}.tolerance", positive=True)
+        rd.string(spec["reason"], f"{entry}.reason")
         if spec.get("relative_to", "absolute") not in ("length", "peak", "absolute"):
-            raise rd.fail(f"{entry}.relative_to", f"unknown scale {spec['relative_to']!r}", "'length', 'peak' or 'absolute'")
+            raise rd.fail(f"{entry}.relative_to", f"unknown scale {_show(spec['relative_to'])}", "'length', 'peak' or 'absolute'")
         rd.integer(spec.get("refine", 1), f"{entry}.refine")
     domain.crosscheck = crosscheck
     try:

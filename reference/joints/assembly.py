@@ -5,7 +5,7 @@ primitives, combined for drives) into the global ``Φ`` (m,), ``Φ_t`` (m,) and
 ``B`` (m, 6N) with columns ``[v_n (inertial) | ω_n (body)]`` per node.
 
 ``constraint_impulse`` is the implicit stage of Park's staggered step with the
-Park–Chiou stabilisation (FORMULATION.md, a reconstruction): with the predicted
+Park–Chiou stabilisation (docs/formulation.md §7, a reconstruction): with the predicted
 velocities ``V*`` and the kick length ``h_k`` (``h``, or ``h/2`` at start-up),
 the impulse ``Λ = h_k λ`` solves::
 

@@ -1,0 +1,487 @@
+"""A seeded mutation fuzzer of model decks: the reader answers a DeckError in one line, or a valid model.
+
+Every case takes a base deck (the shipped models, the documented example, :data:`EVERY_TABLE`), applies
+one to three mutations — of its structure (drop, add, retype, rescale, duplicate a key or an entry,
+swap in a value from :data:`VOCABULARY` or from :data:`NASTY`) or of its text (cut, repeat or garble a
+line) — writes it and calls :func:`reference.io.deck.load_deck`, sometimes with overrides.  The property
+(:func:`check`): either a :class:`DeckError` whose message is one line of at most ``MAX_CHARS``
+characters naming the file, or a model that initialises and takes a few steps (a non-finite run is a
+:class:`SolverDiverged`, not a crash) — no other exception, no warning, no case over ``TIME_LIMIT``.
+
+``python tests/fuzz_decks.py --cases 10000`` (``make fuzz``) runs it at length and prints the counts,
+the slowest case and the peak memory; the test suite runs 1,000 cases (``tests/test_fuzz.py``).
+
+New deck keys and tables enter the fuzzer in one place: add them to :data:`VOCABULARY` (table → key →
+sample values; a table name ending in ``[]`` is an array of tables, ``.*`` a table of named entries),
+and, for a new table, an entry using it to :data:`EVERY_TABLE`.  Every ``models/*.toml`` is a base deck.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import random
+import resource
+import signal
+import sys
+import time
+import tomllib
+import warnings
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+MAX_CHARS = 300
+TIME_LIMIT = 10.0
+"""Per-case limit [s] (wall time; a case normally takes milliseconds)."""
+STEPS = 3
+"""Steps run on an accepted deck."""
+
+EVERY_TABLE = """
+[meta]
+name = "every_table"
+description = "One entry of every table of the format (the fuzzer's base deck)"
+units = "N, m, s"
+provenance = { paper = "none", data = "made up for the fuzzer" }
+notes = "small and stable"
+
+[sections.s]
+EA = 1e3
+GA2 = 1e3
+GA3 = 1e3
+GJ = 1.0
+EI2 = 1.0
+EI3 = 1.0
+rhoA = 1.0
+rhoJ1 = 2e-2
+rhoJ2 = 1e-2
+rhoJ3 = 1e-2
+
+[time_functions.c]
+kind = "constant"
+value = 1.0
+[time_functions.r]
+kind = "ramp"
+t0 = 0.0
+t1 = 0.01
+[time_functions.st]
+kind = "step"
+t0 = 0.005
+[time_functions.pl]
+kind = "piecewise_linear"
+times = [0.0, 0.01, 0.02]
+values = [0.0, 1.0, 1.0]
+[time_functions.sn]
+kind = "sine"
+amplitude = 1.0
+omega = 10.0
+[time_functions.ss]
+kind = "smooth_step"
+t0 = 0.0
+t1 = 0.01
+
+[[nodes]]
+label = "hub"
+position = [0.0, 0.0, 0.0]
+rotation = [1.0, 0.0, 0.0, 0.0]
+
+[[beams]]
+label = "b"
+start_node = "hub"
+end = [1.0, 0.0, 0.0]
+elements = 4
+section = "s"
+axis2 = [0.0, 1.0, 0.0]
+
+[[beams]]
+label = "bar"
+start = [1.0, 0.0, 0.0]
+end = [2.0, 0.0, 0.0]
+elements = 1
+section = "s"
+rigid = true
+
+[[rigid_bodies]]
+label = "rb"
+mass = 1.0
+inertia = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+position = [0.0, 2.0, 0.0]
+rotation = [1.0, 0.0, 0.0, 0.0]
+points = { tip = [0.0, 2.5, 0.0] }
+
+[[clamps]]
+node = "hub"
+
+[[fixed]]
+node = "bar"
+dofs = ["rx"]
+
+[[loads]]
+node = "b:end"
+force = [0.0, 0.0, 1e-3]
+frame = "inertial"
+time_function = "r"
+
+[[loads]]
+node = "b:2"
+moment = [0.0, 1e-4, 0.0]
+frame = "body"
+time_function = "ss"
+
+[gravity]
+g = [0.0, 0.0, -9.81]
+
+[[joints]]
+label = "ball"
+kind = "spherical"
+body_i = "bar"
+body_j = "b:end"
+point = [1.0, 0.0, 0.0]
+epsilon = 0.0
+formulation = "jacobian"
+
+[[joints]]
+label = "pin"
+kind = "revolute"
+body_i = "rb"
+body_j = "ground"
+point = [0.0, 2.0, 0.0]
+axis = [0.0, 0.0, 1.0]
+reference = [1.0, 0.0, 0.0]
+
+[[joints]]
+label = "motor"
+kind = "rotation_drive"
+body_i = "rb"
+point = [0.0, 2.0, 0.0]
+axis = [0.0, 0.0, 1.0]
+time_function = "sn"
+mode = "velocity"
+
+[[initial_velocities]]
+node = "rb"
+velocity = [0.0, 0.0, 0.0]
+angular_velocity = [0.0, 0.0, 0.5]
+
+[solver]
+algorithm = "staggered_central_difference"
+dt = 1e-3
+t_end = 0.02
+damping = 0.1
+output_every = 5
+consistent_initial_velocities = true
+max_steps = 1000000
+allow_unsafe_dt = false
+
+[checks.tip]
+observable = "position:b:end"
+tolerance = 0.1
+reason = "made up"
+
+[crosscheck.tip]
+observable = "position:b:end"
+tolerance = 0.1
+relative_to = "length"
+refine = 1
+reason = "made up"
+"""
+
+VOCABULARY = {
+    "": {"meta": [{"name": "x"}], "solver": [{"dt": 1e-3, "t_end": 0.01}], "gravity": [{"g": [0.0, 0.0, -9.81]}]},
+    "meta": {"name": ["m", "a b", "ü"], "description": ["d"], "units": ["SI"], "provenance": ["p", {"paper": "x"}],
+             "notes": ["n"]},
+    "sections.*": {k: [1.0, 1e3, 1e-3] for k in ("EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ1", "rhoJ2",
+                                                  "rhoJ3")},
+    "time_functions.*": {"kind": ["constant", "ramp", "step", "piecewise_linear", "sine", "smooth_step"],
+                         "value": [1.0], "t0": [0.0, 0.01], "t1": [0.01, 0.0], "v0": [0.0], "v1": [1.0, 2.0],
+                         "times": [[0.0, 1.0], [1.0, 0.0], [0.0]], "values": [[0.0, 1.0], [1.0]],
+                         "amplitude": [1.0], "omega": [10.0], "phase": [0.5], "offset": [0.1]},
+    "nodes[]": {"label": ["n2", "hub", "b:1"], "position": [[0.0, 1.0, 0.0]],
+                "rotation": [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]]},
+    "beams[]": {"label": ["c", "b"], "start": [[0.0, 0.0, 1.0]], "end": [[1.0, 0.0, 1.0]],
+                "start_node": ["hub", "b:end", "rb"], "end_node": ["b:2", "hub"], "elements": [1, 2, 8],
+                "section": ["s", "steel_rod", "rollup"], "axis2": [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
+                "rigid": [True, False], "center": [[0.5, 0.0, 1.0], [0.5, -0.5, 1.0], [0.0, 0.0, 0.0]]},
+    "rigid_bodies[]": {"label": ["rb2", "rb"], "mass": [1.0, 1e-6], "inertia": [[1.0, 2.0, 3.0]],
+                       "position": [[0.0, 0.0, 3.0]], "rotation": [[0.0, 0.0, 0.0, 1.0]],
+                       "points": [{"p": [0.0, 0.0, 0.0]}, {}]},
+    "joints[]": {"kind": ["spherical", "revolute", "universal", "cylindrical", "translational", "fixed",
+                          "rotation_drive", "displacement_drive"],
+                 "label": ["j", "pin"], "body_i": ["rb", "bar", "b:end", "b:start", "hub", "ground"],
+                 "body_j": ["ground", "rb", "b:end", "bar"], "point": [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]],
+                 "axis": [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]], "reference": [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+                 "epsilon": [0.0, 1e-8], "formulation": ["jacobian", "master_slave"],
+                 "time_function": ["sn", "r", "up"], "mode": ["position", "velocity"]},
+    "clamps[]": {"node": ["hub", "b:start", "rb", "bar"]},
+    "fixed[]": {"node": ["bar", "rb", "b:1"], "dofs": [["x"], ["x", "y", "z"], ["rz", "rx"]]},
+    "loads[]": {"node": ["b:end", "rb", "bar"], "force": [[0.0, 0.0, 1.0]], "moment": [[0.0, 1.0, 0.0]],
+                "frame": ["inertial", "body"], "time_function": ["r", "sn", "up"]},
+    "gravity": {"g": [[0.0, 0.0, -9.81]]},
+    "initial_velocities[]": {"node": ["rb", "b:end", "bar"], "velocity": [[1.0, 0.0, 0.0]],
+                             "angular_velocity": [[0.0, 0.0, 1.0]]},
+    "solver": {"algorithm": ["staggered_central_difference"], "dt": [1e-3, 1e-4, 2e-4], "t_end": [0.02, 0.01],
+               "damping": [0.0, 1.0], "output_every": [1, 5, 7], "consistent_initial_velocities": [True, False],
+               "max_steps": [10, 10**10], "allow_unsafe_dt": [True, False]},
+    "checks.*": {"observable": ["position:b:end"], "tolerance": [0.1], "reason": ["r"], "at": [[0.1]]},
+    "crosscheck.*": {"observable": ["position:b:end", "rocker_angle"], "tolerance": [0.1, -1.0],
+                     "relative_to": ["length", "peak", "absolute", "L"], "refine": [1, 2], "reason": ["r"]},
+}
+"""Table → key → sample values.  ``[]``: an array of tables; ``.*``: a table of named entries."""
+
+NASTY = [
+    0, -1, 1, 2**63 - 1, -(2**63), 1e308, -1e308, 5e-324, 2e-14, 1e-300, math.inf, -math.inf, math.nan,
+    "", "x", "b:４", "b:²", "b:99", "b:-1", "b:", ":", "ground", "\u0000", "../x", "a/b", "x" * 5000,
+    True, False, [], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [2.0, 0.0, 0.0, 0.0], [1e308, 1e308, 1e308],
+    [1.0] * 1000, [[1.0, 0.0, 0.0], [0.0, 1.0]], [[1.0, 2.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+    ["x", 1], {}, {"a": 1}, {"a": {"b": {}}}, 1e9, 10**9, 10**12,
+]
+"""Values that have broken a reader before, or could."""
+
+SCALES = [0.0, -1.0, 1e-9, 1e-3, 0.5, 1.01, 2.0, 1e3, 1e9, 1e300]
+
+
+def base_decks() -> dict[str, str]:
+    """Name → TOML text: every ``models/*.toml``, the example of ``docs/deck.md`` and :data:`EVERY_TABLE`."""
+    decks = {p.name: p.read_text(encoding="utf-8") for p in sorted((ROOT / "models").glob("*.toml"))}
+    doc = (ROOT / "docs" / "deck.md").read_text(encoding="utf-8")
+    decks["docs/deck.md"] = doc.split("## A small example")[1].split("```toml\n")[1].split("```")[0]
+    decks["every_table"] = EVERY_TABLE
+    return decks
+
+
+def _key(k: str) -> str:
+    return json.dumps(k)
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf") if math.isinf(v) else repr(v)
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(type(v))
+
+
+def dumps(deck: dict) -> str:
+    """TOML text of a deck: scalars first, tables, tables of named tables, arrays of tables."""
+    out = [f"{_key(k)} = {_value(v)}" for k, v in deck.items()
+           if not isinstance(v, dict) and not (isinstance(v, list) and v and all(isinstance(x, dict) for x in v))]
+    for k, v in deck.items():
+        if isinstance(v, dict):
+            plain = {a: b for a, b in v.items() if not isinstance(b, dict)}
+            nested = {a: b for a, b in v.items() if isinstance(b, dict)}
+            out.append(f"[{_key(k)}]")
+            out += [f"{_key(a)} = {_value(b)}" for a, b in plain.items()]
+            for a, b in nested.items():
+                out.append(f"[{_key(k)}.{_key(a)}]")
+                out += [f"{_key(c)} = {_value(d)}" for c, d in b.items()]
+        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+            for entry in v:
+                out.append(f"[[{_key(k)}]]")
+                out += [f"{_key(a)} = {_value(b)}" for a, b in entry.items()]
+    return "\n".join(out) + "\n"
+
+
+def _containers(deck: dict):
+    """(table pattern, container) for every table and entry of a deck, the deck itself as ``""``."""
+    yield "", deck
+    for name, value in deck.items():
+        if isinstance(value, dict):
+            if any(isinstance(v, dict) for v in value.values()) or f"{name}.*" in VOCABULARY:
+                for sub in value.values():
+                    if isinstance(sub, dict):
+                        yield f"{name}.*", sub
+                yield f"{name}.", value
+            else:
+                yield name, value
+        elif isinstance(value, list) and value and all(isinstance(x, dict) for x in value):
+            for entry in value:
+                yield f"{name}[]", entry
+
+
+def _nasty(rng: random.Random, old):
+    if isinstance(old, (int, float)) and not isinstance(old, bool) and rng.random() < 0.4:
+        return old * rng.choice(SCALES)
+    if isinstance(old, list) and old and rng.random() < 0.4:
+        i = rng.randrange(len(old))
+        new = list(old)
+        new[i] = _nasty(rng, old[i])
+        return new
+    return rng.choice(NASTY)
+
+
+def mutate_structure(rng: random.Random, deck: dict) -> None:
+    """One structural mutation of the parsed deck, in place."""
+    places = list(_containers(deck))
+    pattern, table = rng.choice(places)
+    vocab = VOCABULARY.get(pattern, VOCABULARY.get(pattern.rstrip("."), {}))
+    op = rng.random()
+    if op < 0.2 and table:
+        table.pop(rng.choice(list(table)))
+    elif op < 0.45 and vocab:
+        key = rng.choice(list(vocab))
+        table[key] = rng.choice(vocab[key])
+    elif op < 0.5:
+        table[rng.choice(["bogus", "dt", "label", "elements", "name"])] = rng.choice(NASTY)
+    elif op < 0.85 and table:
+        key = rng.choice(list(table))
+        table[key] = _nasty(rng, table[key])
+    elif op < 0.92:
+        arrays = [k for k, v in deck.items() if isinstance(v, list) and v and isinstance(v[0], dict)]
+        if arrays:
+            k = rng.choice(arrays)
+            deck[k].append(dict(rng.choice(deck[k])))  # a duplicate entry (duplicate labels, double joints)
+    elif op < 0.96:
+        deck.pop(rng.choice(list(deck)), None)
+    else:
+        name = rng.choice([p for p in VOCABULARY if p])
+        base = name.rstrip("[]").rstrip(".*")
+        entry = {k: rng.choice(v) for k, v in VOCABULARY[name].items() if rng.random() < 0.7}
+        if name.endswith("[]"):
+            deck.setdefault(base, [])
+            if isinstance(deck[base], list):
+                deck[base].append(entry)
+        elif name.endswith(".*"):
+            if isinstance(deck.get(base, {}), dict):
+                deck.setdefault(base, {})[f"n{rng.randrange(9)}"] = entry
+        else:
+            deck[base] = entry
+
+
+def mutate_text(rng: random.Random, text: str) -> str:
+    """One textual mutation: cut, repeat, garble or truncate a line."""
+    lines = text.splitlines()
+    i = rng.randrange(len(lines))
+    op = rng.random()
+    if op < 0.3:
+        del lines[i]
+    elif op < 0.5:
+        lines.insert(i, lines[i])
+    elif op < 0.8:
+        line = lines[i]
+        j = rng.randrange(len(line) + 1)
+        lines[i] = line[:j] + rng.choice(["[", "]", "{", "}", "=", '"', "'", ".", ",", "#", "\\", "\u0000", "９",
+                                          "[" * 40, "a." * 40, "\n[", "1e999", "-"]) + line[j + 1:]
+    else:
+        return text[: rng.randrange(len(text))]
+    return "\n".join(lines) + "\n"
+
+
+def make_case(rng: random.Random, bases: dict[str, str]) -> tuple[str, str, dict]:
+    """(base name, deck text, overrides) of one case."""
+    name = rng.choice(sorted(bases))
+    text = bases[name]
+    deck = tomllib.loads(text)
+    for _ in range(rng.choice([1, 1, 2, 3])):
+        if rng.random() < 0.8:
+            mutate_structure(rng, deck)
+            text = dumps(deck)
+        else:
+            text = mutate_text(rng, text)
+            try:
+                deck = tomllib.loads(text)
+            except tomllib.TOMLDecodeError:
+                break
+    overrides = {}
+    if rng.random() < 0.1:
+        key = rng.choice(["dt", "t_end", "refine"])
+        overrides[key] = rng.choice([1e-300, 5e-324, 1e308, 0.5, 2, 10**9, -1.0, 1e-4, 3])
+    return name, text, overrides
+
+
+class CaseTimeout(Exception):
+    """A case ran over :data:`TIME_LIMIT`."""
+
+
+def _alarm(signum, frame):
+    raise CaseTimeout
+
+
+def check(path: Path, overrides: dict) -> str:
+    """Run one case; return ``"error"`` or ``"accepted"``, or raise AssertionError with the reason."""
+    from reference.domain import SolverDiverged
+    from reference.io.deck import DeckError, load_deck
+
+    old = signal.signal(signal.SIGALRM, _alarm)
+    signal.setitimer(signal.ITIMER_REAL, TIME_LIMIT)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            try:
+                domain = load_deck(path, overrides=overrides)
+            except DeckError as exc:
+                message = str(exc)
+                assert "\n" not in message, f"multi-line message: {message[:400]!r}"
+                assert len(message) <= MAX_CHARS + len(str(path)), f"{len(message)}-character message: {message[:400]!r}"
+                assert message.startswith(str(path)), f"message without the file: {message[:400]!r}"
+                return "error"
+            try:
+                domain.solve_at(STEPS * domain.solver.dt)
+            except SolverDiverged:
+                pass
+            return "accepted"
+    except CaseTimeout:
+        raise AssertionError(f"hang: no answer in {TIME_LIMIT} s") from None
+    except AssertionError:
+        raise
+    except Exception as exc:  # the property: nothing but a DeckError
+        raise AssertionError(f"{type(exc).__name__}: {str(exc)[:300]}") from exc
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def run(cases: int, seed: int, workdir: Path, report=None) -> dict:
+    """Run ``cases`` cases from ``seed``; return counts, failures (with their decks) and timings."""
+    rng = random.Random(seed)
+    bases = base_decks()
+    counts = {"error": 0, "accepted": 0}
+    failures = []
+    slowest = (0.0, "")
+    path = workdir / "case.toml"
+    t0 = time.perf_counter()
+    for k in range(cases):
+        name, text, overrides = make_case(rng, bases)
+        path.write_text(text, encoding="utf-8", errors="surrogatepass")
+        t = time.perf_counter()
+        try:
+            counts[check(path, overrides)] += 1
+        except AssertionError as exc:
+            failures.append({"case": k, "base": name, "overrides": overrides, "problem": str(exc), "deck": text})
+            (workdir / f"failure_{k}.toml").write_text(text, encoding="utf-8", errors="surrogatepass")
+        dt = time.perf_counter() - t
+        if dt > slowest[0]:
+            slowest = (dt, name)
+        if report and (k + 1) % 1000 == 0:
+            report(f"{k + 1} cases, {len(failures)} failures, {time.perf_counter() - t0:.1f} s")
+    return {"cases": cases, "failures": failures, "wall": time.perf_counter() - t0, "slowest": slowest,
+            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, **counts}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--cases", type=int, default=10_000)
+    p.add_argument("--seed", type=int, default=12)
+    p.add_argument("--out", default="out/fuzz", help="folder for the failing decks")
+    args = p.parse_args(argv)
+    sys.path.insert(0, str(ROOT))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    res = run(args.cases, args.seed, out, report=lambda s: print(s, flush=True))
+    for f in res["failures"][:20]:
+        print(f"case {f['case']} ({f['base']}, overrides {f['overrides']}): {f['problem']}")
+    print(f"{res['cases']} cases in {res['wall']:.1f} s: {res['error']} clean errors, {res['accepted']} accepted, "
+          f"{len(res['failures'])} failures; slowest case {res['slowest'][0]:.2f} s ({res['slowest'][1]}); "
+          f"peak memory {res['peak_rss_mb']:.0f} MB")
+    return 1 if res["failures"] else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
