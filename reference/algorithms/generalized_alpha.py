@@ -122,10 +122,14 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         return -float(lam @ self.constraint_rate(model, v, w)) if lam.size else 0.0
 
     def _dissipation(self, model, v, w) -> float:
+        """Power dissipated by the mass-proportional damping and the force elements' dampers
+        (those at the last evaluation, the same state)."""
         c = model.damping
+        fe = self.work.fe_power if model.fe_kind.shape[0] else 0.0
         if c == 0.0:
-            return 0.0
-        return c * (float(np.sum(model.mass[:, None] * v * v)) + float(np.einsum("na,nab,nb->", w, model.inertia, w)))
+            return fe
+        return fe + c * (float(np.sum(model.mass[:, None] * v * v))
+                         + float(np.einsum("na,nab,nb->", w, model.inertia, w)))
 
     def advance(self, model, state, n_steps, record, scratch) -> int:
         self.prepare(model)

@@ -26,7 +26,9 @@ generalized-α: 1, γ'/β', 1/β')::
 
 ``C = ∂r/∂V`` (damping and gyroscopic, analytic), ``K = ∂r/∂δ`` at fixed
 velocities: the Beam2 tangent stiffness, the joints' λ-weighted constraint
-Hessian ``∂(Bᵀλ)/∂δ`` and the follower-load tangents.  The Beam2 and joint
+Hessian ``∂(Bᵀλ)/∂δ`` and the follower-load tangents, and the force elements' derived tangents
+(:func:`reference.forces.force_element_tangent`, added after the constraint
+blocks; their continuous angles are carried in the work arrays).  The Beam2 and joint
 parts are taken here by central differences of the generated kernels under
 the update above (step ``FD_STEP`` relative; truncation and round-off both
 ≈ 1e-10 relative), the load tangents analytically:
@@ -44,6 +46,7 @@ import math
 import numpy as np
 
 from reference.algorithms.staggered import external_forces
+from reference.forces import force_element_forces, force_element_tangent
 from reference.elements.formulation import beam2_assemble, section_quaternion, tangent_to_node_frame
 from reference.generated import beam2 as generated_beam2
 from reference.generated import rotation_maps as rm
@@ -75,7 +78,16 @@ class Work:
         self.prim_phi, self.prim_B = np.zeros(10), np.zeros(120)
         self.small = np.zeros((8, 12))
         self.K12 = np.zeros((12, 12))
-        self.values = np.zeros(36 * N + 144 * E + 144 * J + 24 * m + m)
+        nF = model.fe_kind.shape[0]
+        self.values = np.zeros(36 * N + 144 * E + 144 * J + 24 * m + m + 144 * nF)
+        # force elements (reference/forces.py): their forces, continuous angles, work arrays, the
+        # velocities of the last evaluation (the damper part of their tangent) and their damper power
+        self.G, self.Fa = np.zeros((N, 6)), np.zeros((N, 6))
+        self.angle = np.zeros(nF)
+        self.fe_e, self.fe_B, self.fe_G = np.zeros(6), np.zeros(72), np.zeros(864)
+        self.C12 = np.zeros((12, 12))
+        self.v_last, self.w_last = np.zeros((N, 3)), np.zeros((N, 3))
+        self.fe_power = 0.0
 
 
 @kernel
@@ -382,6 +394,9 @@ def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
         cols.append(np.full(12, n_free + rr))
     rows.append(n_free + np.arange(m))
     cols.append(n_free + np.arange(m))
+    for k in range(model.fe_kind.shape[0]):  # force elements last (values from ImplicitAlgorithm.factor)
+        nodes = [model.fe_i[k], model.fe_j[k]]
+        block(nodes, nodes)
     rows = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
     cols = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)
     return BlockPattern(rows, cols, n_free + m), dof6
@@ -427,10 +442,6 @@ class ImplicitAlgorithm(Algorithm):
         if model.ms_master.shape[0] > 0:
             return ("master/slave joints are not available with the implicit algorithms; use "
                     "formulation = \"jacobian\" (Lagrange multipliers) for those joints")
-        if model.fe_kind.shape[0] > 0:
-            return ("force elements ([[springs]]) are not yet assembled by the implicit algorithms (their "
-                    "forces and tangents are reference.forces.force_element_forces/force_element_tangent); "
-                    "use algorithm = \"staggered_central_difference\"")
         return None
 
     def prepare(self, model) -> None:
@@ -452,7 +463,21 @@ class ImplicitAlgorithm(Algorithm):
         return max(span, 1e-3)
 
     def evaluate(self, model, x, q, v, w, vd, lam, t, dynamic) -> float:
-        return evaluate(model, x, q, v, w, vd, lam, t, dynamic, self.wt)
+        U = evaluate(model, x, q, v, w, vd, lam, t, dynamic, self.wt)
+        if model.fe_kind.shape[0] == 0:
+            return U
+        # force elements: springs and dampers act like internal forces (energy in U), actuators
+        # are external loads (into F); static runs see no velocities
+        wk = self.work
+        wk.v_last[:] = v if dynamic else 0.0
+        wk.w_last[:] = w if dynamic else 0.0
+        wk.G[:] = 0.0
+        wk.Fa[:] = 0.0
+        U_fe, wk.fe_power = force_element_forces(model, x, q, wk.v_last, wk.w_last, t, wk.angle, wk.G, wk.Fa,
+                                                 wk.fe_e, wk.fe_B)
+        wk.r -= wk.G + wk.Fa
+        wk.F += wk.Fa
+        return U + U_fe
 
     def residual_norm(self, ck: float, lam) -> float:
         """‖[c_k r; Φ − ελ]‖ of the last :meth:`evaluate` (free coordinates only)."""
@@ -468,7 +493,13 @@ class ImplicitAlgorithm(Algorithm):
         """
         wk = self.work
         ce = 1.0 / ck if ce is None else ce
-        tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, wk.values, self.wt, wk.small, wk.K12)
+        p = tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, wk.values, self.wt, wk.small, wk.K12)
+        for k in range(model.fe_kind.shape[0]):
+            # K at the velocities of the last evaluation (the same iterate), C for the velocity coefficient
+            force_element_tangent(model, x, q, wk.v_last, wk.w_last, wk.angle, k, wk.K12, wk.C12, wk.fe_e,
+                                  wk.fe_B, wk.fe_G)
+            wk.values[p:p + 144] = (ck * wk.K12 + cc * wk.C12).reshape(144)
+            p += 144
         return factorize(self.pattern.matrix(wk.values))
 
     def solve(self, lu, rhs_nodes: np.ndarray, rhs_rows: np.ndarray):
