@@ -9,7 +9,7 @@ STAMP := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,test]"
+	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,sweep,test]"
 	touch $(STAMP)
 
 $(VENV)/.notebooks: $(STAMP)
@@ -26,7 +26,11 @@ test: $(STAMP)
 fuzz: $(STAMP)
 	$(BIN)/python tests/fuzz_decks.py --cases 10000
 
-bench: $(STAMP)
+$(VENV)/.bench: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,sweep,test,bench]"
+	touch $(VENV)/.bench
+
+bench: $(VENV)/.bench
 	$(BIN)/flexmbs bench
 
 derive: $(STAMP)

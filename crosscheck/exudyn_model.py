@@ -50,8 +50,9 @@ with its first line (:func:`preflight` builds it before either engine runs).
 Kinked and curved references: Exudyn's ``ObjectBeamGeometricallyExact`` has
 no reference-curvature parameter; it subtracts the strains of its nodes'
 reference coordinates (tried: a single element whose node frames are turned
-against each other is unstressed at rest), with its own strain measure, which
-is not the section-frame one for a kinked pair.  The translation therefore
+against each other is unstressed at rest), but a small end moment normal to a
+90° kink turns the end by 0.8106 of the straight element's rotation — 1.234×
+too stiff, the factor of ``K = (ψ − ψ0)/L0`` (Exudyn 1.13.6, measured).  The translation therefore
 never gives Exudyn a kinked element: each element runs between Exudyn nodes in
 the element's own (straight) section frames, exactly as the reference's
 offsets ``o_a`` do, and the extra nodes are welded to the node.  The joint *formulation* (multipliers or master/slave) is a choice of

@@ -1,4 +1,4 @@
-"""The ``flexmbs`` command: run, crosscheck, report, derive, bench."""
+"""The ``flexmbs`` command: run, crosscheck, report, derive, bench, sweep."""
 
 from __future__ import annotations
 
@@ -114,6 +114,13 @@ def cmd_bench(args) -> int:
     return _module("flexmbs.bench", "bench").main(args)
 
 
+def cmd_sweep(args) -> int:
+    _module("dask.distributed", "sweep")
+    if args.out is None:
+        args.out = str(Path("out") / Path(args.study).stem)
+    return _module("flexmbs.sweep", "sweep").main(args)
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="flexmbs", description="Flexible multibody dynamics: reference engine, "
                                 "Exudyn cross-check, verification report.")
@@ -157,6 +164,14 @@ def parser() -> argparse.ArgumentParser:
     ben = sub.add_parser("bench", help="solve times of flexmbs and Exudyn, side by side")
     ben.add_argument("--repeat", type=int, default=3)
     ben.set_defaults(func=cmd_bench)
+    sw = sub.add_parser("sweep", help="a parameter study of a deck (STUDY.toml), every case a Dask task")
+    sw.add_argument("study")
+    sw.add_argument("--out", help="output folder: one folder per case and summary.csv (default out/<study name>)")
+    where = sw.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, help="processes of the local Dask cluster (default 2)")
+    where.add_argument("--scheduler", metavar="ADDRESS", help="address of a running Dask scheduler, e.g. "
+                       "tcp://127.0.0.1:8786")
+    sw.set_defaults(func=cmd_sweep)
     return p
 
 
@@ -166,6 +181,12 @@ def main(argv=None) -> int:
     from reference.io.deck import DeckError
 
     try:
+        from reference.jit import threads
+
+        try:
+            threads()
+        except ValueError as exc:
+            raise CommandError(f"{exc}; unset it or give e.g. FLEXMBS_THREADS=2") from None
         return args.func(args)
     except (DeckError, SolverDiverged, CommandError, OSError, KeyError) as exc:
         # one line: the deck reader's messages name file, entry and fix; OSError covers a missing

@@ -31,13 +31,25 @@ from reference.interactions import (
 )
 from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
 from reference.joints.master_slave import master_slave_parameters
-from reference.joints.assembly import apply_inverse_mass, assemble_constraints
+from reference.joints.assembly import (
+    apply_inverse_mass, assemble_constraints, assemble_w, jacobian_times, sparse_cholesky, sparse_solve,
+    subtract_transpose,
+)
+from reference.joints.sparse import constraint_pattern
 from reference.joints.joint import ROWS
 from reference.joints.reactions import reactions
 from reference.nodes import Node
 from reference.generated import rotation_maps as rm
 from reference.rotation import EulerParameters
 from reference.state import Model, Record, Scratch, State
+
+
+DEPENDENT_PIVOT = 1e-10
+"""A constraint row whose Cholesky pivot in ``B M⁻¹ Bᵀ`` is below this fraction of
+its diagonal entry (its remainder's M⁻¹-norm below 1e-5 of its own) depends on
+the rows before it.  The pivot is a difference of squares, so round-off leaves
+~1e-15 of the diagonal in a truly dependent row; the independent rows of the
+rigid four-bar (tests/test_pendulum.py) stay above 3e-4."""
 
 
 class SolverDiverged(RuntimeError):
@@ -583,6 +595,11 @@ class Domain:
             if ld.point is not None and not ld.moment:
                 node = self.node(ld.node)
                 load_arm[k] = EulerParameters(node.rotation).matrix().T @ (np.asarray(ld.point, float) - node.position)
+        node_constrained = np.zeros(N, dtype=np.int64)
+        for joint in lagrange + ms:
+            for body in (joint.body_i, joint.body_j):
+                if body is not None:
+                    node_constrained[body.id] = 1
         pars = [tf.parameters() for tf in tfs]
         width = max([len(p) for p in pars] + [1])
         tf_par = np.zeros((max(len(tfs), 1), width))
@@ -598,8 +615,8 @@ class Domain:
             tf_kind=np.array([tf.kind for tf in tfs] or [0], dtype=np.int64),
             tf_par=tf_par, gravity=gravity, damping=float(self.solver.damping),
             row_eps=np.array(row_eps, dtype=float),
-            row_nodes=np.array([[j.body_i.id, -1 if j.body_j is None else j.body_j.id]
-                                for j in lagrange for _ in range(j.n_equations)], dtype=np.int64).reshape(-1, 2),
+            **self._constraint_pattern(jt, [joint.formulation.epsilon > 0.0 for joint in lagrange]),
+            node_constrained=node_constrained, constrained_nodes=np.flatnonzero(node_constrained).astype(np.int64),
             ms_master=np.array([j.body_j.id for j in ms], dtype=np.int64),
             ms_slave=np.array([j.body_i.id for j in ms], dtype=np.int64),
             ms_kind=np.array([0 if j.kind == "spherical" else 1 for j in ms], dtype=np.int64),
@@ -644,41 +661,113 @@ class Domain:
                 raise ValueError(f"joint {j.label!r}: {problem}")
         return joints
 
+    @staticmethod
+    def _constraint_pattern(jt: dict, regularised: list) -> dict:
+        """The Model's sparsity fields of ``B M⁻¹ Bᵀ`` (:func:`reference.joints.sparse.constraint_pattern`).
+
+        The regularised joints (ε > 0) are eliminated last, so that
+        :meth:`check_constraints` attributes a redundancy to them where it can.
+        """
+        pattern = constraint_pattern(jt["jt_i"], jt["jt_j"], jt["jt_neq"], np.array(regularised, dtype=np.int64))
+        return {"row_iperm": pattern.row_iperm, "L_colptr": pattern.L_colptr, "L_rowidx": pattern.L_rowidx,
+                "L_rowptr": pattern.L_rowptr, "L_rowcol": pattern.L_rowcol, "L_rowpos": pattern.L_rowpos,
+                "wc_joints": pattern.wc_joints, "wc_pos": pattern.wc_pos}
+
+    def _configuration(self, x=None, q=None):
+        x = np.array([n.position for n in self.nodes]).reshape(-1, 3) if x is None else np.asarray(x, dtype=float)
+        q = np.array([n.rotation for n in self.nodes]).reshape(-1, 4) if q is None else np.asarray(q, dtype=float)
+        return x, q
+
+    @staticmethod
+    def _constraint_blocks(model: Model, x, q, t: float):
+        """Φ, Φ_t and the joints' blocks of B and B M⁻¹ at a configuration."""
+        m, J = model.n_constraints, model.jt_i.shape[0]
+        PHI, PHIt, Bj, BMj = np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12))
+        assemble_constraints(model, x, q, float(t), PHI, PHIt, Bj, np.zeros(10), np.zeros(120))
+        apply_inverse_mass(model, Bj, BMj)
+        return PHI, PHIt, Bj, BMj
+
+    @staticmethod
+    def _dependent_rows(model: Model, Bj, BMj):
+        """Sparse Cholesky of ``B M⁻¹ Bᵀ`` dropping dependent rows: the factor and the dropped rows' flags.
+
+        A row is dropped when its pivot — the squared M⁻¹-norm of what remains of
+        it after the rows eliminated before it are projected out, as in
+        Gram–Schmidt — is below ``DEPENDENT_PIVOT`` of its own squared norm.
+        """
+        Lx, dependent = np.zeros(model.L_rowidx.shape[0]), np.zeros(model.n_constraints, dtype=np.int64)
+        assemble_w(model, Bj, BMj, Lx)
+        sparse_cholesky(model, Lx, np.zeros(model.n_constraints), 0.0, DEPENDENT_PIVOT, dependent)
+        return Lx, dependent
+
+    @staticmethod
+    def _dependency_rows(model: Model, Lx, dependent, positions) -> list[int]:
+        """The constraint rows taking part in the dependencies of the dropped rows at ``positions``.
+
+        A dropped row p is ``Σ_k c_k`` (earlier rows k) with ``Lᵀ c = L[p, :p]ᵀ``
+        (its factor row in the orthonormalised basis mapped back to the rows);
+        the rows with ``|c_k| > 1e-8 max |c|`` and p itself are returned.
+        """
+        if len(positions) == 0:
+            return []
+        import scipy.sparse
+        import scipy.sparse.linalg
+
+        m = model.n_constraints
+        ncol = np.diff(model.L_colptr)
+        cols = np.repeat(np.arange(m), ncol)
+        values = Lx.copy()
+        values[model.L_colptr[:-1][dependent == 1]] = 1.0  # dropped rows: unit pivot, zero column
+        L = scipy.sparse.csr_matrix((values, (model.L_rowidx, cols)), shape=(m, m))
+        row_perm = np.argsort(model.row_iperm)
+        rows: set[int] = set()
+        for p in positions:
+            rhs = np.zeros(m)
+            lrow = L.getrow(p)
+            rhs[lrow.indices] = lrow.data
+            rhs[p] = 0.0
+            rhs[dependent == 1] = 0.0
+            c = scipy.sparse.linalg.spsolve_triangular(L.T.tocsr(), rhs, lower=False)
+            big = np.abs(c) > 1e-8 * max(np.abs(c).max(), 1e-300)
+            rows.update(row_perm[np.flatnonzero(big)].tolist() + [int(row_perm[p])])
+        return sorted(rows)
+
     def constraint_matrices(self, model: Model, x=None, q=None, t: float = 0.0):
-        """Global Φ (m,), Φ_t (m,), B (m, 6N) and B M⁻¹ at a configuration (default: initial)."""
+        """Global Φ (m,), Φ_t (m,), B (m, 6N) and B M⁻¹ at a configuration (default: initial), dense.
+
+        A convenience for tests and tools (the step never forms these arrays).
+        """
+        x, q = self._configuration(x, q)
+        PHI, PHIt, Bj, BMj = self._constraint_blocks(model, x, q, t)
         N, m = len(self.nodes), model.n_constraints
-        x = np.array([n.position for n in self.nodes]) if x is None else x
-        q = np.array([n.rotation for n in self.nodes]) if q is None else q
-        PHI, PHIt, Bg, BM = np.zeros(m), np.zeros(m), np.zeros((m, 6 * N)), np.zeros((m, 6 * N))
-        assemble_constraints(model, x, q, float(t), PHI, PHIt, Bg, np.zeros(6), np.zeros((6, 12)), np.zeros(6),
-                             np.zeros(10), np.zeros(120))
-        apply_inverse_mass(model, Bg, BM)
+        Bg, BM = np.zeros((m, 6 * N)), np.zeros((m, 6 * N))
+        for k in range(Bj.shape[0]):
+            r0, mk = model.jt_row0[k], model.jt_neq[k]
+            for side, n in enumerate((model.jt_i[k], model.jt_j[k])):
+                if n >= 0:
+                    Bg[r0:r0 + mk, 6 * n:6 * n + 6] += Bj[k, :mk, 6 * side:6 * side + 6]
+                    BM[r0:r0 + mk, 6 * n:6 * n + 6] += BMj[k, :mk, 6 * side:6 * side + 6]
         return PHI, PHIt, Bg, BM
 
     def check_constraints(self, model: Model) -> None:
         """Refuse redundant constraints that are not regularised (ε = 0), naming the joints.
 
-        Gram–Schmidt on the rows of B in the M⁻¹ inner product ``⟨a, b⟩ = a M⁻¹ bᵀ``
-        (the metric of ``B M⁻¹ Bᵀ``): a row whose remainder is below 1e-9 of its
-        own norm depends on the earlier rows.
+        The rows of B are orthogonalised in the M⁻¹ inner product ``⟨a, b⟩ = a M⁻¹ bᵀ``
+        (the metric of ``B M⁻¹ Bᵀ``) by the sparse Cholesky factorisation of
+        ``B M⁻¹ Bᵀ`` in the elimination order of the step
+        (:meth:`_dependent_rows`): a row whose pivot is negligible depends on the
+        rows eliminated before it.  Cost as for one step's factorisation.
         """
         if model.n_constraints == 0:
             return
-        _, _, Bg, _ = self.constraint_matrices(model)
+        x, q = self._configuration()
+        _, _, Bj, BMj = self._constraint_blocks(model, x, q, 0.0)
+        Lx, dependent = self._dependent_rows(model, Bj, BMj)
+        redundant = np.flatnonzero(dependent[model.row_iperm])
         owner = [joint for joint in self.multiplier_joints() for _ in range(joint.n_equations)]
-        basis, redundant = [], []
-        for r, row in enumerate(Bg):
-            own = row @ self._minv_apply(model, row)
-            vec = row.copy()
-            for e, me in basis:
-                vec -= (vec @ me) * e
-            mv = self._minv_apply(model, vec)
-            remainder = vec @ mv
-            if remainder <= 1e-18 * own:
-                redundant.append(r)
-            else:
-                basis.append((vec / np.sqrt(remainder), mv / np.sqrt(remainder)))
-        bad = sorted({owner[r].label for r in redundant if owner[r].formulation.epsilon == 0.0},
+        unregularised = [r for r in redundant if owner[r].formulation.epsilon == 0.0]
+        involved = self._dependency_rows(model, Lx, dependent, model.row_iperm[unregularised])
+        bad = sorted({owner[r].label for r in involved if owner[r].formulation.epsilon == 0.0},
                      key=[j.label for j in self.joints].index)
         if bad:
             raise ValueError(
@@ -687,16 +776,6 @@ class Domain:
                 "formulation with epsilon > 0 to regularise them, or replace a revolute joint by a "
                 "spherical or universal one"
             )
-
-    @staticmethod
-    def _minv_apply(model: Model, row: np.ndarray) -> np.ndarray:
-        """``M⁻¹ row`` with the lumped, block-diagonal M (fixed coordinates: M⁻¹ = 0)."""
-        blocks = row.reshape(-1, 6)
-        out = np.empty_like(blocks)
-        out[:, :3] = blocks[:, :3] * model.free[:, :3] / model.mass[:, None]
-        rot = blocks[:, 3:] * model.free[:, 3:]
-        out[:, 3:] = np.einsum("nab,nb->na", model.inertia_inv, rot) * model.free[:, 3:]
-        return out.reshape(-1)
 
     def initial_conditions(self) -> State:
         """State at t = 0 from the nodes' initial positions, rotations and velocities."""
@@ -719,13 +798,18 @@ class Domain:
 
         The M-orthogonal projection changes the kinetic energy least; for a
         mechanism driven from rest it gives the velocities of the driven motion.
+        Solved with the sparse factor of the step's pattern; dependent
+        (regularised redundant) rows are dropped, which leaves the projection
+        unchanged when the velocity constraints are consistent.
         """
-        _, PHIt, Bg, BM = self.constraint_matrices(model, state.x, state.q, state.t)
-        V0 = np.concatenate([state.v, state.w], axis=1).reshape(-1)
-        W = BM @ Bg.T
-        lam = np.linalg.lstsq(W, Bg @ V0 + PHIt, rcond=1e-12)[0]
-        V = (V0 - BM.T @ lam).reshape(-1, 6)
-        state.v[:], state.w[:] = V[:, :3], V[:, 3:]
+        _, PHIt, Bj, BMj = self._constraint_blocks(model, state.x, state.q, state.t)
+        Lx, _ = self._dependent_rows(model, Bj, BMj)
+        rhs = np.zeros(model.n_constraints)
+        jacobian_times(model, Bj, state.v, state.w, rhs)
+        y = np.zeros_like(rhs)
+        y[model.row_iperm] = rhs + PHIt
+        sparse_solve(model, Lx, y)
+        subtract_transpose(model, BMj, y[model.row_iperm], state.v, state.w)
 
     def algorithm(self, dt: float | None = None) -> Algorithm:
         """The solver's algorithm, looked up by name in :data:`reference.algorithms.ALGORITHMS`."""
@@ -813,8 +897,8 @@ class Domain:
         out["reaction_force"][rows], out["reaction_moment"][rows] = force, moment
         E = model.conn.shape[0]
         out["section_force"], out["section_moment"] = np.zeros((E, 3)), np.zeros((E, 3))
-        beam2_resultants(x, q, model.conn, model.L0, model.psi0, model.gamma0, model.stiff,
-                         out["section_force"], out["section_moment"], np.zeros(24))
+        beam2_resultants(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
+                         out["section_force"], out["section_moment"], np.zeros(32))
         return out
 
     def _store(self, rec: Record, t: float, records: list, writer) -> None:

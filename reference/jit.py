@@ -4,13 +4,59 @@ Kernels are plain Python functions decorated with :func:`kernel`; numba
 compiles them (cached on disk) unless ``NUMBA_DISABLE_JIT=1`` is set, in which
 case they run as ordinary Python — slower, but every line can be stepped
 through in a debugger.  numba reads that variable itself.
+
+A loop over independent items (the Beam2 elements) may be a
+:func:`parallel_kernel` with ``prange``; it runs on :func:`threads` threads,
+set by the environment variable ``FLEXMBS_THREADS`` (default 1: on a machine
+shared with other jobs, a thread that is not scheduled stalls every step).
+Results never depend on the thread count: parallel loops only write per-item
+rows, and the sums over items are taken afterwards, in order, on one thread.
 """
 
 from __future__ import annotations
 
+import os
+
 import numba
+from numba import prange
+
+__all__ = ["kernel", "parallel_kernel", "prange", "threads", "use_threads"]
+
+THREADS_ENV = "FLEXMBS_THREADS"
 
 
 def kernel(func):
     """Compile ``func`` in nopython mode with an on-disk cache."""
     return numba.njit(cache=True, fastmath=False)(func)
+
+
+def parallel_kernel(func):
+    """Compile ``func`` with its ``prange`` loops parallel (numba ``parallel=True``), cached."""
+    return numba.njit(cache=True, fastmath=False, parallel=True)(func)
+
+
+def threads() -> int:
+    """Threads of the parallel kernels: ``FLEXMBS_THREADS`` (default 1), at most the cores numba uses.
+
+    Raises
+    ------
+    ValueError
+        When the variable is not a positive integer.
+    """
+    text = os.environ.get(THREADS_ENV, "1").strip()
+    if not text.isdigit() or int(text) < 1:
+        raise ValueError(f"{THREADS_ENV}={text!r}: expected a positive integer (threads of the parallel kernels)")
+    return min(int(text), numba.config.NUMBA_NUM_THREADS)
+
+
+def use_threads(n: int | None = None) -> int:
+    """Set the parallel kernels' thread count for the calling thread (default :func:`threads`); return it."""
+    n = threads() if n is None else max(1, min(int(n), numba.config.NUMBA_NUM_THREADS))
+    numba.set_num_threads(n)
+    return n
+
+
+try:  # for the importing thread; ``Algorithm.advance`` sets it again for the thread it runs on
+    use_threads()
+except ValueError:  # a bad FLEXMBS_THREADS is reported where the thread count is used
+    pass

@@ -45,8 +45,15 @@ class Model(NamedTuple):
     indices (−1 the ground), ``jt_par`` (J,24) body-fixed point and frames,
     ``jt_rows`` (J,6) primitive rows (−1 padded), ``jt_neq`` (J,) equations,
     ``jt_row0`` (J,) first global row, ``jt_drive`` (J,) drive code,
-    ``jt_tf`` (J,) time function; ``row_eps`` (m,) the ε of each row;
-    ``row_nodes`` (m,2) the nodes a row involves (−1 the ground).
+    ``jt_tf`` (J,) time function; ``row_eps`` (m,) the ε of each row.
+    Sparsity of ``B M⁻¹ Bᵀ`` (fixed at assembly,
+    :class:`reference.joints.sparse.ConstraintPattern`): ``row_iperm`` (m,)
+    each row's elimination position; the Cholesky factor's pattern
+    ``L_colptr`` (m+1,), ``L_rowidx`` (nnz,), its row view ``L_rowptr``
+    (m+1,), ``L_rowcol``, ``L_rowpos`` (nnz−m,); the block products
+    ``wc_joints`` (T,4) and their slots ``wc_pos`` (T,6,6).
+    ``node_constrained`` (N,) 1 for a node of a joint (either formulation),
+    else 0; ``constrained_nodes`` (C,) those nodes.
     Master/slave joints (K): ``ms_master``, ``ms_slave`` (K,) node indices,
     ``ms_kind`` (K,) 0 spherical 1 revolute, ``ms_par`` (K,9) the master's
     body-fixed offset and axis and the slave's body-fixed axis.
@@ -86,7 +93,16 @@ class Model(NamedTuple):
     jt_drive: np.ndarray
     jt_tf: np.ndarray
     row_eps: np.ndarray
-    row_nodes: np.ndarray
+    row_iperm: np.ndarray
+    L_colptr: np.ndarray
+    L_rowidx: np.ndarray
+    L_rowptr: np.ndarray
+    L_rowcol: np.ndarray
+    L_rowpos: np.ndarray
+    wc_joints: np.ndarray
+    wc_pos: np.ndarray
+    node_constrained: np.ndarray
+    constrained_nodes: np.ndarray
     ms_master: np.ndarray
     ms_slave: np.ndarray
     ms_kind: np.ndarray
@@ -159,7 +175,14 @@ class Record(NamedTuple):
 
 
 class Scratch(NamedTuple):
-    """Work arrays reused every step (the hot loop allocates nothing)."""
+    """Work arrays reused every step (the hot loop allocates nothing).
+
+    Constraints: ``PHI``, ``PHIt``, ``lam``, ``work`` (m,); the joints' blocks of
+    B and of B M⁻¹, ``Bj`` and ``BMj`` (J,6,12); the values of the sparse
+    Cholesky factor ``Lx`` (nnz,).  Beam2 elements: ``W_el`` (E,40) one row per
+    element for the parallel element loop
+    (:func:`reference.elements.formulation.beam2_assemble_parallel`).
+    """
 
     S: np.ndarray
     F: np.ndarray
@@ -170,13 +193,11 @@ class Scratch(NamedTuple):
     A: np.ndarray
     PHI: np.ndarray
     PHIt: np.ndarray
-    Bg: np.ndarray
-    BM: np.ndarray
-    W: np.ndarray
+    Bj: np.ndarray
+    BMj: np.ndarray
+    Lx: np.ndarray
     lam: np.ndarray
-    jphi: np.ndarray
-    jB: np.ndarray
-    jphit: np.ndarray
+    work: np.ndarray
     prim_phi: np.ndarray
     prim_B: np.ndarray
     T: np.ndarray
@@ -186,13 +207,14 @@ class Scratch(NamedTuple):
     TMT: np.ndarray
     rhs: np.ndarray
     r4: np.ndarray
+    W_el: np.ndarray
     G: np.ndarray
 
     @classmethod
     def for_model(cls, model: Model) -> "Scratch":
-        N, m = model.mass.shape[0], model.n_constraints
+        N, m, J = model.mass.shape[0], model.n_constraints, model.jt_i.shape[0]
         return cls(np.zeros((N, 6)), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 3)), np.zeros(40),
-                   np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((m, 6 * N)), np.zeros((m, 6 * N)),
-                   np.zeros((m, m)), np.zeros(m), np.zeros(6), np.zeros((6, 12)), np.zeros(6), np.zeros(10),
+                   np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12)),
+                   np.zeros(model.L_rowidx.shape[0]), np.zeros(m), np.zeros(m), np.zeros(10),
                    np.zeros(120), np.zeros((12, 9)), np.zeros(9), np.zeros(9), np.zeros((12, 9)), np.zeros((9, 9)),
-                   np.zeros(9), np.zeros(4), np.zeros((N, 6)))
+                   np.zeros(9), np.zeros(4), np.zeros((model.conn.shape[0], 40)), np.zeros((N, 6)))

@@ -1,7 +1,7 @@
 """The 45° bend of Bathe & Bolourchi (1979): curved and joined beams (issue 9).
 
 Checks: the tip position at P = 300, 450 and 600 against the published values of
-Simo & Vu-Quoc (1986) (Bathe & Bolourchi 1979 and Crisfield 1990 listed beside
+Simo & Vu-Quoc (1986) (Bathe & Bolourchi 1979 listed beside
 them), each within the deck's tolerance of the radius.  The Exudyn cross-check
 of the same deck is added by the report.
 """

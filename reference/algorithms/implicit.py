@@ -53,6 +53,7 @@ from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
 from reference.jit import kernel
 from reference.joints.assembly import joint_rows
+from reference.joints.sparse import jacobian_row_columns
 from reference.algorithms.base import Algorithm
 from reference.linalg import BlockPattern, SingularMatrix, factorize
 
@@ -381,11 +382,7 @@ def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
     for k in range(model.jt_i.shape[0]):
         nodes = [model.jt_i[k], model.jt_j[k]]
         block(nodes, nodes)
-    row_dofs = []
-    for k in range(model.jt_i.shape[0]):
-        nodes = [model.jt_i[k], model.jt_j[k]]
-        idx = np.concatenate([dof6[n] if n >= 0 else np.full(6, -1) for n in nodes])
-        row_dofs += [idx] * int(model.jt_neq[k])
+    row_dofs = jacobian_row_columns(model.jt_i, model.jt_j, model.jt_neq, dof6)
     for rr, idx in enumerate(row_dofs):
         rows.append(np.full(12, n_free + rr))
         cols.append(idx)

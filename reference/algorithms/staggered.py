@@ -34,13 +34,13 @@ import math
 
 
 from reference.algorithms.base import Algorithm
-from reference.elements.formulation import beam2_assemble
+from reference.elements.formulation import beam2_assemble_parallel
 from reference.forces import force_element_dissipation, force_element_forces
 from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
-from reference.jit import kernel
+from reference.jit import kernel, use_threads
 from reference.joints.assembly import (
-    SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints,
+    SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
 )
 from reference.joints.master_slave import master_slave_positions, master_slave_project
 from reference.state import Model, Record, Scratch, State
@@ -104,15 +104,20 @@ def external_forces(model, x, q, t, F, A):
 
 
 @kernel
-def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess):
+def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sweeps, only_constrained):
     """Explicit predictor of the half-step velocities (stage 2), fixed coordinates kept at rest.
 
     The midpoint gyroscopic term is solved by ``sweeps`` fixed-point sweeps
     starting from ``w`` or, if ``from_guess``, from the current ``w_new`` (the
-    constrained velocities of the previous pass, see :func:`advance`).
+    constrained velocities of the previous pass, see :func:`advance`); nodes of
+    no joint get ``extra_free_sweeps`` more.  ``only_constrained``: visit only
+    the nodes of joints (``model.constrained_nodes``).
     """
     c = model.damping
-    for i in range(v.shape[0]):
+    count = model.constrained_nodes.shape[0] if only_constrained else v.shape[0]
+    for p in range(count):
+        i = model.constrained_nodes[p] if only_constrained else p
+        n_sweeps = sweeps if model.node_constrained[i] else sweeps + extra_free_sweeps
         m = model.mass[i]
         for k in range(3):
             v_new[i, k] = model.free[i, k] * (v[i, k] + hk * ((F[i, k] - S[i, k]) / m - c * v[i, k]))
@@ -127,7 +132,7 @@ def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess):
         n0, n1, n2 = w0, w1, w2
         if from_guess:
             n0, n1, n2 = w_new[i, 0], w_new[i, 1], w_new[i, 2]
-        for _ in range(sweeps):
+        for _ in range(n_sweeps):
             b0, b1, b2 = 0.5 * (w0 + n0), 0.5 * (w1 + n1), 0.5 * (w2 + n2)
             j0 = J[0, 0] * b0 + J[0, 1] * b1 + J[0, 2] * b2
             j1 = J[1, 0] * b0 + J[1, 1] * b1 + J[1, 2] * b2
@@ -164,18 +169,20 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     or ``SINGULAR`` (the constraint matrix lost rank).
     """
     x, q, v, w, f_prev, clock = state.x, state.q, state.v, state.w, state.f_prev, state.clock
-    S, F, v_new, w_new, s_el = scratch.S, scratch.F, scratch.v_new, scratch.w_new, scratch.s_el
+    S, F, v_new, w_new = scratch.S, scratch.F, scratch.v_new, scratch.w_new
     G = scratch.G
     n_fe = model.fe_kind.shape[0]
     q_tmp, A = scratch.q_tmp, scratch.A
-    PHI, PHIt, Bg, BM, W, lam = scratch.PHI, scratch.PHIt, scratch.Bg, scratch.BM, scratch.W, scratch.lam
+    PHI, PHIt, Bj, BMj, Lx, lam = scratch.PHI, scratch.PHIt, scratch.Bj, scratch.BMj, scratch.Lx, scratch.lam
+    work = scratch.work
     N = x.shape[0]
     n_rows = PHI.shape[0]
     n_ms = model.ms_master.shape[0]
     c = model.damping
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
-        U = beam2_assemble(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
+        U = beam2_assemble_parallel(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
+                                    S, scratch.W_el)
         external_forces(model, x, q, t, F, A)
         if n_fe > 0:
             # springs and dampers act like internal forces (S −= their force; energy in U), their
@@ -202,11 +209,13 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             clock[2] += h * dW
             clock[3] += h * c * dD
         hk = h if n > 0 else 0.5 * h
-        _kick(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, False)
+        # a node outside every joint keeps its predicted velocity through the constrained passes
+        # below, which would only add gyroscopic sweeps to it: it gets all of them at once
+        _kick(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, False,
+              CONSTRAINED_SWEEPS if n_rows > 0 or n_ms > 0 else 0, False)
         if n_rows > 0:
-            assemble_constraints(model, x, q, t, PHI, PHIt, Bg, scratch.jphi, scratch.jB, scratch.jphit,
-                                 scratch.prim_phi, scratch.prim_B)
-            if factor_constraints(model, Bg, BM, W, h, hk) != OK:
+            assemble_constraints(model, x, q, t, PHI, PHIt, Bj, scratch.prim_phi, scratch.prim_B)
+            if factor_constraints(model, Bj, BMj, Lx, work, h, hk) != OK:
                 return SINGULAR
         if n_rows > 0 or n_ms > 0:
             # The constraint stage changes ω^{n+½}: redo the predictor with the midpoint
@@ -216,9 +225,9 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             # multiplier and master/slave joints the passes also alternate the two projections.
             for sweep in range(1 + CONSTRAINED_SWEEPS):
                 if sweep > 0:
-                    _kick(model, v, w, S, F, hk, v_new, w_new, 1, True)
+                    _kick(model, v, w, S, F, hk, v_new, w_new, 1, True, 0, True)
                 if n_rows > 0:
-                    constraint_impulse(model, Bg, BM, W, PHI, PHIt, v_new, w_new, h, hk, lam)
+                    constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v_new, w_new, h, hk, lam)
                 if n_ms > 0:
                     master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
                                          scratch.TMT, scratch.rhs)
@@ -242,11 +251,10 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             rec.energy[3] = clock[3] + (0.5 * dD_fe if n > 0 else 0.0)
             rec.constraint[0] = 0.0
             rec.constraint[1] = 0.0
+            if n_rows > 0:
+                jacobian_times(model, Bj, rec.v, rec.w, work)
             for r in range(n_rows):
-                res = PHIt[r]
-                for i in range(N):
-                    for a in range(3):
-                        res += Bg[r, 6 * i + a] * rec.v[i, a] + Bg[r, 6 * i + 3 + a] * rec.w[i, a]
+                res = PHIt[r] + work[r]
                 rec.constraint[0] += PHI[r] ** 2
                 rec.constraint[1] += res**2
                 rec.lam[r] = lam[r]
@@ -256,7 +264,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             break
         if n_rows > 0:
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
-            clock[2] += hk * constraint_power(model, Bg, lam, v, w, v_new, w_new)
+            clock[2] += hk * constraint_power(model, Bj, lam, v, w, v_new, w_new)
         if n_fe > 0:
             clock[3] += dD_fe
         for i in range(N):
@@ -314,12 +322,14 @@ class StaggeredCentralDifference(Algorithm):
 
     def advance(self, model: Model, state: State, n_steps: int, record: Record | None, scratch: Scratch) -> int:
         rec = record if record is not None else Record.empty(state.x.shape[0], model.n_constraints)
+        use_threads()
         return advance(model, state, self.dt, int(n_steps), record is not None, rec, scratch)
 
 
 def step(model: Model, state: State, h: float) -> State:
     """One staggered step as a pure function: returns the state at ``t_{n+1}``."""
     new = state.copy()
+    use_threads()
     status = advance(model, new, h, 1, False, Record.empty(new.x.shape[0], model.n_constraints),
                      Scratch.for_model(model))
     if status != OK:

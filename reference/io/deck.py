@@ -262,6 +262,46 @@ def _suggest_dt(t_end: float, limit: float) -> str:
     return f"dt = {t_end / n!r} ({n} steps to t_end = {t_end:g})"
 
 
+def _override_scalar(deck: dict, key: str, value, rd: _Reader) -> None:
+    """Set the deck value named ``key`` (dotted: tables by name, arrays of tables by index,
+    e.g. ``solver.damping``, ``sections.rollup.EI2``, ``beams.0.elements``) to ``value``.
+
+    The target's table must exist; the value must be a number, string or boolean and, when the
+    deck gives the entry, of the same kind.  The deck is then validated as written.
+    """
+    entry = f"override {key}"
+    if not isinstance(value, (int, float, str)):  # bool is an int
+        raise rd.fail(entry, f"expected a number, a string or a boolean, got {value!r}")
+    parts = key.split(".")
+    if any(not p for p in parts):
+        raise rd.fail(entry, "empty part in the dotted name", "write e.g. solver.damping")
+    table = deck
+    for depth, part in enumerate(parts[:-1]):
+        here = ".".join(parts[: depth + 1])
+        if isinstance(table, list):
+            if not part.isdigit() or int(part) >= len(table):
+                raise rd.fail(entry, f"{here}: no entry {part!r} in an array of {len(table)}",
+                              f"index it 0 … {len(table) - 1}")
+            table = table[int(part)]
+        elif isinstance(table, dict) and part in table and isinstance(table[part], (dict, list)):
+            table = table[part]
+        else:
+            options = [k for k, v in table.items() if isinstance(v, (dict, list))] if isinstance(table, dict) else []
+            close = difflib.get_close_matches(part, options, n=1)
+            raise rd.fail(entry, f"the deck has no table {here!r}",
+                          f"did you mean '{close[0]}'?" if close else f"tables here: {', '.join(options) or 'none'}")
+    if not isinstance(table, dict):
+        raise rd.fail(entry, f"{'.'.join(parts[:-1])} is an array", "name one of its entries by index, e.g. beams.0.elements")
+    old = table.get(parts[-1])
+    if isinstance(old, (dict, list)):
+        raise rd.fail(entry, f"{key} is a table or an array, not a single value", "name one of its values")
+    kind = lambda v: "boolean" if isinstance(v, bool) else "number" if isinstance(v, (int, float)) else "string"  # noqa: E731
+    if old is not None and kind(old) != kind(value):
+        raise rd.fail(entry, f"the deck's {key} is a {kind(old)}, the override a {kind(value)} ({value!r})",
+                      f"give a {kind(old)}")
+    table[parts[-1]] = value
+
+
 def _observable(rd: _Reader, text, entry: str, domain: Domain):
     """Check an observable text against the model (``reference/observables.py``): one-line DeckError."""
     if not isinstance(text, str):
@@ -283,7 +323,10 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         ``t_end``, ``dt`` (replace the deck's; a step smaller by a whole factor
         keeps the deck's output times), ``refine`` (an integer multiplying every
         flexible beam's element count; the step is divided and the output
-        interval multiplied by it, so output times stay the same).
+        interval multiplied by it, so output times stay the same); and any deck
+        value by its dotted name (``solver.damping``, ``sections.NAME.EI2``,
+        ``beams.0.elements``; see :func:`_override_scalar`), validated as if written
+        in the deck.
     """
     path = Path(path)
     if not path.is_file():
@@ -309,6 +352,15 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         raise DeckError(f"{path}: not a usable deck: too deeply nested for the TOML parser; "
                         "flatten the structure") from None
     overrides = dict(overrides or {})
+    for key in list(overrides):
+        if "." in key:
+            _override_scalar(deck, key, overrides.pop(key), rd)
+        elif key not in OVERRIDES:
+            raise DeckError(f"{path}: unknown override {key!r}; valid: {', '.join(sorted(OVERRIDES))} or the "
+                            "dotted name of a deck value, e.g. solver.damping or sections.NAME.EI2")
+    refine = rd.integer(overrides.get("refine", 1), "override refine")
+
+
     for key in overrides:
         if key not in OVERRIDES:
             raise DeckError(f"{path}: unknown override {_show(key)}; valid: {', '.join(sorted(OVERRIDES))}")

@@ -21,6 +21,8 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from reference.elements.formulation import section_quaternion
+
 from reference.generated import rotation_maps as rm
 
 
@@ -49,8 +51,10 @@ def write_vtk(domain, results, directory, name: str = "flexmbs") -> Path:
     directory.mkdir(parents=True, exist_ok=True)
     beam_nodes, rigid = _geometry(domain)
     x0 = np.array([n.position for n in domain.nodes])
-    references = [e.formulation.reference_state(x0[list(e.nodes)], np.array([domain.nodes[i].rotation for i in e.nodes]))
-                  for e in domain.elements]
+    model = domain.model
+    references = [{"L0": model.L0[k], "psi0": model.psi0[k], "gamma0": model.gamma0[k]}
+                  for k in range(len(domain.elements))]
+    sections = np.zeros((2, 4))
     point_of = {nid: k for k, nid in enumerate(beam_nodes)}
     stored = getattr(results, "section_forces", None) is not None and results.section_forces.shape[1:] == (
         len(domain.elements), 3)
@@ -71,7 +75,10 @@ def write_vtk(domain, results, directory, name: str = "flexmbs") -> Path:
                 forces.append(results.section_forces[step, k])
                 moments.append(results.section_moments[step, k])
             else:
-                _, stress = e.formulation.section_resultants(X[[i, j]], Q[[i, j]], ref)
+                # the element's section triads p_a = q_a ⊗ o_a (Model.offset)
+                section_quaternion(Q[i], model.offset[k, 0], sections[0])
+                section_quaternion(Q[j], model.offset[k, 1], sections[1])
+                _, stress = e.formulation.section_resultants(X[[i, j]], sections, ref)
                 forces.append(stress[:3])
                 moments.append(stress[3:])
         for body in rigid:

@@ -1,8 +1,9 @@
-"""Compiled constraint assembly and the stabilised Lagrange-multiplier solve.
+"""Compiled constraint assembly and the stabilised Lagrange-multiplier solve, sparse.
 
 ``assemble_constraints`` evaluates every joint's rows (the generated
 primitives, combined for drives) into the global ``Φ`` (m,), ``Φ_t`` (m,) and
-``B`` (m, 6N) with columns ``[v_n (inertial) | ω_n (body)]`` per node.
+the joint's own block of B, ``Bj[k]`` (m_k × 12, columns ``[v_i | ω_i | v_j |
+ω_j]``): B is never formed as an m × 6N array.
 
 ``constraint_impulse`` is the implicit stage of Park's staggered step with the
 Park–Chiou stabilisation (docs/formulation.md §7, a reconstruction): with the predicted
@@ -16,8 +17,15 @@ and ``V = V* − M⁻¹ Bᵀ Λ``.  For ``h_k = h`` this is
 Euler on ``ε λ = Φ``): the drift of the next positions makes ``Φ`` vanish to
 first order, so ``Φ`` stays bounded instead of drifting as it does under a pure
 velocity projection.  ``ε = 0`` is a linearised position projection; ``ε > 0``
-regularises redundant constraints.  The symmetric positive matrix is factored
-in place (Cholesky): no allocation per step.
+regularises redundant constraints.
+
+The matrix ``W = B M⁻¹ Bᵀ + ε/(h h_k) I`` couples two joints only when they
+share a node; its pattern, a fill-reducing elimination order and the pattern
+of its Cholesky factor L are fixed when the model is assembled
+(:mod:`reference.joints.sparse`).  Each step assembles W straight into L's
+slots and factors it there (a left-looking sparse Cholesky): the cost grows
+with the number of joints for chains and trees, and with the fill of the
+loops for closed loops.  Nothing is allocated per step.
 """
 
 from __future__ import annotations
@@ -82,164 +90,202 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
 
 
 @kernel
-def assemble_constraints(model, x, q, t, PHI, PHIt, Bg, jphi, jB, jphit, prim_phi, prim_B):
-    """Global Φ, Φ_t and B (m, 6N) of all joints at time t."""
-    Bg[:, :] = 0.0
+def assemble_constraints(model, x, q, t, PHI, PHIt, Bj, prim_phi, prim_B):
+    """Φ (m,), Φ_t (m,) and every joint's block of B, ``Bj[k, :m_k]`` (J, 6, 12), at time t."""
     for k in range(model.jt_i.shape[0]):
         m = model.jt_neq[k]
         r0 = model.jt_row0[k]
-        i, j = model.jt_i[k], model.jt_j[k]
         tf = model.jt_tf[k]
-        joint_rows(x, q, i, j, model.jt_par[k], model.jt_rows[k], model.jt_drive[k], model.tf_kind[tf],
-                   model.tf_par[tf], t, jphi[:m], jB[:m], jphit[:m], prim_phi, prim_B)
-        for r in range(m):
-            PHI[r0 + r] = jphi[r]
-            PHIt[r0 + r] = jphit[r]
-            for c in range(6):
-                Bg[r0 + r, 6 * i + c] += jB[r, c]
-                if j >= 0:
-                    Bg[r0 + r, 6 * j + c] += jB[r, 6 + c]
+        joint_rows(x, q, model.jt_i[k], model.jt_j[k], model.jt_par[k], model.jt_rows[k], model.jt_drive[k],
+                   model.tf_kind[tf], model.tf_par[tf], t, PHI[r0:r0 + m], Bj[k, :m], PHIt[r0:r0 + m],
+                   prim_phi, prim_B)
 
 
 @kernel
-def apply_inverse_mass(model, Bg, BM):
-    """``BM = B M⁻¹`` with the lumped, block-diagonal M (fixed coordinates have M⁻¹ = 0).
-
-    Only the (at most two) nodes of each row are visited (``model.row_nodes``).
-    """
-    BM[:, :] = 0.0
-    for r in range(Bg.shape[0]):
+def apply_inverse_mass(model, Bj, BMj):
+    """Per-joint blocks of ``B M⁻¹`` with the lumped, block-diagonal M (fixed coordinates have M⁻¹ = 0)."""
+    for k in range(Bj.shape[0]):
         for side in range(2):
-            n = model.row_nodes[r, side]
-            if n < 0:
-                continue
-            for a in range(3):
-                BM[r, 6 * n + a] = Bg[r, 6 * n + a] * model.free[n, a] / model.mass[n]
-            for a in range(3):
+            n = model.jt_i[k] if side == 0 else model.jt_j[k]
+            c0 = 6 * side
+            for r in range(model.jt_neq[k]):
+                if n < 0:
+                    for a in range(6):
+                        BMj[k, r, c0 + a] = 0.0
+                    continue
+                for a in range(3):
+                    BMj[k, r, c0 + a] = Bj[k, r, c0 + a] * model.free[n, a] / model.mass[n]
+                for a in range(3):
+                    acc = 0.0
+                    for b in range(3):
+                        acc += Bj[k, r, c0 + 3 + b] * model.free[n, 3 + b] * model.inertia_inv[n, b, a]
+                    BMj[k, r, c0 + 3 + a] = acc * model.free[n, 3 + a]
+
+
+@kernel
+def assemble_w(model, Bj, BMj, Lx):
+    """The lower triangle of ``W = B M⁻¹ Bᵀ`` into L's slots (fill slots zero), elimination order."""
+    Lx[:] = 0.0
+    for t in range(model.wc_joints.shape[0]):
+        a, b = model.wc_joints[t, 0], model.wc_joints[t, 1]
+        ca, cb = 6 * model.wc_joints[t, 2], 6 * model.wc_joints[t, 3]
+        for r in range(model.jt_neq[a]):
+            for s in range(model.jt_neq[b]):
+                p = model.wc_pos[t, r, s]
+                if p < 0:
+                    continue
                 acc = 0.0
-                for b in range(3):
-                    acc += Bg[r, 6 * n + 3 + b] * model.free[n, 3 + b] * model.inertia_inv[n, b, a]
-                BM[r, 6 * n + 3 + a] = acc * model.free[n, 3 + a]
+                for c in range(6):
+                    acc += BMj[a, r, ca + c] * Bj[b, s, cb + c]
+                Lx[p] += acc
 
 
 @kernel
-def _row_dot(model, r, s, X, Y):
-    """``X[r] · Y[s]`` over the nodes of row r (the rows are zero elsewhere)."""
-    acc = 0.0
-    for side in range(2):
-        n = model.row_nodes[r, side]
-        if n < 0:
-            continue
-        for c in range(6 * n, 6 * n + 6):
-            acc += X[r, c] * Y[s, c]
-    return acc
+def sparse_cholesky(model, Lx, work, scale_tol, own_tol, dependent):
+    """Factor the matrix held in L's slots in place, ``W = L Lᵀ``: left-looking, column by column.
 
-
-@kernel
-def cholesky_factor(W):
-    """Factor the symmetric positive definite ``W`` in place (lower triangle).
-
-    Returns ``OK``, or ``SINGULAR`` when a pivot falls below 1e-13 of the
-    largest diagonal entry (dependent constraint rows).
+    Column j gathers W's column, subtracts ``L[j, c] L[j:, c]`` for the columns
+    c of row j's pattern (George & Liu 1981, §2.2), and is scaled by its pivot.
+    A pivot ``d ≤ scale_tol · max W_ii`` or ``d ≤ own_tol · W_jj`` marks row j
+    as dependent on the rows before it: with ``dependent`` of length 0 the
+    factorisation stops and returns ``SINGULAR``; otherwise ``dependent[j] = 1``,
+    column j is zeroed (the row is dropped, as Gram–Schmidt drops it) and the
+    factorisation goes on.  Returns ``OK`` or ``SINGULAR``.
     """
-    m = W.shape[0]
+    colptr, rowidx = model.L_colptr, model.L_rowidx
+    m = colptr.shape[0] - 1
     scale = 0.0
-    for k in range(m):
-        scale = max(scale, abs(W[k, k]))
-    for k in range(m):
-        d = W[k, k]
-        for p in range(k):
-            d -= W[k, p] * W[k, p]
-        if d <= 1e-13 * scale:
-            return SINGULAR
+    for j in range(m):
+        scale = max(scale, abs(Lx[colptr[j]]))
+    for j in range(m):
+        for p in range(colptr[j], colptr[j + 1]):
+            work[rowidx[p]] = Lx[p]
+        own = work[j]
+        for e in range(model.L_rowptr[j], model.L_rowptr[j + 1]):
+            c = model.L_rowcol[e]
+            p0 = model.L_rowpos[e]
+            ljc = Lx[p0]
+            if ljc == 0.0:
+                continue
+            for p in range(p0, colptr[c + 1]):
+                work[rowidx[p]] -= Lx[p] * ljc
+        d = work[j]
+        if d <= scale_tol * scale or d <= own_tol * own:
+            if dependent.shape[0] == 0:
+                return SINGULAR
+            dependent[j] = 1
+            for p in range(colptr[j], colptr[j + 1]):
+                Lx[p] = 0.0
+            continue
         d = math.sqrt(d)
-        W[k, k] = d
-        for r in range(k + 1, m):
-            s = W[r, k]
-            for p in range(k):
-                s -= W[r, p] * W[k, p]
-            W[r, k] = s / d
+        Lx[colptr[j]] = d
+        for p in range(colptr[j] + 1, colptr[j + 1]):
+            Lx[p] = work[rowidx[p]] / d
     return OK
 
 
 @kernel
-def cholesky_solve(L, rhs):
-    """Solve ``L Lᵀ y = rhs`` in place with the factor from :func:`cholesky_factor`."""
-    m = L.shape[0]
-    for k in range(m):
-        s = rhs[k]
-        for p in range(k):
-            s -= L[k, p] * rhs[p]
-        rhs[k] = s / L[k, k]
-    for k in range(m - 1, -1, -1):
-        s = rhs[k]
-        for p in range(k + 1, m):
-            s -= L[p, k] * rhs[p]
-        rhs[k] = s / L[k, k]
+def sparse_solve(model, Lx, y):
+    """Solve ``L Lᵀ y = rhs`` in place (elimination order); a dropped row (zero pivot) gets y = 0."""
+    colptr, rowidx = model.L_colptr, model.L_rowidx
+    m = colptr.shape[0] - 1
+    for j in range(m):
+        d = Lx[colptr[j]]
+        if d == 0.0:
+            y[j] = 0.0
+            continue
+        y[j] /= d
+        for p in range(colptr[j] + 1, colptr[j + 1]):
+            y[rowidx[p]] -= Lx[p] * y[j]
+    for j in range(m - 1, -1, -1):
+        d = Lx[colptr[j]]
+        if d == 0.0:
+            continue
+        s = y[j]
+        for p in range(colptr[j] + 1, colptr[j + 1]):
+            s -= Lx[p] * y[rowidx[p]]
+        y[j] = s / d
 
 
 @kernel
-def factor_constraints(model, Bg, BM, W, h, hk):
-    """``BM = B M⁻¹`` and the Cholesky factor of ``B M⁻¹ Bᵀ + ε/(h h_k) I`` into ``W``."""
-    m = Bg.shape[0]
-    apply_inverse_mass(model, Bg, BM)
+def factor_constraints(model, Bj, BMj, Lx, work, h, hk):
+    """``B M⁻¹`` blocks and the sparse Cholesky factor of ``B M⁻¹ Bᵀ + ε/(h h_k) I`` into ``Lx``.
+
+    Returns ``OK``, or ``SINGULAR`` when a pivot falls below 1e-13 of the
+    largest diagonal entry (dependent constraint rows).
+    """
+    apply_inverse_mass(model, Bj, BMj)
+    assemble_w(model, Bj, BMj, Lx)
+    m = work.shape[0]
     for r in range(m):
-        for s in range(r + 1):
-            W[r, s] = _row_dot(model, r, s, BM, Bg) if _shares_node(model, r, s) else 0.0
-        W[r, r] += model.row_eps[r] / (h * hk)
-    return cholesky_factor(W)
+        Lx[model.L_colptr[model.row_iperm[r]]] += model.row_eps[r] / (h * hk)
+    return sparse_cholesky(model, Lx, work, 1e-13, 0.0, model.row_iperm[:0])
 
 
 @kernel
-def _shares_node(model, r, s):
-    for a in range(2):
-        n = model.row_nodes[r, a]
-        if n >= 0 and (n == model.row_nodes[s, 0] or n == model.row_nodes[s, 1]):
-            return True
-    return False
+def jacobian_times(model, Bj, v, w, out):
+    """``out = B V`` (m,) from the joint blocks, ``V = [v | ω]`` per node."""
+    for k in range(Bj.shape[0]):
+        r0 = model.jt_row0[k]
+        for r in range(model.jt_neq[k]):
+            acc = 0.0
+            for side in range(2):
+                n = model.jt_i[k] if side == 0 else model.jt_j[k]
+                if n < 0:
+                    continue
+                for a in range(3):
+                    acc += Bj[k, r, 6 * side + a] * v[n, a] + Bj[k, r, 6 * side + 3 + a] * w[n, a]
+            out[r0 + r] = acc
 
 
 @kernel
-def constraint_impulse(model, Bg, BM, L, PHI, PHIt, v, w, h, hk, lam):
-    """Stabilised implicit stage with the factor ``L``: correct ``v, w`` (N,3) in place.
+def subtract_transpose(model, Cj, lam, v, w):
+    """``V −= Cᵀ λ`` for a block matrix ``C`` (``B`` or ``B M⁻¹``) given by its joint blocks ``Cj``."""
+    for k in range(Cj.shape[0]):
+        r0 = model.jt_row0[k]
+        for side in range(2):
+            n = model.jt_i[k] if side == 0 else model.jt_j[k]
+            if n < 0:
+                continue
+            for r in range(model.jt_neq[k]):
+                lr = lam[r0 + r]
+                for a in range(3):
+                    v[n, a] -= Cj[k, r, 6 * side + a] * lr
+                    w[n, a] -= Cj[k, r, 6 * side + 3 + a] * lr
+
+
+@kernel
+def constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
+    """Stabilised implicit stage with the factor ``Lx``: correct ``v, w`` (N,3) in place.
 
     ``lam`` receives λ = Λ/h_k.
     """
     m = PHI.shape[0]
+    jacobian_times(model, Bj, v, w, lam)
     for r in range(m):
-        acc = PHIt[r] + PHI[r] / h
-        for side in range(2):
-            n = model.row_nodes[r, side]
-            if n < 0:
-                continue
-            for a in range(3):
-                acc += Bg[r, 6 * n + a] * v[n, a] + Bg[r, 6 * n + 3 + a] * w[n, a]
-        lam[r] = acc
-    cholesky_solve(L, lam)
+        work[model.row_iperm[r]] = lam[r] + PHIt[r] + PHI[r] / h
+    sparse_solve(model, Lx, work)
     for r in range(m):
-        for side in range(2):
-            n = model.row_nodes[r, side]
-            if n < 0:
-                continue
-            for a in range(3):
-                v[n, a] -= BM[r, 6 * n + a] * lam[r]
-                w[n, a] -= BM[r, 6 * n + 3 + a] * lam[r]
+        lam[r] = work[model.row_iperm[r]]
+    subtract_transpose(model, BMj, lam, v, w)
     for r in range(m):
         lam[r] /= hk
 
 
 @kernel
-def constraint_power(model, Bg, lam, v_old, w_old, v_new, w_new):
+def constraint_power(model, Bj, lam, v_old, w_old, v_new, w_new):
     """``−λᵀ B V̄`` with ``V̄ = ½(V_old + V_new)``: the power of the constraint forces."""
     P = 0.0
-    for r in range(lam.shape[0]):
-        acc = 0.0
-        for side in range(2):
-            n = model.row_nodes[r, side]
-            if n < 0:
-                continue
-            for a in range(3):
-                acc += Bg[r, 6 * n + a] * 0.5 * (v_old[n, a] + v_new[n, a])
-                acc += Bg[r, 6 * n + 3 + a] * 0.5 * (w_old[n, a] + w_new[n, a])
-        P -= lam[r] * acc
+    for k in range(Bj.shape[0]):
+        r0 = model.jt_row0[k]
+        for r in range(model.jt_neq[k]):
+            acc = 0.0
+            for side in range(2):
+                n = model.jt_i[k] if side == 0 else model.jt_j[k]
+                if n < 0:
+                    continue
+                for a in range(3):
+                    acc += Bj[k, r, 6 * side + a] * 0.5 * (v_old[n, a] + v_new[n, a])
+                    acc += Bj[k, r, 6 * side + 3 + a] * 0.5 * (w_old[n, a] + w_new[n, a])
+            P -= lam[r0 + r] * acc
     return P

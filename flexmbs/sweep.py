@@ -1,0 +1,279 @@
+"""``flexmbs sweep``: a parameter study of one deck, every case a task on dask.distributed.
+
+A study file (TOML) names a deck and a grid of overrides::
+
+    deck = "../models/embedded_beam.toml"   # relative to the study file
+    description = "mesh × damping"          # optional
+
+    [grid]
+    refine = [1, 2]                         # the deck reader's refine, dt, t_end
+    damping = [20.0, 25.0]                  # a bare [solver] key: solver.damping
+    "sections.rollup.EI2" = [100.0, 120.0]  # any deck value by its dotted name
+
+Every combination of the grid (their Cartesian product, in the order written)
+is a case: the deck read with those overrides (:func:`reference.io.deck.load_deck`,
+so every value is validated as if written in the deck), solved, its results
+written to ``OUT/case_NNN/results.h5``.  The cases run as tasks on a Dask
+cluster — a local one of ``workers`` processes by default, or an existing
+scheduler (``scheduler = "tcp://host:8786"``).  ``OUT/summary.csv`` has one row
+per case: the grid values, the status (``completed`` or the error of a failed
+case), the wall time and the case's values (:func:`case_values`).
+
+Dask is imported only here (the engine, ``reference/``, never needs it); the
+pieces are usable from Python: :func:`load_study` (or :func:`make_study`), :func:`cases`,
+:func:`run_case` (one case, in this process) and :func:`run_study`.
+"""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import math
+import sys
+import time
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from reference.io.deck import DeckError
+
+DECK_OVERRIDES = ("refine", "dt", "t_end")
+"""Grid names passed to the deck reader as they are."""
+SOLVER_KEYS = ("algorithm", "damping", "output_every", "consistent_initial_velocities")
+"""Bare grid names that mean ``solver.NAME``."""
+
+
+@dataclass
+class Study:
+    """A parameter study: ``deck`` (path), ``grid`` (name → list of values, in the file's order)."""
+
+    path: Path
+    deck: Path
+    grid: dict
+    description: str = ""
+
+
+def _fail(path, entry: str, problem: str, fix: str = "") -> DeckError:
+    return DeckError(f"{path}: {entry}: {problem}" + (f"; {fix}" if fix else ""))
+
+
+def load_study(path) -> Study:
+    """Read and validate a study file (one-line :class:`DeckError` messages naming the entry and the fix).
+
+    The grid's names are checked against the deck by reading it with the first
+    case's overrides, so a misspelt name fails here, before any task runs.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DeckError(f"{path}: no such study file" + (" (it is a directory)" if path.exists() else ""))
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as exc:
+        raise DeckError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise DeckError(f"{path}: not valid TOML: {exc}") from None
+    for key in data:
+        if key not in ("deck", "grid", "description"):
+            raise _fail(path, key, "unknown key", "a study has deck, [grid] and optionally description")
+    if not isinstance(data.get("deck"), str):
+        raise _fail(path, "deck", "missing or not a string", 'give the deck file, e.g. deck = "model.toml"')
+    deck = (path.parent / data["deck"]).resolve()
+    if not deck.is_file():
+        raise _fail(path, "deck", f"no such deck file {data['deck']!r} (looked for {deck})",
+                    "the path is relative to the study file")
+    return make_study(deck, data.get("grid"), str(data.get("description", "")), path)
+
+
+def make_study(deck, grid: dict, description: str = "", path=None) -> Study:
+    """A study from Python: ``deck`` (path) and ``grid`` (name → list), validated as a study file is.
+
+    E.g. a convergence study, ``run_study(make_study("models/embedded_beam.toml",
+    {"refine": [1, 2, 4, 8]}), "out/convergence")``.
+    """
+    deck = Path(deck).resolve()
+    path = Path(path) if path is not None else deck
+    if not deck.is_file():
+        raise _fail(path, "deck", f"no such deck file {str(deck)!r}")
+    if not isinstance(grid, dict) or not grid:
+        raise _fail(path, "grid", "missing or empty [grid] table", "e.g. [grid] with refine = [1, 2]")
+    for name, values in grid.items():
+        entry = f"grid.{name}"
+        if not isinstance(values, list) or not values:
+            raise _fail(path, entry, f"expected a non-empty list of values, got {values!r}", f"e.g. {name} = [1, 2]")
+        for v in values:
+            if isinstance(v, (dict, list)):
+                raise _fail(path, entry, f"expected single values (numbers, strings, booleans), got {v!r}")
+        if name not in DECK_OVERRIDES and name not in SOLVER_KEYS and "." not in name:
+            raise _fail(path, entry, "unknown name",
+                        f"use {', '.join(DECK_OVERRIDES + SOLVER_KEYS)} or a deck value's dotted name "
+                        "(e.g. sections.NAME.EI2)")
+    study = Study(path, deck, dict(grid), description)
+    from reference.io.deck import load_deck
+
+    try:
+        load_deck(deck, overrides=deck_overrides(cases(study)[0]))
+    except DeckError as exc:
+        if path == deck:
+            raise
+        raise DeckError(f"{path}: grid (first case): {exc}") from None
+    return study
+
+
+def cases(study: Study) -> list[dict]:
+    """Every combination of the grid, as ``{name: value}`` (the last name varying fastest)."""
+    names = list(study.grid)
+    return [dict(zip(names, combo)) for combo in itertools.product(*(study.grid[n] for n in names))]
+
+
+def deck_overrides(case: dict) -> dict:
+    """A case's grid values as the deck reader's overrides (bare solver keys → ``solver.NAME``)."""
+    return {(f"solver.{k}" if k in SOLVER_KEYS else k): v for k, v in case.items()}
+
+
+def case_values(domain, results) -> dict:
+    """The numbers recorded for a case in ``summary.csv``.
+
+    The final time, the final energies (kinetic, strain, external work,
+    dissipated), the largest constraint violation ‖Φ‖, and for each of the
+    deck's ``[checks.NAME]`` with an ``observable`` (``docs/observables.md``)
+    its value at the final time: ``NAME`` for a scalar, ``NAME.x`` … for the
+    components of a vector.  A check with a ``node`` but no observable gives
+    that node's final position.
+    """
+    import numpy as np
+
+    from reference.observables import KINDS, parse
+
+    out = {"t_final": float(results.time[-1])}
+    for key, series in results.energy.items():
+        out[f"{key}_final"] = float(series[-1])
+    out["max_violation"] = float(results.constraint_violation.max()) if len(results.constraint_violation) else 0.0
+    for name, spec in domain.checks.items():
+        if not isinstance(spec, dict):
+            continue
+        text = spec.get("observable")
+        if text is None and isinstance(spec.get("node"), str):
+            text = f"position:{spec['node']}"
+        if not isinstance(text, str):
+            continue
+        try:
+            observable = parse(text, domain)
+            value = np.asarray(observable.evaluate(results), dtype=float)[-1]
+        except (ValueError, KeyError, IndexError, AttributeError):  # not computable from these results
+            continue
+        if value.ndim == 0:
+            out[name] = float(value)
+        elif value.ndim == 1:
+            comps = KINDS.get(observable.kind, (None, ()))[1]
+            labels = comps[: value.size] if len(comps) >= value.size else [str(i) for i in range(value.size)]
+            out.update({f"{name}.{c}": float(v) for c, v in zip(labels, value)})
+    return out
+
+
+def run_case(deck, case: dict, out_dir) -> dict:
+    """Run one case in this process; never raises: a failure is the row's status.
+
+    Returns the summary row: the grid values, ``status``, ``wall_time`` [s],
+    ``results`` (the file) and :func:`case_values`.
+    """
+    from reference.domain import SolverDiverged
+    from reference.io.deck import load_deck
+
+    out_dir = Path(out_dir)
+    row = {**case, "status": "completed", "wall_time": math.nan, "results": ""}
+    t0 = time.perf_counter()
+    try:
+        domain = load_deck(deck, overrides=deck_overrides(case))
+        out_dir.mkdir(parents=True, exist_ok=True)
+        results_path = out_dir / "results.h5"
+        results = domain.solve(results_path=results_path)
+        row["results"] = str(results_path)
+        row.update(case_values(domain, results))
+    except (DeckError, SolverDiverged, ValueError, OSError, FloatingPointError) as exc:
+        row["status"] = "failed: " + " ".join(str(exc).split())
+    except Exception as exc:  # a bug still must not lose the study: record it
+        row["status"] = f"failed: {type(exc).__name__}: " + " ".join(str(exc).split())
+    row["wall_time"] = time.perf_counter() - t0
+    return row
+
+
+def _client(workers: int | None, scheduler: str | None):
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="20s"), None
+        except (OSError, TimeoutError) as exc:
+            raise DeckError(f"cannot reach the Dask scheduler at {scheduler}: {exc}; start it with "
+                            "`dask scheduler` (and `dask worker ADDRESS`) or drop --scheduler") from None
+    cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True, dashboard_address=None)
+    return Client(cluster), cluster
+
+
+def run_study(study: Study, out, workers: int | None = None, scheduler: str | None = None,
+              progress=None) -> list[dict]:
+    """Run every case of ``study`` on Dask and write ``OUT/summary.csv``; return the rows (case order).
+
+    Parameters
+    ----------
+    workers : int, optional
+        Processes of the local cluster (default 2); ignored with ``scheduler``.
+    scheduler : str, optional
+        Address of a running Dask scheduler (e.g. ``tcp://127.0.0.1:8786``).
+    progress : callable(str), optional
+        Called with one line per finished case (default: print to stderr).
+    """
+    from dask.distributed import as_completed
+
+    progress = progress or (lambda line: print(line, file=sys.stderr, flush=True))
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    todo = cases(study)
+    client, cluster = _client(workers, scheduler)
+    rows: list[dict | None] = [None] * len(todo)
+    try:
+        futures = {}
+        for k, case in enumerate(todo):
+            f = client.submit(run_case, str(study.deck), case, str(out / f"case_{k:03d}"), pure=False,
+                              key=f"flexmbs-case-{k}-{time.time_ns()}")
+            futures[f] = k
+        progress(f"flexmbs sweep: {len(todo)} cases of {study.deck.name} on "
+                 f"{scheduler or f'a local cluster of {workers or 2} workers'}")
+        for done, f in enumerate(as_completed(futures), start=1):
+            k = futures[f]
+            try:
+                row = f.result()
+            except Exception as exc:  # the worker died, or the task could not run
+                row = {**todo[k], "status": f"failed: {type(exc).__name__}: {exc}", "wall_time": math.nan,
+                       "results": ""}
+            rows[k] = row
+            label = ", ".join(f"{n} = {v}" for n, v in todo[k].items())
+            progress(f"[{done}/{len(todo)}] case {k} ({label}): {row['status']} in {row['wall_time']:.2f} s")
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    write_summary(out / "summary.csv", study, rows)
+    return rows
+
+
+def write_summary(path, study: Study, rows: list[dict]) -> None:
+    """One row per case: case number, grid values, status, wall time, results file, then the values."""
+    fixed = ["case", *study.grid, "status", "wall_time", "results"]
+    extra = sorted({k for r in rows for k in r} - set(fixed))
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        w = csv.DictWriter(fh, fieldnames=fixed + extra)
+        w.writeheader()
+        for k, row in enumerate(rows):
+            w.writerow({"case": k, **{key: (repr(v) if isinstance(v, float) else v) for key, v in row.items()}})
+
+
+def main(args) -> int:
+    """The ``flexmbs sweep`` command."""
+    if args.workers is not None and args.workers < 1:
+        raise DeckError(f"--workers {args.workers}: needs at least one worker")
+    study = load_study(args.study)
+    rows = run_study(study, args.out, workers=args.workers, scheduler=args.scheduler)
+    failed = sum(1 for r in rows if r["status"] != "completed")
+    print(f"{len(rows)} cases, {len(rows) - failed} completed, {failed} failed → {Path(args.out) / 'summary.csv'}")
+    return 1 if failed else 0
