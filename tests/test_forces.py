@@ -616,14 +616,22 @@ def _implicit_checks():
     d.solver.algorithm, d.solver.dt, d.solver.t_end = "generalized_alpha", 2e-3, 1.4
     r = d.solve()
     period = np.mean(np.diff(crossings(r.time, r.position("m")[:, 0] - 1.0)))
-    return [d_err / np.linalg.norm(F / k[:3]), t_err / np.linalg.norm(M / k[3:]), period / (2 * np.pi / 10) - 1]
+    d = Domain()
+    disc = d.add_rigid_body("disc", 1.0, [1.0, 1.0, 2.0], [0.0, 0.0, 0.0])
+    disc.angular_velocity = np.array([0.0, 0.0, 15.0])  # amplitude 3 rad > π: the angle must stay continuous
+    d.add_force_element(Rotational(disc, None, [0.0, 0.0, 1.0], stiffness=50.0))
+    d.solver.algorithm, d.solver.dt, d.solver.t_end = "generalized_alpha", 2e-3, 2.6
+    r = d.solve()
+    torsion = np.mean(np.diff(crossings(r.time, r.angular_velocity("disc")[:, 2])))
+    return [d_err / np.linalg.norm(F / k[:3]), t_err / np.linalg.norm(M / k[3:]), period / (2 * np.pi / 10) - 1,
+            torsion / (2 * np.pi / 5) - 1]
 
 
 def test_implicit_algorithms_assemble_the_force_elements():
     """The static algorithm puts a bushing at d = K⁻¹F exactly (1e-9: Newton's tolerance; the rotation
     at K⁻¹M to 1e-3: the moment is the gradient of the small-rotation energy, T(θ)ᵀKθ, first order in
-    θ = 1e-3), and generalized-α (ρ∞ = 0.8, h = 2e-3) gives the oscillator's period 2π/10 within 1e-4
-    (its O((ωh)²) error).  Run without compilation (a subprocess with NUMBA_DISABLE_JIT=1), as the tangent
+    θ = 1e-3), and generalized-α (ρ∞ = 0.8, h = 2e-3) gives the oscillator's period 2π/10 and a torsional
+    pendulum's 2π/5 (swinging ±3 rad: the continuous angle) within 1e-4 (its O((ωh)²) error).  Run without compilation (a subprocess with NUMBA_DISABLE_JIT=1), as the tangent
     test, to keep the suite's compile time down."""
     import json
     import os
@@ -636,5 +644,6 @@ def test_implicit_algorithms_assemble_the_force_elements():
     out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=600,
                          env={**os.environ, "NUMBA_DISABLE_JIT": "1", "PYTHONPATH": str(root)})
     assert out.returncode == 0, out.stderr[-2000:]
-    d_err, t_err, period_err = json.loads(out.stdout.strip().splitlines()[-1])
-    assert d_err < 1e-9 and t_err < 1e-3 and abs(period_err) < 1e-4, (d_err, t_err, period_err)
+    d_err, t_err, period_err, torsion_err = json.loads(out.stdout.strip().splitlines()[-1])
+    assert d_err < 1e-9 and t_err < 1e-3 and abs(period_err) < 1e-4 and abs(torsion_err) < 1e-4, \
+        (d_err, t_err, period_err, torsion_err)

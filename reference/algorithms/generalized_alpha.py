@@ -89,6 +89,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         self.hx = 6e-6 * self.L
         vd = np.zeros((N, 6))
         lam = np.zeros(m)
+        self.work.angle[:] = state.angle  # the force elements' continuous angles
         U = self.evaluate(model, x, q, v, w, vd, lam, t, True)
         r0 = self.work.r.copy()
         rate = np.zeros(m)
@@ -199,6 +200,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             self.a = a_new + (1.0 - af) / (1.0 - am) * (vd_new - vd)
             self.vd, self.lam = vd_new, lam
             x[:], q[:], v[:], w[:] = x1, q1, v1, w1
+            state.angle[:] = self.work.angle
             clock[1] += 1
             clock[0] = clock[1] * h
             self._run = (state, clock[1])
