@@ -370,6 +370,14 @@ class ForceElement(ABC):
         return 1.0 / m + r * r / J_min
 
 
+def _frame(axis, reference, label):
+    """The element frame, refusing a zero axis or a reference along the axis."""
+    axis = np.asarray(axis, dtype=float).reshape(3)
+    if not np.linalg.norm(axis) > 0.0:
+        raise ValueError(f"force element {label!r}: the axis is the zero vector; give a direction")
+    return joint_frame(axis, reference)
+
+
 def _check_bodies(body_i, body_j, label):
     if body_i is None:
         raise ValueError(f"force element {label!r}: body_i cannot be the ground")
@@ -478,7 +486,7 @@ class Rotational(ForceElement):
         _check_bodies(self.body_i, self.body_j, self.label)
         if self.stiffness < 0.0 or self.damping < 0.0:
             raise ValueError(f"spring {self.label!r}: stiffness and damping must not be negative")
-        self._frame = joint_frame(self.axis, self.reference)
+        self._frame = _frame(self.axis, self.reference, self.label)
 
     def points(self):
         p = self.body_i.position
@@ -537,7 +545,7 @@ class Bushing(ForceElement):
         self.damping = np.asarray(self.damping, dtype=float).reshape(6)
         if np.any(self.stiffness < 0.0) or np.any(self.damping < 0.0):
             raise ValueError(f"bushing {self.label!r}: stiffnesses and dampings must not be negative")
-        self._frame = joint_frame(self.axis, self.reference)
+        self._frame = _frame(self.axis, self.reference, self.label)
 
     def points(self):
         return self.point, self.point

@@ -420,6 +420,18 @@ stiffness = 100.0
     assert message in text and "\n" not in text and text.startswith(str(tmp_path))
 
 
+def test_zero_axis_of_a_torsion_spring_is_refused(tmp_path):
+    body = MASS + """
+[[springs]]
+kind = "rotational"
+body_i = "m"
+axis = [0.0, 0.0, 0.0]
+stiffness = 1.0
+"""
+    with pytest.raises(DeckError, match="springs\\[0\\]: force element 'rotational:0': the axis is the zero vector"):
+        load_deck(deck(tmp_path, body))
+
+
 @pytest.mark.parametrize("expr, message", [
     ("sin(3*t", "does not parse"),
     ("sin(3*x)", "unknown name 'x'"),
