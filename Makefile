@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: report test fuzz bench derive notebooks clean
+.PHONY: report test fuzz signals bench derive notebooks clean
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
@@ -25,6 +25,10 @@ test: $(STAMP)
 # 10,000 mutated decks through the deck reader (the test suite runs 1,000)
 fuzz: $(STAMP)
 	$(BIN)/python tests/fuzz_decks.py --cases 10000
+
+# 20 SIGKILL and 10 SIGTERM/SIGHUP trials of `flexmbs run` (the test suite runs a few)
+signals: $(STAMP)
+	$(BIN)/python tests/stop_runs.py --kills 20 --terms 10
 
 $(VENV)/.bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,sweep,test,bench]"

@@ -2,6 +2,9 @@
 
 import sys
 
-from flexmbs.cli import main
+try:
+    from flexmbs.cli import main
+except KeyboardInterrupt:  # Ctrl-C while Python starts: quietly, as the command would
+    sys.exit(130)
 
 sys.exit(main())

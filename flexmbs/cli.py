@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import signal
 import sys
 import time
 from pathlib import Path
 
 from flexmbs import __version__
+
+SIGNAL_NAMES = {signal.SIGINT: "SIGINT", signal.SIGTERM: "SIGTERM", signal.SIGHUP: "SIGHUP"}
 
 
 class CommandError(Exception):
@@ -25,10 +29,32 @@ def _module(name: str, command: str):
                            "virtual environment)") from None
 
 
+class Stopped(BaseException):
+    """A run stopped by a signal (SIGINT, SIGTERM, SIGHUP); ``signum`` says which."""
+
+    def __init__(self, signum: int):
+        super().__init__(SIGNAL_NAMES.get(signum, str(signum)))
+        self.signum = signum
+
+
+def _stop(signum, frame):
+    """The first SIGINT, SIGTERM or SIGHUP stops the command (as Ctrl-C does); later ones are ignored,
+    so that the results file is closed and one message printed."""
+    for sig in SIGNAL_NAMES:
+        signal.signal(sig, signal.SIG_IGN)
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt
+    raise Stopped(signum)
+
+
+def install_signal_handlers() -> None:
+    for sig in SIGNAL_NAMES:
+        signal.signal(sig, _stop)
+
+
 def cmd_run(args) -> int:
     from flexmbs.progress import ProgressBar
     from reference.domain import Domain, SolverDiverged
-    from reference.io.results import load_results
     from reference.io.vtk import write_vtk
 
     overrides = {k: v for k, v in (("t_end", args.t_end), ("dt", args.dt), ("refine", args.refine)) if v is not None}
@@ -42,12 +68,22 @@ def cmd_run(args) -> int:
         result = domain.solve(results_path=results_path, progress=bar)
     except SolverDiverged as exc:
         raise CommandError(f"{args.deck}: {exc} (results file: {results_path})") from None
+    except (Stopped, KeyboardInterrupt) as exc:
+        run = getattr(domain, "last_run", {}) or {}
+        where = (f"; results up to t = {run['t']:.6g} are kept in {run['path']} (status "
+                 f"{run['status']!r})") if run.get("path") and Path(run["path"]).exists() else ""
+        raise Stopped(getattr(exc, "signum", signal.SIGINT)) from CommandError(where)
+    except Exception as exc:
+        run = getattr(domain, "last_run", {}) or {}
+        where = f"; results up to t = {run['t']:.6g} are kept in {run['path']}" if run.get("path") else ""
+        raise CommandError(f"{args.deck}: the run failed at t = {run.get('t', 0.0):.6g}: "
+                           f"{type(exc).__name__}: {exc}{where} (status 'failed')") from exc
     finally:
         bar.close()
     wall = time.perf_counter() - t0
     pvd = None
-    if not args.no_vtk:
-        pvd = write_vtk(domain, load_results(results_path), out / "vtk", domain.name)
+    if args.vtk_every > 0:
+        pvd = write_vtk(domain, result, out / "vtk", domain.name, every=args.vtk_every)
     print(f"{domain.name}: {len(result.time)} outputs to t = {result.time[-1]:g} in {wall:.2f} s "
           f"(solve {result.wall_time:.3f} s) → {results_path}" + (f", {pvd}" if pvd else ""))
     return 0
@@ -132,7 +168,10 @@ def parser() -> argparse.ArgumentParser:
     run.add_argument("--t-end", type=float, help="end time, overriding the deck's")
     run.add_argument("--dt", type=float, help="time step, overriding the deck's")
     run.add_argument("--refine", type=int, help="multiply every beam's element count (the step shrinks with it)")
-    run.add_argument("--no-vtk", action="store_true", help="skip the ParaView output")
+    run.add_argument("--no-vtk", dest="vtk_every", action="store_const", const=0, default=1,
+                     help="skip the ParaView output")
+    run.add_argument("--vtk-every", type=int, default=1, metavar="N",
+                     help="ParaView output of every N-th output record (default 1; 0: none)")
     run.set_defaults(func=cmd_run)
     cc = sub.add_parser("crosscheck", help="run a deck in the reference and in Exudyn and compare")
     cc.add_argument("deck")
@@ -175,26 +214,44 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv=None) -> int:
-    args = parser().parse_args(argv)
-    from reference.domain import SolverDiverged
-    from reference.io.deck import DeckError
+MESSAGE_CHARS = 1000
+"""Longest error line; anything longer is cut (the deck reader keeps its own to ~300)."""
 
+
+def main(argv=None) -> int:
+    """The command; every failure is one line on stderr: exit 2 for a user error, 1 for an internal
+    one, 128 + the signal number when stopped by SIGINT (130), SIGHUP (129) or SIGTERM (143)."""
+    install_signal_handlers()
     try:
-        from reference.jit import threads
+        args = parser().parse_args(argv)
+        from reference.domain import SolverDiverged
+        from reference.io.deck import DeckError
 
         try:
-            threads()
-        except ValueError as exc:
-            raise CommandError(f"{exc}; unset it or give e.g. FLEXMBS_THREADS=2") from None
-        return args.func(args)
-    except (DeckError, SolverDiverged, CommandError, OSError, KeyError) as exc:
-        # one line: the deck reader's messages name file, entry and fix; OSError covers a missing
-        # deck or an unwritable output folder; KeyError is an unknown node label (flexmbs plot)
-        message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
-        message = " ".join(str(message).split())
-        print(f"flexmbs: error: {message}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("flexmbs: interrupted; results written so far are kept", file=sys.stderr)
-        return 130
+            from reference.jit import threads
+
+            try:
+                threads()
+            except ValueError as exc:
+                raise CommandError(f"{exc}; unset it or give e.g. FLEXMBS_THREADS=2") from None
+            return args.func(args)
+        except (DeckError, SolverDiverged, CommandError, OSError, KeyError) as exc:
+            # one line: the deck reader's messages name file, entry and fix; OSError covers a missing
+            # deck or an unwritable output folder; KeyError is an unknown node label (flexmbs plot)
+            message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+            message = " ".join(str(message).split())
+            if len(message) > MESSAGE_CHARS:
+                message = message[: MESSAGE_CHARS - 1] + "…"
+            print(f"flexmbs: error: {message}", file=sys.stderr)
+            if os.environ.get("FLEXMBS_TRACEBACK") and isinstance(exc, CommandError) and exc.__cause__:
+                raise
+            return 2 if not (isinstance(exc, CommandError) and "the run failed" in str(exc)) else 1
+    except (Stopped, KeyboardInterrupt) as exc:
+        signum = getattr(exc, "signum", signal.SIGINT)
+        where = str(exc.__cause__) if isinstance(exc.__cause__, CommandError) else ""
+        word = "interrupted" if signum == signal.SIGINT else f"terminated ({SIGNAL_NAMES.get(signum, signum)})"
+        try:
+            print(f"flexmbs: {word}{where}", file=sys.stderr)
+        except (Stopped, KeyboardInterrupt, OSError):
+            pass
+        return 128 + int(signum)

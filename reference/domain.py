@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -37,6 +37,7 @@ from reference.joints.assembly import (
 )
 from reference.joints.sparse import constraint_pattern
 from reference.joints.joint import ROWS
+from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor
 from reference.joints.reactions import reactions
 from reference.nodes import Node
 from reference.generated import rotation_maps as rm
@@ -53,7 +54,7 @@ rigid four-bar (tests/test_pendulum.py) stay above 3e-4."""
 
 
 class SolverDiverged(RuntimeError):
-    """The run produced non-finite values; the results written so far are kept."""
+    """The run failed or blew up; the results written so far are kept."""
 
 
 @dataclass
@@ -173,13 +174,13 @@ def arc_geometry(start, end, center, n_elements: int) -> tuple[np.ndarray, np.nd
     return points, tangents
 
 
-@dataclass
 class Results:
-    """Time histories of a run, as arrays in memory (the results file holds the same).
+    """Time histories of a run, from the results file (read on demand) or from memory.
 
-    ``time`` (n,), ``position``/``velocity``/``angular_velocity`` (n,N,3),
-    ``rotation`` (n,N,4), ``energy`` dict of (n,) arrays, ``labels`` (N,),
-    ``status`` ("completed" or why it stopped), ``wall_time`` [s].
+    ``time`` (n,), ``positions``/``velocities``/``angular_velocities`` (n,N,3),
+    ``rotations`` (n,N,4), ``energy`` dict of (n,) arrays, ``constraint_violation``,
+    ``velocity_constraint_violation`` (n,), ``labels`` (N,), ``status`` ("completed"
+    or why the run stopped), ``wall_time`` [s], ``attrs`` (the file's attributes).
     Joints (J): ``joint_labels``, ``reaction_forces`` and ``reaction_moments``
     (n,J,3), the force and the moment about the joint point that each joint
     exerts on its body_i, inertial [N], [N m] (NaN where not computed:
@@ -188,28 +189,97 @@ class Results:
     frame.  ``multipliers`` (n,m) the Lagrange multipliers (``M a + Bᵀλ = Q``).
 
     Node keys are ids, labels, or the aliases ``BEAM:start`` and ``BEAM:end``
-    (the first and last node ``BEAM:i`` of a meshed beam).
+    (the first and last node ``BEAM:i`` of a meshed beam).  ``position("beam:12")``
+    and the like read one node's history (from a file, only that node's column);
+    :meth:`data` gives any dataset by its path in the file.
+
+    Parameters
+    ----------
+    source : path, optional
+        A results file: the arrays not given are read from it on first use, so a
+        long run's histories are not held in memory unless asked for.
     """
 
-    time: np.ndarray
-    labels: list
-    positions: np.ndarray
-    rotations: np.ndarray
-    velocities: np.ndarray
-    angular_velocities: np.ndarray
-    energy: dict
-    constraint_violation: np.ndarray
-    velocity_constraint_violation: np.ndarray
-    status: str = "completed"
-    wall_time: float = 0.0
-    attrs: dict = field(default_factory=dict)
-    joint_labels: list = field(default_factory=list)
-    reaction_forces: np.ndarray | None = None
-    reaction_moments: np.ndarray | None = None
-    element_labels: list = field(default_factory=list)
-    section_forces: np.ndarray | None = None
-    section_moments: np.ndarray | None = None
-    multipliers: np.ndarray | None = None
+    ARRAYS = {
+        "time": "time", "positions": "nodes/position", "rotations": "nodes/rotation",
+        "velocities": "nodes/velocity", "angular_velocities": "nodes/angular_velocity",
+        "constraint_violation": "constraints/violation_norm",
+        "velocity_constraint_violation": "constraints/velocity_violation_norm",
+        "reaction_forces": "joints/reaction_force", "reaction_moments": "joints/reaction_moment",
+        "section_forces": "elements/section_force", "section_moments": "elements/section_moment",
+        "multipliers": "constraints/multipliers",
+    }
+    """Attribute → dataset path in the results file."""
+    ENERGIES = ("kinetic", "strain", "external_work", "dissipated")
+    WIDTHS = {"joints/reaction_force": "joint_labels", "joints/reaction_moment": "joint_labels",
+              "elements/section_force": "element_labels", "elements/section_moment": "element_labels"}
+    """Per-item datasets (n, items, 3): NaN of that shape when a file lacks them."""
+
+    def __init__(self, time=None, labels=None, positions=None, rotations=None, velocities=None,
+                 angular_velocities=None, energy=None, constraint_violation=None, velocity_constraint_violation=None,
+                 status: str = "completed", wall_time: float = 0.0, attrs=None, joint_labels=None,
+                 reaction_forces=None, reaction_moments=None, element_labels=None, section_forces=None,
+                 section_moments=None, multipliers=None, source=None, extra=None):
+        given = {"time": time, "positions": positions, "rotations": rotations, "velocities": velocities,
+                 "angular_velocities": angular_velocities, "energy": energy,
+                 "constraint_violation": constraint_violation,
+                 "velocity_constraint_violation": velocity_constraint_violation,
+                 "reaction_forces": reaction_forces, "reaction_moments": reaction_moments,
+                 "section_forces": section_forces, "section_moments": section_moments, "multipliers": multipliers}
+        self.__dict__.update({k: v for k, v in given.items() if v is not None})
+        self.source = source
+        self.extra = dict(extra or {})
+        self.wall_time = wall_time
+        self.labels, self.status, self.attrs = labels, status, dict(attrs or {})
+        self.joint_labels, self.element_labels = list(joint_labels or []), list(element_labels or [])
+        if source is not None:
+            import h5py
+
+            def names(f, name):
+                return [s.decode() if isinstance(s, bytes) else str(s) for s in f[name][()]] if name in f else []
+
+            with h5py.File(source, "r") as f:
+                self.labels = names(f, "nodes/label")
+                self.joint_labels, self.element_labels = names(f, "joints/label"), names(f, "elements/label")
+                self.attrs = dict(f.attrs)
+                self.status = str(f.attrs.get("status", ""))
+
+    def __getattr__(self, name):
+        if name.startswith("__") or name in ("source", "extra"):
+            raise AttributeError(name)
+        if name == "energy":
+            value = {k: self.data(f"energy/{k}") for k in self.ENERGIES}
+        elif name in self.ARRAYS:
+            value = self.data(self.ARRAYS[name])
+        else:
+            raise AttributeError(name)
+        self.__dict__[name] = value
+        return value
+
+    def data(self, path: str, index=()) -> np.ndarray:
+        """The dataset at ``path`` (e.g. ``"constraints/multipliers"``), or its ``[:, index]`` part;
+        NaN (zero columns for the multipliers) where the run did not compute it."""
+        if path in self.extra:
+            return self.extra[path][(slice(None), *np.atleast_1d(index))] if index != () else self.extra[path]
+        if self.source is None:
+            n = len(self.time)
+            return self._missing(path, n)
+        import h5py
+
+        with h5py.File(self.source, "r") as f:
+            if path not in f:
+                return self._missing(path, f["time"].shape[0])
+            return f[path][(slice(None), index)] if index != () else f[path][()]
+
+    def _missing(self, path: str, n: int) -> np.ndarray:
+        if path == "constraints/multipliers":
+            return np.zeros((n, 0))
+        if path in self.WIDTHS:
+            return np.full((n, len(getattr(self, self.WIDTHS[path])), 3), np.nan)
+        return np.full(n, np.nan)
+
+    def __len__(self) -> int:
+        return len(self.time)
 
     def index(self, key) -> int:
         """Column of a node: an id, a label, or ``BEAM:start`` / ``BEAM:end``."""
@@ -225,17 +295,84 @@ class Results:
                 return (min if which == "start" else max)(numbered)[1]
         raise KeyError(f"no node labelled {key!r}; labels are e.g. {self.labels[:4]}")
 
+    def _node(self, name: str, key) -> np.ndarray:
+        if name in self.__dict__ or self.source is None:
+            return getattr(self, name)[:, self.index(key)]
+        return self.data(self.ARRAYS[name], self.index(key))
+
     def position(self, key) -> np.ndarray:
-        return self.positions[:, self.index(key)]
+        return self._node("positions", key)
 
     def rotation(self, key) -> np.ndarray:
-        return self.rotations[:, self.index(key)]
+        return self._node("rotations", key)
 
     def velocity(self, key) -> np.ndarray:
-        return self.velocities[:, self.index(key)]
+        return self._node("velocities", key)
 
     def angular_velocity(self, key) -> np.ndarray:
-        return self.angular_velocities[:, self.index(key)]
+        return self._node("angular_velocities", key)
+
+    def joint_index(self, joint) -> int:
+        if joint in self.joint_labels:
+            return self.joint_labels.index(joint)
+        raise KeyError(f"no joint labelled {joint!r}; joints are {self.joint_labels}")
+
+    def element_index(self, beam, element=None) -> int:
+        """Column of an element: its label ``"beam/i"``, or ``(beam, i)``."""
+        label = str(beam) if element is None else f"{beam}/{int(element)}"
+        if label in self.element_labels:
+            return self.element_labels.index(label)
+        raise KeyError(f"no element labelled {label!r}; elements are e.g. {self.element_labels[:4]}")
+
+    def reaction(self, joint) -> tuple[np.ndarray, np.ndarray]:
+        """``(force, moment)`` (n, 3) each: what ``joint`` exerts on its body_i, moment about the
+        joint point, inertial components [N], [N m]."""
+        k = self.joint_index(joint)
+        return self.reaction_forces[:, k], self.reaction_moments[:, k]
+
+    def section_force(self, beam, element=None) -> np.ndarray:
+        """Force resultant N (n, 3) at the midpoint of element ``beam/element``, section frame [N]."""
+        return self.section_forces[:, self.element_index(beam, element)]
+
+    def section_moment(self, beam, element=None) -> np.ndarray:
+        """Moment resultant M (n, 3) at the midpoint of element ``beam/element``, section frame [N m]."""
+        return self.section_moments[:, self.element_index(beam, element)]
+
+
+class MemoryRecorder:
+    """Keeps the records of a run in preallocated arrays (``Domain.solve`` without a results file).
+
+    Parameters
+    ----------
+    capacity : int
+        Number of records the run will take.
+    labels : list
+        Node labels.
+    """
+
+    def __init__(self, capacity: int, labels: list, joint_labels=(), element_labels=()):
+        self.capacity, self.labels, self.n = capacity, labels, 0
+        self.joint_labels, self.element_labels = list(joint_labels), list(element_labels)
+        self.arrays: dict[str, np.ndarray] = {}
+
+    def append(self, entry: dict) -> None:
+        if not self.arrays:
+            self.arrays = {k: np.empty((self.capacity, *np.shape(v))) for k, v in entry.items()}
+        for k, v in entry.items():
+            self.arrays[k][self.n] = v
+        self.n += 1
+
+    def close(self, status: str) -> None:
+        self.status = status
+
+    def results(self, wall_time: float = 0.0) -> Results:
+        from reference.io.results import dataset_path
+
+        by_path = {dataset_path(k): a[: self.n] for k, a in self.arrays.items()}
+        fields = {name: by_path.pop(path) for name, path in Results.ARRAYS.items() if path in by_path}
+        energy = {k: by_path.pop(f"energy/{k}", np.full(self.n, np.nan)) for k in Results.ENERGIES}
+        return Results(labels=self.labels, energy=energy, status=self.status, wall_time=wall_time, extra=by_path,
+                       joint_labels=self.joint_labels, element_labels=self.element_labels, **fields)
 
     def joint_index(self, joint) -> int:
         if joint in self.joint_labels:
@@ -767,15 +904,18 @@ class Domain:
         owner = [joint for joint in self.multiplier_joints() for _ in range(joint.n_equations)]
         unregularised = [r for r in redundant if owner[r].formulation.epsilon == 0.0]
         involved = self._dependency_rows(model, Lx, dependent, model.row_iperm[unregularised])
-        bad = sorted({owner[r].label for r in involved if owner[r].formulation.epsilon == 0.0},
-                     key=[j.label for j in self.joints].index)
-        if bad:
-            raise ValueError(
-                f"redundant constraints: {len(redundant)} equation(s) of joint(s) {', '.join(bad)} depend on "
-                "the others (e.g. a planar linkage of rigid bodies closed in 3D); give those joints a "
-                "formulation with epsilon > 0 to regularise them, or replace a revolute joint by a "
-                "spherical or universal one"
-            )
+        labels = {owner[r].label for r in involved}
+        loop = [j for j in self.multiplier_joints() if j.label in labels]
+        stiff = [j.label for j in loop if j.formulation.epsilon == 0.0]
+        if not stiff:
+            return
+        revolute = [j.label for j in loop if j.kind == "revolute"]
+        fix = f"regularise one of {', '.join(stiff)} (epsilon > 0, a compliance)"
+        if len(revolute) >= 2:
+            fix += (f", or replace revolute {revolute[-1]} by a spherical and {revolute[-2]} by a universal joint "
+                    "(a spherical alone leaves one redundant)")
+        raise ValueError(f"redundant constraints: {len(redundant)} equation(s) depend on the others in the loop of "
+                         f"joints {', '.join(j.label for j in loop)}; {fix}")
 
     def initial_conditions(self) -> State:
         """State at t = 0 from the nodes' initial positions, rotations and velocities."""
@@ -828,41 +968,58 @@ class Domain:
         return state
 
     def solve(self, t_end: float | None = None, dt: float | None = None, results_path=None,
-              progress=None) -> Results:
+              progress=None, monitor: bool = True) -> Results:
         """Run from t = 0 to ``t_end`` (paper: Solve, Fig. 9) and return the time histories.
+
+        Records stream to the results file and are not kept in memory; the returned
+        :class:`Results` reads them from the file when asked.  Without a file they are
+        kept in preallocated arrays.  Whatever stops the run, the file is closed with
+        a status saying how it ended (``"completed"``, ``"diverged after t = …"``,
+        ``"interrupted at t = …"`` on Ctrl-C, ``"terminated at t = …"`` on SystemExit —
+        the command line raises it on SIGTERM and SIGHUP — or ``"failed: <reason>"``),
+        and :attr:`last_run` says where and how.
 
         Parameters
         ----------
         t_end, dt : float, optional
             Override the deck's end time and step.
         results_path : path, optional
-            HDF5 results file written incrementally (the contract of reference/io/results.py).
+            HDF5 results file (:mod:`reference.io.results`).
         progress : callable(fraction, t), optional
             Called after every output.
+        monitor : bool
+            Stop a run that blows up while finite (:mod:`reference.monitor`): the algorithm
+            checks the energy balance every step (``Scratch.guard``), the Domain the energy
+            balance and the deformation at every output.
 
         Raises
         ------
         SolverDiverged
-            When the state becomes non-finite; records up to then are kept
-            (and the file, if any, is closed with that status).
+            When the algorithm fails (non-finite state, singular constraints) or the
+            monitor sees a blow-up; records up to then are kept.
         """
         t_end = self.solver.t_end if t_end is None else float(t_end)
         algo = self.algorithm(dt)
-        n_total = int(round(t_end / algo.dt))
+        steps = t_end / algo.dt
+        n_total = int(round(steps)) if steps < 2.0**62 else 0
         if n_total < 1 or abs(n_total * algo.dt - t_end) > 1e-9 * max(t_end, 1.0):
             raise ValueError(f"t_end = {t_end} is not a whole number of steps of dt = {algo.dt}")
+        self.last_run = {"path": None, "status": "not started", "t": 0.0}
         model = self.initialization()
         state = self.initial_conditions()
         every = max(int(self.solver.output_every), 1)
-        N = len(self.nodes)
-        scratch, rec = Scratch.for_model(model), Record.empty(N, model.n_constraints)
-        records = []
-        writer = None
+        scratch, rec = Scratch.for_model(model), Record.empty(len(self.nodes), model.n_constraints)
+        watch = BlowUpMonitor(self, algo.dt, getattr(algo, "explicit", True)) if monitor else None
+        scratch.guard[2] = GUARD_TOLERANCE if monitor else 0.0
         if results_path is not None:
             from reference.io.results import ResultsWriter
 
-            writer = ResultsWriter(results_path, self, algo)
-        status = "completed"
+            sink = ResultsWriter(results_path, self, algo, template=self._record(rec, 0.0))
+            self.last_run["path"] = str(results_path)
+        else:
+            sink = MemoryRecorder(n_total // every + 2, [n.label for n in self.nodes], [j.label for j in self.joints],
+                                  [e.label for e in self.elements])
+        status = "failed: stopped before the first step"
         wall0 = _time.perf_counter()
         try:
             done = 0
@@ -870,22 +1027,39 @@ class Domain:
                 chunk = min(every, n_total - done)
                 t_record = state.t
                 code = algo.advance(model, state, chunk, rec, scratch)
-                self._store(rec, t_record, records, writer)
+                entry = self._record(rec, t_record)
+                sink.append(entry)
+                why = watch.check(rec.energy, rec.x) if watch is not None and code == OK else ""
+                if why:
+                    status = f"diverged after t = {t_record:.6g}"
+                    raise SolverDiverged(f"{why} (stopped at t = {t_record:.6g}); results up to then are kept")
                 if code != OK:
-                    status, message = algo.failure(code, records[-1]["time"], self)
+                    status, message = algo.failure(code, state.t, self)
+                    if watch is not None:
+                        message += watch.guard_report(scratch.guard, state.clock[2])
                     raise SolverDiverged(message)
                 done += chunk
                 if progress is not None and chunk > 0:
                     progress(done / n_total, state.t)
                 if chunk == 0:
                     break
+            status = "completed"
+        except SolverDiverged:
+            raise
         except KeyboardInterrupt:
             status = f"interrupted at t = {state.t:.6g}"
             raise
+        except Exception as exc:
+            status = f"failed: {type(exc).__name__}: {exc}"[:500]
+            raise
+        except BaseException:
+            status = f"terminated at t = {state.t:.6g}"
+            raise
         finally:
-            if writer is not None:
-                writer.close(status)
-        return self._results(records, status, _time.perf_counter() - wall0, algo)
+            self.last_run.update(status=status, t=state.t, energy=float(scratch.guard[4]),
+                                 work=float(state.clock[2]))
+            sink.close(status)
+        return sink.results(_time.perf_counter() - wall0)
 
     def outputs(self, model: Model, x, q, lam, t: float) -> dict:
         """Derived outputs of one record: joint reactions (all joints, NaN for master/slave ones)
@@ -901,8 +1075,9 @@ class Domain:
                          out["section_force"], out["section_moment"], np.zeros(32))
         return out
 
-    def _store(self, rec: Record, t: float, records: list, writer) -> None:
-        entry = {
+    def _record(self, rec: Record, t: float) -> dict:
+        """One output record: record key → value (:data:`reference.io.results.DATASETS`)."""
+        return {
             "time": t, "position": rec.x.copy(), "rotation": rec.q.copy(), "velocity": rec.v.copy(),
             "angular_velocity": rec.w.copy(), "violation_norm": rec.constraint[0],
             "velocity_violation_norm": rec.constraint[1], "multipliers": rec.lam.copy(),
@@ -910,24 +1085,3 @@ class Domain:
             "dissipated": rec.energy[3],
             **self.outputs(self.model, rec.x, rec.q, rec.lam, t),
         }
-        records.append(entry)
-        if writer is not None:
-            writer.append(entry)
-
-    def _results(self, records, status, wall, algo) -> Results:
-        def stack(key):
-            return np.array([r[key] for r in records])
-
-        return Results(
-            time=stack("time"), labels=[n.label for n in self.nodes], positions=stack("position"),
-            rotations=stack("rotation"), velocities=stack("velocity"),
-            angular_velocities=stack("angular_velocity"),
-            energy={k: stack(k) for k in ("kinetic", "strain", "external_work", "dissipated")},
-            constraint_violation=stack("violation_norm"),
-            velocity_constraint_violation=stack("velocity_violation_norm"),
-            status=status, wall_time=wall, attrs={"algorithm": algo.name, "dt": algo.dt},
-            joint_labels=[j.label for j in self.joints], reaction_forces=stack("reaction_force"),
-            reaction_moments=stack("reaction_moment"), element_labels=[e.label for e in self.elements],
-            section_forces=stack("section_force"), section_moments=stack("section_moment"),
-            multipliers=stack("multipliers").reshape(len(records), -1),
-        )

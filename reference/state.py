@@ -207,6 +207,9 @@ class Scratch(NamedTuple):
     TMT: np.ndarray
     rhs: np.ndarray
     r4: np.ndarray
+    guard: np.ndarray
+    """Energy-balance guard ``[E₀, S, tolerance, residual, energy]`` (:mod:`reference.monitor`): an
+    algorithm that supports it stops when the residual exceeds tolerance × S; tolerance 0 turns it off."""
     W_el: np.ndarray
     G: np.ndarray
 
@@ -217,4 +220,4 @@ class Scratch(NamedTuple):
                    np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12)),
                    np.zeros(model.L_rowidx.shape[0]), np.zeros(m), np.zeros(m), np.zeros(10),
                    np.zeros(120), np.zeros((12, 9)), np.zeros(9), np.zeros(9), np.zeros((12, 9)), np.zeros((9, 9)),
-                   np.zeros(9), np.zeros(4), np.zeros((model.conn.shape[0], 40)), np.zeros((N, 6)))
+                   np.zeros(9), np.zeros(4), np.zeros(5), np.zeros((model.conn.shape[0], 40)), np.zeros((N, 6)))

@@ -441,7 +441,14 @@ def check(path: Path, overrides: dict) -> str:
 def run(cases: int, seed: int, workdir: Path, report=None) -> dict:
     """Run ``cases`` cases from ``seed``; return counts, failures (with their decks) and timings."""
     rng = random.Random(seed)
-    bases = base_decks()
+    bases = {}
+    for name, text in base_decks().items():  # a base deck must itself load: mutations are made from valid decks
+        path = workdir / "base.toml"
+        path.write_text(text, encoding="utf-8")
+        if check(path, {}) == "accepted":
+            bases[name] = text
+        elif report:
+            report(f"base deck {name} does not load; left out")
     counts = {"error": 0, "accepted": 0}
     failures = []
     slowest = (0.0, "")

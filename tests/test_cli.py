@@ -26,7 +26,7 @@ def test_run_writes_results_and_vtk(tmp_path, capsys):
         assert f["time"].shape == (5,)
         assert f.attrs["status"] == "completed" and f.attrs["engine"] == "flexmbs-reference"
         assert f.attrs["deck"] == deck.read_text()
-    assert (tmp_path / "out" / "vtk" / "tiny.pvd").exists()
+    assert (tmp_path / "out" / "vtk" / "tiny.vtkhdf").exists()
     assert "outputs to t = 0.02" in capsys.readouterr().out
 
 

@@ -8,6 +8,7 @@ import time
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from flexmbs.cli import main
@@ -125,3 +126,41 @@ def test_cli_refine_override_of_a_billion(tmp_path, capsys):
     path.write_text(EXAMPLE)
     assert main(["run", str(path), "--refine", "1000000000", "--out", str(tmp_path / "out")]) == 2
     assert "above the limit" in capsys.readouterr().err
+
+
+def test_redundancy_message_names_the_loop_and_its_fix_works():
+    """The planar four-bar of rigid bars closed by four revolute joints: the message names all four
+    joints of the loop, which can be regularised, and a fix.  The fix is checked: one revolute
+    replaced by a spherical still leaves a redundant equation; a spherical and a universal joint
+    remove them, and the mechanism then runs (the crank swings under a sideways gravity)."""
+    from reference.domain import Domain, SolverSettings
+    from reference.interactions import Gravity
+
+    from test_pendulum import BAR
+
+    def four_bar(kinds):
+        d = Domain("rigid four-bar")
+        crank = d.add_rigid_bar("crank", (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), BAR, axis2=(1.0, 0.0, 0.0))
+        coupler = d.add_rigid_bar("coupler", (0.0, 1.0, 0.0), (4.0, 4.0, 0.0), BAR)
+        rocker = d.add_rigid_bar("rocker", (4.0, 4.0, 0.0), (4.0, 0.0, 0.0), BAR, axis2=(1.0, 0.0, 0.0))
+        d.add_joint("revolute", crank, None, [0.0, 0.0, 0.0], label="O1")
+        d.add_joint("revolute", coupler, crank, [0.0, 1.0, 0.0], label="A")
+        d.add_joint(kinds[0], rocker, coupler, [4.0, 4.0, 0.0], label="B", axis=(0.0, 0.0, 1.0),
+                    reference=(4.0, 3.0, 0.0) if kinds[0] == "universal" else None)
+        d.add_joint(kinds[1], rocker, None, [4.0, 0.0, 0.0], label="O3")
+        d.add_interaction(Gravity(np.array([-9.81, 0.0, 0.0])))
+        d.solver = SolverSettings(dt=1e-3, t_end=0.2, output_every=100)
+        return d
+
+    with pytest.raises(ValueError) as info:
+        four_bar(("revolute", "revolute")).initialization()
+    message = str(info.value)
+    assert "3 equation(s)" in message and "loop of joints O1, A, B, O3" in message, message
+    assert "regularise one of O1, A, B, O3" in message and "replace revolute O3 by a spherical and B by a universal" \
+        in message, message
+    with pytest.raises(ValueError, match="1 equation"):
+        four_bar(("revolute", "spherical")).initialization()
+    d = four_bar(("universal", "spherical"))
+    r = d.solve()
+    assert r.status == "completed" and r.constraint_violation.max() < 1e-4  # the bound of test_pendulum's linkage
+    assert r.position("crank")[-1][0] < r.position("crank")[0][0] - 1e-3  # it swings under gravity

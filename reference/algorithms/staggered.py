@@ -43,6 +43,7 @@ from reference.joints.assembly import (
     SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
 )
 from reference.joints.master_slave import master_slave_positions, master_slave_project
+from reference.monitor import likely_cause
 from reference.state import Model, Record, Scratch, State
 
 GYRO_SWEEPS = 4
@@ -52,9 +53,10 @@ GYRO_SWEEPS = 4
 CONSTRAINED_SWEEPS = 3
 """Extra (kick, projection) passes when there are joints (contraction ≈ h|ω|)."""
 
-OK, DIVERGED = 0, 1
+OK, DIVERGED, BLOWUP = 0, 1, 3
 """Status codes of :func:`advance`; ``SINGULAR`` (2, from the joint assembly) means
-the constraint matrix lost rank (redundant or degenerate joints)."""
+the constraint matrix lost rank (redundant or degenerate joints); ``BLOWUP`` that the
+energy balance failed (:attr:`reference.state.Scratch.guard`)."""
 
 
 @kernel
@@ -156,6 +158,46 @@ def _kinetic(model, v, w):
             for b in range(3):
                 T += 0.5 * w[i, a] * J[a, b] * w[i, b]
     return T
+
+
+@kernel
+def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
+    """The energy-balance guard of one step (:mod:`reference.monitor`): ``True`` when
+    ``E − E₀ − W + D > tolerance × S + h (|F·V⁻| + |F·V⁺| + |P_drive|)`` (energy gained
+    that no force put in; energy lost, e.g. to the constraint stabilisation, is no blow-up)
+    and ``E − E₀ > tolerance × S`` (the energy itself has grown).  E is the kinetic
+    energy at the integer-step velocities plus the strain energy ``U``; W and D come from
+    ``clock``; S is the largest ``|E₀| + |W| + |D|`` so far; the last term, a step of the
+    external power ``F`` at the half-step velocities V⁻ (``v``, ``w``) and V⁺ (``v_new``,
+    ``w_new``) and of the constraint forces' power ``P_drive``, covers the half-step lag or
+    lead of the work behind or ahead of E.
+    ``guard`` = [E₀, S, tolerance, residual, E]."""
+    c = 0.5 if mean else 1.0
+    d = 0.5 if mean else 0.0
+    T = 0.0
+    P_old = 0.0
+    P_new = 0.0
+    for i in range(v.shape[0]):
+        J = model.inertia[i]
+        for a in range(3):
+            va = c * v[i, a] + d * v_new[i, a]
+            T += 0.5 * model.mass[i] * va * va
+            P_old += F[i, a] * v[i, a] + F[i, 3 + a] * w[i, a]
+            P_new += F[i, a] * v_new[i, a] + F[i, 3 + a] * w_new[i, a]
+            wa = c * w[i, a] + d * w_new[i, a]
+            for b in range(3):
+                T += 0.5 * wa * J[a, b] * (c * w[i, b] + d * w_new[i, b])
+    E = T + U
+    if not mean:  # the first step: E₀ only
+        guard[0] = E
+        guard[1] = abs(E)
+        return False
+    guard[1] = max(guard[1], abs(guard[0]) + abs(clock[2]) + abs(clock[3]))
+    r = E - guard[0] - clock[2] + clock[3]
+    guard[3], guard[4] = r, E
+    # the energy itself must have grown too: negative work at round-off level on a held model
+    # (W ≈ −1e-20, E = 0) is no blow-up
+    return r > guard[2] * guard[1] + h * (abs(P_old) + abs(P_new) + abs(P_drive)) and E - guard[0] > guard[2] * guard[1]
 
 
 @kernel
@@ -262,11 +304,16 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             rec.constraint[1] = math.sqrt(rec.constraint[1])
         if n_steps == 0:
             break
+        P_drive = 0.0
         if n_rows > 0:
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
-            clock[2] += hk * constraint_power(model, Bj, lam, v, w, v_new, w_new)
+            P_drive = constraint_power(model, Bj, lam, v, w, v_new, w_new)
+            clock[2] += hk * P_drive
         if n_fe > 0:
             clock[3] += dD_fe
+        if scratch.guard[2] > 0.0 and _balance(model, v, w, v_new, w_new, F, h, P_drive, n > 0, U, clock,
+                                               scratch.guard):
+            return BLOWUP
         for i in range(N):
             for a in range(3):
                 if not math.isfinite(v_new[i, a]) or not math.isfinite(w_new[i, a]):
@@ -316,9 +363,10 @@ class StaggeredCentralDifference(Algorithm):
                     f"the constraint matrix became singular after t = {t_last:.6g} "
                     "(redundant or degenerate joints); results up to that time are kept. "
                     "Regularise the joints (epsilon > 0) or remove the redundancy.")
+        what = "the energy balance failed" if code == BLOWUP else "the solution became non-finite"
         return (f"diverged after t = {t_last:.6g}",
-                f"the solution became non-finite after t = {t_last:.6g}; results up to that time are kept. "
-                f"Reduce dt below the critical estimate {domain.critical_time_step():.3g} or check the loads.")
+                f"{what} after t = {t_last:.6g}: {likely_cause(self.dt, domain.critical_time_step())}; "
+                "results up to that time are kept")
 
     def advance(self, model: Model, state: State, n_steps: int, record: Record | None, scratch: Scratch) -> int:
         rec = record if record is not None else Record.empty(state.x.shape[0], model.n_constraints)

@@ -30,6 +30,7 @@ from reference.interactions import (
 )
 from reference.joints import Jacobian, MasterSlave
 from reference.joints.joint import ROWS as JOINT_KINDS
+from reference.monitor import SAFETY
 from reference.observables import ObservableError
 from reference.observables import parse as parse_observable
 
@@ -67,13 +68,6 @@ MAX_ELEMENTS = 100_000
 """Most Beam2 elements in one model, after ``refine`` (about 1 GB of model and scratch memory)."""
 MAX_STEPS = 10**9
 """Default limit on the number of time steps; ``solver.max_steps`` raises it."""
-SAFETY = 0.9
-"""Largest accepted dt as a fraction of the critical estimate (``solver.allow_unsafe_dt`` lifts it).
-
-The estimate (:meth:`Domain.critical_time_step`) is the linear limit of the undeformed mesh and is
-tight: at 1.01 × the estimate the scheme blows up.  Tension, large rotations, joints and follower
-loads shift the highest frequency of the running model, so the reader keeps 10 % below it.
-"""
 SUGGEST = 0.8
 """Fraction of the critical estimate used for the dt the messages suggest."""
 MAX_MAGNITUDE = 1e30

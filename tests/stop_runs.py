@@ -1,0 +1,155 @@
+"""Stop ``flexmbs run`` in every way a user or a batch system does, and open what it leaves.
+
+- SIGKILL at random moments from 0 s (still importing) to the end of the run: the results file
+  is either absent (killed before it was created) or opens, with its records up to the last flush;
+- SIGTERM / SIGHUP / SIGINT during the run: exit 128 + the signal, one line on stderr that names
+  the file only when it exists, and a file whose status is ``"terminated at t = …"`` (or
+  ``"interrupted at t = …"`` for SIGINT);
+- Ctrl-C at any moment of the start-up: exit 130, at most one line, no traceback.
+
+``python tests/stop_runs.py --kills 20 --terms 10`` (``make signals``) runs the long version; the
+test suite runs a few trials of each (``tests/test_signals.py``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def deck(tmp: Path) -> Path:
+    """The documented example, run long enough (about 2 s of stepping) to be stopped in the middle."""
+    doc = (ROOT / "docs" / "deck.md").read_text()
+    text = doc.split("## A small example")[1].split("```toml\n")[1].split("```")[0]
+    path = tmp / "long.toml"
+    path.write_text(text.replace("t_end = 0.02 ", "t_end = 400.0 ").replace("output_every = 5", "output_every = 20"))
+    return path
+
+
+def start(deck_path: Path, out: Path) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.Popen([sys.executable, "-m", "flexmbs", "run", str(deck_path), "--out", str(out), "--no-vtk"],
+                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def open_results(path: Path):
+    """(status, number of records) of a results file; raises if it does not open."""
+    with h5py.File(path, "r") as f:
+        return str(f.attrs["status"]), f["time"].shape[0], f["nodes/position"].shape[0]
+
+
+def wait_for(path: Path, proc: subprocess.Popen) -> None:
+    t0 = time.monotonic()
+    while not path.exists() and proc.poll() is None and time.monotonic() - t0 < 120:
+        time.sleep(0.005)
+
+
+def kill_trial(tmp: Path, k: int, delay: float, running: bool) -> str:
+    """SIGKILL ``delay`` s after the start (or, if ``running``, after the results file appeared);
+    return what was left ("no file" or the status), or raise."""
+    out = tmp / f"kill{k}"
+    proc = start(deck(tmp), out)
+    if running:
+        wait_for(out / "results.h5", proc)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=60)
+    path = out / "results.h5"
+    if not path.exists():
+        return "no file"
+    status, n_time, n_pos = open_results(path)
+    assert n_pos == n_time or n_pos <= n_time, (n_pos, n_time)
+    return f"{status} ({n_time} records)"
+
+
+def stop_trial(tmp: Path, k: int, sig: int, delay: float) -> str:
+    """``sig`` once the results file exists and ``delay`` s more; check exit status, message and file."""
+    out = tmp / f"stop{k}"
+    proc = start(deck(tmp), out)
+    path = out / "results.h5"
+    wait_for(path, proc)
+    time.sleep(delay)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    lines = err.strip().splitlines()
+    word = "interrupted" if sig == signal.SIGINT else "terminated"
+    assert proc.returncode == 128 + sig, (proc.returncode, err[-2000:])
+    assert len(lines) == 1 and lines[0].startswith(f"flexmbs: {word}"), err[-2000:]
+    assert "Traceback" not in err
+    status, n_time, _ = open_results(path)
+    assert status.startswith(f"{word} at t = "), status
+    assert str(path) in lines[0] and status in lines[0], lines[0]
+    return f"{status} ({n_time} records)"
+
+
+def early_interrupt_trial(tmp: Path, k: int, delay: float) -> str:
+    """Ctrl-C (SIGINT) ``delay`` s after the start, often before the run: exit 130, at most one quiet
+    line, no traceback, and a file named only if it exists."""
+    out = tmp / f"early{k}"
+    proc = start(deck(tmp), out)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    lines = err.strip().splitlines()
+    # before Python has installed its handler the default action ends the process silently (-2)
+    assert proc.returncode in (130, -signal.SIGINT) and "Traceback" not in err, (proc.returncode, err[-2000:])
+    assert len(lines) <= 1 and all(line.startswith("flexmbs: interrupted") for line in lines), err[-2000:]
+    path = out / "results.h5"
+    if lines and "kept in" in lines[0]:
+        assert path.exists() and open_results(path)[0].startswith("interrupted at t = "), lines[0]
+        return "interrupted, file kept"
+    return "interrupted" + (" (quietly)" if not lines else "") + (", file without claim" if path.exists() else "")
+
+
+def main(argv=None) -> int:
+    import tempfile
+
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--kills", type=int, default=20)
+    p.add_argument("--terms", type=int, default=10)
+    p.add_argument("--seed", type=int, default=12)
+    args = p.parse_args(argv)
+    rng = random.Random(args.seed)
+    failures = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for k in range(args.kills):
+            running = k >= args.kills // 2
+            delay = rng.uniform(0.0, 1.5) if running else rng.uniform(0.0, 0.5)
+            when = f"{delay:.2f} s after {'the file appeared' if running else 'the start'}"
+            try:
+                print(f"SIGKILL {when}: {kill_trial(tmp, k, delay, running)}", flush=True)
+            except Exception as exc:
+                failures += 1
+                print(f"SIGKILL {when}: FAILED {type(exc).__name__}: {exc}", flush=True)
+        for k in range(args.terms // 2):
+            delay = rng.uniform(0.0, 3.0)
+            try:
+                print(f"SIGINT {delay:.2f} s after the start: {early_interrupt_trial(tmp, k, delay)}", flush=True)
+            except Exception as exc:
+                failures += 1
+                print(f"SIGINT {delay:.2f} s after the start: FAILED {type(exc).__name__}: {exc}", flush=True)
+        for k in range(args.terms):
+            sig = signal.SIGTERM if k % 5 else signal.SIGHUP
+            try:
+                print(f"{signal.Signals(sig).name}: {stop_trial(tmp, k, sig, rng.uniform(0.0, 1.0))}", flush=True)
+            except Exception as exc:
+                failures += 1
+                print(f"{signal.Signals(sig).name}: FAILED {type(exc).__name__}: {exc}", flush=True)
+    print(f"{args.kills} SIGKILL, {args.terms // 2} early SIGINT and {args.terms} SIGTERM/SIGHUP trials: "
+          f"{failures} failures")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,62 @@
+"""Blow-ups that stay finite are stopped with a message naming the likely cause, and keep the file.
+
+The two cases of issue 12: dt = 1.01 × the critical estimate forced through the API (the deck
+reader refuses it), and a 2e6 N follower load on the documented cantilever (EA = 1e3 N).  Both
+ran to "completed" before, with kinetic + strain energy 5e13 against 2.4e8 of work; both must
+stop before that energy is 10 × the work done."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from reference.domain import SolverDiverged
+from reference.io.deck import load_deck
+from reference.io.results import load_results
+
+from test_reliability import EXAMPLE
+
+MODELS = Path(__file__).resolve().parent.parent / "models"
+
+
+def test_dt_just_above_the_critical_estimate_is_stopped_naming_the_time_step(tmp_path):
+    d = load_deck(MODELS / "embedded_beam.toml")
+    dt = 1.01 * d.critical_time_step()
+    d.solver.dt, d.solver.t_end, d.solver.output_every = dt, 5000 * dt, 50
+    with pytest.raises(SolverDiverged) as info:
+        d.solve(results_path=tmp_path / "r.h5")
+    message = str(info.value)
+    assert "energy balance failed" in message and "likely cause: the time step" in message, message
+    run = d.last_run
+    assert run["energy"] < 10.0 * abs(run["work"]) and run["t"] < 5000 * dt, run
+    back = load_results(tmp_path / "r.h5")
+    assert back.status.startswith("diverged after t = ") and len(back.time) >= 1
+    assert np.all(np.isfinite(back.positions))
+    # the same run without the monitor: the energy ends orders of magnitude above the work
+    d.solver.t_end = 1000 * dt
+    r = d.solve(monitor=False)
+    E = r.energy["kinetic"][-1] + r.energy["strain"][-1]
+    assert r.status == "completed" and E > 1e3 * abs(r.energy["external_work"][-1])
+
+
+def test_a_huge_follower_load_is_stopped_naming_the_load(tmp_path):
+    path = tmp_path / "follower.toml"
+    path.write_text(EXAMPLE.replace("force = [0.0, 0.0, 1e-3]", "force = [0.0, 0.0, 2e6]")
+                    .replace('frame = "inertial"', 'frame = "body"').replace("t_end = 0.02 ", "t_end = 2.0 "))
+    d = load_deck(path)
+    with pytest.raises(SolverDiverged) as info:
+        d.solve(results_path=tmp_path / "r.h5")
+    message = str(info.value)
+    assert "likely cause: the loads" in message, message
+    run = d.last_run
+    assert run["energy"] < 10.0 * abs(run["work"]), run
+    assert load_results(tmp_path / "r.h5").status.startswith("diverged")
+
+
+def test_shipped_models_keep_the_energy_balance(tmp_path):
+    """No false alarm: the shipped models run through with the monitor on."""
+    for deck, t_end in (("embedded_beam.toml", 0.5), ("three_bar.toml", 1.0)):
+        r = load_deck(MODELS / deck, overrides={"t_end": t_end}).solve()
+        assert r.status == "completed"
