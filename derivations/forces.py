@@ -7,7 +7,8 @@ bodies as for a joint (``derivations/joints.py``), ``d = x_j + A_j s'_j − x_i 
 ``u_{m,k} = A_k u'_{m,k}`` and ``R_ab = u_a,i · u_b,j`` (the rotation of j
 relative to i in i's frame)::
 
-    point_to_point   ℓ = |d|
+    point_to_point   d (three components, inertial): the engine takes ℓ = |d| and its
+                     derivatives by the chain rule (no square root to differentiate here)
     rotational       (u1_i · u2_j, u1_i · u1_j) = r (sin φ, cos φ): the engine takes
                      φ = atan2 of the two (the rotation drive's angle) and its
                      derivatives by the chain rule (cheaper than deriving atan2 here)
@@ -51,7 +52,7 @@ def measures(kind, xi, Ai, xj, Aj, si, sj, Ui, Uj):
     ui = [Ai * Ui[:, m] for m in range(3)]
     uj = [Aj * Uj[:, m] for m in range(3)]
     if kind == "point_to_point":
-        return [sp.sqrt(d.dot(d))]
+        return [d[0], d[1], d[2]]
     if kind == "rotational":
         return [ui[0].dot(uj[1]), ui[0].dot(uj[0])]
     R = [[ui[a].dot(uj[b]) for b in range(3)] for a in range(3)]

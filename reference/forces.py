@@ -112,9 +112,9 @@ def force_element_dissipation(model, x, q, v, w, v_new, w_new, prim_phi, prim_B)
 def _measures(model, x, q, k, e, B):
     """Measures ``e`` and Jacobian ``B`` (row-major, 12 columns) of element k; returns their number.
 
-    A rotational element's raw generated pair (r sin φ, r cos φ) is turned into
-    the wrapped angle φ = atan2 and its Jacobian by the chain rule; the ground's
-    columns are zeroed.
+    A point-to-point element's generated d becomes ℓ = |d|, a rotational
+    element's raw pair (r sin φ, r cos φ) the wrapped angle φ = atan2, with their
+    Jacobians by the chain rule; the ground's columns are zeroed.
     """
     i, j = model.fe_i[k], model.fe_j[k]
     par = model.fe_par[k]
@@ -124,7 +124,12 @@ def _measures(model, x, q, k, e, B):
         xj, qj = x[j], q[j]
     m = 6
     if kind == POINT_TO_POINT:
+        # generated: d and its Jacobian; here ℓ = |d| and B_ℓ = (d/ℓ)ᵀ B_d
         generated.point_to_point_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
+        length = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+        for col in range(12):
+            B[col] = (e[0] * B[col] + e[1] * B[12 + col] + e[2] * B[24 + col]) / length if length > 0.0 else 0.0
+        e[0] = length
         m = 1
     elif kind == ROTATIONAL:
         generated.rotational_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
@@ -267,7 +272,18 @@ def force_element_tangent(model, x, q, v, w, angle, k, K, C, e, B, G):
     if j >= 0:
         xj, qj = x[j], q[j]
     if kind == POINT_TO_POINT:
+        # chain rule through ℓ = |d|: G_ℓ = (Σ d_k G_k + Σ B_k ⊗ B_k)/ℓ − B_ℓ ⊗ B_ℓ/ℓ
         generated.point_to_point_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
+        generated.point_to_point_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
+        length = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+        for a in range(12):
+            bl_a = (e[0] * B[a] + e[1] * B[12 + a] + e[2] * B[24 + a]) / length
+            for c in range(12):
+                bl_c = (e[0] * B[c] + e[1] * B[12 + c] + e[2] * B[24 + c]) / length
+                g = 0.0
+                for kk in range(3):
+                    g += e[kk] * G[144 * kk + 12 * a + c] + B[12 * kk + a] * B[12 * kk + c]
+                G[12 * a + c] = (g - bl_a * bl_c) / length
     elif kind == ROTATIONAL:
         # chain rule through φ = atan2(s, c): G_φ from the tangents of s and c
         generated.rotational_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
