@@ -378,7 +378,11 @@ def _build(domain, progress, t_end):
 
 
 def solve(domain, dt: float | None = None, t_end: float | None = None, results_path=None, progress=None) -> dict:
-    """Build and run ``domain`` in Exudyn (generalized-α, fixed step); return results and timing.
+    """Build and run ``domain`` in Exudyn; return results and timing.
+
+    The deck's algorithm is translated: ``static`` → Exudyn's static solver with the
+    same number of load steps; ``generalized_alpha`` → Exudyn's generalized-α with the
+    same ρ∞; the explicit scheme → Exudyn's generalized-α (its default ρ∞), fixed step.
 
     Returns a dict with ``results`` (:class:`reference.domain.Results`, engine
     Exudyn), ``wall_time`` (the solve call only) and ``steps``.
@@ -396,12 +400,28 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
     settings.solution.sensors.writePeriod = every * dt
     settings.timeIntegration.verboseMode = 0
     n_steps = int(round(t_end / dt))
-    settings.timeIntegration.numberOfSteps = n_steps
-    settings.timeIntegration.endTime = t_end
-    settings.timeIntegration.newton.relativeTolerance = 1e-6
-    settings.timeIntegration.newton.absoluteTolerance = 1e-6
-    settings.timeIntegration.adaptiveStep = False
-    solver = exu.MainSolverImplicitSecondOrder()
+    algorithm = domain.solver.algorithm
+    if algorithm == "static":
+        # Exudyn's static solver: the load factor is its time, in n equal load steps
+        settings.staticSolver.verboseMode = 0
+        settings.staticSolver.numberOfLoadSteps = n_steps
+        settings.staticSolver.loadStepDuration = t_end
+        settings.staticSolver.adaptiveStep = False
+        settings.staticSolver.useLoadFactor = False  # the loads follow their time functions (pre-step)
+        settings.staticSolver.newton.relativeTolerance = 1e-10
+        settings.staticSolver.newton.absoluteTolerance = 1e-10
+        solver = exu.MainSolverStatic()
+        label = f"static solver, {n_steps} load steps"
+    else:
+        settings.timeIntegration.numberOfSteps = n_steps
+        settings.timeIntegration.endTime = t_end
+        settings.timeIntegration.newton.relativeTolerance = 1e-6
+        settings.timeIntegration.newton.absoluteTolerance = 1e-6
+        settings.timeIntegration.adaptiveStep = False
+        if algorithm == "generalized_alpha":
+            settings.timeIntegration.generalizedAlpha.spectralRadius = domain.solver.rho_inf
+        label = f"generalized-alpha, rho_inf = {settings.timeIntegration.generalizedAlpha.spectralRadius:g}"
+        solver = exu.MainSolverImplicitSecondOrder()
     t0 = time.perf_counter()
     ok = solver.SolveSystem(mbs, settings)
     wall = time.perf_counter() - t0
@@ -431,7 +451,7 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
         writer = ResultsWriter(results_path, labels=results.labels, ids=[n.id for n in domain.nodes],
                                items={"joints": results.joint_labels, "elements": results.element_labels}, attrs={
             "engine": "exudyn", "engine_version": exu.__version__, "deck": domain.deck_text,
-            "deck_path": str(domain.deck_path), "algorithm": "generalized-alpha (Exudyn)", "dt": dt,
+            "deck_path": str(domain.deck_path), "algorithm": f"{label} (Exudyn)", "dt": dt,
             "energy_note": "evaluated with the reference's definitions on Exudyn's states; external work "
                            "excludes driving motions",
             "reaction_note": "joint reactions from Exudyn's joint sensors (ForceLocal, TorqueLocal of "
@@ -445,7 +465,8 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
                            "velocity_violation_norm": results.velocity_constraint_violation[i],
                            **{k: v[i] for k, v in results.energy.items()}})
         writer.close("completed")
-    return {"results": results, "wall_time": wall, "steps": steps, "exudyn_version": exu.__version__}
+    return {"results": results, "wall_time": wall, "steps": steps, "exudyn_version": exu.__version__,
+            "algorithm": label}
 
 
 PAIRS_ALL = ((2, 1), (2, 0), (0, 1))

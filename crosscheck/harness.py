@@ -16,9 +16,10 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
         progress=None, figures=None, exudyn_progress=None) -> dict:
     """Run ``deck`` with the reference and with Exudyn, compare, write ``out/crosscheck.md``.
 
-    The reference needs the step divided by ``refine`` (its critical step
-    shrinks with the elements); Exudyn's implicit solver keeps the deck's step
-    unless ``exudyn_dt`` is given.  Returns the comparison dict with ``markdown``
+    The explicit reference needs the step divided by ``refine`` (its critical step
+    shrinks with the elements); Exudyn (and the implicit algorithms) keep the deck's
+    step unless ``exudyn_dt`` is given.  The deck's algorithm is translated (static →
+    Exudyn's static solver, generalized-α → Exudyn's at the same ρ∞).  Returns the comparison dict with ``markdown``
     (the report's lines) and the two results.
     """
     import matplotlib
@@ -35,7 +36,9 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     preflight(ex_domain)  # refuse (one line) before running anything: untranslatable or refused by Exudyn
     ref_domain = Domain.from_deck(deck, overrides=overrides)
     ref = ref_domain.solve(results_path=out / "results_reference.h5", progress=progress)
-    dt_ex = exudyn_dt or ref_domain.solver.dt * refine
+    algo = ref_domain.algorithm()
+    # the deck's step: the explicit scheme's was divided by refine, an implicit one was kept
+    dt_ex = exudyn_dt or ref_domain.solver.dt * (refine if algo.explicit else 1)
     ex = solve_exudyn(ex_domain, dt=dt_ex, results_path=out / "results_exudyn.h5", progress=exudyn_progress)
     exr = ex["results"]
     checks = {name: spec for name, spec in ref_domain.crosscheck.items() if int(spec.get("refine", 1)) == refine}
@@ -45,8 +48,8 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     cmp = compare(ref, exr, checks)
     name = ref_domain.name + (f"_refine{refine}" if refine != 1 else "")
     lines = [f"### Cross-check: `{Path(deck).name}`" + (f", flexible beams refined ×{refine}" if refine != 1 else ""), "",
-             f"Reference: staggered central difference, h = {ref_domain.solver.dt:g}, solve {ref.wall_time:.2f} s. "
-             f"Exudyn {ex['exudyn_version']}: generalized-α, h = {dt_ex:g}, {ex['steps']} steps, solve "
+             f"Reference: {algo.name.replace('_', ' ')}, h = {ref_domain.solver.dt:g}, solve {ref.wall_time:.2f} s. "
+             f"Exudyn {ex['exudyn_version']}: {ex['algorithm']}, h = {dt_ex:g}, {ex['steps']} steps, solve "
              f"{ex['wall_time']:.2f} s. {cmp['nodes']} common nodes; characteristic length {cmp['length']:.3g}.", "",
              f"Node trajectories: max position difference {cmp['position_max']:.3e} ({cmp['position_max_relative']:.2e} "
              f"of the length), RMS {cmp['position_rms']:.3e}; max rotation difference {cmp['rotation_max']:.3e} rad.", "",

@@ -13,13 +13,24 @@ beams sharing a node — and the Beam2 throughput (µs per element-step, 768
 elements) beside PyElastica's on the same clamped rod (the ``bench`` extra),
 with both tips printed: the same answer at the same step.  Per-step costs time
 the compiled stepping alone (median of ``repeat`` after a warm-up).
+
+Last, the implicit algorithms (issue 8): the static roll-up against Exudyn's
+static solver, and the work–precision study — for the three-bar and its steel
+variant, each engine/algorithm at several steps, the error of the coupler's
+mid-span deflection against a converged-in-time reference of the same mesh and
+engine against the solve time; a figure, and the time of each at matched
+accuracy (0.1 % of the peak deflection) with the ratios.  ``FLEXMBS_QUICK=1``
+(or ``--quick``) runs fewer steps.
 """
 
 from __future__ import annotations
 
+import os
 import statistics
 import time
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -55,6 +66,212 @@ CASES = {
     "embedded beam roll-up (12 Beam2, 10,000 steps)": ROOT / "models" / "embedded_beam.toml",
     "three-bar mechanism (4 Beam2 + 2 rigid, 5 joints, 50,000 steps)": ROOT / "models" / "three_bar.toml",
 }
+
+
+WP_CASES = {
+    # name: deck, t_end [s], output interval [s], implicit steps, explicit steps (fractions of the
+    # critical step), reference step
+    "three-bar (4 Beam2)": ("three_bar.toml", 4.0, 1e-2, [2e-2, 1e-2, 5e-3, 2e-3, 1e-3], [0.8, 0.4, 0.2], 2.5e-4),
+    "steel three-bar (4 Beam2)": ("steel_three_bar.toml", 1.0, 2e-3, [4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4], [0.8, 0.4],
+                                  1e-5),
+}
+"""Work–precision cases (output intervals as the decks': 100 and 500 per second); the explicit
+steps are fractions of the mesh's critical step."""
+
+MATCHED = 1e-3
+"""Matched accuracy of the work–precision table: 0.1 % of the peak coupler deflection."""
+
+REPEAT = 3
+"""Timed rounds per point of the work–precision study, the engines alternating (the fastest
+counts; fewer rounds when one takes seconds)."""
+
+
+def _deflection_runner(deck: Path, t_end: float, every: float, algorithm: str, dt: float, engine: str):
+    """A warmed-up solver of ``deck`` to ``t_end`` with one engine/algorithm at step dt: a callable
+    returning (solve time [s], output times every ``every`` seconds (or every step if longer),
+    coupler mid-span deflection)."""
+    from reference import observables as ob
+    from reference.domain import Domain
+
+    def domain():
+        d = Domain.from_deck(deck, overrides={"t_end": t_end})
+        d.solver.algorithm, d.solver.dt = algorithm, dt
+        d.solver.output_every = max(int(round(every / dt)), 1)
+        return d
+
+    if engine == "flexmbs":
+        d = domain()
+        d.solve(t_end=max(20 * dt, 0.01))  # warm-up (numba cache, first-call set-up)
+
+        def run():
+            t0 = time.perf_counter()
+            r = d.solve()
+            return time.perf_counter() - t0, r.time, ob.midspan_deflection(r)
+    else:
+        from crosscheck.exudyn_model import solve
+
+        solve(domain(), dt=dt, t_end=20 * dt)
+
+        def run():
+            out = solve(domain(), dt=dt)
+            return out["wall_time"], out["results"].time, ob.midspan_deflection(out["results"])
+    return run
+
+
+def _timed(runners) -> list:
+    """Run the runners in turn, up to ``REPEAT`` rounds (fewer when a round takes seconds), so
+    that all see the same machine load; each keeps its fastest time."""
+    best = [None] * len(runners)
+    spent = 0.0
+    for _ in range(REPEAT):
+        for k, run in enumerate(runners):
+            wall, tt, dd = run()
+            spent += wall
+            if best[k] is None or wall < best[k][0]:
+                best[k] = (wall, tt, dd)
+        if spent > 5.0:
+            break
+    return best
+
+
+def _error(times, defl, ref_times, ref_defl) -> float:
+    """Max deflection error on the common output times, relative to the reference's peak."""
+    common = np.intersect1d(np.round(times, 9), np.round(ref_times, 9))
+    a = np.interp(common, times, defl)
+    b = np.interp(common, ref_times, ref_defl)
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(ref_defl)))
+
+
+def _whole_step(limit: float, every: float) -> float:
+    """The largest step ≤ ``limit`` that divides the output interval ``every`` (hence the end time)."""
+    return every / int(np.ceil(every / limit))
+
+
+def work_precision(quick: bool = False) -> dict:
+    """Error against a converged-in-time reference of the same mesh and engine, and solve time,
+    for flexmbs explicit, flexmbs generalized-α and Exudyn's generalized-α (ρ∞ = 0.8, the
+    decks' value) at several steps.  Returns ``{case: {"series": {name: [(dt, time, error)]}, …}}``."""
+    from reference.domain import Domain
+
+    data = {}
+    for name, (deck_name, t_end, every, implicit, explicit, dt_ref) in WP_CASES.items():
+        deck = ROOT / "models" / deck_name
+        if quick:
+            implicit, explicit = implicit[1:4], explicit[:1]
+        crit = Domain.from_deck(deck).critical_time_step()
+        series, refs = {}, {}
+        for engine in ("flexmbs", "exudyn"):
+            _, rt, rd = _deflection_runner(deck, t_end, every, "generalized_alpha", dt_ref, engine)()
+            refs[engine] = (rt, rd)
+            series[f"{engine} generalized-α"] = []
+        for dt in implicit:
+            runs = _timed([_deflection_runner(deck, t_end, every, "generalized_alpha", dt, e)
+                           for e in ("flexmbs", "exudyn")])
+            for engine, (wall, tt, dd) in zip(("flexmbs", "exudyn"), runs):
+                series[f"{engine} generalized-α"].append((dt, wall, _error(tt, dd, *refs[engine])))
+        rows = []
+        for frac in explicit:
+            dt = _whole_step(frac * crit, every)
+            (wall, tt, dd), = _timed([_deflection_runner(deck, t_end, every, "staggered_central_difference", dt,
+                                                         "flexmbs")])
+            rows.append((dt, wall, _error(tt, dd, *refs["flexmbs"])))
+        series["flexmbs explicit"] = rows
+        data[name] = {"series": series, "t_end": t_end, "peak": float(np.max(np.abs(refs["flexmbs"][1]))),
+                      "dt_ref": dt_ref}
+    return data
+
+
+def matched_time(rows, target: float = MATCHED):
+    """Solve time at the error ``target``: log–log interpolation between the two runs that
+    bracket it; ``(time, how)``, time None when no run reaches it."""
+    rows = sorted(rows, key=lambda r: -r[0])
+    for (_, w0, e0), (_, w1, e1) in zip(rows, rows[1:]):
+        if e0 > target >= e1:
+            s = (np.log(target) - np.log(e0)) / (np.log(e1) - np.log(e0))
+            return float(np.exp(np.log(w0) + s * (np.log(w1) - np.log(w0)))), "interpolated"
+    ok = [r for r in rows if r[2] <= target]
+    if ok:
+        return min(r[1] for r in ok), f"largest step already within (dt = {ok[0][0]:g})"
+    return None, "not reached"
+
+
+def work_precision_table(data: dict) -> list[str]:
+    """Markdown lines: every run, then the time at matched accuracy and the ratio to Exudyn."""
+    lines = []
+    for name, case in data.items():
+        lines += [f"**{name}**, {case['t_end']:g} s; reference: each engine's own generalized-α at "
+                  f"dt = {case['dt_ref']:g}; peak coupler deflection {case['peak']:.3e} m", "",
+                  "| engine / algorithm | dt [s] | solve [s] | error / peak |", "|---|---|---|---|"]
+        for series, rows in case["series"].items():
+            for dt, wall, err in rows:
+                lines.append(f"| {series} | {dt:.3g} | {wall:.4f} | {err:.2e} |")
+        lines += ["", f"At matched accuracy ({MATCHED:.1%} of the peak deflection):", "",
+                  "| engine / algorithm | solve [s] | how | ratio to Exudyn |", "|---|---|---|---|"]
+        t_ex, _ = matched_time(case["series"]["exudyn generalized-α"])
+        for series, rows in case["series"].items():
+            t, how = matched_time(rows)
+            if t is None:
+                lines.append(f"| {series} | – | {how} | – |")
+            else:
+                ratio = f"{t / t_ex:.3f}" if t_ex else "–"
+                lines.append(f"| {series} | {t:.4f} | {how} | {ratio} |")
+        lines.append("")
+    return lines
+
+
+def work_precision_figure(data: dict, path: Path) -> Path:
+    """Error against solve time (log–log), one panel per case; returns the path written."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(data), figsize=(5.2 * len(data), 4.2))
+    for ax, (name, case) in zip(np.atleast_1d(axes), data.items()):
+        for (series, rows), marker in zip(case["series"].items(), "os^"):
+            rows = sorted(rows)
+            ax.loglog([r[1] for r in rows], [r[2] for r in rows], marker=marker, label=series)
+        ax.axhline(MATCHED, color="0.5", lw=0.8, ls="--", label=f"matched accuracy {MATCHED:.1%}")
+        ax.set_xlabel("solve time [s]")
+        ax.set_ylabel("max deflection error / peak")
+        ax.set_title(name)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def static_rollup() -> list[str]:
+    """The roll-up with ``algorithm = "static"``, 20 load steps: flexmbs against Exudyn's static
+    solver, same process (median of 5 interleaved solves after a warm-up), and the tip against
+    the discrete polygon."""
+    from crosscheck.exudyn_model import solve
+    from reference.analytic import polygon_tip
+    from reference.domain import Domain, SolverSettings
+
+    def domain():
+        d = Domain.from_deck(ROOT / "models" / "embedded_beam.toml")
+        d.solver = SolverSettings(algorithm="static", t_end=2.0, load_steps=20, dt=0.1)
+        return d
+
+    d = domain()
+    d.solve()
+    solve(domain())
+    ours, theirs = [], []
+    for _ in range(5):  # interleaved, so that both see the same machine load
+        t0 = time.perf_counter()
+        r = d.solve()
+        ours.append(time.perf_counter() - t0)
+        theirs.append(solve(domain())["wall_time"])
+    err = np.linalg.norm(r.position("beam:12")[10] - polygon_tip(10.0, 12, 1.0)) / 10.0
+    t_o, t_e = statistics.median(ours), statistics.median(theirs)
+    return ["**Static roll-up** (12 Beam2, 20 load steps to k = 2), median of 5 interleaved solves:", "",
+            "| engine | solve [s] |", "|---|---|", f"| flexmbs static | {t_o:.4f} |",
+            f"| Exudyn static solver | {t_e:.4f} |", "",
+            f"ratio flexmbs / Exudyn = {t_o / t_e:.3f} (target ≤ 0.3); flexmbs tip at k = 1 against the "
+            f"discrete 12-chord polygon: {err:.1e} L", ""]
 
 
 LINK = dict(EA=1.0, GA2=1.0, GA3=1.0, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=0.02, rhoJ2=0.01, rhoJ3=0.01)
@@ -297,4 +514,16 @@ def main(args=None) -> int:
     welded_vs_shared(repeat)
     print()
     beam_throughput(repeat)
+    quick = bool(getattr(args, "quick", False)) or os.environ.get("FLEXMBS_QUICK") == "1"
+    print()
+    lines = static_rollup()
+    print("\n".join(lines))
+    data = work_precision(quick)
+    table = work_precision_table(data)
+    print("\n".join(table))
+    out = Path(getattr(args, "out", None) or ROOT / "out" / "bench")
+    figure = work_precision_figure(data, out / "work_precision.png")
+    (out / "work_precision.md").write_text("\n".join(lines + table + [f"![work-precision]({figure.name})", ""]),
+                                           encoding="utf-8")
+    print(f"figure and tables: {figure}, {out / 'work_precision.md'}")
     return 0

@@ -202,6 +202,8 @@ def parser() -> argparse.ArgumentParser:
     der.set_defaults(func=cmd_derive)
     ben = sub.add_parser("bench", help="solve times of flexmbs and Exudyn, side by side")
     ben.add_argument("--repeat", type=int, default=3)
+    ben.add_argument("--quick", action="store_true", help="fewer steps in the work-precision part")
+    ben.add_argument("--out", help="folder of the work-precision figure and tables (default: out/bench/)")
     ben.set_defaults(func=cmd_bench)
     sw = sub.add_parser("sweep", help="a parameter study of a deck (STUDY.toml), every case a Dask task")
     sw.add_argument("study")

@@ -38,7 +38,8 @@ from reference.joints.assembly import (
 from reference.joints.sparse import constraint_pattern
 from reference.joints.joint import ROWS
 from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor
-from reference.joints.reactions import reactions
+from reference.joints.reactions import joint_reactions
+from reference.joints.reactions import scratch as reaction_scratch
 from reference.nodes import Node
 from reference.generated import rotation_maps as rm
 from reference.rotation import EulerParameters
@@ -374,32 +375,6 @@ class MemoryRecorder:
         return Results(labels=self.labels, energy=energy, status=self.status, wall_time=wall_time, extra=by_path,
                        joint_labels=self.joint_labels, element_labels=self.element_labels, **fields)
 
-    def joint_index(self, joint) -> int:
-        if joint in self.joint_labels:
-            return self.joint_labels.index(joint)
-        raise KeyError(f"no joint labelled {joint!r}; joints are {self.joint_labels}")
-
-    def element_index(self, beam, element=None) -> int:
-        """Column of an element: its label ``"beam/i"``, or ``(beam, i)``."""
-        label = str(beam) if element is None else f"{beam}/{int(element)}"
-        if label in self.element_labels:
-            return self.element_labels.index(label)
-        raise KeyError(f"no element labelled {label!r}; elements are e.g. {self.element_labels[:4]}")
-
-    def reaction(self, joint) -> tuple[np.ndarray, np.ndarray]:
-        """``(force, moment)`` (n, 3) each: what ``joint`` exerts on its body_i, moment about the
-        joint point, inertial components [N], [N m]."""
-        k = self.joint_index(joint)
-        return self.reaction_forces[:, k], self.reaction_moments[:, k]
-
-    def section_force(self, beam, element=None) -> np.ndarray:
-        """Force resultant N (n, 3) at the midpoint of element ``beam/element``, section frame [N]."""
-        return self.section_forces[:, self.element_index(beam, element)]
-
-    def section_moment(self, beam, element=None) -> np.ndarray:
-        """Moment resultant M (n, 3) at the midpoint of element ``beam/element``, section frame [N m]."""
-        return self.section_moments[:, self.element_index(beam, element)]
-
 
 class Domain:
     """A multibody problem: nodes, elements, joints, interactions, solver settings.
@@ -425,6 +400,7 @@ class Domain:
         self.deck_path: str = ""
         self._labels: dict[str, Node] = {}
         self._model: Model | None = None
+        self._output_cache = None
         self.state: State | None = None
 
     @classmethod
@@ -1063,17 +1039,23 @@ class Domain:
 
     def outputs(self, model: Model, x, q, lam, t: float) -> dict:
         """Derived outputs of one record: joint reactions (all joints, NaN for master/slave ones)
-        and element section resultants (``reference/joints/reactions.py``, :func:`beam2_resultants`)."""
-        force, moment = reactions(model, x, q, lam, t)
-        J = len(self.joints)
-        out = {"reaction_force": np.full((J, 3), np.nan), "reaction_moment": np.full((J, 3), np.nan)}
-        rows = [k for k, j in enumerate(self.joints) if not isinstance(j.formulation, MasterSlave)]
-        out["reaction_force"][rows], out["reaction_moment"][rows] = force, moment
-        E = model.conn.shape[0]
-        out["section_force"], out["section_moment"] = np.zeros((E, 3)), np.zeros((E, 3))
+        and element section resultants (:func:`reference.joints.reactions.joint_reactions`,
+        :func:`~reference.elements.formulation.beam2_resultants`); compiled, ~35 µs per output."""
+        cache = self._output_cache
+        if cache is None or cache[0] is not model:
+            rows = [k for k, j in enumerate(self.joints) if not isinstance(j.formulation, MasterSlave)]
+            cache = self._output_cache = (model, np.array(rows, dtype=np.int64), len(rows) < len(self.joints),
+                                          reaction_scratch(), np.zeros(32))
+        _, slot, partial, scratch, s_el = cache
+        J, E = len(self.joints), model.conn.shape[0]
+        force = np.full((J, 3), np.nan) if partial else np.empty((J, 3))
+        moment = np.full((J, 3), np.nan) if partial else np.empty((J, 3))
+        joint_reactions(model, x, q, lam, float(t), slot, force, moment, *scratch)
+        section_force, section_moment = np.empty((E, 3)), np.empty((E, 3))
         beam2_resultants(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
-                         out["section_force"], out["section_moment"], np.zeros(32))
-        return out
+                         section_force, section_moment, s_el)
+        return {"reaction_force": force, "reaction_moment": moment, "section_force": section_force,
+                "section_moment": section_moment}
 
     def _record(self, rec: Record, t: float) -> dict:
         """One output record: record key → value (:data:`reference.io.results.DATASETS`)."""

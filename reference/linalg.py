@@ -9,16 +9,23 @@ every block entry, which entries survive (fixed coordinates are removed from
 the unknowns), and the position of each surviving entry in the compressed
 sparse column (CSC) arrays, repeated entries summed.  Every Newton iteration
 then only scatters the new block values into the CSC data (one
-``numpy.bincount``) and refactorises numerically (:func:`factorize`, SuperLU
-with partial pivoting, which handles the zero block of the saddle-point
-systems).
+``numpy.bincount``) and refactorises numerically (:class:`SparseLU`: SuperLU
+with partial pivoting — which handles the zero block of the saddle-point
+systems — chooses the ordering and the pivots once, the fill pattern follows
+from the structure, and later matrices are refactored in compiled code with
+the same permutations).  Compiled loops solve with the factors through
+:func:`lu_solve`.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
+
+from reference.jit import kernel
 
 
 class SingularMatrix(ArithmeticError):
@@ -50,10 +57,16 @@ class BlockPattern:
         self.indptr = np.zeros(self.n + 1, dtype=np.int32)
         np.cumsum(np.bincount(unique // self.n, minlength=self.n), out=self.indptr[1:])
 
+        self._matrix = sps.csc_matrix((np.zeros(self.nnz), self.indices, self.indptr), shape=(self.n, self.n))
+        self._matrix.has_sorted_indices = True
+
     def matrix(self, values: np.ndarray) -> sps.csc_matrix:
-        """The CSC matrix of the block ``values`` (K,) (same order as ``rows``/``cols``)."""
-        data = np.bincount(self.slot, weights=values[self.keep], minlength=self.nnz)
-        return sps.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+        """The CSC matrix of the block ``values`` (K,) (same order as ``rows``/``cols``).
+
+        The matrix object is made once; its data are overwritten in place on every call.
+        """
+        self._matrix.data[:] = np.bincount(self.slot, weights=values[self.keep], minlength=self.nnz)
+        return self._matrix
 
 
 def factorize(matrix: sps.csc_matrix):
@@ -75,3 +88,200 @@ def factorize(matrix: sps.csc_matrix):
     if diag.size and np.min(np.abs(diag)) <= 1e-14 * big:
         raise SingularMatrix("pivot below 1e-14 of the largest (the matrix is numerically singular)")
     return lu
+
+
+@kernel
+def lu_solve(f, b, work, x):
+    """Solve ``A x = b`` with the factor arrays ``f = (Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c)`` of
+    :class:`SparseLU` (CSC L and U with ``Pr A Pc = L U``; compiled, no allocation).
+
+    ``y[perm_r] = b``, forward substitution with L, back substitution with U,
+    ``x = w[perm_c]`` (SuperLU's ``Pr A Pc = L U``).
+    """
+    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c = f
+    n = b.shape[0]
+    for i in range(n):
+        work[perm_r[i]] = b[i]
+    for j in range(n):
+        d = 1.0
+        for p in range(Lp[j], Lp[j + 1]):
+            if Li[p] == j:
+                d = Lx[p]
+        zj = work[j] / d
+        work[j] = zj
+        for p in range(Lp[j], Lp[j + 1]):
+            if Li[p] > j:
+                work[Li[p]] -= Lx[p] * zj
+    for j in range(n - 1, -1, -1):
+        d = 1.0
+        for p in range(Up[j], Up[j + 1]):
+            if Ui[p] == j:
+                d = Ux[p]
+        zj = work[j] / d
+        work[j] = zj
+        for p in range(Up[j], Up[j + 1]):
+            if Ui[p] < j:
+                work[Ui[p]] -= Ux[p] * zj
+    for i in range(n):
+        x[i] = work[perm_c[i]]
+
+
+@kernel
+def refactor(f, Ap, Ai, Ax, inv_perm_c, w, threshold):
+    """Numeric LU of a matrix with the pattern, row pivots and column order of the factor ``f``.
+
+    Left-looking, column by column, on the fill pattern SuperLU found (the factor's L and U
+    receive the result; ``w`` (n,) is zero on entry and on exit).  Returns 0; 1 when a pivot
+    falls below ``threshold`` times the largest candidate of its column (the kept pivot
+    order is no longer safe: factor afresh); 2 when the smallest pivot is below 1e-14 of the
+    largest (singular).
+    """
+    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c = f
+    n = Ap.shape[0] - 1
+    dmin, dmax = math.inf, 0.0
+    for j in range(n):
+        k = inv_perm_c[j]
+        for p in range(Ap[k], Ap[k + 1]):
+            w[perm_r[Ai[p]]] += Ax[p]
+        for p in range(Up[j], Up[j + 1]):
+            kk = Ui[p]
+            if kk >= j:
+                continue
+            ukj = w[kk]
+            Ux[p] = ukj
+            for s in range(Lp[kk], Lp[kk + 1]):
+                r = Li[s]
+                if r > kk:
+                    w[r] -= Lx[s] * ukj
+        pivot = w[j]
+        big = 0.0
+        for s in range(Lp[j], Lp[j + 1]):
+            if Li[s] >= j:
+                big = max(big, abs(w[Li[s]]))
+        big = max(big, abs(pivot))
+        if not abs(pivot) > threshold * big:
+            for p in range(Up[j], Up[j + 1]):
+                w[Ui[p]] = 0.0
+            for s in range(Lp[j], Lp[j + 1]):
+                w[Li[s]] = 0.0
+            w[j] = 0.0
+            for r in range(n):
+                w[r] = 0.0
+            return 1
+        dmin = min(dmin, abs(pivot))
+        dmax = max(dmax, abs(pivot))
+        for p in range(Up[j], Up[j + 1]):
+            if Ui[p] == j:
+                Ux[p] = pivot
+            w[Ui[p]] = 0.0
+        for s in range(Lp[j], Lp[j + 1]):
+            r = Li[s]
+            if r == j:
+                Lx[s] = 1.0
+            elif r > j:
+                Lx[s] = w[r] / pivot
+            w[r] = 0.0
+        w[j] = 0.0
+    if n > 0 and not dmin > 1e-14 * dmax:
+        return 2
+    return 0
+
+
+@kernel
+def symbolic_lu(Ap, Ai, perm_r, inv_perm_c, Lp, Li, Up, Ui, mark):
+    """Fill pattern of ``L U = Pr A Pc`` for fixed permutations, from the structure of A alone
+    (explicit zeros count): column j of U ∪ L is the set reached from column j of ``Pr A Pc``
+    through the columns of L before j.  Writes CSC ``Lp, Li`` (unit diagonal first) and
+    ``Up, Ui`` (diagonal last), rows ascending; returns (nnz L, nnz U), or (−1, −1) when the
+    capacity of ``Li``/``Ui`` is too small.
+    """
+    n = Ap.shape[0] - 1
+    nl, nu = 0, 0
+    Lp[0], Up[0] = 0, 0
+    for j in range(n):
+        for r in range(n):
+            mark[r] = 0
+        k = inv_perm_c[j]
+        for p in range(Ap[k], Ap[k + 1]):
+            mark[perm_r[Ai[p]]] = 1
+        mark[j] = 1
+        for kk in range(j):
+            if mark[kk]:
+                for s in range(Lp[kk], Lp[kk + 1]):
+                    mark[Li[s]] = 1
+        for r in range(j):
+            if mark[r]:
+                if nu >= Ui.shape[0]:
+                    return -1, -1
+                Ui[nu] = r
+                nu += 1
+        if nu >= Ui.shape[0]:
+            return -1, -1
+        Ui[nu] = j
+        nu += 1
+        for r in range(j, n):
+            if mark[r]:
+                if nl >= Li.shape[0]:
+                    return -1, -1
+                Li[nl] = r
+                nl += 1
+        Lp[j + 1], Up[j + 1] = nl, nu
+    return nl, nu
+
+
+class SparseLU:
+    """LU factors of the matrices of one :class:`BlockPattern`, refactored cheaply.
+
+    The first factorisation (and any whose pivots go bad) takes SuperLU's ordering and row
+    pivots; the fill pattern for them is made from the structure (:func:`symbolic_lu`), and
+    the numbers by :func:`refactor`.  Later matrices of the same pattern are refactored in
+    compiled code with the same permutations, falling back to SuperLU when a kept pivot
+    drops below ``PIVOT_THRESHOLD`` of its column.  :meth:`solve` and :func:`lu_solve` use the factor arrays ``self.f``.
+    """
+
+    PIVOT_THRESHOLD = 0.01
+
+    def __init__(self, n: int):
+        self.f = None
+        self.w = np.zeros(n)
+        self.work = np.zeros(n)
+        self.refactored = 0
+        self.fresh = 0
+
+    def factor(self, matrix: sps.csc_matrix):
+        """Factor ``matrix``; raises :class:`SingularMatrix`."""
+        if self.f is not None:
+            code = refactor(self.f, matrix.indptr, matrix.indices, matrix.data, self.inv_perm_c, self.w,
+                            self.PIVOT_THRESHOLD)
+            if code == 0:
+                self.refactored += 1
+                return self.f
+            if code == 2:
+                raise SingularMatrix("pivot below 1e-14 of the largest (the matrix is numerically singular)")
+        # SuperLU chooses the ordering and the pivots on the actual values; the fill pattern for
+        # those permutations is then made from the structure (entries that happen to be zero now
+        # may not be later), and the factor computed on it
+        lu = factorize(matrix)
+        n = matrix.shape[0]
+        perm_r, perm_c = lu.perm_r.astype(np.int64), lu.perm_c.astype(np.int64)
+        self.inv_perm_c = np.argsort(perm_c).astype(np.int64)
+        Lp, Up, mark = np.zeros(n + 1, np.int64), np.zeros(n + 1, np.int64), np.zeros(n, np.int64)
+        cap = max(4 * (lu.L.nnz + lu.U.nnz), 2 * matrix.nnz, n)
+        while True:
+            Li, Ui = np.zeros(cap, np.int64), np.zeros(cap, np.int64)
+            nl, nu = symbolic_lu(matrix.indptr, matrix.indices, perm_r, self.inv_perm_c, Lp, Li, Up, Ui, mark)
+            if nl >= 0:
+                break
+            cap *= 2
+        self.f = (Lp, Li[:nl].copy(), np.zeros(nl), Up, Ui[:nu].copy(), np.zeros(nu), perm_r, perm_c)
+        self.fresh += 1
+        code = refactor(self.f, matrix.indptr, matrix.indices, matrix.data, self.inv_perm_c, self.w, 0.0)
+        if code == 2:
+            self.f = None
+            raise SingularMatrix("pivot below 1e-14 of the largest (the matrix is numerically singular)")
+        return self.f
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        x = np.empty_like(b)
+        lu_solve(self.f, b, self.work, x)
+        return x

@@ -602,60 +602,11 @@ def test_torsion_double_pendulum_model_meets_its_checks():
     assert np.max(np.abs(balance - balance[0])) / E["kinetic"].max() < checks["energy"]["tolerance"]
 
 
-def _implicit_checks():
-    """Static bushing deflection and a generalized-α oscillator period (run by the test below)."""
-    from reference.joints.joint import joint_frame
-    from reference.rotation import EulerParameters
-
-    d = Domain()
-    b = d.add_rigid_body("b", 1.0, [1.0, 1.0, 1.0], [0.5, 0.0, 0.0])
-    axis, ref = np.array([1.0, 1.0, 1.0]) / math.sqrt(3), np.array([1.0, -1.0, 0.0])
-    U = joint_frame(axis, ref)
-    k = np.array([100.0, 200.0, 300.0, 10.0, 20.0, 30.0])
-    d.add_force_element(Bushing(b, None, [0.5, 0.0, 0.0], axis, ref, k, np.zeros(6)))
-    F, M = np.array([1e-3, 2e-3, -3e-3]), np.array([0.01, -0.02, 0.03])
-    d.add_interaction(NodalLoad(b, F))
-    d.add_interaction(NodalLoad(b, M, moment=True))
-    d.solver.algorithm, d.solver.load_steps, d.solver.t_end, d.solver.dt = "static", 1, 1.0, 1.0
-    r = d.solve()
-    AU = EulerParameters(r.rotation("b")[-1]).matrix() @ U
-    d_err = np.linalg.norm(r.position("b")[-1] - [0.5, 0.0, 0.0] - AU @ ((AU.T @ F) / k[:3]))
-    q = r.rotation("b")[-1]
-    t_err = np.linalg.norm(2 * q[1:] / q[0] - AU @ ((AU.T @ M) / k[3:]))
+def test_implicit_algorithms_refuse_force_elements_for_now():
+    """The implicit algorithms do not assemble springs yet: refused with the reason, not run wrong."""
     d = Domain()
     body = d.add_rigid_body("m", 1.0, [1.0, 1.0, 1.0], [1.1, 0.0, 0.0])
     d.add_force_element(PointToPoint(body, [1.1, 0.0, 0.0], None, [0.0, 0.0, 0.0], stiffness=100.0, rest_length=1.0))
-    d.solver.algorithm, d.solver.dt, d.solver.t_end = "generalized_alpha", 2e-3, 1.4
-    r = d.solve()
-    period = np.mean(np.diff(crossings(r.time, r.position("m")[:, 0] - 1.0)))
-    d = Domain()
-    disc = d.add_rigid_body("disc", 1.0, [1.0, 1.0, 2.0], [0.0, 0.0, 0.0])
-    disc.angular_velocity = np.array([0.0, 0.0, 15.0])  # amplitude 3 rad > π: the angle must stay continuous
-    d.add_force_element(Rotational(disc, None, [0.0, 0.0, 1.0], stiffness=50.0))
-    d.solver.algorithm, d.solver.dt, d.solver.t_end = "generalized_alpha", 2e-3, 2.6
-    r = d.solve()
-    torsion = np.mean(np.diff(crossings(r.time, r.angular_velocity("disc")[:, 2])))
-    return [d_err / np.linalg.norm(F / k[:3]), t_err / np.linalg.norm(M / k[3:]), period / (2 * np.pi / 10) - 1,
-            torsion / (2 * np.pi / 5) - 1]
-
-
-def test_implicit_algorithms_assemble_the_force_elements():
-    """The static algorithm puts a bushing at d = K⁻¹F exactly (1e-9: Newton's tolerance; the rotation
-    at K⁻¹M to 1e-3: the moment is the gradient of the small-rotation energy, T(θ)ᵀKθ, first order in
-    θ = 1e-3), and generalized-α (ρ∞ = 0.8, h = 2e-3) gives the oscillator's period 2π/10 and a torsional
-    pendulum's 2π/5 (swinging ±3 rad: the continuous angle) within 1e-4 (its O((ωh)²) error).  Run without compilation (a subprocess with NUMBA_DISABLE_JIT=1), as the tangent
-    test, to keep the suite's compile time down."""
-    import json
-    import os
-    import subprocess
-    import sys
-
-    code = ("import sys, json; sys.path.insert(0, 'tests'); from test_forces import _implicit_checks; "
-            "print(json.dumps([float(e) for e in _implicit_checks()]))")
-    root = Path(__file__).resolve().parent.parent
-    out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=600,
-                         env={**os.environ, "NUMBA_DISABLE_JIT": "1", "PYTHONPATH": str(root)})
-    assert out.returncode == 0, out.stderr[-2000:]
-    d_err, t_err, period_err, torsion_err = json.loads(out.stdout.strip().splitlines()[-1])
-    assert d_err < 1e-9 and t_err < 1e-3 and abs(period_err) < 1e-4 and abs(torsion_err) < 1e-4, \
-        (d_err, t_err, period_err, torsion_err)
+    d.solver.algorithm, d.solver.dt, d.solver.t_end = "generalized_alpha", 1e-2, 0.1
+    with pytest.raises(ValueError, match="force elements .* are not yet assembled by the implicit algorithms"):
+        d.solve()

@@ -10,6 +10,8 @@ class Algorithm(ABC):
 
     Subclasses provide ``name`` (the deck's ``[solver] algorithm``), ``dt``,
     ``explicit`` (True if the step is bounded by the critical time step),
+    ``deck_required``/``deck_optional`` (its ``[solver]`` keys besides ``algorithm``),
+    ``refusal(model) → str | None`` (why it cannot run a model),
     ``from_settings(settings, dt=None)`` (build from
     :class:`~reference.domain.SolverSettings`, ``dt`` an override),
     ``advance(model, state, n_steps, record, scratch) → status``, which moves
@@ -22,6 +24,12 @@ class Algorithm(ABC):
     name: str
     dt: float
     explicit: bool = False
+    deck_required: tuple = ()
+    deck_optional: tuple = ()
+
+    @staticmethod
+    def refusal(model) -> str | None:
+        return None
 
     @classmethod
     @abstractmethod

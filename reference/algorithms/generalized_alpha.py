@@ -22,9 +22,14 @@ the highest frequencies in one step.
 
 Newton iterates on the configuration correction δ (``h Δq += δ``,
 ``V += γ' δ``, ``V̇ += β' δ``, ``γ' = γ/(hβ)``, ``β' = (1 − α_m)/(h²β(1 − α_f))``)
-with the iteration matrix ``M + (γ'/β') C + K/β'`` (the tangent operator of the
-exponential taken as identity, as in Brüls et al. 2012, §4: the converged step
-is unchanged and the convergence stays fast because ``|h ω| ≪ 1``).  The
+with the iteration matrix ``M + (γ'/β') C + K T/β'``, T the tangent operator
+``J_r(h Δθ)`` of the exponential at each node (Brüls et al. 2012, §4).  The
+factor is kept over iterations and steps while every correction is below a
+tenth of the previous one (modified Newton); otherwise the matrix is refactored
+at the current iterate and the step goes on from there (full Newton if need
+be).  Newton stops when the correction, or the error it leaves for an observed
+contraction θ, ``θ/(1 − θ)·|δ|`` (Hairer & Wanner 1996, §IV.8), is below the
+tolerance (translations over the model size, rotations in rad).  The
 initial accelerations and multipliers are consistent: ``M V̇_0 + Bᵀλ_0 = −r_0``,
 ``B V̇_0 = −d/dt(B V + Φ_t)`` (the last by a central difference along the motion).
 
@@ -34,12 +39,18 @@ and drives), damping dissipation by the trapezoidal rule on ``c Vᵀ M V``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from reference.algorithms.implicit import (
-    DIVERGED, NO_CONVERGENCE, OK, SINGULAR, ImplicitAlgorithm, compose,
+    DIVERGED, NO_CONVERGENCE, OK, SINGULAR, ImplicitAlgorithm, compose, evaluate,
 )
-from reference.linalg import SingularMatrix
+from reference.jit import kernel
+from reference.linalg import SingularMatrix, lu_solve
+
+REFACTOR = 4
+"""Internal status of :func:`steps`: the kept factor contracts too slowly."""
 
 
 def parameters(rho_inf: float) -> tuple[float, float, float, float]:
@@ -59,15 +70,22 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         Time step h [s] (no stability limit).
     rho_inf : float, default 0.8
         Spectral radius at infinite frequency, 0 ≤ ρ∞ ≤ 1 (1: no numerical dissipation).
-    tolerance : float, default 1e-8
-        Newton stops when the largest correction is below ``tolerance`` × model size
-        (translations) and ``tolerance`` rad (rotations).
+    tolerance : float, default 1e-10
+        Newton stops when the largest correction (or the error it leaves, see above) is
+        below ``tolerance`` × model size (translations) and ``tolerance`` rad (rotations).
     max_iterations : int, default 15
+        Newton corrections per step before the run stops.
     """
 
     name = "generalized_alpha"
+    deck_required = ("dt", "t_end")
+    deck_optional = ("rho_inf", "tolerance", "max_iterations", "damping", "output_every",
+                     "consistent_initial_velocities", "max_steps")
+    contraction = 0.1
+    """Modified Newton: the factor is kept over iterations and steps while each correction is
+    below this fraction of the previous one; otherwise the matrix is refactored at the iterate."""
 
-    def __init__(self, dt: float, rho_inf: float = 0.8, tolerance: float = 1e-8, max_iterations: int = 15):
+    def __init__(self, dt: float, rho_inf: float = 0.8, tolerance: float = 1e-10, max_iterations: int = 15):
         super().__init__(dt, tolerance, max_iterations)
         if not 0.0 <= rho_inf <= 1.0:
             raise ValueError(f"rho_inf must lie in [0, 1], got {rho_inf!r}")
@@ -75,10 +93,12 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         self.alpha_m, self.alpha_f, self.gamma, self.beta = parameters(self.rho_inf)
         self._run = None
         self.iterations = 0
+        self.factorizations = 0
+        self.lu = None
 
     @classmethod
     def from_settings(cls, settings, dt=None):
-        return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or 1e-8, settings.max_iterations or 15)
+        return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or 1e-10, settings.max_iterations or 15)
 
     def _start(self, model, state):
         """Consistent initial accelerations and multipliers at the state's time."""
@@ -86,10 +106,11 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         N, m = x.shape[0], model.n_constraints
         t = clock[0]
         self.L = self.length_scale(x)
-        self.hx = 6e-6 * self.L
+        self.lu = None
+        self._no_factor = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
+                           np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
         vd = np.zeros((N, 6))
         lam = np.zeros(m)
-        self.work.angle[:] = state.angle  # the force elements' continuous angles
         U = self.evaluate(model, x, q, v, w, vd, lam, t, True)
         r0 = self.work.r.copy()
         rate = np.zeros(m)
@@ -105,7 +126,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             rate = (g[0] - g[1]) / (2.0 * tau)
             U = self.evaluate(model, x, q, v, w, vd, lam, t, True)
         try:
-            lu = self.factor(model, x, q, w, t, lam, 1.0, 0.0, 0.0, self.hx, ce=0.0)
+            lu = self.factor(model, x, q, w, t, lam, 1.0, 0.0, 0.0, ce=0.0)
             vd, lam = self.solve(lu, -r0, -rate)
         except SingularMatrix:
             return SINGULAR
@@ -113,24 +134,10 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         self.U = U
         self.evaluate(model, x, q, v, w, vd, lam, t, True)
         f_prev[:] = self.work.F
-        self.P = self._power(model, v, w, lam)
-        self.D = self._dissipation(model, v, w)
+        self.P = _power(model, self.work.Bl, lam, v, w)
+        self.D = _dissipation(model, v, w)
         self._run = (state, clock[1])
         return OK
-
-    def _power(self, model, v, w, lam) -> float:
-        """Power of the constraint forces on the system, ``−λᵀ B V`` (last evaluation)."""
-        return -float(lam @ self.constraint_rate(model, v, w)) if lam.size else 0.0
-
-    def _dissipation(self, model, v, w) -> float:
-        """Power dissipated by the mass-proportional damping and the force elements' dampers
-        (those at the last evaluation, the same state)."""
-        c = model.damping
-        fe = self.work.fe_power if model.fe_kind.shape[0] else 0.0
-        if c == 0.0:
-            return fe
-        return fe + c * (float(np.sum(model.mass[:, None] * v * v))
-                         + float(np.einsum("na,nab,nb->", w, model.inertia, w)))
 
     def advance(self, model, state, n_steps, record, scratch) -> int:
         self.prepare(model)
@@ -141,67 +148,210 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             if code != OK:
                 self.stopped_at = clock[0]
                 return code
+            n = self.pattern.n
+            N = x.shape[0]
+            self.arrays = tuple(np.zeros((N, 6)) for _ in range(7)) + (
+                np.zeros(model.n_constraints), np.zeros(model.n_constraints), np.zeros(n), np.zeros(n), np.zeros(n),
+                np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4), np.zeros(2))
+            h = self.dt
+            am, af, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
+            self.par = np.array([h, am, af, gamma, beta, self.tolerance, self.L, self.contraction,
+                                 self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0])
+            self.energy = np.array([self.P, self.D])
+        par, energy = self.par, self.energy
         if record is not None:
-            U = self.evaluate(model, x, q, v, w, self.vd, self.lam, clock[0], True)
+            # the last Newton evaluation of the previous step is this state within the tolerance
+            U = par[11] if np.isfinite(par[11]) else self.evaluate(model, x, q, v, w, self.vd, self.lam, clock[0], True)
             self.write_record(record, model, x, q, v, w, U, clock, self.lam)
         h = self.dt
         am, af, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
         bp = (1.0 - am) / (h * h * beta * (1.0 - af))
-        gp = gamma / (h * beta)
-        ck, cc = 1.0 / bp, gp / bp
-        x1, q1 = np.empty_like(x), np.empty_like(q)
-        tmp = np.empty(4)
-        for _ in range(n_steps):
-            t1 = clock[0] + h
-            V = np.concatenate([v, w], axis=1)
-            vd, a = self.vd, self.a
-            a_new = (vd - am * a) / (1.0 - am)
-            vd_new = vd.copy()
-            dq = V + h * (0.5 - beta) * a + h * beta * a_new
-            V_new = V + h * (1.0 - gamma) * a + h * gamma * a_new
-            lam = self.lam.copy()
-            done = False
-            for it in range(self.max_iterations):
-                x1[:] = x + h * dq[:, :3]
-                compose(q, np.ascontiguousarray(h * dq[:, 3:]), q1, tmp)
-                v1, w1 = np.ascontiguousarray(V_new[:, :3]), np.ascontiguousarray(V_new[:, 3:])
-                self.evaluate(model, x1, q1, v1, w1, vd_new, lam, t1, True)
-                if not np.all(np.isfinite(self.work.r)):
-                    self.stopped_at = clock[0]
-                    return DIVERGED
+        ck, cc = 1.0 / bp, (gamma / (h * beta)) / bp
+        par[10] = 0.0
+        dq, Vn = self.arrays[0], self.arrays[1]
+        lamn = self.arrays[7]
+        x1, q1 = self.arrays[12], self.arrays[13]
+        left = int(n_steps)
+        while left > 0:
+            if self.lu is None:
+                par[9] = -1.0  # only predict: the factor is made at the predictor
+            out = steps(model, x, q, v, w, self.vd, self.a, self.lam, clock, f_prev, energy, self.dof, par, left,
+                        self.factors if self.lu is not None else self._no_factor, self.wt, self.arrays)
+            code, done = out
+            left -= done
+            if code == OK:
+                continue
+            if code == REFACTOR:
                 try:
-                    lu = self.factor(model, x1, q1, w1, t1, lam, 1.0, cc, ck, self.hx)
-                    delta, mu = self.newton_correction(lu, model, ck, lam)
+                    self.lu = self.factor(model, x1, q1, np.ascontiguousarray(Vn[:, 3:]), clock[0] + h, lamn, 1.0, cc,
+                                          ck, psi=np.ascontiguousarray(h * dq[:, 3:]))
                 except SingularMatrix:
                     self.stopped_at = clock[0]
+                    self.P, self.D = energy
                     return SINGULAR
-                dq += delta / h
-                V_new += gp * delta
-                vd_new += bp * delta
-                lam += bp * mu
-                self.iterations += 1
-                if self.converged(delta, self.L):
-                    done = True
-                    break
-            if not done:
-                self.stopped_at = clock[0]
-                return NO_CONVERGENCE
-            x1[:] = x + h * dq[:, :3]
-            compose(q, np.ascontiguousarray(h * dq[:, 3:]), q1, tmp)
-            v1, w1 = np.ascontiguousarray(V_new[:, :3]), np.ascontiguousarray(V_new[:, 3:])
-            # energy bookkeeping with the last evaluation (within the Newton tolerance of the step's end)
-            F1 = self.work.F
-            P1 = self._power(model, v1, w1, lam)
-            D1 = self._dissipation(model, v1, w1)
-            clock[2] += 0.5 * float(np.sum((f_prev + F1) * h * dq)) + 0.5 * h * (self.P + P1)
-            clock[3] += 0.5 * h * (self.D + D1)
-            f_prev[:] = F1
-            self.P, self.D = P1, D1
-            self.a = a_new + (1.0 - af) / (1.0 - am) * (vd_new - vd)
-            self.vd, self.lam = vd_new, lam
-            x[:], q[:], v[:], w[:] = x1, q1, v1, w1
-            state.angle[:] = self.work.angle
-            clock[1] += 1
-            clock[0] = clock[1] * h
-            self._run = (state, clock[1])
+                self.factors = self.lu
+                self.factorizations += 1
+                par[9] = 1.0  # the interrupted step resumes with a fresh factor
+                continue
+            self.lu = None
+            par[12] = 0.0
+            self.stopped_at = clock[0]
+            self.P, self.D = energy
+            return code
+        self.P, self.D = energy
+        self.iterations += int(par[10])
+        self._run = (state, clock[1])
         return OK
+
+
+@kernel
+def _power(model, Bl, lam, v, w):
+    """``−λᵀ B V`` (power of the constraint forces) from the local rows ``Bl``."""
+    P = 0.0
+    for k in range(model.jt_i.shape[0]):
+        i, j = model.jt_i[k], model.jt_j[k]
+        for r in range(model.jt_row0[k], model.jt_row0[k] + model.jt_neq[k]):
+            acc = 0.0
+            for a in range(3):
+                acc += Bl[r, a] * v[i, a] + Bl[r, 3 + a] * w[i, a]
+                if j >= 0:
+                    acc += Bl[r, 6 + a] * v[j, a] + Bl[r, 9 + a] * w[j, a]
+            P -= lam[r] * acc
+    return P
+
+
+@kernel
+def _dissipation(model, v, w):
+    c = model.damping
+    D = 0.0
+    for i in range(v.shape[0]):
+        J = model.inertia[i]
+        for a in range(3):
+            D += model.mass[i] * v[i, a] * v[i, a]
+            for b in range(3):
+                D += w[i, a] * J[a, b] * w[i, b]
+    return c * D
+
+
+@kernel
+def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr):
+    """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton).
+
+    Returns ``(status, steps done)``; ``REFACTOR`` (a correction shrank by less than
+    ``contraction``, or there is no factor yet) leaves the iterate of the unfinished step in
+    ``arr`` (x1, q1, V, λ, h Δq): the caller factors the Newton matrix there and calls again,
+    and the step resumes from that iterate.  At most ``max_iterations`` corrections per step
+    (``NO_CONVERGENCE`` otherwise).
+    ``par`` = [h, α_m, α_f, γ, β, tolerance, L, contraction, max_iterations, fresh, iterations, U,
+    resume, corrections of this step] (fresh: 1 the factor is new, −1 there is none yet;
+    iterations counted here; U the strain energy of the last evaluation; resume: 1 to continue
+    the interrupted step's iterate).
+    """
+    dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, _e = arr
+    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B = wt
+    h, am, af, gamma, beta, tol, L, contraction = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
+    max_it = int(par[8])
+    bp = (1.0 - am) / (h * h * beta * (1.0 - af))
+    gp = gamma / (h * beta)
+    ck = 1.0 / bp
+    N = x.shape[0]
+    m = lam.shape[0]
+    n_free = rhs.shape[0] - m
+    psi = np.empty((N, 3))
+    for step in range(n_steps):
+        t1 = clock[0] + h
+        if not (step == 0 and par[12] == 1.0):
+            # predictor (unless resuming the iterate of an interrupted step with a new factor)
+            par[13] = 0.0
+            for i in range(N):
+                for k in range(6):
+                    Vk = v[i, k] if k < 3 else w[i, k - 3]
+                    an[i, k] = (vd[i, k] - am * a[i, k]) / (1.0 - am)
+                    vdn[i, k] = vd[i, k]
+                    dq[i, k] = Vk + h * (0.5 - beta) * a[i, k] + h * beta * an[i, k]
+                    Vn[i, k] = Vk + h * (1.0 - gamma) * a[i, k] + h * gamma * an[i, k]
+            for k in range(m):
+                lamn[k] = lam[k]
+        par[12] = 1.0  # an interruption from here on keeps the iterate
+        previous = -1.0
+        converged = False
+        while par[13] < max_it:
+            for i in range(N):
+                for k in range(3):
+                    x1[i, k] = x[i, k] + h * dq[i, k]
+                    psi[i, k] = h * dq[i, 3 + k]
+            compose(q, psi, q1, tmp)
+            par[11] = evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
+            if par[9] < 0.0:
+                return REFACTOR, step
+            for i in range(N):
+                for k in range(6):
+                    if not math.isfinite(r[i, k]):
+                        return DIVERGED, step
+                    if dof[i, k] >= 0:
+                        rhs[dof[i, k]] = -ck * r[i, k]
+            for k in range(m):
+                rhs[n_free + k] = -(PHI[k] - model.row_eps[k] * lamn[k])
+            lu_solve(factors, rhs, lwork, sol)
+            size = 0.0
+            for i in range(N):
+                for k in range(6):
+                    d = sol[dof[i, k]] if dof[i, k] >= 0 else 0.0
+                    delta[i, k] = d
+                    size = max(size, abs(d) / L if k < 3 else abs(d))
+            if not math.isfinite(size):
+                return DIVERGED, step
+            if previous >= 0.0 and size > contraction * previous:
+                return REFACTOR, step  # a new factor at this iterate (full Newton when it keeps happening)
+            theta = size / previous if previous > 0.0 else 1.0
+            previous = size
+            par[13] += 1.0
+            for i in range(N):
+                for k in range(6):
+                    dq[i, k] += delta[i, k] / h
+                    Vn[i, k] += gp * delta[i, k]
+                    vdn[i, k] += bp * delta[i, k]
+            for k in range(m):
+                lamn[k] += bp * sol[n_free + k]
+            par[10] += 1.0
+            # the error left after this correction: about θ/(1 − θ) of it for a contraction θ
+            # (Hairer & Wanner 1996, §IV.8); the correction itself when θ is not known yet
+            if size <= tol or (theta < 1.0 and theta * size <= tol * (1.0 - theta)):
+                converged = True
+                break
+        if not converged:
+            par[12] = 0.0
+            return NO_CONVERGENCE, step
+        par[9] = 0.0
+        par[12] = 0.0
+        for i in range(N):
+            for k in range(3):
+                x1[i, k] = x[i, k] + h * dq[i, k]
+                psi[i, k] = h * dq[i, 3 + k]
+        compose(q, psi, q1, tmp)
+        # energy bookkeeping with the last evaluation (within the Newton tolerance of the step's end)
+        P1 = _power(model, Bl, lamn, Vn[:, :3], Vn[:, 3:])
+        D1 = _dissipation(model, Vn[:, :3], Vn[:, 3:])
+        dW = 0.0
+        for i in range(N):
+            for k in range(6):
+                dW += 0.5 * (f_prev[i, k] + F[i, k]) * h * dq[i, k]
+                f_prev[i, k] = F[i, k]
+        clock[2] += dW + 0.5 * h * (energy[0] + P1)
+        clock[3] += 0.5 * h * (energy[1] + D1)
+        energy[0], energy[1] = P1, D1
+        for i in range(N):
+            for k in range(6):
+                a[i, k] = an[i, k] + (1.0 - af) / (1.0 - am) * (vdn[i, k] - vd[i, k])
+                vd[i, k] = vdn[i, k]
+            for k in range(3):
+                x[i, k] = x1[i, k]
+                v[i, k] = Vn[i, k]
+                w[i, k] = Vn[i, 3 + k]
+            for k in range(4):
+                q[i, k] = q1[i, k]
+        for k in range(m):
+            lam[k] = lamn[k]
+        clock[1] += 1
+        clock[0] = clock[1] * h
+    return OK, n_steps

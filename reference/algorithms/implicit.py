@@ -24,16 +24,12 @@ generalized-α: 1, γ'/β', 1/β')::
     [ c_m M + c_c C + c_k K    Bᵀ  ] [δ]      [c_k r]
     [ B                      −ε/c_k] [μ]  = − [Φ − ελ]      λ ← λ + μ / c_k
 
-``C = ∂r/∂V`` (damping and gyroscopic, analytic), ``K = ∂r/∂δ`` at fixed
-velocities: the Beam2 tangent stiffness, the joints' λ-weighted constraint
-Hessian ``∂(Bᵀλ)/∂δ`` and the follower-load tangents, and the force elements' derived tangents
-(:func:`reference.forces.force_element_tangent`, added after the constraint
-blocks; their continuous angles are carried in the work arrays).  The Beam2 and joint
-parts are taken here by central differences of the generated kernels under
-the update above (step ``FD_STEP`` relative; truncation and round-off both
-≈ 1e-10 relative), the load tangents analytically:
-``∂(f A b)/∂δθ = −f A b̃`` (follower force) and ``∂(f Aᵀ m)/∂δθ = f (Aᵀm)~``
-(dead moment in the body frame).
+``C = ∂r/∂V`` (damping, and the gyroscopic tangent), ``K = ∂r/∂δ`` at fixed
+velocities: the Beam2 tangent stiffness (material + geometric), the joints'
+λ-weighted constraint Hessian ``∂(Bᵀλ)/∂δ`` and the follower-load tangents —
+all sympy-derived kernels (``reference/generated/tangents.py``,
+``reference/joints/hessian.py``; docs/tangents.md), exact derivatives under the
+update above, so that Newton converges quadratically.
 
 Values are written by :func:`tangent_values` block by block in the order that
 :func:`newton_pattern` lays out once per model (:class:`reference.linalg.BlockPattern`).
@@ -46,20 +42,16 @@ import math
 import numpy as np
 
 from reference.algorithms.staggered import external_forces
-from reference.forces import force_element_forces, force_element_tangent
 from reference.elements.formulation import beam2_assemble, section_quaternion, tangent_to_node_frame
-from reference.generated import beam2 as generated_beam2
 from reference.generated import rotation_maps as rm
+from reference.generated import tangents as generated_tangents
 from reference.interactions import tf_value
 from reference.jit import kernel
 from reference.joints.assembly import joint_rows
+from reference.joints.hessian import joint_rows_hessian
 from reference.joints.sparse import jacobian_row_columns
 from reference.algorithms.base import Algorithm
-from reference.linalg import BlockPattern, SingularMatrix, factorize
-
-FD_STEP = 6e-6
-"""Central-difference step of the finite-difference tangents (relative to the model size for
-translations, in radians for rotations): ≈ ε_machine^(1/3)."""
+from reference.linalg import BlockPattern, SingularMatrix, SparseLU, lu_solve
 
 
 class Work:
@@ -79,16 +71,7 @@ class Work:
         self.prim_phi, self.prim_B = np.zeros(10), np.zeros(120)
         self.small = np.zeros((8, 12))
         self.K12 = np.zeros((12, 12))
-        nF = model.fe_kind.shape[0]
-        self.values = np.zeros(36 * N + 144 * E + 144 * J + 24 * m + m + 144 * nF)
-        # force elements (reference/forces.py): their forces, continuous angles, work arrays, the
-        # velocities of the last evaluation (the damper part of their tangent) and their damper power
-        self.G, self.Fa = np.zeros((N, 6)), np.zeros((N, 6))
-        self.angle = np.zeros(nF)
-        self.fe_e, self.fe_B, self.fe_G = np.zeros(6), np.zeros(72), np.zeros(864)
-        self.C12 = np.zeros((12, 12))
-        self.v_last, self.w_last = np.zeros((N, 3)), np.zeros((N, 3))
-        self.fe_power = 0.0
+        self.values = np.zeros(36 * N + 144 * E + 144 * J + 24 * m + m)
 
 
 @kernel
@@ -139,99 +122,9 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
 
 
 @kernel
-def _perturb(x0, q0, k, h, x, q, dq):
-    """``x = x0 + h e_k`` (k < 3) or ``q = q0 ⊗ exp(h e_{k−3})``."""
-    for a in range(3):
-        x[a] = x0[a]
-    for a in range(4):
-        q[a] = q0[a]
-    if k < 3:
-        x[k] += h
-    else:
-        half = 0.5 * h
-        s, c = math.sin(half), math.cos(half)
-        dq[0], dq[1], dq[2], dq[3] = c, 0.0, 0.0, 0.0
-        dq[k - 2] = s
-        rm.quat_product(q0, dq, q)
-
-
-@kernel
-def beam2_tangent_fd(x1, x2, q1, q2, L0, psi0, gamma0, stiff, hx, K, small, s_el):
-    """Central-difference tangent ``K = ∂s/∂δ`` (12×12) of one Beam2 element's internal forces."""
-    xp, qp = small[0, :3], small[1, :4]
-    dq = small[2, :4]
-    fp, fm = small[3, :12], small[4, :12]
-    for col in range(12):
-        node = col // 6
-        k = col % 6
-        h = hx if k < 3 else FD_STEP
-        for sgn in range(2):
-            step = h if sgn == 0 else -h
-            out = fp if sgn == 0 else fm
-            if node == 0:
-                _perturb(x1, q1, k, step, xp, qp, dq)
-                generated_beam2.internal_forces(xp, x2, qp, q2, L0, psi0, gamma0, stiff, s_el[:12], s_el[12:18],
-                                                s_el[18:24])
-            else:
-                _perturb(x2, q2, k, step, xp, qp, dq)
-                generated_beam2.internal_forces(x1, xp, q1, qp, L0, psi0, gamma0, stiff, s_el[:12], s_el[12:18],
-                                                s_el[18:24])
-            for a in range(12):
-                out[a] = s_el[a]
-        for a in range(12):
-            K[a, col] = (fp[a] - fm[a]) / (2.0 * h)
-
-
-@kernel
-def joint_hessian_fd(model, k, x, q, t, lam, hx, H, w_, small):
-    """Central-difference ``H = ∂(Bᵀλ)/∂δ`` (12×12, nodes i then j) of joint k; x and q restored."""
-    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B = w_
-    neq = model.jt_neq[k]
-    r0 = model.jt_row0[k]
-    i, j = model.jt_i[k], model.jt_j[k]
-    tf = model.jt_tf[k]
-    xs, qs = small[0, :3], small[1, :4]
-    dq = small[2, :4]
-    fp, fm = small[3, :12], small[4, :12]
-    xn, qn = small[5, :3], small[6, :4]
-    for col in range(12):
-        node = i if col < 6 else j
-        kk = col % 6
-        if node < 0:
-            for a in range(12):
-                H[a, col] = 0.0
-            continue
-        h = hx if kk < 3 else FD_STEP
-        for a in range(3):
-            xs[a] = x[node, a]
-        for a in range(4):
-            qs[a] = q[node, a]
-        for sgn in range(2):
-            step = h if sgn == 0 else -h
-            out = fp if sgn == 0 else fm
-            _perturb(xs, qs, kk, step, xn, qn, dq)
-            for a in range(3):
-                x[node, a] = xn[a]
-            for a in range(4):
-                q[node, a] = qn[a]
-            joint_rows(x, q, i, j, model.jt_par[k], model.jt_rows[k], model.jt_drive[k], model.tf_kind[tf],
-                       model.tf_par[tf], t, jphi[:neq], jB[:neq], jphit[:neq], prim_phi, prim_B)
-            for a in range(12):
-                acc = 0.0
-                for rr in range(neq):
-                    acc += jB[rr, a] * lam[r0 + rr]
-                out[a] = acc
-        for a in range(3):
-            x[node, a] = xs[a]
-        for a in range(4):
-            q[node, a] = qs[a]
-        for a in range(12):
-            H[a, col] = (fp[a] - fm[a]) / (2.0 * h)
-
-
-@kernel
-def load_tangent(model, q, t, i, K6, A):
-    """Add ``−∂F/∂δ`` of the loads on node i into the 6×6 block ``K6`` (follower force, dead moment)."""
+def load_tangent(model, q, t, i, K6, T9):
+    """Add ``−∂F/∂δ`` of the configuration-dependent loads on node i into the 6×6 block ``K6``:
+    follower forces (generated ``follower_force_tangent``) and dead moments (``dead_moment_tangent``)."""
     for l in range(model.load_node.shape[0]):
         if model.load_node[l] != i:
             continue
@@ -240,36 +133,32 @@ def load_tangent(model, q, t, i, K6, A):
             continue
         tf = model.load_tf[l]
         f = tf_value(model.tf_kind[tf], model.tf_par[tf], t)
-        b = model.load_vec[l]
-        rm.rotation_matrix(q[i], A)
         if code == 1:
-            # F_u = f A b: ∂/∂δθ = −f A b̃, so −∂F_u/∂δθ = f A b̃
-            for a in range(3):
-                a0, a1, a2 = A[3 * a], A[3 * a + 1], A[3 * a + 2]
-                # row a of A b̃: (A b̃)_{a,c} = Σ_k A_{ak} b̃_{kc}
-                K6[a, 3] += f * (a1 * b[2] - a2 * b[1])
-                K6[a, 4] += f * (a2 * b[0] - a0 * b[2])
-                K6[a, 5] += f * (a0 * b[1] - a1 * b[0])
+            generated_tangents.follower_force_tangent(q[i], model.load_vec[l], T9)
+            r0 = 0
         else:
-            # F_θ = f Aᵀ m: ∂/∂δθ = f (Aᵀm)~, so −∂F_θ/∂δθ = −f (Aᵀm)~
-            g0 = A[0] * b[0] + A[3] * b[1] + A[6] * b[2]
-            g1 = A[1] * b[0] + A[4] * b[1] + A[7] * b[2]
-            g2 = A[2] * b[0] + A[5] * b[1] + A[8] * b[2]
-            K6[3, 4] += f * g2
-            K6[3, 5] -= f * g1
-            K6[4, 3] -= f * g2
-            K6[4, 5] += f * g0
-            K6[5, 3] += f * g1
-            K6[5, 4] -= f * g0
+            generated_tangents.dead_moment_tangent(q[i], model.load_vec[l], T9)
+            r0 = 3
+        for a in range(3):
+            for b in range(3):
+                K6[r0 + a, 3 + b] -= f * T9[3 * a + b]
 
 
 @kernel
-def tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, values, w_, small, K12):
+def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, small, K12):
     """Block values of the Newton matrix (order of :func:`newton_pattern`) into ``values``.
 
     ``c_e`` multiplies the −ε diagonal (``1/c_k`` in Newton); with ``c_k = 0`` the
     stiffness blocks are zero and not computed (the mass matrix of the initial accelerations).
+    ``psi`` (N,3): when the unknown rotation δ enters as ``q = q_n ⊗ exp(ψ + δ)`` (generalized-α),
+    the configuration-dependent blocks are multiplied on the right by the tangent operator
+    ``J_r(ψ)`` of each node (``exp(ψ + δ) = exp(ψ) exp(J_r(ψ) δ) + O(δ²)``); zeros for the
+    static update ``q ⊗ exp(δ)``.
     """
+    Jr = small[7, :9]
+    J9 = small[6, :9]
+    wts = small[5, :10]
+    K144 = K12.reshape(144)
     N = x.shape[0]
     E = model.conn.shape[0]
     NJ = model.jt_i.shape[0]
@@ -287,27 +176,20 @@ def tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, values, w_, small
         for a in range(6):
             for b in range(6):
                 blk[a, b] *= ck
+        _right_jacobian_columns(blk, 3, psi[i], Jr)
         for a in range(3):
             blk[a, a] += model.mass[i] * (cm + cc * c)
-        jw0 = J[0, 0] * w[i, 0] + J[0, 1] * w[i, 1] + J[0, 2] * w[i, 2]
-        jw1 = J[1, 0] * w[i, 0] + J[1, 1] * w[i, 1] + J[1, 2] * w[i, 2]
-        jw2 = J[2, 0] * w[i, 0] + J[2, 1] * w[i, 1] + J[2, 2] * w[i, 2]
         for a in range(3):
             for b in range(3):
                 blk[3 + a, 3 + b] += (cm + cc * c) * J[a, b]
         if cc != 0.0:
-            # ∂(ω × Jω)/∂ω = ω̃ J − (Jω)~
-            for b in range(3):
-                y0, y1, y2 = J[0, b], J[1, b], J[2, b]
-                blk[3, 3 + b] += cc * (w[i, 1] * y2 - w[i, 2] * y1)
-                blk[4, 3 + b] += cc * (w[i, 2] * y0 - w[i, 0] * y2)
-                blk[5, 3 + b] += cc * (w[i, 0] * y1 - w[i, 1] * y0)
-            blk[3, 4] -= cc * (-jw2)
-            blk[3, 5] -= cc * jw1
-            blk[4, 3] -= cc * jw2
-            blk[4, 5] -= cc * (-jw0)
-            blk[5, 3] -= cc * (-jw1)
-            blk[5, 4] -= cc * jw0
+            for a in range(3):
+                for b in range(3):
+                    J9[3 * a + b] = J[a, b]
+            generated_tangents.gyroscopic_tangent(J9, w[i], A)
+            for a in range(3):
+                for b in range(3):
+                    blk[3 + a, 3 + b] += cc * A[3 * a + b]
         for a in range(6):
             for b in range(6):
                 values[p] = blk[a, b]
@@ -319,28 +201,45 @@ def tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, values, w_, small
             p1, p2 = s_el[24:28], s_el[28:32]
             section_quaternion(q[i], model.offset[e, 0], p1)
             section_quaternion(q[j], model.offset[e, 1], p2)
-            beam2_tangent_fd(x[i], x[j], p1, p2, model.L0[e], model.psi0[e], model.gamma0[e], model.stiff[e],
-                             hx, K12, small, s_el)
+            generated_tangents.beam2_tangent(x[i], x[j], p1, p2, model.L0[e], model.psi0[e], model.gamma0[e],
+                                             model.stiff[e], s_el[:12], K144)
             tangent_to_node_frame(model.offset[e, 0], model.offset[e, 1], K12, s_el[32:35], s_el[35:38])
         else:
             K12[:, :] = 0.0
+        _right_jacobian_columns(K12, 3, psi[i], Jr)
+        _right_jacobian_columns(K12, 9, psi[j], Jr)
         for a in range(12):
             for b in range(12):
                 values[p] = ck * K12[a, b]
                 p += 1
     for k in range(NJ):
         if ck != 0.0:
-            joint_hessian_fd(model, k, x, q, t, lam, hx, K12, w_, small)
+            neq = model.jt_neq[k]
+            r0 = model.jt_row0[k]
+            tf = model.jt_tf[k]
+            joint_rows_hessian(x, q, model.jt_i[k], model.jt_j[k], model.jt_par[k], model.jt_rows[k],
+                               model.jt_drive[k], model.tf_kind[tf], model.tf_par[tf], t, lam[r0:r0 + neq],
+                               jphi[:neq], jB[:neq], jphit[:neq], K12, prim_phi, prim_B, wts)
         else:
             K12[:, :] = 0.0
+        _right_jacobian_columns(K12, 3, psi[model.jt_i[k]], Jr)
+        if model.jt_j[k] >= 0:
+            _right_jacobian_columns(K12, 9, psi[model.jt_j[k]], Jr)
         for a in range(12):
             for b in range(12):
                 values[p] = ck * K12[a, b]
                 p += 1
-    for rr in range(m):
-        for b in range(12):
-            values[p] = Bl[rr, b]
-            p += 1
+    Bs = small[5:7, :]
+    for k in range(NJ):
+        for rr in range(model.jt_row0[k], model.jt_row0[k] + model.jt_neq[k]):
+            for b in range(12):
+                Bs[0, b] = Bl[rr, b]
+            _right_jacobian_columns(Bs[:1], 3, psi[model.jt_i[k]], Jr)
+            if model.jt_j[k] >= 0:
+                _right_jacobian_columns(Bs[:1], 9, psi[model.jt_j[k]], Jr)
+            for b in range(12):
+                values[p] = Bs[0, b]
+                p += 1
     for rr in range(m):
         for b in range(12):
             values[p] = Bl[rr, b]
@@ -349,6 +248,18 @@ def tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, values, w_, small
         values[p] = -model.row_eps[rr] * ce
         p += 1
     return p
+
+
+@kernel
+def _right_jacobian_columns(K, c0, psi, Jr):
+    """``K[:, c0:c0+3] ← K[:, c0:c0+3] J_r(ψ)`` (skipped for ψ = 0)."""
+    if psi[0] == 0.0 and psi[1] == 0.0 and psi[2] == 0.0:
+        return
+    rm.right_jacobian(psi, Jr)
+    for a in range(K.shape[0]):
+        k0, k1, k2 = K[a, c0], K[a, c0 + 1], K[a, c0 + 2]
+        for b in range(3):
+            K[a, c0 + b] = k0 * Jr[b] + k1 * Jr[3 + b] + k2 * Jr[6 + b]
 
 
 def work_tuple(w: Work):
@@ -391,9 +302,6 @@ def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
         cols.append(np.full(12, n_free + rr))
     rows.append(n_free + np.arange(m))
     cols.append(n_free + np.arange(m))
-    for k in range(model.fe_kind.shape[0]):  # force elements last (values from ImplicitAlgorithm.factor)
-        nodes = [model.fe_i[k], model.fe_j[k]]
-        block(nodes, nodes)
     rows = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
     cols = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)
     return BlockPattern(rows, cols, n_free + m), dof6
@@ -439,6 +347,10 @@ class ImplicitAlgorithm(Algorithm):
         if model.ms_master.shape[0] > 0:
             return ("master/slave joints are not available with the implicit algorithms; use "
                     "formulation = \"jacobian\" (Lagrange multipliers) for those joints")
+        if model.fe_kind.shape[0] > 0:
+            return ("force elements ([[springs]]) are not yet assembled by the implicit algorithms (their forces "
+                    "and derived tangents are ready: reference.forces.force_element_forces and "
+                    "force_element_tangent); use algorithm = \"staggered_central_difference\"")
         return None
 
     def prepare(self, model) -> None:
@@ -454,27 +366,15 @@ class ImplicitAlgorithm(Algorithm):
         self.n_free = int(self.free.sum())
         self.work = Work(model)
         self.wt = work_tuple(self.work)
+        self.zero_psi = np.zeros((model.mass.shape[0], 3))
+        self.slu = SparseLU(self.pattern.n)
 
     def length_scale(self, x: np.ndarray) -> float:
         span = float(np.max(np.ptp(x, axis=0))) if x.shape[0] > 1 else 0.0
         return max(span, 1e-3)
 
     def evaluate(self, model, x, q, v, w, vd, lam, t, dynamic) -> float:
-        U = evaluate(model, x, q, v, w, vd, lam, t, dynamic, self.wt)
-        if model.fe_kind.shape[0] == 0:
-            return U
-        # force elements: springs and dampers act like internal forces (energy in U), actuators
-        # are external loads (into F); static runs see no velocities
-        wk = self.work
-        wk.v_last[:] = v if dynamic else 0.0
-        wk.w_last[:] = w if dynamic else 0.0
-        wk.G[:] = 0.0
-        wk.Fa[:] = 0.0
-        U_fe, wk.fe_power = force_element_forces(model, x, q, wk.v_last, wk.w_last, t, wk.angle, wk.G, wk.Fa,
-                                                 wk.fe_e, wk.fe_B)
-        wk.r -= wk.G + wk.Fa
-        wk.F += wk.Fa
-        return U + U_fe
+        return evaluate(model, x, q, v, w, vd, lam, t, dynamic, self.wt)
 
     def residual_norm(self, ck: float, lam) -> float:
         """‖[c_k r; Φ − ελ]‖ of the last :meth:`evaluate` (free coordinates only)."""
@@ -483,28 +383,25 @@ class ImplicitAlgorithm(Algorithm):
         phi = self.work.PHI - model.row_eps * lam
         return float(math.sqrt(ck * ck * r @ r + phi @ phi))
 
-    def factor(self, model, x, q, w, t, lam, cm, cc, ck, hx, ce=None):
-        """Assemble and factor the Newton matrix at ``(x, q, ω, t, λ)``.
+    def factor(self, model, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
+        """Assemble and factor the Newton matrix at ``(x, q, ω, t, λ)``; returns the factor arrays
+        (:class:`reference.linalg.SparseLU`: SuperLU once, compiled refactorisations after).
 
         Raises :class:`reference.linalg.SingularMatrix` when the matrix is singular.
         """
         wk = self.work
         ce = 1.0 / ck if ce is None else ce
-        p = tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, wk.values, self.wt, wk.small, wk.K12)
-        for k in range(model.fe_kind.shape[0]):
-            # K at the velocities of the last evaluation (the same iterate), C for the velocity coefficient
-            force_element_tangent(model, x, q, wk.v_last, wk.w_last, wk.angle, k, wk.K12, wk.C12, wk.fe_e,
-                                  wk.fe_B, wk.fe_G)
-            wk.values[p:p + 144] = (ck * wk.K12 + cc * wk.C12).reshape(144)
-            p += 144
-        return factorize(self.pattern.matrix(wk.values))
+        psi = self.zero_psi if psi is None else psi
+        tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12)
+        return self.slu.factor(self.pattern.matrix(wk.values))
 
     def solve(self, lu, rhs_nodes: np.ndarray, rhs_rows: np.ndarray):
-        """Solve with a factor: node part (N,6) and constraint part (m,) → (δ (N,6), μ (m,))."""
+        """Solve with the factor arrays ``lu``: node part (N,6) and constraint part (m,) → (δ (N,6), μ (m,))."""
         rhs = np.empty(self.pattern.n)
         rhs[: self.n_free] = rhs_nodes[self.free]
         rhs[self.n_free:] = rhs_rows
-        sol = lu.solve(rhs)
+        sol = np.empty_like(rhs)
+        lu_solve(lu, rhs, self.slu.work, sol)
         if not np.all(np.isfinite(sol)):
             raise SingularMatrix("non-finite Newton correction")
         delta = np.zeros_like(rhs_nodes)
@@ -515,25 +412,19 @@ class ImplicitAlgorithm(Algorithm):
         """Correction from the last :meth:`evaluate`: right-hand side ``−[c_k r; Φ − ελ]``."""
         return self.solve(lu, -ck * self.work.r, -(self.work.PHI - model.row_eps * lam))
 
+    def correction_size(self, delta: np.ndarray, L: float) -> float:
+        """Largest correction: translations over the model size L, rotations in rad."""
+        return max(float(np.max(np.abs(delta[:, :3]), initial=0.0)) / L, float(np.max(np.abs(delta[:, 3:]), initial=0.0)))
+
     def converged(self, delta: np.ndarray, L: float) -> bool:
-        return (float(np.max(np.abs(delta[:, :3]), initial=0.0)) <= self.tolerance * L
-                and float(np.max(np.abs(delta[:, 3:]), initial=0.0)) <= self.tolerance)
+        return self.correction_size(delta, L) <= self.tolerance
 
     def write_record(self, rec, model, x, q, v, w, U, energy_clock, lam) -> None:
         """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B)."""
-        rec.x[:] = x
-        rec.q[:] = q
-        rec.v[:] = v
-        rec.w[:] = w
-        J = model.inertia
-        T = 0.5 * float(np.sum(model.mass[:, None] * v * v)) + 0.5 * float(np.einsum("na,nab,nb->", w, J, w))
-        rec.energy[:] = (T, U, energy_clock[2], energy_clock[3])
-        rec.constraint[0] = float(np.linalg.norm(self.work.PHI))
-        rec.constraint[1] = float(np.linalg.norm(self.work.PHIt + self.constraint_rate(model, v, w)))
-        rec.lam[:] = lam
+        write_record(model, x, q, v, w, U, energy_clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl, rec)
 
     def constraint_rate(self, model, v, w) -> np.ndarray:
-        """``B V`` from the last evaluation's local rows."""
+        """``B V`` (m,) from the last evaluation's local rows."""
         Bl = self.work.Bl
         out = np.zeros(Bl.shape[0])
         V = np.concatenate([v, w], axis=1)
@@ -556,8 +447,9 @@ class ImplicitAlgorithm(Algorithm):
                     "Constrain the free motion, regularise the joints (epsilon > 0) or stop before the limit point.")
         if code == NO_CONVERGENCE:
             return (f"Newton did not converge at {where}",
-                    f"Newton did not converge beyond {where} within {self.max_iterations} iterations "
-                    f"{self.cut_note}; results up to there are kept. {self.no_convergence_fix}")
+                    f"Newton did not converge beyond {where} within {self.max_iterations} iterations"
+                    f"{' ' + self.cut_note if self.cut_note else ''}; results up to there are kept. "
+                    f"{self.no_convergence_fix}")
         return (f"diverged after {where}",
                 f"the solution became non-finite after {where}; results up to there are kept. Check the loads.")
 
@@ -587,3 +479,39 @@ def relative_rotation(q0, q1, out, tmp):
             conj[a] = -q0[n, a]
         rm.quat_product(conj, q1[n], tmp)
         rm.log_quaternion(tmp, out[n])
+
+
+@kernel
+def write_record(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
+    """Record: configuration, velocities, energies [T, U, W, D], ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
+    T = 0.0
+    for i in range(x.shape[0]):
+        J = model.inertia[i]
+        for a in range(3):
+            rec.x[i, a] = x[i, a]
+            rec.v[i, a] = v[i, a]
+            rec.w[i, a] = w[i, a]
+            T += 0.5 * model.mass[i] * v[i, a] * v[i, a]
+            for b in range(3):
+                T += 0.5 * w[i, a] * J[a, b] * w[i, b]
+        for a in range(4):
+            rec.q[i, a] = q[i, a]
+    rec.energy[0] = T
+    rec.energy[1] = U
+    rec.energy[2] = clock[2]
+    rec.energy[3] = clock[3]
+    c0 = 0.0
+    c1 = 0.0
+    for k in range(model.jt_i.shape[0]):
+        i, j = model.jt_i[k], model.jt_j[k]
+        for r in range(model.jt_row0[k], model.jt_row0[k] + model.jt_neq[k]):
+            acc = PHIt[r]
+            for a in range(3):
+                acc += Bl[r, a] * v[i, a] + Bl[r, 3 + a] * w[i, a]
+                if j >= 0:
+                    acc += Bl[r, 6 + a] * v[j, a] + Bl[r, 9 + a] * w[j, a]
+            c0 += PHI[r] ** 2
+            c1 += acc**2
+            rec.lam[r] = lam[r]
+    rec.constraint[0] = math.sqrt(c0)
+    rec.constraint[1] = math.sqrt(c1)

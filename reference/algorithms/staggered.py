@@ -347,6 +347,12 @@ class StaggeredCentralDifference(Algorithm):
 
     name = "staggered_central_difference"
     explicit = True
+    deck_required = ("dt", "t_end")
+    deck_optional = ("damping", "output_every", "consistent_initial_velocities", "max_steps", "allow_unsafe_dt")
+
+    @staticmethod
+    def refusal(model):
+        return None
 
     def __init__(self, dt: float):
         if not dt > 0.0:

@@ -6,7 +6,9 @@ prescribed at t.  At every load level the equilibrium
 
     S(x, q) − F(x, q, t) + B(x, q)ᵀ λ = 0,      Φ(x, q, t) − ε λ = 0
 
-is solved by Newton–Raphson on the sparse saddle-point system of
+is solved by Newton–Raphson (converged when every residual force is below
+``tolerance`` times the largest force, and |Φ| below ``tolerance`` times the
+model size, or when the correction is below ``tolerance``) on the sparse saddle-point system of
 :mod:`reference.algorithms.implicit` (coefficients ``c_m = c_c = 0``,
 ``c_k = 1``), starting from the previous level.  The tangent is the exact
 derivative under the update ``x ← x + δx``, ``q ← q ⊗ exp(δθ)`` (body-frame
@@ -49,6 +51,8 @@ class Static(ImplicitAlgorithm):
     """
 
     name = "static"
+    deck_required = ("t_end", "load_steps")
+    deck_optional = ("tolerance", "max_iterations", "output_every", "max_steps")
     progress_name = "load factor"
     no_convergence_fix = ("The structure may have reached a limit (buckling) point or the load step is too large: "
                           "raise load_steps or max_iterations, or stop t_end below the limit load.")
@@ -70,13 +74,18 @@ class Static(ImplicitAlgorithm):
         self.history.append(hist)
         q_new = np.empty_like(q)
         tmp = np.empty(4)
-        for _ in range(self.max_iterations):
-            self.evaluate(model, x, q, x, x, x, lam, t, False)
+        for it in range(self.max_iterations + 1):
+            U = self.evaluate(model, x, q, x, x, x, lam, t, False)
             hist.append(self.residual_norm(1.0, lam))
             if not np.isfinite(hist[-1]):
                 return DIVERGED
+            if self.balanced(model, lam, L) or (it > 0 and self.converged(delta, L)):
+                self._U = U
+                return OK
+            if it == self.max_iterations:
+                break
             try:
-                lu = self.factor(model, x, q, x, t, lam, 0.0, 0.0, 1.0, 6e-6 * L)
+                lu = self.factor(model, x, q, x, t, lam, 0.0, 0.0, 1.0)
                 delta, mu = self.newton_correction(lu, model, 1.0, lam)
             except SingularMatrix:
                 return SINGULAR
@@ -84,12 +93,19 @@ class Static(ImplicitAlgorithm):
             compose(q, np.ascontiguousarray(delta[:, 3:]), q_new, tmp)
             q[:] = q_new
             lam += mu
-            if self.converged(delta, L):
-                U = self.evaluate(model, x, q, x, x, x, lam, t, False)
-                hist.append(self.residual_norm(1.0, lam))
-                self._U = U
-                return OK
         return NO_CONVERGENCE
+
+    def balanced(self, model, lam, L) -> bool:
+        """Equilibrium reached: every residual force below ``tolerance`` times the largest
+        internal, external or joint force, and ``|Φ − ελ|`` below ``tolerance × L``."""
+        wk = self.work
+        r = np.abs(wk.r[self.free])
+        scale = max(float(np.max(np.abs(wk.S), initial=0.0)), float(np.max(np.abs(wk.F), initial=0.0)), 1e-300)
+        if lam.size:
+            scale = max(scale, float(np.max(np.abs(self._row_forces(model, lam)))))
+        phi = np.abs(wk.PHI - model.row_eps * lam)
+        return float(np.max(r, initial=0.0)) <= self.tolerance * scale and \
+            float(np.max(phi, initial=0.0)) <= self.tolerance * L
 
     def _work_increment(self, model, x0, q0, F0, P0, x, q, lam):
         """Trapezoidal work of the loads and drives from (x0, q0) to (x, q)."""
@@ -123,7 +139,6 @@ class Static(ImplicitAlgorithm):
             self._lam = np.zeros(model.n_constraints)
             v[:] = 0.0
             w[:] = 0.0
-            self.work.angle[:] = state.angle  # the force elements' continuous angles
             self.stopped_at = None
             code = self._equilibrium(model, x, q, self._lam, clock[0], L)
             if code != OK:
@@ -155,7 +170,6 @@ class Static(ImplicitAlgorithm):
                     self.stopped_at = t
                     clock[0] = t
                     return code
-            state.angle[:] = self.work.angle
             clock[1] += 1
             clock[0] = clock[1] * self.dt
         return OK

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from reference.algorithms import ALGORITHMS
 from reference.domain import Domain, SolverSettings
 from reference.elements import Section
 from reference.expressions import ExpressionError
@@ -702,26 +703,35 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     if "solver" not in deck:
         raise rd.fail("solver", "missing [solver] table", "give at least dt and t_end")
     sv = deck["solver"]
-    rd.keys(sv, "solver", required=["dt", "t_end"],
-            optional=["algorithm", "damping", "output_every", "consistent_initial_velocities", "max_steps",
-                      "allow_unsafe_dt"])
-    algorithm = sv.get("algorithm", SolverSettings.algorithm)
-    if algorithm != SolverSettings.algorithm:
-        raise rd.fail("solver.algorithm", f"unknown algorithm {_show(algorithm)}", f"available: '{SolverSettings.algorithm}'")
+    if not isinstance(sv, dict):
+        raise rd.fail("solver", f"expected a table, got {type(sv).__name__}")
+    algorithm = rd.choice(sv.get("algorithm", SolverSettings.algorithm), "solver.algorithm", ALGORITHMS, "algorithm")
+    algo_cls = ALGORITHMS[algorithm]
+    rd.keys(sv, "solver", required=algo_cls.deck_required, optional=["algorithm", *algo_cls.deck_optional])
     dt_entry = "dt override (--dt)" if "dt" in overrides else "solver.dt"
     t_entry = "t_end override (--t-end)" if "t_end" in overrides else "solver.t_end"
-    deck_dt = rd.number(sv["dt"], "solver.dt", positive=True) / refine
+    t_end = rd.number(overrides.get("t_end", sv["t_end"]), t_entry, positive=True)
+    load_steps = rd.integer(sv.get("load_steps", 1), "solver.load_steps")
+    # the explicit step shrinks with the refined mesh; an implicit step does not
+    mesh_factor = refine if algo_cls.explicit else 1
+    deck_dt = rd.number(sv["dt"], "solver.dt", positive=True) / mesh_factor if "dt" in sv else t_end / load_steps
     dt = rd.number(overrides.get("dt", deck_dt), dt_entry, positive=True)
     # keep the deck's output times when the step is overridden by a whole factor
     ratio = deck_dt / dt
     output_scale = int(round(ratio)) if 1 <= ratio < 2.0**62 and abs(ratio - round(ratio)) < 1e-9 else 1
-    t_end = rd.number(overrides.get("t_end", sv["t_end"]), t_entry, positive=True)
+    rho_inf = rd.number(sv.get("rho_inf", 0.8), "solver.rho_inf", nonnegative=True)
+    if rho_inf > 1.0:
+        raise rd.fail("solver.rho_inf", f"must lie in [0, 1], got {rho_inf!r}",
+                      "1 keeps every frequency undamped, 0 annihilates the highest in one step; 0.8 is usual")
     domain.solver = SolverSettings(
         algorithm=algorithm, dt=dt, t_end=t_end,
         damping=rd.number(sv.get("damping", 0.0), "solver.damping", nonnegative=True),
-        output_every=rd.integer(sv.get("output_every", 1), "solver.output_every") * refine * output_scale,
+        output_every=rd.integer(sv.get("output_every", 1), "solver.output_every") * mesh_factor * output_scale,
         consistent_initial_velocities=rd.boolean(sv.get("consistent_initial_velocities", False),
                                                  "solver.consistent_initial_velocities"),
+        load_steps=load_steps, rho_inf=rho_inf,
+        tolerance=rd.number(sv["tolerance"], "solver.tolerance", positive=True) if "tolerance" in sv else None,
+        max_iterations=rd.integer(sv["max_iterations"], "solver.max_iterations") if "max_iterations" in sv else None,
     )
     max_steps = rd.integer(sv.get("max_steps", MAX_STEPS), "solver.max_steps")
     unsafe = rd.boolean(sv.get("allow_unsafe_dt", False), "solver.allow_unsafe_dt")
@@ -731,7 +741,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     if not crit > 0.0:
         raise rd.fail("sections", f"the critical time step of the mesh is {crit:g} (a stiffness so large against "
                       "the mass that no step is stable)", "check the units of the section data")
-    if dt > SAFETY * crit and not unsafe:
+    if algo_cls.explicit and dt > SAFETY * crit and not unsafe:
         raise rd.fail(dt_entry, f"dt = {dt:g} is above the critical time step {crit:.4g} of the explicit scheme "
                       f"× {SAFETY:g} (the safety margin)",
                       f"use dt ≤ {SUGGEST * crit:.3g}, e.g. {_suggest_dt(t_end, SUGGEST * crit)}"
@@ -766,7 +776,10 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         rd.integer(spec.get("refine", 1), f"{entry}.refine")
     domain.crosscheck = crosscheck
     try:
-        domain.initialization()
+        model = domain.initialization()
     except ValueError as exc:
         raise rd.fail("model", str(exc)) from None
+    problem = algo_cls.refusal(model)
+    if problem:
+        raise rd.fail("solver.algorithm", f"{algorithm!r} cannot run this model: {problem}")
     return domain

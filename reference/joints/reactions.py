@@ -36,7 +36,7 @@ from reference.joints.assembly import joint_rows
 
 
 @kernel
-def joint_reactions(model, x, q, lam, t, force, moment, jphi, jB, jphit, prim_phi, prim_B, A):
+def joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, prim_phi, prim_B, A):
     """Reactions of the multiplier joints on their body i, about the joint point, inertial.
 
     Parameters
@@ -48,8 +48,9 @@ def joint_reactions(model, x, q, lam, t, force, moment, jphi, jB, jphit, prim_ph
         Lagrange multipliers (``M a + Bᵀλ = Q``).
     t : float
         Time (drives' rows depend on it).
-    force, moment : arrays (J, 3), written
-        One row per multiplier joint (``model.jt_*`` order) [N], [N m].
+    slot : int array (J,)
+        Row of ``force``/``moment`` that receives multiplier joint k (``model.jt_*`` order).
+    force, moment : arrays (≥ J, 3), written at the rows ``slot`` [N], [N m].
     jphi, jB, jphit, prim_phi, prim_B, A : scratch
         (6,), (6, 12), (6,), (10,), (120,), (9,).
     """
@@ -75,10 +76,16 @@ def joint_reactions(model, x, q, lam, t, force, moment, jphi, jB, jphit, prim_ph
         d0 = A[0] * par[0] + A[1] * par[1] + A[2] * par[2]
         d1 = A[3] * par[0] + A[4] * par[1] + A[5] * par[2]
         d2 = A[6] * par[0] + A[7] * par[1] + A[8] * par[2]
-        force[k, 0], force[k, 1], force[k, 2] = F0, F1, F2
-        moment[k, 0] = A[0] * M0 + A[1] * M1 + A[2] * M2 - (d1 * F2 - d2 * F1)
-        moment[k, 1] = A[3] * M0 + A[4] * M1 + A[5] * M2 - (d2 * F0 - d0 * F2)
-        moment[k, 2] = A[6] * M0 + A[7] * M1 + A[8] * M2 - (d0 * F1 - d1 * F0)
+        o = slot[k]
+        force[o, 0], force[o, 1], force[o, 2] = F0, F1, F2
+        moment[o, 0] = A[0] * M0 + A[1] * M1 + A[2] * M2 - (d1 * F2 - d2 * F1)
+        moment[o, 1] = A[3] * M0 + A[4] * M1 + A[5] * M2 - (d2 * F0 - d0 * F2)
+        moment[o, 2] = A[6] * M0 + A[7] * M1 + A[8] * M2 - (d0 * F1 - d1 * F0)
+
+
+def scratch() -> tuple:
+    """Work arrays of :func:`joint_reactions` (allocate once, reuse for every output)."""
+    return np.zeros(6), np.zeros((6, 12)), np.zeros(6), np.zeros(10), np.zeros(120), np.zeros(9)
 
 
 def reactions(model, x, q, lam, t: float):
@@ -86,6 +93,5 @@ def reactions(model, x, q, lam, t: float):
     J = model.jt_i.shape[0]
     force, moment = np.zeros((J, 3)), np.zeros((J, 3))
     joint_reactions(model, np.asarray(x, dtype=float), np.asarray(q, dtype=float), np.asarray(lam, dtype=float),
-                    float(t), force, moment, np.zeros(6), np.zeros((6, 12)), np.zeros(6), np.zeros(10),
-                    np.zeros(120), np.zeros(9))
+                    float(t), np.arange(J), force, moment, *scratch())
     return force, moment
