@@ -22,7 +22,17 @@ rotation / displacement drive merged into the revolute / translational joint at 
                               place: all axes locked, the motion as an offset user function
 clamp, fixed coordinates      ``ObjectJointGeneric`` to ground locking those coordinates
 dead / follower force, moment ``LoadForceVector`` / ``LoadTorqueVector`` (``bodyFixed``),
-                              scaled by the time function once per step (at the step's end time)
+                              scaled by the time function once per step (at the step's end time);
+                              a force at a point on a marker at that body-fixed offset
+line load                     its lumped nodal loads (``LineLoad.nodal_loads``), as above
+point-to-point spring         ``ObjectConnectorSpringDamper`` (reference length, stiffness,
+                              damping; the actuator as its ``force``, set once per step)
+rotational spring             ``ObjectConnectorTorsionalSpringDamper`` between markers carrying
+                              the element frame (body j first), with a ``NodeGenericData`` for
+                              the continuous angle; ``offset`` = rest angle
+bushing                       ``ObjectConnectorRigidBodySpringDamper`` (body i first, diagonal
+                              stiffness and damping in the element frame; Exudyn's rotation
+                              measure agrees with the reference's to first order)
 gravity                       ``LoadMassProportional`` on every body and beam element
 mass-proportional damping     a ``ObjectConnectorRigidBodySpringDamper`` per node to
                               ground (Exudyn ignores the beam's own damping matrix)
@@ -63,8 +73,9 @@ import time
 
 import numpy as np
 
+from reference.forces import BUSHING, POINT_TO_POINT, ROTATIONAL, force_element_forces
 from reference.generated import rotation_maps as rm
-from reference.interactions import Gravity, NodalLoad
+from reference.interactions import Gravity, LineLoad, NodalLoad
 from reference.rotation import EulerParameters
 
 AXES = {
@@ -119,6 +130,19 @@ def check_supported(domain) -> None:
     for n in domain.nodes:
         if n.id in beam_nodes and n.mass > 0.0:
             raise Unsupported(f"node {n.label!r} carries a point mass on a beam node")
+    for fe in domain.force_elements:
+        par = fe.body_fixed()
+        for body, offset in ((fe.body_i, par[0:3]), (fe.body_j, par[3:6])):
+            if body is not None and body.id in beam_nodes and np.linalg.norm(offset) > 1e-12 \
+                    and fe.kind != ROTATIONAL:
+                raise Unsupported(f"force element {fe.label!r} attaches to beam node {body.label!r} away from the "
+                                  "node: Exudyn's node markers carry no offset")
+    for ld in domain.loading:
+        if isinstance(ld, NodalLoad) and ld.point is not None and not ld.moment \
+                and domain.node(ld.node).id in beam_nodes \
+                and np.linalg.norm(np.asarray(ld.point) - domain.node(ld.node).position) > 1e-12:
+            raise Unsupported(f"a load at a point away from beam node {domain.node(ld.node).label!r}: Exudyn's node "
+                              "markers carry no offset")
     for j in domain.joints:
         if j.kind in MERGES and _partner(domain, j) is None:
             raise Unsupported(f"joint {j.label!r} ({j.kind}) has no {MERGES[j.kind]} joint between the same bodies "
@@ -274,12 +298,17 @@ def _build(domain, progress, t_end):
 
     loads = []
     for ld in domain.loading:
-        if isinstance(ld, NodalLoad):
-            node = domain.node(ld.node)
-            cls = eii.LoadTorqueVector if ld.moment else eii.LoadForceVector
-            number = mbs.AddLoad(cls(markerNumber=marker(node), loadVector=list(np.asarray(ld.vector) * ld.time_function(0.0)),
-                                     bodyFixed=bool(ld.follower)))
-            loads.append((number, np.asarray(ld.vector, dtype=float), ld.time_function))
+        if isinstance(ld, (NodalLoad, LineLoad)):
+            for nl in ld.nodal_loads() if isinstance(ld, LineLoad) else [ld]:
+                node = domain.node(nl.node)
+                arm = np.zeros(3)
+                if nl.point is not None and not nl.moment:
+                    arm = _matrix(node.rotation).T @ (np.asarray(nl.point, dtype=float) - node.position)
+                cls = eii.LoadTorqueVector if nl.moment else eii.LoadForceVector
+                number = mbs.AddLoad(cls(markerNumber=marker(node, np.eye(3), arm),
+                                         loadVector=list(np.asarray(nl.vector) * nl.time_function(0.0)),
+                                         bodyFixed=bool(nl.follower)))
+                loads.append((number, np.asarray(nl.vector, dtype=float), nl.time_function))
         elif isinstance(ld, Gravity):
             for obj in list(bodies.values()) + beam_objects:
                 mbs.AddLoad(eii.LoadMassProportional(markerNumber=mbs.AddMarker(eii.MarkerBodyMass(bodyNumber=obj)),
@@ -297,16 +326,39 @@ def _build(domain, progress, t_end):
                 markerNumbers=[marker(n), marker(None, _matrix(n.rotation), n.position)],
                 stiffness=np.zeros((6, 6)).tolist(), damping=d.tolist()))
 
+    actuators = []
+    for fe in domain.force_elements:
+        par = fe.body_fixed()
+        s_i, s_j, f_i, f_j = par[0:3], par[3:6], par[6:15].reshape(3, 3), par[15:24].reshape(3, 3)
+        k, c = fe.stiffness_damping()
+        if fe.kind == POINT_TO_POINT:
+            number = mbs.AddObject(eii.ObjectConnectorSpringDamper(
+                markerNumbers=[marker(fe.body_j, np.eye(3), s_j), marker(fe.body_i, np.eye(3), s_i)],
+                referenceLength=float(fe.rest()), stiffness=float(k[0]), damping=float(c[0])))
+            if fe.force_function is not None:
+                actuators.append((number, fe.force_function))
+        elif fe.kind == ROTATIONAL:  # (the markers' position does not matter)
+            angle = mbs.AddNode(eii.NodeGenericData(numberOfDataCoordinates=1, initialCoordinates=[0.0]))
+            mbs.AddObject(eii.ObjectConnectorTorsionalSpringDamper(
+                markerNumbers=[marker(fe.body_j, f_j), marker(fe.body_i, f_i)], nodeNumber=angle,
+                stiffness=float(k[0]), damping=float(c[0]), offset=float(fe.rest())))
+        elif fe.kind == BUSHING:
+            mbs.AddObject(eii.ObjectConnectorRigidBodySpringDamper(
+                markerNumbers=[marker(fe.body_i, f_i, s_i), marker(fe.body_j, f_j, s_j)],
+                stiffness=np.diag(k).tolist(), damping=np.diag(c).tolist()))
+
     def pre_step(mbs_, t):
         # Exudyn passes the step's end time (the implicit solver's equilibrium time): the loads are
         # set to their value there, once per step
         for number, vec, tf in loads:
             mbs_.SetLoadParameter(number, "loadVector", list(vec * tf(t)))
+        for number, tf in actuators:
+            mbs_.SetObjectParameter(number, "force", float(tf(t)))
         if progress is not None:
             progress(min(t / t_end, 1.0), t)
         return True
 
-    if loads or progress is not None:
+    if loads or actuators or progress is not None:
         mbs.SetPreStepUserFunction(pre_step)
     OV = exu.OutputVariableType
     sensors = {kind: [mbs.AddSensor(eii.SensorNode(nodeNumber=nd, storeInternal=True, writeToFile=False,
@@ -514,6 +566,7 @@ def measured(domain, times, pos, rot, vel, omg, wall, dt):
     phid = np.zeros(n)
     kinetic, strain, work = np.zeros(n), np.zeros(n), np.zeros(n)
     S, F, s_el, A = np.zeros((N, 6)), np.zeros((N, 6)), np.zeros(40), np.zeros(9)
+    G, angle, prim_phi, prim_B = np.zeros((N, 6)), np.zeros(model.fe_kind.shape[0]), np.zeros(10), np.zeros(120)
     power = np.zeros(n)
     for i in range(n):
         if model.n_constraints:
@@ -523,6 +576,9 @@ def measured(domain, times, pos, rot, vel, omg, wall, dt):
         kinetic[i] = 0.5 * np.sum(model.mass[:, None] * vel[i] ** 2) + 0.5 * np.einsum("ni,nij,nj->", omg[i], model.inertia, omg[i])
         strain[i] = beam2_assemble(pos[i], rot[i], model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
         external_forces(model, pos[i], rot[i], times[i], F, A)
+        # springs: their energy is strain energy, their actuators external loads
+        strain[i] += force_element_forces(model, pos[i], rot[i], vel[i], omg[i], times[i], angle, G, F, prim_phi,
+                                          prim_B)[0]
         power[i] = np.sum(F[:, :3] * vel[i]) + np.sum(F[:, 3:] * omg[i])
         if i > 0:
             work[i] = work[i - 1] + 0.5 * (power[i] + power[i - 1]) * (times[i] - times[i - 1])

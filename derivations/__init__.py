@@ -16,12 +16,13 @@ GENERATED_DIR = Path(__file__).resolve().parent.parent / "reference" / "generate
 
 def generators():
     """Map of generated file name → generator function (imported lazily: sympy is slow to load)."""
-    from derivations import beam2, joints, rotation_maps, tangents
+    from derivations import beam2, forces, joints, rotation_maps, tangents
 
     return {
         "rotation_maps.py": rotation_maps.generate,
         "beam2.py": beam2.generate,
         "joints.py": joints.generate,
+        "forces.py": forces.generate,
         "tangents.py": tangents.generate,
     }
 

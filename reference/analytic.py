@@ -158,3 +158,21 @@ def cantilever_large_deflection(alpha: float) -> tuple[float, float, float]:
     m, phi1 = parts(th)
     return (float(np.sqrt(2.0 * np.sin(th) / alpha)),
             float(1.0 - 2.0 / np.sqrt(alpha) * (ellipe(m) - ellipeinc(phi1, m))), float(th))
+
+
+def torsion_double_pendulum_modes(m: float, length: float, g: float, k1: float, k2: float):
+    """Small-oscillation frequencies [rad/s] and modes of two equal uniform bars (mass m, length l)
+    hanging from a pivot, with torsion springs k1 (pivot–ground) and k2 (between the bars).
+
+    Lagrange's equations linearised in the absolute angles, M θ̈ + K θ = 0, with
+    ``M = m l² [[4/3, 1/2], [1/2, 1/3]]`` and
+    ``K = [[3/2 m g l + k1 + k2, −k2], [−k2, 1/2 m g l + k2]]`` (the textbook double
+    pendulum, e.g. Meirovitch 2001, with the springs' potential ½k1θ1² + ½k2(θ2 − θ1)²).
+    Returns ``(omegas, modes)``, modes as columns scaled to θ1 = 1.
+    """
+    import scipy.linalg
+
+    M = m * length**2 * np.array([[4.0 / 3.0, 0.5], [0.5, 1.0 / 3.0]])
+    K = np.array([[1.5 * m * g * length + k1 + k2, -k2], [-k2, 0.5 * m * g * length + k2]])
+    w2, modes = scipy.linalg.eigh(K, M)
+    return np.sqrt(w2), modes / modes[0]

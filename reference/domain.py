@@ -25,7 +25,10 @@ from reference.algorithms import ALGORITHMS, Algorithm
 from reference.algorithms.staggered import OK
 from reference.elements import Beam2Formulation, Element, Section
 from reference.elements.formulation import beam2_resultants
-from reference.interactions import Constant, FixedCoordinates, Gravity, Interaction, NodalLoad, TimeFunction
+from reference.forces import ForceElement
+from reference.interactions import (
+    Constant, FixedCoordinates, Gravity, Interaction, LineLoad, NodalLoad, TimeFunction,
+)
 from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
 from reference.joints.master_slave import master_slave_parameters
 from reference.joints.assembly import (
@@ -388,6 +391,7 @@ class Domain:
         self.joints: list = []
         self.boundary_conditions: list[Interaction] = []
         self.loading: list[Interaction] = []
+        self.force_elements: list[ForceElement] = []
         self.solver = SolverSettings()
         self.metadata: dict = {}
         self.checks: dict = {}
@@ -560,11 +564,22 @@ class Domain:
         self._model = None
         return joint
 
+    def add_force_element(self, element: ForceElement) -> ForceElement:
+        """Add a spring, damper or bushing (:mod:`reference.forces`)."""
+        if not isinstance(element, ForceElement):
+            raise TypeError(f"not a force element: {element!r}")
+        self.force_elements.append(element)
+        self._model = None
+        return element
+
     def add_interaction(self, interaction: Interaction) -> Interaction:
-        """Add a boundary condition (fixed coordinates) or a load (nodal load, gravity)."""
+        """Add a boundary condition (fixed coordinates) or a load (nodal or line load, gravity).
+
+        A line load is kept in the loading list and lumped onto its nodes when
+        the model is assembled (:meth:`LineLoad.nodal_loads`)."""
         if isinstance(interaction, FixedCoordinates):
             self.boundary_conditions.append(interaction)
-        elif isinstance(interaction, (NodalLoad, Gravity)):
+        elif isinstance(interaction, (NodalLoad, Gravity, LineLoad)):
             self.loading.append(interaction)
         else:
             raise TypeError(f"unknown interaction {interaction!r}")
@@ -577,9 +592,31 @@ class Domain:
         return self._model or self.initialization()
 
     def critical_time_step(self) -> float:
-        """Smallest per-element stability limit of the explicit scheme [s]."""
+        """Smallest per-element stability limit of the explicit scheme [s].
+
+        A force element of stiffness k adds the limit ``2/ω``, ``ω² = k (1/m_i + 1/m_j)``
+        with each body's effective inverse mass at the attachment bounded by
+        ``1/m + r²/J_min`` (and ``uᵀJ⁻¹u`` about the axis u of a torsional
+        stiffness): the element oscillating against the bodies it connects.
+        """
         limits = [e.formulation.critical_time_step(self._length(e)) for e in self.elements]
+        if self.force_elements:
+            lumped = self._lumped_masses()
+            for fe in self.force_elements:
+                rate = fe.stiffness_rate(lambda node: lumped[node.id])
+                if rate > 0.0:
+                    limits.append(2.0 / math.sqrt(rate))
         return min(limits) if limits else math.inf
+
+    def _lumped_masses(self) -> list:
+        """``(m, J)`` of every node with the elements' lumped masses added (as :meth:`initialization`)."""
+        out = [[n.mass, np.array(n.inertia, dtype=float)] for n in self.nodes]
+        for element in self.elements:
+            xs = np.array([self.nodes[i].position for i in element.nodes])
+            for i, (m, J) in zip(element.nodes, element.formulation.lumped_mass(xs)):
+                out[i][0] += m
+                out[i][1] = out[i][1] + J
+        return [(m, J) for m, J in out]
 
     def _length(self, element: Element) -> float:
         a, b = (self.nodes[i].position for i in element.nodes)
@@ -623,6 +660,7 @@ class Domain:
             free[self.node(bc.node).id, list(bc.dofs)] = 0.0
         gravity = np.zeros(3)
         loads = [ld for ld in self.loading if isinstance(ld, NodalLoad)]
+        loads += [nl for ld in self.loading if isinstance(ld, LineLoad) for nl in ld.nodal_loads()]
         for g in self.loading:
             if isinstance(g, Gravity):
                 gravity += np.asarray(g.g, dtype=float)
@@ -655,6 +693,21 @@ class Domain:
             jt["jt_tf"][k] = tf_index(joint.time_function)
             row0 += joint.n_equations
             row_eps += [joint.formulation.epsilon] * joint.n_equations
+        fes = self.force_elements
+        fe = {"fe_kind": np.array([f.kind for f in fes], dtype=np.int64),
+              "fe_i": np.array([f.body_i.id for f in fes], dtype=np.int64),
+              "fe_j": np.array([-1 if f.body_j is None else f.body_j.id for f in fes], dtype=np.int64),
+              "fe_par": np.array([f.body_fixed() for f in fes]).reshape(len(fes), 24),
+              "fe_k": np.array([f.stiffness_damping()[0] for f in fes]).reshape(len(fes), 6),
+              "fe_c": np.array([f.stiffness_damping()[1] for f in fes]).reshape(len(fes), 6),
+              "fe_rest": np.array([f.rest() for f in fes], dtype=float),
+              "fe_tf": np.array([-1 if getattr(f, "force_function", None) is None else tf_index(f.force_function)
+                                 for f in fes], dtype=np.int64)}
+        load_arm = np.zeros((len(loads), 3))
+        for k, ld in enumerate(loads):
+            if ld.point is not None and not ld.moment:
+                node = self.node(ld.node)
+                load_arm[k] = EulerParameters(node.rotation).matrix().T @ (np.asarray(ld.point, float) - node.position)
         node_constrained = np.zeros(N, dtype=np.int64)
         for joint in lagrange + ms:
             for body in (joint.body_i, joint.body_j):
@@ -681,7 +734,8 @@ class Domain:
             ms_slave=np.array([j.body_i.id for j in ms], dtype=np.int64),
             ms_kind=np.array([0 if j.kind == "spherical" else 1 for j in ms], dtype=np.int64),
             ms_par=np.array([master_slave_parameters(j) for j in ms]).reshape(len(ms), 9),
-            **jt,
+            load_arm=load_arm,
+            **jt, **fe,
         )
         self.check_constraints(self._model)
         return self._model
@@ -849,6 +903,7 @@ class Domain:
             w=np.array([n.angular_velocity for n in self.nodes]).reshape(N, 3),
             f_prev=np.zeros((N, 6)),
             clock=np.zeros(4),
+            angle=np.zeros(len(self.force_elements)),
         )
         if self.solver.consistent_initial_velocities and self.joints:
             self.project_initial_velocities(self._model or self.initialization(), self.state)

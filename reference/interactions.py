@@ -23,9 +23,36 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from reference.expressions import expression_parameters, expression_value
 from reference.jit import kernel
 
-CONSTANT, RAMP, STEP, PIECEWISE_LINEAR, SINE, SMOOTH_STEP = range(6)
+CONSTANT, RAMP, STEP, PIECEWISE_LINEAR, SINE, SMOOTH_STEP, EXPRESSION = range(7)
+
+
+@kernel
+def _segment(p, n, t):
+    """Index i (1…n−1) of the table segment [t_i, t_{i+1}] holding t, by bisection (O(log n))."""
+    lo, hi = 1, n
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if t < p[mid]:
+            hi = mid
+        else:
+            lo = mid
+    return lo
+
+
+@kernel
+def _pwl_antiderivative(p, n, t):
+    """``G(t) = ∫_{t_1}^t f`` of a piecewise-linear row (prefix sums ``S_i = G(t_i)`` stored after the values)."""
+    if t <= p[1]:
+        return p[1 + n] * (t - p[1])
+    if t >= p[n]:
+        return p[3 * n] + p[2 * n] * (t - p[n])
+    i = _segment(p, n, t)
+    s = (t - p[i]) / (p[1 + i] - p[i])
+    fi = p[n + i] + s * (p[n + 1 + i] - p[n + i])
+    return p[2 * n + i] + 0.5 * (p[n + i] + fi) * (t - p[i])
 
 
 @kernel
@@ -48,10 +75,15 @@ def tf_value(kind, p, t):
     CONSTANT                  c                                   c
     RAMP                      t0, t1, v0, v1                      v0 → v1 linearly on [t0, t1], held outside
     STEP                      t0, v0, v1                          v0 for t < t0, v1 after
-    PIECEWISE_LINEAR          n, t_1…t_n, v_1…v_n                 linear interpolation, held outside
+    PIECEWISE_LINEAR          n, t_1…t_n, v_1…v_n, S_1…S_n        linear interpolation, held outside
+                              (S_i = ∫_{t_1}^{t_i} f, prefix sums)
     SINE                      A, ω [rad/s], φ [rad], offset       offset + A sin(ω t + φ)
     SMOOTH_STEP               t0, t1, v0, v1                      v0 + (v1 − v0)(3x² − 2x³), x = (t−t0)/(t1−t0)
+    EXPRESSION                postfix programs                    a formula in t (:mod:`reference.expressions`)
     ========================  ==================================  ======================================
+
+    A piecewise-linear table is searched by bisection: O(log n) per call, and
+    its integral is O(log n) from the prefix sums.
     """
     if kind == CONSTANT:
         return p[0]
@@ -67,13 +99,15 @@ def tf_value(kind, p, t):
         n = int(p[0])
         if t <= p[1]:
             return p[1 + n]
-        for i in range(1, n):
-            if t <= p[1 + i]:
-                s = (t - p[i]) / (p[1 + i] - p[i])
-                return p[n + i] + s * (p[n + 1 + i] - p[n + i])
-        return p[2 * n]
+        if t >= p[n]:
+            return p[2 * n]
+        i = _segment(p, n, t)
+        s = (t - p[i]) / (p[1 + i] - p[i])
+        return p[n + i] + s * (p[n + 1 + i] - p[n + i])
     if kind == SINE:
         return p[3] + p[0] * math.sin(p[1] * t + p[2])
+    if kind == EXPRESSION:
+        return expression_value(p, t, 0)
     # SMOOTH_STEP
     return p[2] + (p[3] - p[2]) * _smooth((t - p[0]) / (p[1] - p[0]))
 
@@ -89,14 +123,14 @@ def tf_derivative(kind, p, t):
         return (p[3] - p[2]) / (p[1] - p[0])
     if kind == PIECEWISE_LINEAR:
         n = int(p[0])
-        if t < p[1]:
+        if t < p[1] or t >= p[n]:
             return 0.0
-        for i in range(1, n):
-            if t < p[1 + i]:
-                return (p[n + 1 + i] - p[n + i]) / (p[1 + i] - p[i])
-        return 0.0
+        i = _segment(p, n, t)
+        return (p[n + 1 + i] - p[n + i]) / (p[1 + i] - p[i])
     if kind == SINE:
         return p[0] * p[1] * math.cos(p[1] * t + p[2])
+    if kind == EXPRESSION:
+        return expression_value(p, t, 1)
     x = (t - p[0]) / (p[1] - p[0])
     if x <= 0.0 or x >= 1.0:
         return 0.0
@@ -105,7 +139,10 @@ def tf_derivative(kind, p, t):
 
 @kernel
 def tf_integral(kind, p, t):
-    """``∫_0^t f(s) ds`` in closed form (a prescribed angle from a prescribed rate)."""
+    """``∫_0^t f(s) ds`` in closed form (a prescribed angle from a prescribed rate).
+
+    An expression without a closed-form integral gives NaN (the deck reader
+    refuses it where an integral is needed)."""
     if kind == CONSTANT:
         return p[0] * t
     if kind == SINE:
@@ -123,25 +160,18 @@ def tf_integral(kind, p, t):
         during = d * (p[2] * x + (p[3] - p[2]) * (x**3 - 0.5 * x**4))
         after = p[3] * max(t - p[1], 0.0)
         return before + during + after
-    # RAMP and PIECEWISE_LINEAR: exact trapezoids over the breakpoints
-    if kind == RAMP:
-        total = p[2] * min(t, p[0])
-        if t > p[0]:
-            te = min(t, p[1])
-            total += 0.5 * (p[2] + tf_value(kind, p, te)) * (te - p[0])
-        if t > p[1]:
-            total += p[3] * (t - p[1])
-        return total
-    n = int(p[0])
-    total = p[1 + n] * min(t, p[1])
-    for i in range(1, n):
-        a, b = p[i], p[1 + i]
-        if t <= a:
-            break
-        te = min(t, b)
-        total += 0.5 * (p[n + i] + tf_value(kind, p, te)) * (te - a)
-    if t > p[n]:
-        total += p[2 * n] * (t - p[n])
+    if kind == EXPRESSION:
+        return expression_value(p, t, 2)
+    if kind == PIECEWISE_LINEAR:
+        n = int(p[0])
+        return _pwl_antiderivative(p, n, t) - _pwl_antiderivative(p, n, 0.0)
+    # RAMP: exact trapezoids over the breakpoints
+    total = p[2] * min(t, p[0])
+    if t > p[0]:
+        te = min(t, p[1])
+        total += 0.5 * (p[2] + tf_value(kind, p, te)) * (te - p[0])
+    if t > p[1]:
+        total += p[3] * (t - p[1])
     return total
 
 
@@ -214,7 +244,8 @@ class PiecewiseLinear(TimeFunction):
     def parameters(self):
         t = np.asarray(self.times, dtype=float)
         v = np.asarray(self.values, dtype=float)
-        return np.concatenate([[len(t)], t, v])
+        prefix = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+        return np.concatenate([[len(t)], t, v, prefix])
 
 
 @dataclass
@@ -243,6 +274,23 @@ class SmoothStep(TimeFunction):
 
     def parameters(self):
         return np.array([self.t0, self.t1, self.v0, self.v1], dtype=float)
+
+
+@dataclass
+class Expression(TimeFunction):
+    """A formula in t (sympy syntax, e.g. ``"sin(3*t)**2"``), with its derivative and,
+    if ``with_integral``, its integral from 0 derived symbolically
+    (:mod:`reference.expressions`; refused with :class:`~reference.expressions.ExpressionError`)."""
+
+    expr: str = "0"
+    with_integral: bool = False
+    kind = EXPRESSION
+
+    def __post_init__(self):
+        expression_parameters(self.expr, self.with_integral)  # refuse a bad formula now
+
+    def parameters(self):
+        return expression_parameters(self.expr, self.with_integral)
 
 
 class Interaction(ABC):
@@ -280,6 +328,10 @@ class NodalLoad(Interaction):
         Fixed in the node's body frame (turns with the node) instead of the
         inertial frame.
     time_function : TimeFunction
+    point : array (3,), optional
+        Point of application of a force, inertial at t = 0 [m] and fixed in
+        the node's body frame after (a point of a rigid body); the moment of
+        the force about the node follows.  Default: the node.
     """
 
     node: object
@@ -287,11 +339,57 @@ class NodalLoad(Interaction):
     moment: bool = False
     follower: bool = False
     time_function: TimeFunction = field(default_factory=Constant)
+    point: np.ndarray | None = None
 
     @property
     def code(self) -> int:
         """0 dead force, 1 follower force, 2 dead moment, 3 follower moment."""
         return 2 * int(self.moment) + int(self.follower)
+
+
+@dataclass
+class LineLoad(Interaction):
+    """A distributed force and/or moment per unit length along a beam, ``q · f(t)``.
+
+    Lumped onto the nodes element by element: each two-node element of
+    reference length L gives ``q L / 2`` to each of its nodes.  With the
+    linear shape functions of Beam2 this is the consistent load vector
+    ``∫ N_a q ds`` of a uniform load, exactly.
+
+    Parameters
+    ----------
+    nodes : list of Node
+        The beam's nodes in order.
+    force_per_length : array (3,)
+        [N/m].
+    moment_per_length : array (3,)
+        [N m/m].
+    follower : bool
+        False: inertial components (dead load); True: components in each
+        node's section frame (e1 along the beam), turning with it.
+    time_function : TimeFunction
+    """
+
+    nodes: list
+    force_per_length: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    moment_per_length: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    follower: bool = False
+    time_function: TimeFunction = field(default_factory=Constant)
+
+    def nodal_loads(self) -> list[NodalLoad]:
+        """The equivalent nodal loads (half of each element's share to each of its nodes)."""
+        share = [0.0] * len(self.nodes)
+        for a, b in zip(range(len(self.nodes) - 1), range(1, len(self.nodes))):
+            half = 0.5 * float(np.linalg.norm(self.nodes[b].position - self.nodes[a].position))
+            share[a] += half
+            share[b] += half
+        loads = []
+        for node, length in zip(self.nodes, share):
+            for vec, moment in ((self.force_per_length, False), (self.moment_per_length, True)):
+                vec = np.asarray(vec, dtype=float)
+                if np.any(vec != 0.0):
+                    loads.append(NodalLoad(node, vec * length, moment, self.follower, self.time_function))
+        return loads
 
 
 @dataclass

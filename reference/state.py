@@ -57,6 +57,13 @@ class Model(NamedTuple):
     Master/slave joints (K): ``ms_master``, ``ms_slave`` (K,) node indices,
     ``ms_kind`` (K,) 0 spherical 1 revolute, ``ms_par`` (K,9) the master's
     body-fixed offset and axis and the slave's body-fixed axis.
+    ``load_arm`` (L,3) body-fixed point of application of a force load
+    (zero: at the node; the moment ``arm × force`` follows).
+    Force elements (F, :mod:`reference.forces`): ``fe_kind`` (F,),
+    ``fe_i``, ``fe_j`` (F,) node indices (−1 the ground), ``fe_par`` (F,24)
+    body-fixed points and frames (the joint layout), ``fe_k``, ``fe_c`` (F,6)
+    stiffnesses and dampings per measure, ``fe_rest`` (F,) rest length or
+    angle, ``fe_tf`` (F,) actuator time function (−1 none).
     """
 
     mass: np.ndarray
@@ -100,6 +107,15 @@ class Model(NamedTuple):
     ms_slave: np.ndarray
     ms_kind: np.ndarray
     ms_par: np.ndarray
+    load_arm: np.ndarray
+    fe_kind: np.ndarray
+    fe_i: np.ndarray
+    fe_j: np.ndarray
+    fe_par: np.ndarray
+    fe_k: np.ndarray
+    fe_c: np.ndarray
+    fe_rest: np.ndarray
+    fe_tf: np.ndarray
 
     @property
     def n_constraints(self) -> int:
@@ -113,7 +129,9 @@ class State(NamedTuple):
     (N,3) inertial and ``w`` (N,3) body-frame velocities at ``t_{n−½}``
     (before the first step: the initial velocities at ``t_0``); ``f_prev``
     (N,6) external generalised forces of the previous step (for the work
-    integral); ``clock`` = [t, n, external work, dissipated energy].
+    integral); ``clock`` = [t, n, external work, dissipated energy];
+    ``angle`` (F,) the continuous angle of each rotational force element
+    (:mod:`reference.forces`; 0 for the others).
     """
 
     x: np.ndarray
@@ -122,6 +140,7 @@ class State(NamedTuple):
     w: np.ndarray
     f_prev: np.ndarray
     clock: np.ndarray
+    angle: np.ndarray
 
     @property
     def t(self) -> float:
@@ -192,6 +211,7 @@ class Scratch(NamedTuple):
     """Energy-balance guard ``[E₀, S, tolerance, residual, energy]`` (:mod:`reference.monitor`): an
     algorithm that supports it stops when the residual exceeds tolerance × S; tolerance 0 turns it off."""
     W_el: np.ndarray
+    G: np.ndarray
 
     @classmethod
     def for_model(cls, model: Model) -> "Scratch":
@@ -200,4 +220,4 @@ class Scratch(NamedTuple):
                    np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12)),
                    np.zeros(model.L_rowidx.shape[0]), np.zeros(m), np.zeros(m), np.zeros(10),
                    np.zeros(120), np.zeros((12, 9)), np.zeros(9), np.zeros(9), np.zeros((12, 9)), np.zeros((9, 9)),
-                   np.zeros(9), np.zeros(4), np.zeros(5), np.zeros((model.conn.shape[0], 40)))
+                   np.zeros(9), np.zeros(4), np.zeros(5), np.zeros((model.conn.shape[0], 40)), np.zeros((N, 6)))

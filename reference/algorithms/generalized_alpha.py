@@ -102,7 +102,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
 
     def _start(self, model, state):
         """Consistent initial accelerations and multipliers at the state's time."""
-        x, q, v, w, f_prev, clock = state
+        x, q, v, w, f_prev, clock = state[:6]
         N, m = x.shape[0], model.n_constraints
         t = clock[0]
         self.L = self.length_scale(x)
@@ -141,7 +141,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
 
     def advance(self, model, state, n_steps, record, scratch) -> int:
         self.prepare(model)
-        x, q, v, w, f_prev, clock = state
+        x, q, v, w, f_prev, clock = state[:6]
         if self._run is None or self._run[0] is not state or self._run[1] != clock[1]:
             self.stopped_at = None
             code = self._start(model, state)

@@ -347,6 +347,10 @@ class ImplicitAlgorithm(Algorithm):
         if model.ms_master.shape[0] > 0:
             return ("master/slave joints are not available with the implicit algorithms; use "
                     "formulation = \"jacobian\" (Lagrange multipliers) for those joints")
+        if model.fe_kind.shape[0] > 0:
+            return ("force elements ([[springs]]) are not yet assembled by the implicit algorithms (their forces "
+                    "and derived tangents are ready: reference.forces.force_element_forces and "
+                    "force_element_tangent); use algorithm = \"staggered_central_difference\"")
         return None
 
     def prepare(self, model) -> None:

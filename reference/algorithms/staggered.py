@@ -4,8 +4,10 @@ One step from ``t_n`` to ``t_{n+1}`` (docs/formulation.md §6, "Park's two-stage
 staggered step"; the staging is a reconstruction, the originals of Park, Chiou
 & Downer 1990 not being at hand):
 
-1. forces at ``t_n``: internal ``S`` (Beam2 kernel), external ``F`` (dead and
-   follower loads × time functions, gravity), damping ``−c m v``, ``−c J ω``;
+1. forces at ``t_n``: internal ``S`` (Beam2 kernel, and the force elements of
+   :mod:`reference.forces`, their dampers at ``V^{n−½}``), external ``F`` (dead
+   and follower loads × time functions, gravity, actuators), damping
+   ``−c m v``, ``−c J ω``;
 2. **kick** (explicit predictor) of the half-step velocities,
    ``v* = v^{n−½} + h m⁻¹(F − S_u)`` and, in the body frame,
    ``J(ω* − ω^{n−½}) = h (M_b − S_θ − ω̄ × J ω̄)``,
@@ -33,6 +35,7 @@ import math
 
 from reference.algorithms.base import Algorithm
 from reference.elements.formulation import beam2_assemble_parallel
+from reference.forces import force_element_dissipation, force_element_forces
 from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
 from reference.jit import kernel, use_threads
@@ -58,7 +61,11 @@ energy balance failed (:attr:`reference.state.Scratch.guard`)."""
 
 @kernel
 def external_forces(model, x, q, t, F, A):
-    """External generalised forces at time t into ``F`` (N,6): inertial force, body moment."""
+    """External generalised forces at time t into ``F`` (N,6): inertial force, body moment.
+
+    A force applied at a body-fixed point (``model.load_arm`` ≠ 0) adds its
+    moment ``arm × force`` (body frame) about the node.
+    """
     F[:, :] = 0.0
     g = model.gravity
     for i in range(F.shape[0]):
@@ -84,6 +91,18 @@ def external_forces(model, x, q, t, F, A):
             else:  # dead moment: body = A^T M
                 for k in range(3):
                     F[i, 3 + k] += f * (A[k] * vec[0] + A[3 + k] * vec[1] + A[6 + k] * vec[2])
+        arm = model.load_arm[l]
+        if code <= 1 and (arm[0] != 0.0 or arm[1] != 0.0 or arm[2] != 0.0):
+            if code == 0:  # body components of the dead force
+                rm.rotation_matrix(q[i], A)
+                b0 = f * (A[0] * vec[0] + A[3] * vec[1] + A[6] * vec[2])
+                b1 = f * (A[1] * vec[0] + A[4] * vec[1] + A[7] * vec[2])
+                b2 = f * (A[2] * vec[0] + A[5] * vec[1] + A[8] * vec[2])
+            else:
+                b0, b1, b2 = f * vec[0], f * vec[1], f * vec[2]
+            F[i, 3] += arm[1] * b2 - arm[2] * b1
+            F[i, 4] += arm[2] * b0 - arm[0] * b2
+            F[i, 5] += arm[0] * b1 - arm[1] * b0
 
 
 @kernel
@@ -191,8 +210,10 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     ``DIVERGED`` (non-finite state: the state is left at the last finite step)
     or ``SINGULAR`` (the constraint matrix lost rank).
     """
-    x, q, v, w, f_prev, clock = state
+    x, q, v, w, f_prev, clock = state.x, state.q, state.v, state.w, state.f_prev, state.clock
     S, F, v_new, w_new = scratch.S, scratch.F, scratch.v_new, scratch.w_new
+    G = scratch.G
+    n_fe = model.fe_kind.shape[0]
     q_tmp, A = scratch.q_tmp, scratch.A
     PHI, PHIt, Bj, BMj, Lx, lam = scratch.PHI, scratch.PHIt, scratch.Bj, scratch.BMj, scratch.Lx, scratch.lam
     work = scratch.work
@@ -205,6 +226,16 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         U = beam2_assemble_parallel(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
                                     S, scratch.W_el)
         external_forces(model, x, q, t, F, A)
+        if n_fe > 0:
+            # springs and dampers act like internal forces (S −= their force; energy in U), their
+            # actuators like external loads (into F, work counted below); dampers use V^{n−½}
+            G[:, :] = 0.0
+            U_fe, _ = force_element_forces(model, x, q, v, w, t, state.angle, G, F, scratch.prim_phi,
+                                              scratch.prim_B)
+            U += U_fe
+            for i in range(N):
+                for a in range(6):
+                    S[i, a] -= G[i, a]
         if n > 0:
             # trapezoidal work of the external forces over the last increment h V^{n-1/2},
             # and the energy dissipated by the damping forces evaluated at V^{n-1/2}
@@ -242,6 +273,12 @@ def advance(model, state, h, n_steps, record, rec, scratch):
                 if n_ms > 0:
                     master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
                                          scratch.TMT, scratch.rhs)
+        dD_fe = 0.0
+        if n_fe > 0:
+            # energy removed by the force elements' dampers in this kick: force at V^{n−½} times the
+            # mean velocity; the record at t_n (integer-step velocities, half of this kick) gets half
+            dD_fe = hk * force_element_dissipation(model, x, q, v, w, v_new, w_new, scratch.prim_phi,
+                                                   scratch.prim_B)
         if record and k == 0:
             for i in range(N):
                 for a in range(3):
@@ -253,7 +290,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             rec.energy[0] = _kinetic(model, rec.v, rec.w)
             rec.energy[1] = U
             rec.energy[2] = clock[2]
-            rec.energy[3] = clock[3]
+            rec.energy[3] = clock[3] + (0.5 * dD_fe if n > 0 else 0.0)
             rec.constraint[0] = 0.0
             rec.constraint[1] = 0.0
             if n_rows > 0:
@@ -272,6 +309,8 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
             P_drive = constraint_power(model, Bj, lam, v, w, v_new, w_new)
             clock[2] += hk * P_drive
+        if n_fe > 0:
+            clock[3] += dD_fe
         if scratch.guard[2] > 0.0 and _balance(model, v, w, v_new, w_new, F, h, P_drive, n > 0, U, clock,
                                                scratch.guard):
             return BLOWUP

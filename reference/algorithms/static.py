@@ -131,7 +131,7 @@ class Static(ImplicitAlgorithm):
 
     def advance(self, model, state, n_steps, record, scratch) -> int:
         self.prepare(model)
-        x, q, v, w, f_prev, clock = state
+        x, q, v, w, f_prev, clock = state[:6]
         L = self.length_scale(x)
         if self._run is not state or self._lam is None:
             # equilibrium at the starting load level (gravity or loads at t = 0, drives)

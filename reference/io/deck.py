@@ -22,8 +22,12 @@ import numpy as np
 from reference.algorithms import ALGORITHMS
 from reference.domain import Domain, SolverSettings
 from reference.elements import Section
+from reference.expressions import ExpressionError
+from reference.forces import KINDS as SPRING_KINDS
+from reference.forces import Bushing, PointToPoint, Rotational
 from reference.interactions import (
-    Clamp, Constant, FixedCoordinates, Gravity, NodalLoad, PiecewiseLinear, Ramp, Sine, SmoothStep, Step,
+    Clamp, Constant, Expression, FixedCoordinates, Gravity, LineLoad, NodalLoad, PiecewiseLinear, Ramp, Sine,
+    SmoothStep, Step,
 )
 from reference.joints import Jacobian, MasterSlave
 from reference.joints.joint import ROWS as JOINT_KINDS
@@ -37,7 +41,7 @@ class DeckError(ValueError):
 
 
 TOP_LEVEL = {"meta", "sections", "time_functions", "nodes", "beams", "rigid_bodies", "joints", "clamps", "fixed",
-             "loads", "gravity", "initial_velocities", "solver", "checks", "crosscheck"}
+             "loads", "line_loads", "springs", "gravity", "initial_velocities", "solver", "checks", "crosscheck"}
 SECTION_KEYS = ["EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ1", "rhoJ2", "rhoJ3"]
 TIME_FUNCTIONS = {
     "constant": (Constant, ["value"], {}),
@@ -46,6 +50,13 @@ TIME_FUNCTIONS = {
     "piecewise_linear": (PiecewiseLinear, ["times", "values"], {}),
     "sine": (Sine, ["amplitude", "omega"], {"phase": 0.0, "offset": 0.0}),
     "smooth_step": (SmoothStep, ["t0", "t1"], {"v0": 0.0, "v1": 1.0}),
+    "expression": (Expression, ["expr"], {}),
+}
+SPRING_KEYS = {
+    "point_to_point": (["body_i", "point_i", "stiffness"],
+                       ["body_j", "point_j", "damping", "rest_length", "force_function"]),
+    "rotational": (["body_i", "stiffness"], ["body_j", "axis", "reference", "damping", "rest_angle"]),
+    "bushing": (["body_i", "point", "stiffness"], ["body_j", "axis", "reference", "damping"]),
 }
 DOF_NAMES = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
 OVERRIDES = {"t_end", "dt", "refine"}
@@ -384,7 +395,9 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         args = {}
         for k in required + list(optional):
             v = tf.get(k, optional.get(k))
-            if k in ("times", "values"):
+            if k == "expr":
+                args[k] = rd.string(v, f"{entry}.expr")
+            elif k in ("times", "values"):
                 if not isinstance(v, list) or len(v) < 2:
                     raise rd.fail(f"{entry}.{k}", "expected a list of at least two numbers")
                 args[k] = [rd.number(x, f"{entry}.{k}[{i}]") for i, x in enumerate(v)]
@@ -397,7 +410,10 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                 raise rd.fail(f"{entry}.times", "must be strictly increasing")
         if kind in ("ramp", "smooth_step") and not args["t1"] > args["t0"]:
             raise rd.fail(entry, "t1 must be greater than t0")
-        tfs[name] = cls(**args)
+        try:
+            tfs[name] = cls(**args)
+        except ExpressionError as exc:
+            raise rd.fail(f"{entry}.expr", str(exc), "write a formula in t, e.g. expr = \"sin(3*t)**2\"") from None
 
     beams = {}
 
@@ -423,6 +439,18 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
             close = difflib.get_close_matches(ref, labels + [f"{b}:start" for b in beams] + [f"{b}:end" for b in beams], n=1)
             raise rd.fail(entry, f"no node {_show(ref)}", f"did you mean '{close[0]}'?" if close else
                           "reference a node label or '<beam>:start', '<beam>:end', '<beam>:<i>'") from None
+
+    def time_function(table, entry):
+        """The time function named by ``table['time_function']`` (None if absent)."""
+        key = next((k for k in ("time_function", "force_function") if k in table), None)
+        if key is None:
+            return None
+        name = rd.string(table[key], f"{entry}.{key}")
+        if name not in tfs:
+            close = difflib.get_close_matches(name, list(tfs), n=1)
+            raise rd.fail(f"{entry}.{key}", f"no time function {_show(name)}",
+                          f"did you mean '{close[0]}'?" if close else f"defined: {', '.join(tfs) or 'none'}")
+        return tfs[name]
 
     for i, nd in enumerate(rd.items(deck, "nodes")):
         entry = f"nodes[{i}]"
@@ -524,7 +552,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
 
     for i, ld in enumerate(rd.items(deck, "loads")):
         entry = f"loads[{i}]"
-        rd.keys(ld, entry, required=["node"], optional=["force", "moment", "frame", "time_function"])
+        rd.keys(ld, entry, required=["node"], optional=["force", "moment", "frame", "time_function", "point"])
         if ("force" in ld) == ("moment" in ld):
             raise rd.fail(entry, "give exactly one of 'force' and 'moment'")
         moment = "moment" in ld
@@ -533,15 +561,33 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         if frame not in ("inertial", "body"):
             raise rd.fail(f"{entry}.frame", f"unknown frame {_show(frame)}",
                           "'inertial' (a dead load) or 'body' (a follower load)")
-        tf = Constant(1.0)
-        if "time_function" in ld:
-            name = rd.string(ld["time_function"], f"{entry}.time_function")
-            if name not in tfs:
-                close = difflib.get_close_matches(name, list(tfs), n=1)
-                raise rd.fail(f"{entry}.time_function", f"no time function {_show(name)}",
-                              f"did you mean '{close[0]}'?" if close else f"defined: {', '.join(tfs) or 'none'}")
-            tf = tfs[name]
-        domain.add_interaction(NodalLoad(node_ref(ld["node"], f"{entry}.node"), vec, moment, frame == "body", tf))
+        tf = time_function(ld, entry) or Constant(1.0)
+        point = None
+        if "point" in ld:
+            if moment:
+                raise rd.fail(f"{entry}.point", "a moment has no point of application",
+                              "give 'point' with a force only (a moment acts on the whole body)")
+            point = rd.vector(ld["point"], f"{entry}.point")
+        domain.add_interaction(NodalLoad(node_ref(ld["node"], f"{entry}.node"), vec, moment, frame == "body", tf,
+                                         point))
+    for i, ll in enumerate(rd.items(deck, "line_loads")):
+        entry = f"line_loads[{i}]"
+        rd.keys(ll, entry, required=["beam"], optional=["force_per_length", "moment_per_length", "frame",
+                                                        "time_function"])
+        beam = rd.string(ll["beam"], f"{entry}.beam")
+        if beam not in beams:
+            close = difflib.get_close_matches(beam, list(beams), n=1)
+            raise rd.fail(f"{entry}.beam", f"no flexible beam {beam!r}",
+                          f"did you mean '{close[0]}'?" if close else f"beams: {', '.join(beams) or 'none'}")
+        if "force_per_length" not in ll and "moment_per_length" not in ll:
+            raise rd.fail(entry, "give force_per_length and/or moment_per_length")
+        frame = rd.choice(ll.get("frame", "inertial"), f"{entry}.frame", ("inertial", "body"), "frame",
+                          "'inertial' (a dead load) or 'body' (section-frame components, a follower load)")
+        domain.add_interaction(LineLoad(
+            beams[beam],
+            rd.vector(ll.get("force_per_length", [0.0, 0.0, 0.0]), f"{entry}.force_per_length"),
+            rd.vector(ll.get("moment_per_length", [0.0, 0.0, 0.0]), f"{entry}.moment_per_length"),
+            frame == "body", time_function(ll, entry) or Constant(1.0)))
     if "gravity" in deck:
         rd.keys(deck["gravity"], "gravity", required=["g"])
         domain.add_interaction(Gravity(rd.vector(deck["gravity"]["g"], "gravity.g")))
@@ -581,6 +627,11 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         if mode not in ("position", "velocity"):
             raise rd.fail(f"{entry}.mode", f"unknown mode {_show(mode)}",
                           "'position' (the time function is the angle/displacement) or 'velocity' (its rate)")
+        if tf is not None and mode == "velocity" and isinstance(tf, Expression) and not tf.with_integral:
+            try:
+                tf = tfs[jt["time_function"]] = Expression(tf.expr, with_integral=True)
+            except ExpressionError as exc:
+                raise rd.fail(f"time_functions.{jt['time_function']}.expr", str(exc)) from None
         eps = rd.number(jt.get("epsilon", 0.0), f"{entry}.epsilon", nonnegative=True)
         reference = rd.vector(jt["reference"], f"{entry}.reference") if "reference" in jt else None
         label = rd.label(jt.get("label", f"{kind}:{i}"), f"{entry}.label")
@@ -594,6 +645,51 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                              time_function=tf, mode=mode, label=label)
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
+
+    for i, sp in enumerate(rd.items(deck, "springs")):
+        entry = f"springs[{i}]"
+        if not isinstance(sp, dict) or "kind" not in sp:
+            raise rd.fail(entry, "missing required key 'kind'", f"one of: {', '.join(SPRING_KINDS)}")
+        kind = rd.choice(sp["kind"], f"{entry}.kind", SPRING_KINDS, "spring kind")
+        required, optional = SPRING_KEYS[kind]
+        rd.keys(sp, entry, required=["kind"] + required, optional=["label"] + optional)
+        label = rd.string(sp.get("label", f"{kind}:{i}"), f"{entry}.label")
+        body_i = node_ref(sp["body_i"], f"{entry}.body_i")
+        body_j = None if sp.get("body_j", "ground") == "ground" else node_ref(sp["body_j"], f"{entry}.body_j")
+        if body_j is body_i:
+            raise rd.fail(entry, "body_i and body_j are the same body", "connect two bodies, or a body and \"ground\"")
+        if kind == "bushing":
+            stiffness = rd.vector(sp["stiffness"], f"{entry}.stiffness", 6)
+            damping = rd.vector(sp.get("damping", [0.0] * 6), f"{entry}.damping", 6)
+            for name, values in (("stiffness", stiffness), ("damping", damping)):
+                if np.any(values < 0.0):
+                    raise rd.fail(f"{entry}.{name}", f"must not be negative, got {values.tolist()}",
+                                  "give six values ≥ 0 (three translational, three rotational)")
+        else:
+            stiffness = rd.number(sp["stiffness"], f"{entry}.stiffness", nonnegative=True)
+            damping = rd.number(sp.get("damping", 0.0), f"{entry}.damping", nonnegative=True)
+        try:
+            if kind == "point_to_point":
+                rest = sp.get("rest_length")
+                element = PointToPoint(
+                    body_i, rd.vector(sp["point_i"], f"{entry}.point_i"), body_j,
+                    rd.vector(sp.get("point_j", [0.0, 0.0, 0.0]), f"{entry}.point_j"), stiffness, damping,
+                    None if rest is None else rd.number(rest, f"{entry}.rest_length", positive=True),
+                    time_function(sp, entry), label)
+            elif kind == "rotational":
+                element = Rotational(
+                    body_i, body_j, rd.vector(sp.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis"), stiffness, damping,
+                    rd.number(sp.get("rest_angle", 0.0), f"{entry}.rest_angle"),
+                    rd.vector(sp["reference"], f"{entry}.reference") if "reference" in sp else None, label)
+            else:
+                element = Bushing(
+                    body_i, body_j, rd.vector(sp["point"], f"{entry}.point"),
+                    rd.vector(sp.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis"),
+                    rd.vector(sp["reference"], f"{entry}.reference") if "reference" in sp else None,
+                    stiffness, damping, label)
+        except ValueError as exc:
+            raise rd.fail(entry, str(exc)) from None
+        domain.add_force_element(element)
 
     for i, iv in enumerate(rd.items(deck, "initial_velocities")):
         entry = f"initial_velocities[{i}]"
