@@ -193,7 +193,7 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, smal
     the configuration-dependent blocks are multiplied on the right by the tangent operator
     ``J_r(ψ)`` of each node (``exp(ψ + δ) = exp(ψ) exp(J_r(ψ) δ) + O(δ²)``); zeros for the
     static update ``q ⊗ exp(δ)``.  The force elements' blocks ``c_k K T + c_c C`` come last, at
-    the velocities and angles of the last :func:`evaluate`.
+    the velocities and angles of the last :func:`evaluate` (K with the actuator forces' tangent).
     """
     Jr = small[7, :9]
     J9 = small[6, :9]
@@ -290,6 +290,16 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, smal
         p += 1
     for k in range(model.fe_kind.shape[0]):
         force_element_tangent(model, x, q, fv, fw, angle, k, K12, C12, fe_e, fe_B, fe_G)
+        tf = model.fe_tf[k]
+        if tf >= 0:
+            # a point-to-point actuator force f_a(t) (an external load −B_ℓᵀ f_a turning with the line):
+            # its tangent f_a G_ℓ, G_ℓ the tangent of the length's Jacobian row that
+            # force_element_tangent leaves in the first 144 entries of its work array
+            fa = tf_value(model.tf_kind[tf], model.tf_par[tf], t)
+            nc = 12 if model.fe_j[k] >= 0 else 6
+            for a in range(nc):
+                for b in range(nc):
+                    K12[a, b] += fa * fe_G[12 * a + b]
         _right_jacobian_columns(K12, 3, psi[model.fe_i[k]], Jr)
         if model.fe_j[k] >= 0:
             _right_jacobian_columns(K12, 9, psi[model.fe_j[k]], Jr)
