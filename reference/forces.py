@@ -65,47 +65,6 @@ from reference.rotation import EulerParameters
 
 POINT_TO_POINT, ROTATIONAL, BUSHING = 0, 1, 2
 KINDS = {"point_to_point": POINT_TO_POINT, "rotational": ROTATIONAL, "bushing": BUSHING}
-@kernel
-def force_element_dissipation(model, x, q, v, w, v_new, w_new, prim_phi, prim_B):
-    """Work rate of the dampers over a kick: ``Σ c (B_e V⁻)·(B_e V̄)``, ``V̄ = ½(V⁻ + V⁺)`` [W].
-
-    The damper force of an explicit step is evaluated at the old velocity V⁻;
-    the kinetic energy changes by the kick length times the force times the
-    mean velocity V̄, so this is the energy the dampers remove in that step
-    (exact for the scheme).
-    """
-    total = 0.0
-    for k in range(model.fe_kind.shape[0]):
-        damp = model.fe_c[k]
-        if damp[0] == 0.0 and damp[1] == 0.0 and damp[2] == 0.0 and damp[3] == 0.0 and damp[4] == 0.0 \
-                and damp[5] == 0.0:
-            continue
-        i, j = model.fe_i[k], model.fe_j[k]
-        _primitives(model, x, q, k, prim_phi, prim_B)
-        kind = model.fe_kind[k]
-        if kind == POINT_TO_POINT:
-            length = math.sqrt(prim_phi[0] ** 2 + prim_phi[1] ** 2 + prim_phi[2] ** 2)
-            if length <= 0.0:
-                continue
-            c0, c1, c2 = prim_phi[0] / length, prim_phi[1] / length, prim_phi[2] / length
-            old = _rate(prim_B, 0, c0, 1, c1, 2, c2, v, w, i, j)
-            new = _rate(prim_B, 0, c0, 1, c1, 2, c2, v_new, w_new, i, j)
-            total += damp[0] * old * 0.5 * (old + new)
-        elif kind == ROTATIONAL:
-            s, c = prim_phi[5], prim_phi[9]
-            r2 = s * s + c * c
-            old = _rate(prim_B, 5, c / r2, 9, -s / r2, 0, 0.0, v, w, i, j)
-            new = _rate(prim_B, 5, c / r2, 9, -s / r2, 0, 0.0, v_new, w_new, i, j)
-            total += damp[0] * old * 0.5 * (old + new)
-        else:
-            for m in range(6):
-                row, sg = BUSHING_ROWS_ARR[m], BUSHING_SIGNS_ARR[m]
-                old = _rate(prim_B, row, sg, 0, 0.0, 0, 0.0, v, w, i, j)
-                new = _rate(prim_B, row, sg, 0, 0.0, 0, 0.0, v_new, w_new, i, j)
-                total += damp[m] * old * 0.5 * (old + new)
-    return total
-
-
 
 
 @kernel

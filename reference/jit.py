@@ -11,18 +11,44 @@ set by the environment variable ``FLEXMBS_THREADS`` (default 1: on a machine
 shared with other jobs, a thread that is not scheduled stalls every step).
 Results never depend on the thread count: parallel loops only write per-item
 rows, and the sums over items are taken afterwards, in order, on one thread.
+
+numba's on-disk cache checks only the source file that defines a function, not
+the files of the functions it calls and inlines: after an edit of, say,
+``reference/interactions.py`` the cached step kernel of
+``reference/algorithms/staggered.py`` would silently keep running the old time
+functions.  So the cache lives in a folder named after a digest of every source
+file of the engine (``$XDG_CACHE_HOME/flexmbs/numba/<digest>``, or ``~/.cache/…``):
+any edit of the engine compiles afresh, an unchanged engine reuses its compiled
+kernels.  Setting ``NUMBA_CACHE_DIR`` yourself overrides this (and the protection).
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
+from pathlib import Path
 
 import numba
 from numba import prange
 
-__all__ = ["kernel", "parallel_kernel", "prange", "threads", "use_threads"]
+__all__ = ["kernel", "parallel_kernel", "prange", "threads", "use_threads", "source_digest"]
 
 THREADS_ENV = "FLEXMBS_THREADS"
+ENGINE = Path(__file__).resolve().parent
+
+
+def source_digest(root: Path = ENGINE) -> str:
+    """SHA-256 (16 hex digits) of the Python sources below ``root`` (the engine), names and contents."""
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(path.relative_to(root).as_posix().encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+if not os.environ.get("NUMBA_CACHE_DIR"):
+    numba.config.CACHE_DIR = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+                                 / "flexmbs" / "numba" / source_digest())
 
 
 def kernel(func):
