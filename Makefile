@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 $(VENV)/.notebooks: $(STAMP)
-	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,test,notebooks]"
+	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,sweep,test,notebooks]"
 	touch $(VENV)/.notebooks
 
 report: $(STAMP)
@@ -40,7 +40,7 @@ bench: $(VENV)/.bench
 derive: $(STAMP)
 	$(BIN)/flexmbs derive
 
-# JupyterLab on the lessons: a double click on notebooks/NN_*.py opens it as a notebook (jupytext)
+# JupyterLab on the lessons: right-click notebooks/NN_*.py → Open With → Jupytext Notebook
 notebooks: $(VENV)/.notebooks
 	$(BIN)/jupyter lab --notebook-dir=notebooks
 

@@ -105,9 +105,9 @@ def beam2_quantities():
     return inputs, quantities, st.stages
 
 
-def kernels() -> list[Kernel]:
-    inp, out, stages = beam2_quantities()
-    args = [
+def kernel_arguments(inp) -> list:
+    """The Beam2 kernels' inputs, in order, with their descriptions (shared by the tangent kernel)."""
+    return [
         ("x1", list(inp["x1"]), "position of node 1 (inertial) [m]"),
         ("x2", list(inp["x2"]), "position of node 2 (inertial) [m]"),
         ("q1", inp["q1"], "Euler parameters of the section triad at end 1, p1 = q_node1 ⊗ o1"),
@@ -117,6 +117,11 @@ def kernels() -> list[Kernel]:
         ("gamma0", list(inp["gamma0"]), "reference Γ0 = Amᵀx' at rest (E1 for a straight beam)"),
         ("c", inp["c"], "section stiffness EA, GA2, GA3 [N], GJ, EI2, EI3 [N m²]"),
     ]
+
+
+def kernels() -> list[Kernel]:
+    inp, out, stages = beam2_quantities()
+    args = kernel_arguments(inp)
     return [
         Kernel(
             "internal_forces",

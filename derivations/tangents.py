@@ -55,7 +55,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from derivations.beam2 import beam2_quantities
+from derivations.beam2 import beam2_quantities, kernel_arguments
 from derivations.joints import N_PRIMITIVES, primitives
 from derivations.codegen import Coefficient, Kernel, Stager, render_coefficient, render_kernel, render_module, vector
 from derivations.rotation_maps import (
@@ -197,16 +197,7 @@ def beam2_tangent():
 
 def beam2_kernel() -> Kernel:
     inp, S, K, stages = beam2_tangent()
-    args = [
-        ("x1", list(inp["x1"]), "position of node 1 (inertial) [m]"),
-        ("x2", list(inp["x2"]), "position of node 2 (inertial) [m]"),
-        ("q1", inp["q1"], "Euler parameters of node 1 (section triad)"),
-        ("q2", inp["q2"], "Euler parameters of node 2 (section triad)"),
-        ("L0", inp["L0"], "reference length [m]"),
-        ("psi0", list(inp["psi0"]), "reference relative rotation ψ0 = log(A1ᵀA2) at rest [rad]"),
-        ("gamma0", list(inp["gamma0"]), "reference Γ0 = Amᵀx' at rest (E1 for a straight beam)"),
-        ("c", inp["c"], "section stiffness EA, GA2, GA3 [N], GJ, EI2, EI3 [N m²]"),
-    ]
+    args = kernel_arguments(inp)
     return Kernel(
         "beam2_tangent",
         "Beam2 internal forces S and tangent stiffness K = ∂S/∂[δx1, δθ1, δx2, δθ2] (derivations/tangents.py).\n\n"

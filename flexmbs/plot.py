@@ -63,6 +63,22 @@ def geometry(domain) -> dict:
     return shapes
 
 
+def chains(domain) -> dict:
+    """``{beam: [node labels in order]}`` from the domain's elements (labels ``BEAM/i``).
+
+    Unlike :func:`beam_groups` this follows the connectivity, so a node shared by
+    two beams (``start_node``/``end_node``) is drawn in both.
+    """
+    label_of = {n.id: n.label for n in domain.nodes}
+    out = {}
+    for e in domain.elements:
+        beam = e.label.rpartition("/")[0] or e.label
+        ids = [label_of[i] for i in e.nodes]
+        chain = out.setdefault(beam, [])
+        chain.extend(ids if not chain else ids[1:] if chain[-1] == ids[0] else ids)
+    return out
+
+
 def beam_groups(labels) -> dict:
     """``{beam: [label of node 0, 1, …]}`` from the ``BEAM:i`` labels of a results file."""
     groups = {}
@@ -73,17 +89,21 @@ def beam_groups(labels) -> dict:
     return {b: [lbl for _, lbl in sorted(v)] for b, v in groups.items() if len(v) > 1}
 
 
-def configuration(results, i: int, shapes: dict | None = None, magnify: float = 1.0) -> list[tuple[str, np.ndarray]]:
+def configuration(results, i: int, shapes: dict | None = None, magnify: float = 1.0,
+                  beams: dict | None = None) -> list[tuple[str, np.ndarray]]:
     """Polylines ``(label, (k, 3) points)`` of every body at output ``i``.
 
     Flexible beams: the nodes, with their deviation from the chord of the end
     nodes multiplied by ``magnify`` (as the paper's Fig. 14 shows the coupler).
     Rigid bodies: their ``shapes`` offsets turned by the body's rotation;
-    without a shape, the centre of mass alone.
+    without a shape, the centre of mass alone.  ``beams`` (from :func:`chains`)
+    gives the beams' node order; by default it is read from the ``BEAM:i`` labels.
     """
     shapes = shapes or {}
     lines, in_beam = [], set()
-    for beam, members in beam_groups(results.labels).items():
+    if not beams or any(lbl not in results.labels for chain in beams.values() for lbl in chain):
+        beams = beam_groups(results.labels)
+    for beam, members in beams.items():
         idx = [results.index(lbl) for lbl in members]
         P = results.positions[i, idx]
         if magnify != 1.0:
@@ -233,10 +253,10 @@ def animate(r, path: Path, every: int = 1, magnify: float = 1.0, progress=None) 
     from matplotlib.animation import FuncAnimation, PillowWriter
 
     domain = domain_of(r)
-    shapes = geometry(domain) if domain is not None else {}
+    shapes, beams = (geometry(domain), chains(domain)) if domain is not None else ({}, None)
     a, b = plane(r)
     frames = list(range(0, len(r.time), max(int(every), 1)))
-    drawn = [configuration(r, i, shapes, magnify) for i in frames]
+    drawn = [configuration(r, i, shapes, magnify, beams) for i in frames]
     allp = np.concatenate([p for lines in drawn for _, p in lines])
     fig, ax = plt.subplots(figsize=(5.4, 5.4))
     ax.set_aspect("equal")

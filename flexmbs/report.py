@@ -199,7 +199,7 @@ def sketch(domain, path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from flexmbs.plot import configuration, geometry
+    from flexmbs.plot import chains, configuration, geometry
     from reference.domain import Results
 
     N = len(domain.nodes)
@@ -208,16 +208,26 @@ def sketch(domain, path: Path) -> Path:
                  rotations=np.array([n.rotation for n in domain.nodes])[None], velocities=np.zeros((1, N, 3)),
                  angular_velocities=np.zeros((1, N, 3)), energy={}, constraint_violation=np.zeros(1),
                  velocity_constraint_violation=np.zeros(1))
-    lines = configuration(r0, 0, geometry(domain))
+    lines = configuration(r0, 0, geometry(domain), beams=chains(domain))
     allp = np.concatenate([p for _, p in lines] + [np.array([j.point for j in domain.joints]).reshape(-1, 3)])
     spread = allp.max(axis=0) - allp.min(axis=0)
     a, b = sorted(np.argsort(spread)[::-1][:2]) if np.count_nonzero(spread > 1e-9) >= 2 else (0, 2)
     fig, ax = plt.subplots(figsize=(5.2, 4.2))
     for label, P in lines:
         ax.plot(P[:, a], P[:, b], "o-" if len(P) > 1 else "s", ms=3 if len(P) > 1 else 7, lw=2, label=label)
-    for j in domain.joints:
-        ax.plot(j.point[a], j.point[b], "o", mfc="white", mec="k", ms=8)
-        ax.annotate(j.label, (j.point[a], j.point[b]), textcoords="offset points", xytext=(6, 6), fontsize=7)
+    at_point = {}
+    for j in domain.joints:  # joints at one point share one marker and one label
+        at_point.setdefault(tuple(np.round(j.point, 9)), []).append(j.label)
+    for point, names in at_point.items():
+        ax.plot(point[a], point[b], "o", mfc="white", mec="k", ms=8)
+        ax.annotate(", ".join(names), (point[a], point[b]), textcoords="offset points", xytext=(6, 6), fontsize=7)
+    for grav in (g for g in domain.loading if type(g).__name__ == "Gravity"):
+        gv = np.asarray(grav.g, dtype=float)
+        d = np.array([gv[a], gv[b]]) / max(np.linalg.norm(gv), 1e-300)
+        start = np.array([0.08, 0.9]) - 0.06 * d
+        ax.annotate("", start + 0.12 * d, start, xycoords="axes fraction",
+                    arrowprops=dict(arrowstyle="->", color="purple", lw=1.5))
+        ax.text(*(start + [0.03, 0.0]), "gravity", transform=ax.transAxes, fontsize=7, color="purple", va="center")
     for bc in domain.boundary_conditions:
         node = getattr(bc, "node", None)
         if node is not None:
@@ -246,7 +256,9 @@ def sketch(domain, path: Path) -> Path:
 def _table(checks: list[Check]) -> list[str]:
     lines = ["| check | reference | computed | tolerance | result | why this tolerance |", "|---|---|---|---|---|---|"]
     for c in checks:
-        lines.append(f"| {c.name} | {c.reference} | {c.computed:.3e} | {c.tolerance:.1e} | "
+        # a bar inside a cell would split the table: absolute values are written with "∣" (U+2223)
+        name, reference = (text.replace("|", "∣") for text in (c.name, c.reference))
+        lines.append(f"| {name} | {reference} | {c.computed:.3e} | {c.tolerance:.1e} | "
                      f"{'pass' if c.passed else '**FAIL**'} | {c.why} |")
     return lines
 
@@ -367,6 +379,7 @@ def main(args=None) -> int:
     figures = reports / "figures"
     figures.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
+    header = provenance_header(quick)  # the commit and tree state the numbers come from: taken before the runs
     decks = [d for d in sorted(MODELS.glob("*.toml"))]
     # the paper's two examples first, then the gallery in alphabetical order
     first = [MODELS / "embedded_beam.toml", MODELS / "three_bar.toml"]
@@ -379,7 +392,7 @@ def main(args=None) -> int:
         print(f"[{number}/{len(decks)}] {deck.name}: {len(more_checks) - len(failed_here)}/{len(more_checks)} checks pass",
               file=sys.stderr)
     failed = [c for c in checks if not c.passed]
-    head = provenance_header(quick) + [
+    head = header + [
         f"**{len(checks) - len(failed)} of {len(checks)} checks pass** over {len(decks)} decks." + (
             "  Failed: " + "; ".join(c.name for c in failed) if failed else ""),
         "",

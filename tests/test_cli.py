@@ -141,6 +141,14 @@ def test_quick_report_runs_and_every_check_passes(tmp_path, capsys):
                   "compilation", "## Limitations", "Over the whole history"):
         assert words in text, words
     assert not FORBIDDEN.search(text)  # no citation of files outside the repository
+    # every table row has as many cells as its header (a "|" inside a cell would split it)
+    table = []
+    for line in text.splitlines() + [""]:
+        if line.startswith("|"):
+            table.append(line.count("|"))
+        elif table:
+            assert set(table) == {table[0]}, table
+            table = []
     for fig in ("rollup_fig12.png", "three_bar_fig14.png", "rollup_convergence.png", "rollup_history.png",
                 "embedded_beam_sketch.png", "three_bar_sketch.png"):
         assert (tmp_path / "figures" / fig).stat().st_size > 10_000

@@ -133,3 +133,14 @@ def test_pyproject_license_is_spdx_and_extras_install_the_notebook_kernel():
     assert any(r.startswith("jupyterlab") for r in extras["notebooks"])
     makefile = (ROOT / "Makefile").read_text()
     assert "test]" in makefile and "notebooks:" in makefile
+
+
+def test_drawing_follows_the_connectivity_through_a_shared_node():
+    """Two beams joined at a shared node (``end_node``/``start_node``) are drawn without a gap."""
+    from flexmbs.plot import chains
+    from reference.domain import Domain
+
+    domain = Domain.from_deck(ROOT / "models" / "curved_cantilever.toml")
+    beams = chains(domain)
+    assert beams["arc1"][-1] == beams["arc2"][0] == "mid"
+    assert len(beams["arc1"]) == len(domain.elements) // 2 + 1

@@ -10,7 +10,7 @@ FORBIDDEN = re.compile(r"shared/|BENCHMARKS|FORMULATION|DESIGN\.md")
 
 
 def _files():
-    for folder in ("reference", "derivations", "crosscheck", "flexmbs", "models", "notebooks", "docs", "tests"):
+    for folder in ("reference", "derivations", "crosscheck", "flexmbs", "models", "notebooks", "docs", "tests", "reports"):
         for path in (ROOT / folder).rglob("*"):
             if path.suffix in {".py", ".toml", ".md"} and "_runs" not in path.parts:
                 yield path

@@ -66,13 +66,13 @@ def beam2_tangent(x1, x2, q1, q2, L0, psi0, gamma0, c, s, K):
     x2 : array (3,)
         position of node 2 (inertial) [m]
     q1 : array (4,)
-        Euler parameters of node 1 (section triad)
+        Euler parameters of the section triad at end 1, p1 = q_node1 ⊗ o1
     q2 : array (4,)
-        Euler parameters of node 2 (section triad)
+        Euler parameters of the section triad at end 2, p2 = q_node2 ⊗ o2
     L0 : float
         reference length [m]
     psi0 : array (3,)
-        reference relative rotation ψ0 = log(A1ᵀA2) at rest [rad]
+        reference relative rotation ψ0 = log(A1ᵀA2) of the section triads at rest (0: straight) [rad]
     gamma0 : array (3,)
         reference Γ0 = Amᵀx' at rest (E1 for a straight beam)
     c : array (6,)
