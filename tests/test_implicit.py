@@ -21,6 +21,7 @@ from reference.algorithms.generalized_alpha import parameters
 from reference.algorithms.implicit import compose
 from reference.domain import Domain, SolverDiverged, SolverSettings
 from reference.elements import Section
+from reference.forces import Bushing, PointToPoint, Rotational
 from reference.interactions import Clamp, Gravity, NodalLoad, Ramp
 from reference.io.deck import DeckError
 from reference.rotation import RotationVector
@@ -107,7 +108,9 @@ def test_static_rollup_polygon_and_quadratic_newton():
 
 def test_newton_matrix_matches_finite_differences():
     """The assembled static Newton matrix (Beam2 tangents, joint Hessians of a revolute, a spherical,
-    a universal and a rotation drive, a follower force, a dead moment, B and Bᵀ) against central
+    a universal and a rotation drive, a follower force, a dead moment, the three force elements —
+    point-to-point, rotational and bushing, stressed; actuator forces along two point-to-point lines,
+    one to the ground —, B and Bᵀ) against central
     differences of the engine’s residual and constraints under x → x + δx, q → q ⊗ exp(δθ), in a
     random 3D configuration with random multipliers: agreement to 1e-6 of the largest entry
     (the differences' truncation and round-off are ≈ 1e-9)."""
@@ -120,6 +123,13 @@ def test_newton_matrix_matches_finite_differences():
     d.add_joint("rotation_drive", nodes[0], None, (0, 0, 0), axis=(1, 0, 0), time_function=Ramp(0.0, 1.0, 0.0, 0.3))
     d.add_interaction(NodalLoad(nodes[1], np.array([1.0, -2.0, 0.5]), follower=True))
     d.add_interaction(NodalLoad(body, np.array([0.3, 0.7, -1.1]), moment=True))
+    d.add_force_element(PointToPoint(nodes[1], (0.6, 0.1, 0.05), body, (1.5, 0.3, 0.1), stiffness=30.0,
+                                     rest_length=0.5, force_function=Ramp(0.0, 1.0, 0.0, 8.0)))
+    d.add_force_element(PointToPoint(body, (1.5, 0.3, 0.2), None, (1.0, 1.0, 1.0), stiffness=0.0,
+                                     force_function=Ramp(0.0, 1.0, 0.0, 5.0)))
+    d.add_force_element(Rotational(nodes[0], body, (0.2, 0.0, 1.0), stiffness=7.0, rest_angle=0.3))
+    d.add_force_element(Bushing(body, None, (1.4, 0.2, 0.0), (0.3, 1.0, 0.2), (1.0, 0.0, 0.0),
+                                [40.0, 50.0, 60.0, 4.0, 5.0, 6.0], np.zeros(6)))
     model = d.initialization()
     rng = np.random.default_rng(7)
     x = np.array([n.position for n in d.nodes]) + 0.05 * rng.normal(size=(4, 3))

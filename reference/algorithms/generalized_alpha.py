@@ -33,8 +33,9 @@ tolerance (translations over the model size, rotations in rad).  The
 initial accelerations and multipliers are consistent: ``M V̇_0 + Bᵀλ_0 = −r_0``,
 ``B V̇_0 = −d/dt(B V + Φ_t)`` (the last by a central difference along the motion).
 
-Energies: external work by the trapezoidal rule on the step increments (loads
-and drives), damping dissipation by the trapezoidal rule on ``c Vᵀ M V``.
+Energies: external work by the trapezoidal rule on the step increments (loads,
+actuators and drives), damping dissipation by the trapezoidal rule on
+``c Vᵀ M V`` plus the force elements' damper power ``Σ c (B_e V)²``.
 """
 
 from __future__ import annotations
@@ -111,6 +112,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                            np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
         vd = np.zeros((N, 6))
         lam = np.zeros(m)
+        self.work.angle[:] = state.angle  # the force elements' continuous angles
         U = self.evaluate(model, x, q, v, w, vd, lam, t, True)
         r0 = self.work.r.copy()
         rate = np.zeros(m)
@@ -135,7 +137,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         self.evaluate(model, x, q, v, w, vd, lam, t, True)
         f_prev[:] = self.work.F
         self.P = _power(model, self.work.Bl, lam, v, w)
-        self.D = _dissipation(model, v, w)
+        self.D = _dissipation(model, v, w) + self.work.fe_out[0]
         self._run = (state, clock[1])
         return OK
 
@@ -197,8 +199,10 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             par[12] = 0.0
             self.stopped_at = clock[0]
             self.P, self.D = energy
+            state.angle[:] = self.work.angle
             return code
         self.P, self.D = energy
+        state.angle[:] = self.work.angle
         self.iterations += int(par[10])
         self._run = (state, clock[1])
         return OK
@@ -222,6 +226,8 @@ def _power(model, Bl, lam, v, w):
 
 @kernel
 def _dissipation(model, v, w):
+    """Power of the mass-proportional damping ``c Vᵀ M V`` [W] (the force elements' dampers are added
+    from the evaluation)."""
     c = model.damping
     D = 0.0
     for i in range(v.shape[0]):
@@ -248,7 +254,8 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     the interrupted step's iterate).
     """
     dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, _e = arr
-    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B = wt
+    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B, fe = wt
+    fe_out = fe[8]
     h, am, af, gamma, beta, tol, L, contraction = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
     max_it = int(par[8])
     bp = (1.0 - am) / (h * h * beta * (1.0 - af))
@@ -331,7 +338,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
         compose(q, psi, q1, tmp)
         # energy bookkeeping with the last evaluation (within the Newton tolerance of the step's end)
         P1 = _power(model, Bl, lamn, Vn[:, :3], Vn[:, 3:])
-        D1 = _dissipation(model, Vn[:, :3], Vn[:, 3:])
+        D1 = _dissipation(model, Vn[:, :3], Vn[:, 3:]) + fe_out[0]
         dW = 0.0
         for i in range(N):
             for k in range(6):

@@ -24,12 +24,22 @@ generalized-α: 1, γ'/β', 1/β')::
     [ c_m M + c_c C + c_k K    Bᵀ  ] [δ]      [c_k r]
     [ B                      −ε/c_k] [μ]  = − [Φ − ελ]      λ ← λ + μ / c_k
 
-``C = ∂r/∂V`` (damping, and the gyroscopic tangent), ``K = ∂r/∂δ`` at fixed
-velocities: the Beam2 tangent stiffness (material + geometric), the joints'
-λ-weighted constraint Hessian ``∂(Bᵀλ)/∂δ`` and the follower-load tangents —
-all sympy-derived kernels (``reference/generated/tangents.py``,
-``reference/joints/hessian.py``; docs/tangents.md), exact derivatives under the
-update above, so that Newton converges quadratically.
+``C = ∂r/∂V`` (damping, the gyroscopic tangent and the force elements' dampers),
+``K = ∂r/∂δ`` at fixed velocities: the Beam2 tangent stiffness (material +
+geometric), the joints' λ-weighted constraint Hessian ``∂(Bᵀλ)/∂δ``, the
+follower-load tangents and the force elements' stiffness — all sympy-derived
+kernels (``reference/generated/tangents.py``, ``reference/joints/hessian.py``,
+``reference/generated/forces.py`` through :func:`reference.forces.force_element_tangent`;
+docs/tangents.md), exact derivatives under the update above, so that Newton
+converges quadratically.
+
+Force elements (``[[springs]]``, :mod:`reference.forces`) enter like internal
+forces: their spring and damper forces are subtracted from ``S`` and their
+energy added to the strain energy, their actuator forces added to ``F``
+(external work); the static algorithm evaluates them at zero velocity.  The
+continuous angles of rotational springs live in the work arrays during a run
+(copied from and back to ``State.angle`` by the algorithms); every evaluation
+continues them from the last one, as the explicit scheme does.
 
 Values are written by :func:`tangent_values` block by block in the order that
 :func:`newton_pattern` lays out once per model (:class:`reference.linalg.BlockPattern`).
@@ -42,6 +52,7 @@ import math
 import numpy as np
 
 from reference.algorithms.staggered import external_forces
+from reference.forces import force_element_forces, force_element_tangent
 from reference.elements.formulation import beam2_assemble, section_quaternion, tangent_to_node_frame
 from reference.generated import rotation_maps as rm
 from reference.generated import tangents as generated_tangents
@@ -71,7 +82,17 @@ class Work:
         self.prim_phi, self.prim_B = np.zeros(10), np.zeros(120)
         self.small = np.zeros((8, 12))
         self.K12 = np.zeros((12, 12))
-        self.values = np.zeros(36 * N + 144 * E + 144 * J + 24 * m + m)
+        nF = model.fe_kind.shape[0]
+        self.values = np.zeros(36 * N + 144 * E + 144 * J + 24 * m + m + 144 * nF)
+        # force elements: their spring/damper forces G, continuous angles, work arrays of
+        # reference.forces, the damping matrix, the velocities of the last evaluation (zero for a
+        # static one; the tangent is taken there) and [damper power] of the last evaluation
+        self.G = np.zeros((N, 6))
+        self.angle = np.zeros(nF)
+        self.fe_e, self.fe_B, self.fe_G = np.zeros(6), np.zeros(72), np.zeros(864)
+        self.C12 = np.zeros((12, 12))
+        self.fe_v, self.fe_w = np.zeros((N, 3)), np.zeros((N, 3))
+        self.fe_out = np.zeros(1)
 
 
 @kernel
@@ -79,12 +100,30 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
     """Residual ``r`` (N,6), constraint rows ``Φ, Φ_t, B`` (local (m,12)) at time t; returns U.
 
     ``w_`` is a tuple of work arrays (S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi,
-    prim_B).  With ``dynamic`` false the inertia, gyroscopic and damping terms are left out.
+    prim_B, fe) with ``fe`` those of the force elements (:func:`work_tuple`).  With ``dynamic``
+    false the inertia, gyroscopic and damping terms are left out and the force elements see
+    zero velocities.  U includes the springs' energy; the dampers' power ``Σ c (B_e V)²`` [W]
+    goes to ``fe_out[0]``.
     """
-    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B = w_
+    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B, fe = w_
+    G, angle, fe_e, fe_B, fe_G, C12, fv, fw, fe_out = fe
     U = beam2_assemble(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
     external_forces(model, x, q, t, F, A)
     N = x.shape[0]
+    if model.fe_kind.shape[0] > 0:
+        # springs and dampers like internal forces (S −= G), actuators into F
+        for i in range(N):
+            for k in range(3):
+                fv[i, k] = v[i, k] if dynamic else 0.0
+                fw[i, k] = w[i, k] if dynamic else 0.0
+            for k in range(6):
+                G[i, k] = 0.0
+        U_fe, D_fe = force_element_forces(model, x, q, fv, fw, t, angle, G, F, fe_e, fe_B)
+        U += U_fe
+        fe_out[0] = D_fe
+        for i in range(N):
+            for k in range(6):
+                S[i, k] -= G[i, k]
     c = model.damping
     for i in range(N):
         for k in range(6):
@@ -153,7 +192,8 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, smal
     ``psi`` (N,3): when the unknown rotation δ enters as ``q = q_n ⊗ exp(ψ + δ)`` (generalized-α),
     the configuration-dependent blocks are multiplied on the right by the tangent operator
     ``J_r(ψ)`` of each node (``exp(ψ + δ) = exp(ψ) exp(J_r(ψ) δ) + O(δ²)``); zeros for the
-    static update ``q ⊗ exp(δ)``.
+    static update ``q ⊗ exp(δ)``.  The force elements' blocks ``c_k K T + c_c C`` come last, at
+    the velocities and angles of the last :func:`evaluate` (K with the actuator forces' tangent).
     """
     Jr = small[7, :9]
     J9 = small[6, :9]
@@ -163,7 +203,8 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, smal
     E = model.conn.shape[0]
     NJ = model.jt_i.shape[0]
     m = lam.shape[0]
-    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B = w_
+    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B, fe = w_
+    G, angle, fe_e, fe_B, fe_G, C12, fv, fw, fe_out = fe
     c = model.damping
     p = 0
     for i in range(N):
@@ -247,6 +288,25 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, smal
     for rr in range(m):
         values[p] = -model.row_eps[rr] * ce
         p += 1
+    for k in range(model.fe_kind.shape[0]):
+        force_element_tangent(model, x, q, fv, fw, angle, k, K12, C12, fe_e, fe_B, fe_G)
+        tf = model.fe_tf[k]
+        if tf >= 0:
+            # a point-to-point actuator force f_a(t) (an external load −B_ℓᵀ f_a turning with the line):
+            # its tangent f_a G_ℓ, G_ℓ the tangent of the length's Jacobian row that
+            # force_element_tangent leaves in the first 144 entries of its work array
+            fa = tf_value(model.tf_kind[tf], model.tf_par[tf], t)
+            nc = 12 if model.fe_j[k] >= 0 else 6
+            for a in range(nc):
+                for b in range(nc):
+                    K12[a, b] += fa * fe_G[12 * a + b]
+        _right_jacobian_columns(K12, 3, psi[model.fe_i[k]], Jr)
+        if model.fe_j[k] >= 0:
+            _right_jacobian_columns(K12, 9, psi[model.fe_j[k]], Jr)
+        for a in range(12):
+            for b in range(12):
+                values[p] = ck * K12[a, b] + cc * C12[a, b]
+                p += 1
     return p
 
 
@@ -263,7 +323,8 @@ def _right_jacobian_columns(K, c0, psi, Jr):
 
 
 def work_tuple(w: Work):
-    return (w.S, w.F, w.r, w.PHI, w.PHIt, w.Bl, w.s_el, w.A, w.jphi, w.jB, w.jphit, w.prim_phi, w.prim_B)
+    fe = (w.G, w.angle, w.fe_e, w.fe_B, w.fe_G, w.C12, w.fe_v, w.fe_w, w.fe_out)
+    return (w.S, w.F, w.r, w.PHI, w.PHIt, w.Bl, w.s_el, w.A, w.jphi, w.jB, w.jphit, w.prim_phi, w.prim_B, fe)
 
 
 def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
@@ -302,6 +363,9 @@ def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
         cols.append(np.full(12, n_free + rr))
     rows.append(n_free + np.arange(m))
     cols.append(n_free + np.arange(m))
+    for k in range(model.fe_kind.shape[0]):
+        nodes = [model.fe_i[k], model.fe_j[k]]
+        block(nodes, nodes)
     rows = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
     cols = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)
     return BlockPattern(rows, cols, n_free + m), dof6
@@ -347,10 +411,6 @@ class ImplicitAlgorithm(Algorithm):
         if model.ms_master.shape[0] > 0:
             return ("master/slave joints are not available with the implicit algorithms; use "
                     "formulation = \"jacobian\" (Lagrange multipliers) for those joints")
-        if model.fe_kind.shape[0] > 0:
-            return ("force elements ([[springs]]) are not yet assembled by the implicit algorithms (their forces "
-                    "and derived tangents are ready: reference.forces.force_element_forces and "
-                    "force_element_tangent); use algorithm = \"staggered_central_difference\"")
         return None
 
     def prepare(self, model) -> None:

@@ -139,6 +139,7 @@ class Static(ImplicitAlgorithm):
             self._lam = np.zeros(model.n_constraints)
             v[:] = 0.0
             w[:] = 0.0
+            self.work.angle[:] = state.angle  # the force elements' continuous angles
             self.stopped_at = None
             code = self._equilibrium(model, x, q, self._lam, clock[0], L)
             if code != OK:
@@ -167,9 +168,11 @@ class Static(ImplicitAlgorithm):
                 x[:], q[:], lam[:] = saved
                 sub *= 0.5
                 if sub < self.dt / 2**MAX_CUTS:
+                    state.angle[:] = self.work.angle
                     self.stopped_at = t
                     clock[0] = t
                     return code
+            state.angle[:] = self.work.angle
             clock[1] += 1
             clock[0] = clock[1] * self.dt
         return OK
