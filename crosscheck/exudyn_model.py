@@ -384,7 +384,7 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
     same number of load steps; ``generalized_alpha`` → Exudyn's generalized-α with the
     same ρ∞; the explicit scheme → Exudyn's generalized-α (its default ρ∞), fixed step.
 
-    Returns a dict with ``results`` (:class:`reference.domain.Results`, engine
+    Returns a dict with ``results`` (:class:`reference.io.results.Results`, engine
     Exudyn), ``wall_time`` (the solve call only) and ``steps``.
     """
     import exudyn as exu
@@ -556,7 +556,7 @@ def joint_reactions(domain, times, rot, local) -> tuple[np.ndarray, np.ndarray]:
 
 def measured(domain, times, pos, rot, vel, omg, wall, dt):
     """Constraint residuals and energies of a trajectory, by the reference's definitions."""
-    from reference.domain import Results
+    from reference.io.results import Results
     from reference.elements.formulation import beam2_assemble
     from reference.algorithms.staggered import external_forces
 

@@ -200,7 +200,7 @@ def sketch(domain, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
     from flexmbs.plot import chains, configuration, geometry
-    from reference.domain import Results
+    from reference.io.results import Results
 
     N = len(domain.nodes)
     pos = np.array([n.position for n in domain.nodes])[None]

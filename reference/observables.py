@@ -49,7 +49,7 @@ Python API::
     obs.describe()                                          # one line with the unit
 
 ``domain`` may be a :class:`~reference.domain.Domain` or a
-:class:`~reference.domain.Results` (both know the node, joint and element
+:class:`~reference.io.results.Results` (both know the node, joint and element
 labels).  :func:`parse` refuses a wrong name or reference with one message
 ``problem; fix`` (the deck reader adds the file and the entry).
 """
@@ -178,7 +178,7 @@ class Observable:
         return f"{what} [{self.unit}]"
 
     def evaluate(self, results) -> np.ndarray:
-        """The time history from ``results`` (:class:`reference.domain.Results`, either engine)."""
+        """The time history from ``results`` (:class:`reference.io.results.Results`, either engine)."""
         values = self._values(results)
         comps = KINDS.get(self.kind, (None, ()))[1]
         if self.component and self.kind != "angle":

@@ -192,9 +192,7 @@ class ResultsWriter:
                 self.f.close()
 
     def results(self, wall_time: float = 0.0):
-        """The :class:`~reference.domain.Results` of this file, read on demand."""
-        from reference.domain import Results
-
+        """The :class:`Results` of this file, read on demand."""
         return Results(source=self.path, wall_time=wall_time)
 
     def __enter__(self):
@@ -205,7 +203,206 @@ class ResultsWriter:
 
 
 def load_results(path):
-    """A results file (from either engine) as :class:`reference.domain.Results`; arrays are read on first use."""
-    from reference.domain import Results
-
+    """A results file (from either engine) as :class:`Results`; arrays are read on first use."""
     return Results(source=Path(path))
+
+
+class Results:
+    """Time histories of a run, from the results file (read on demand) or from memory.
+
+    ``time`` (n,), ``positions``/``velocities``/``angular_velocities`` (n,N,3),
+    ``rotations`` (n,N,4), ``energy`` dict of (n,) arrays, ``constraint_violation``,
+    ``velocity_constraint_violation`` (n,), ``labels`` (N,), ``status`` ("completed"
+    or why the run stopped), ``wall_time`` [s], ``attrs`` (the file's attributes).
+    Joints (J): ``joint_labels``, ``reaction_forces`` and ``reaction_moments``
+    (n,J,3), the force and the moment about the joint point that each joint
+    exerts on its body_i, inertial [N], [N m] (NaN where not computed:
+    master/slave joints).  Elements (E): ``element_labels`` (``"beam/i"``),
+    ``section_forces``/``section_moments`` (n,E,3) at the midpoint, section
+    frame.  ``multipliers`` (n,m) the Lagrange multipliers (``M a + Bᵀλ = Q``).
+
+    Node keys are ids, labels, or the aliases ``BEAM:start`` and ``BEAM:end``
+    (the first and last node ``BEAM:i`` of a meshed beam).  ``position("beam:12")``
+    and the like read one node's history (from a file, only that node's column);
+    :meth:`data` gives any dataset by its path in the file.
+
+    Parameters
+    ----------
+    source : path, optional
+        A results file: the arrays not given are read from it on first use, so a
+        long run's histories are not held in memory unless asked for.
+    """
+
+    ARRAYS = {
+        "time": "time", "positions": "nodes/position", "rotations": "nodes/rotation",
+        "velocities": "nodes/velocity", "angular_velocities": "nodes/angular_velocity",
+        "constraint_violation": "constraints/violation_norm",
+        "velocity_constraint_violation": "constraints/velocity_violation_norm",
+        "reaction_forces": "joints/reaction_force", "reaction_moments": "joints/reaction_moment",
+        "section_forces": "elements/section_force", "section_moments": "elements/section_moment",
+        "multipliers": "constraints/multipliers",
+    }
+    """Attribute → dataset path in the results file."""
+    ENERGIES = ("kinetic", "strain", "external_work", "dissipated")
+    WIDTHS = {"joints/reaction_force": "joint_labels", "joints/reaction_moment": "joint_labels",
+              "elements/section_force": "element_labels", "elements/section_moment": "element_labels"}
+    """Per-item datasets (n, items, 3): NaN of that shape when a file lacks them."""
+
+    def __init__(self, time=None, labels=None, positions=None, rotations=None, velocities=None,
+                 angular_velocities=None, energy=None, constraint_violation=None, velocity_constraint_violation=None,
+                 status: str = "completed", wall_time: float = 0.0, attrs=None, joint_labels=None,
+                 reaction_forces=None, reaction_moments=None, element_labels=None, section_forces=None,
+                 section_moments=None, multipliers=None, source=None, extra=None):
+        given = {"time": time, "positions": positions, "rotations": rotations, "velocities": velocities,
+                 "angular_velocities": angular_velocities, "energy": energy,
+                 "constraint_violation": constraint_violation,
+                 "velocity_constraint_violation": velocity_constraint_violation,
+                 "reaction_forces": reaction_forces, "reaction_moments": reaction_moments,
+                 "section_forces": section_forces, "section_moments": section_moments, "multipliers": multipliers}
+        self.__dict__.update({k: v for k, v in given.items() if v is not None})
+        self.source = source
+        self.extra = dict(extra or {})
+        self.wall_time = wall_time
+        self.labels, self.status, self.attrs = labels, status, dict(attrs or {})
+        self.joint_labels, self.element_labels = list(joint_labels or []), list(element_labels or [])
+        if source is not None:
+            import h5py
+
+            def names(f, name):
+                return [s.decode() if isinstance(s, bytes) else str(s) for s in f[name][()]] if name in f else []
+
+            with h5py.File(source, "r") as f:
+                self.labels = names(f, "nodes/label")
+                self.joint_labels, self.element_labels = names(f, "joints/label"), names(f, "elements/label")
+                self.attrs = dict(f.attrs)
+                self.status = str(f.attrs.get("status", ""))
+
+    def __getattr__(self, name):
+        if name.startswith("__") or name in ("source", "extra"):
+            raise AttributeError(name)
+        if name == "energy":
+            value = {k: self.data(f"energy/{k}") for k in self.ENERGIES}
+        elif name in self.ARRAYS:
+            value = self.data(self.ARRAYS[name])
+        else:
+            raise AttributeError(name)
+        self.__dict__[name] = value
+        return value
+
+    def data(self, path: str, index=()) -> np.ndarray:
+        """The dataset at ``path`` (e.g. ``"constraints/multipliers"``), or its ``[:, index]`` part;
+        NaN (zero columns for the multipliers) where the run did not compute it."""
+        if path in self.extra:
+            return self.extra[path][(slice(None), *np.atleast_1d(index))] if index != () else self.extra[path]
+        if self.source is None:
+            n = len(self.time)
+            return self._missing(path, n)
+        import h5py
+
+        with h5py.File(self.source, "r") as f:
+            if path not in f:
+                return self._missing(path, f["time"].shape[0])
+            return f[path][(slice(None), index)] if index != () else f[path][()]
+
+    def _missing(self, path: str, n: int) -> np.ndarray:
+        if path == "constraints/multipliers":
+            return np.zeros((n, 0))
+        if path in self.WIDTHS:
+            return np.full((n, len(getattr(self, self.WIDTHS[path])), 3), np.nan)
+        return np.full(n, np.nan)
+
+    def __len__(self) -> int:
+        return len(self.time)
+
+    def index(self, key) -> int:
+        """Column of a node: an id, a label, or ``BEAM:start`` / ``BEAM:end``."""
+        if isinstance(key, (int, np.integer)):
+            return int(key)
+        if key in self.labels:
+            return self.labels.index(key)
+        beam, _, which = str(key).rpartition(":")
+        if which in ("start", "end"):
+            numbered = [(int(lbl.rpartition(":")[2]), k) for k, lbl in enumerate(self.labels)
+                        if lbl.rpartition(":")[0] == beam and lbl.rpartition(":")[2].isdigit()]
+            if numbered:
+                return (min if which == "start" else max)(numbered)[1]
+        raise KeyError(f"no node labelled {key!r}; labels are e.g. {self.labels[:4]}")
+
+    def _node(self, name: str, key) -> np.ndarray:
+        if name in self.__dict__ or self.source is None:
+            return getattr(self, name)[:, self.index(key)]
+        return self.data(self.ARRAYS[name], self.index(key))
+
+    def position(self, key) -> np.ndarray:
+        return self._node("positions", key)
+
+    def rotation(self, key) -> np.ndarray:
+        return self._node("rotations", key)
+
+    def velocity(self, key) -> np.ndarray:
+        return self._node("velocities", key)
+
+    def angular_velocity(self, key) -> np.ndarray:
+        return self._node("angular_velocities", key)
+
+    def joint_index(self, joint) -> int:
+        if joint in self.joint_labels:
+            return self.joint_labels.index(joint)
+        raise KeyError(f"no joint labelled {joint!r}; joints are {self.joint_labels}")
+
+    def element_index(self, beam, element=None) -> int:
+        """Column of an element: its label ``"beam/i"``, or ``(beam, i)``."""
+        label = str(beam) if element is None else f"{beam}/{int(element)}"
+        if label in self.element_labels:
+            return self.element_labels.index(label)
+        raise KeyError(f"no element labelled {label!r}; elements are e.g. {self.element_labels[:4]}")
+
+    def reaction(self, joint) -> tuple[np.ndarray, np.ndarray]:
+        """``(force, moment)`` (n, 3) each: what ``joint`` exerts on its body_i, moment about the
+        joint point, inertial components [N], [N m]."""
+        k = self.joint_index(joint)
+        return self.reaction_forces[:, k], self.reaction_moments[:, k]
+
+    def section_force(self, beam, element=None) -> np.ndarray:
+        """Force resultant N (n, 3) at the midpoint of element ``beam/element``, section frame [N]."""
+        return self.section_forces[:, self.element_index(beam, element)]
+
+    def section_moment(self, beam, element=None) -> np.ndarray:
+        """Moment resultant M (n, 3) at the midpoint of element ``beam/element``, section frame [N m]."""
+        return self.section_moments[:, self.element_index(beam, element)]
+
+
+class MemoryRecorder:
+    """Keeps the records of a run in preallocated arrays (``Domain.solve`` without a results file).
+
+    Parameters
+    ----------
+    capacity : int
+        Number of records the run will take.
+    labels : list
+        Node labels.
+    """
+
+    def __init__(self, capacity: int, labels: list, joint_labels=(), element_labels=()):
+        self.capacity, self.labels, self.n = capacity, labels, 0
+        self.joint_labels, self.element_labels = list(joint_labels), list(element_labels)
+        self.arrays: dict[str, np.ndarray] = {}
+
+    def append(self, entry: dict) -> None:
+        if not self.arrays:
+            self.arrays = {k: np.empty((self.capacity, *np.shape(v))) for k, v in entry.items()}
+        for k, v in entry.items():
+            self.arrays[k][self.n] = v
+        self.n += 1
+
+    def close(self, status: str) -> None:
+        self.status = status
+
+    def results(self, wall_time: float = 0.0) -> Results:
+        from reference.io.results import dataset_path
+
+        by_path = {dataset_path(k): a[: self.n] for k, a in self.arrays.items()}
+        fields = {name: by_path.pop(path) for name, path in Results.ARRAYS.items() if path in by_path}
+        energy = {k: by_path.pop(f"energy/{k}", np.full(self.n, np.nan)) for k in Results.ENERGIES}
+        return Results(labels=self.labels, energy=energy, status=self.status, wall_time=wall_time, extra=by_path,
+                       joint_labels=self.joint_labels, element_labels=self.element_labels, **fields)
