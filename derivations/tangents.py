@@ -84,9 +84,10 @@ DERIVATIVE_COEFFICIENTS = [
     )
     for name in DIFFERENTIATED
 ]
-"""The closed forms cancel (c_jinv_d loses ~1e-13 just above a = 1), so the series is used up to
-a = 2, where its omitted terms are below 1e-17 relative (the series of c_jinv_d converges
-for a < 2π, ratio (a/2π)² ≈ 0.1 per term at a = 2)."""
+"""``c'(a)/a`` of the coefficients above.  The closed forms cancel (c_jinv_d loses 2e-13 just
+above a = 1), so the series is used up to a = 2 (the series of c_jinv_d converges for a < 2π,
+ratio (a/2π)² ≈ 0.1 per term at a = 2).  Against 40-digit references: ≤ 2.3e-16 relative on the
+series side, ≤ 5.5e-15 on the closed-form side up to a = π."""
 D = {name: sp.Function(f"{name}_d") for name in DIFFERENTIATED}
 TANGENT_USER_FUNCTIONS = USER_FUNCTIONS + [c.name for c in DERIVATIVE_COEFFICIENTS]
 
