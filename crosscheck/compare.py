@@ -16,10 +16,18 @@ interval); ``b`` is interpolated linearly onto ``a``'s times otherwise.
 Deck syntax::
 
     [crosscheck.tip]
-    observable = "position:beam:end"      # or "rocker_angle", "midspan_deflection:coupler"
+    observable = "position:beam:end"       # any observable (reference/observables.py, docs/observables.md)
     tolerance = 0.005
     relative_to = "length"                 # "length", "peak" or "absolute"
     reason = "..."
+
+The difference per output time is ``|a − b|`` for a scalar (modulo 2π for an
+angle), ``‖a − b‖`` for a vector and the largest node's ``‖a − b‖`` for
+``position:*``; its maximum over time is divided by the scale (the model's
+length, the peak of ``|a|`` / ``‖a‖`` in file ``a``, or 1) and compared with
+the tolerance.  A deck without ``[crosscheck]`` tables is compared by
+:func:`reference.observables.default_crosscheck` (every node's position, 1 %
+of the length).
 """
 
 from __future__ import annotations
@@ -28,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from reference.observables import midspan_deflection, rocker_angle, wrap
+from reference.observables import ObservableError, parse, wrap
 from reference.rotation import EulerParameters
 
 
@@ -52,27 +60,14 @@ class Verdict:
         return bool(np.isfinite(self.measure) and self.measure <= self.tolerance)
 
 
-def observable(results, spec: str, end_label=None) -> np.ndarray:
-    """Time history of a named observable: ``position:<node>`` (n,3), ``rocker_angle`` (n,),
-    ``midspan_deflection:<beam>`` (n,)."""
-    kind, _, arg = spec.partition(":")
-    if kind == "position":
-        if arg.endswith(":end") and end_label:
-            arg = end_label(arg[: -len(":end")])
-        return results.position(arg)
-    if kind == "rocker_angle":
-        return np.unwrap(rocker_angle(results))
-    if kind == "midspan_deflection":
-        return midspan_deflection(results, arg or "coupler")
-    raise ValueError(f"unknown observable {spec!r}: position:<node>, rocker_angle or midspan_deflection:<beam>")
-
-
-def _last_node(results):
-    def label(beam):
-        nodes = [lbl for lbl in results.labels if lbl.startswith(beam + ":")]
-        return max(nodes, key=lambda lbl: int(lbl.rsplit(":", 1)[1]))
-
-    return label
+def pointwise(values) -> np.ndarray:
+    """Per output time: ``|v|`` of a scalar, ``‖v‖`` of a vector, max over points of ``‖v‖`` for (n, N, 3)."""
+    values = np.asarray(values)
+    if values.ndim == 1:
+        return np.abs(values)
+    if values.ndim == 2:
+        return np.linalg.norm(values, axis=1)
+    return np.linalg.norm(values, axis=2).max(axis=1)
 
 
 def _on_times(values, t_from, t_to):
@@ -110,14 +105,18 @@ def compare(a, b, checks: dict | None = None) -> dict:
     }
     for name, spec in (checks or {}).items():
         obs = spec["observable"]
-        va = observable(a, obs, _last_node(a))
-        vb = _on_times(observable(b, obs, _last_node(b)), b.time, a.time)
+        try:
+            parsed_a, parsed_b = parse(obs, a), parse(obs, b)
+        except ObservableError as exc:
+            raise ObservableError(f"crosscheck.{name}.observable: {exc}") from None
+        va = parsed_a.evaluate(a)
+        vb = _on_times(parsed_b.evaluate(b), b.time, a.time)
         diff = va - vb
-        if obs == "rocker_angle":
+        if parsed_a.is_angle:
             diff = wrap(diff)
-        d = np.linalg.norm(diff.reshape(len(a.time), -1), axis=1)
+        d = pointwise(diff)
         relative_to = spec.get("relative_to", "absolute")
-        scale = {"length": length, "peak": float(np.max(np.abs(va))), "absolute": 1.0}[relative_to]
-        out["verdicts"].append(Verdict(name, obs, float(d.max()), float(np.sqrt(np.mean(d**2))), scale,
+        scale = {"length": length, "peak": float(np.max(pointwise(va))), "absolute": 1.0}[relative_to]
+        out["verdicts"].append(Verdict(name, obs, float(np.max(d)), float(np.sqrt(np.mean(d**2))), scale,
                                        float(spec["tolerance"]), relative_to, str(spec.get("reason", ""))))
     return out

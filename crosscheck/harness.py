@@ -6,9 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from crosscheck.compare import compare, observable, _last_node
-from crosscheck.exudyn_model import check_supported
+from crosscheck.compare import compare, pointwise
+from crosscheck.exudyn_model import preflight
 from crosscheck.exudyn_model import solve as solve_exudyn
+from reference.observables import default_crosscheck, parse, wrap
 
 
 def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float | None = None,
@@ -31,13 +32,16 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     out.mkdir(parents=True, exist_ok=True)
     overrides = {"refine": refine, **({"t_end": t_end} if t_end else {})}
     ex_domain = Domain.from_deck(deck, overrides=overrides)
-    check_supported(ex_domain)  # refuse before running anything
+    preflight(ex_domain)  # refuse (one line) before running anything: untranslatable or refused by Exudyn
     ref_domain = Domain.from_deck(deck, overrides=overrides)
     ref = ref_domain.solve(results_path=out / "results_reference.h5", progress=progress)
     dt_ex = exudyn_dt or ref_domain.solver.dt * refine
     ex = solve_exudyn(ex_domain, dt=dt_ex, results_path=out / "results_exudyn.h5", progress=exudyn_progress)
     exr = ex["results"]
     checks = {name: spec for name, spec in ref_domain.crosscheck.items() if int(spec.get("refine", 1)) == refine}
+    default = not ref_domain.crosscheck
+    if default:
+        checks = default_crosscheck()
     cmp = compare(ref, exr, checks)
     name = ref_domain.name + (f"_refine{refine}" if refine != 1 else "")
     lines = [f"### Cross-check: `{Path(deck).name}`" + (f", flexible beams refined ×{refine}" if refine != 1 else ""), "",
@@ -50,6 +54,8 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
              f"| max ‖Φ‖ | {cmp['drift']['a']['violation_max']:.2e} | {cmp['drift']['b']['violation_max']:.2e} |",
              f"| max ‖B V + Φ_t‖ | {cmp['drift']['a']['velocity_violation_max']:.2e} | "
              f"{cmp['drift']['b']['velocity_violation_max']:.2e} |", "",
+             *([f"The deck has no `[crosscheck]` table: default comparison of every node's position "
+                f"(tolerance {checks['all_nodes']['tolerance']:g} of the length).", ""] if default else []),
              "| observable | max difference | RMS | relative to | measure | tolerance | result | reason |",
              "|---|---|---|---|---|---|---|---|"]
     for v in cmp["verdicts"]:
@@ -60,23 +66,24 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     rows = len(specs) + 1 + joints
     fig, axes = plt.subplots(rows, 1, figsize=(6.4, 2.3 * rows + 0.5), sharex=True, squeeze=False)
     for ax, spec in zip(axes[:, 0], specs):
-        va, vb = observable(ref, spec, _last_node(ref)), observable(exr, spec, _last_node(exr))
-        vb_on = np.stack([np.interp(ref.time, exr.time, c) for c in np.atleast_2d(vb.T)], axis=-1).reshape(va.shape)
+        obs = parse(spec, ref)
+        va, vb = obs.evaluate(ref), parse(spec, exr).evaluate(exr)
+        flat = vb.reshape(len(exr.time), -1)
+        vb_on = np.stack([np.interp(ref.time, exr.time, c) for c in flat.T], axis=-1).reshape((len(ref.time),) + vb.shape[1:])
         twin = ax.twinx()
-        if va.ndim == 2:
-            # what the verdict judges: the norm of the vector difference, not a difference of magnitudes
-            ax.plot(ref.time, np.linalg.norm(va - va[0], axis=1), label="reference |x − x(0)|")
-            ax.plot(exr.time, np.linalg.norm(vb - vb[0], axis=1), "--", label="Exudyn |x − x(0)|")
-            twin.plot(ref.time, np.linalg.norm(va - vb_on, axis=1), "r:", label="|x_ref − x_Exudyn| (judged)")
-            ax.set_ylabel(f"{spec}\ndisplacement [m]", fontsize=8)
-            twin.set_ylabel("difference [m]", fontsize=8, color="r")
+        if va.ndim > 1:
+            # what the verdict judges: the norm of the vector difference (the largest node's for position:*)
+            ax.plot(ref.time, pointwise(va - va[0]), label="reference |x − x(0)|")
+            ax.plot(exr.time, pointwise(vb - vb[0]), "--", label="Exudyn |x − x(0)|")
+            twin.plot(ref.time, pointwise(va - vb_on), "r:", label="|x_ref − x_Exudyn| (judged)")
+            ax.set_ylabel(f"{spec}\nchange [{obs.unit}]", fontsize=8)
         else:
-            unit = "[rad]" if "angle" in spec else "[m]"
+            diff = wrap(va - vb_on) if obs.is_angle else va - vb_on
             ax.plot(ref.time, va, label="reference")
             ax.plot(exr.time, vb, "--", label="Exudyn")
-            twin.plot(ref.time, va - vb_on, "r:", label="reference − Exudyn (judged)")
-            ax.set_ylabel(f"{spec} {unit}", fontsize=8)
-            twin.set_ylabel(f"difference {unit}", fontsize=8, color="r")
+            twin.plot(ref.time, diff, "r:", label="reference − Exudyn (judged)")
+            ax.set_ylabel(f"{spec} [{obs.unit}]", fontsize=8)
+        twin.set_ylabel(f"difference [{obs.unit}]", fontsize=8, color="r")
         handles = ax.get_legend_handles_labels()[0] + twin.get_legend_handles_labels()[0]
         ax.legend(handles, [h.get_label() for h in handles], fontsize=7, loc="upper left")
     ax = axes[len(specs), 0]
@@ -99,5 +106,5 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     plt.close(fig)
     lines += ["", f"![cross-check]({'figures/' if figures else ''}{figure.name})", ""]
     (out / "crosscheck.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    cmp.update(markdown=lines, figure=figure, reference=ref, exudyn=exr, exudyn_wall=ex["wall_time"])
+    cmp.update(default=default, markdown=lines, figure=figure, reference=ref, exudyn=exr, exudyn_wall=ex["wall_time"])
     return cmp

@@ -25,8 +25,28 @@ Hence, with ``f = L0 N × (Amᵀ x')`` and ``g = M + ½ J_r(ψ/2)ᵀ f``::
     S_θ2 = J_r(ψ)⁻ᵀ g,   S_θ1 = E f − R J_r(ψ)⁻ᵀ g
 
 (``M ü + S = F`` sign convention; the rotational parts are body-frame
-moments at each node).  The tests check them against central finite
+moments at each end).  The tests check them against central finite
 differences of U.  :func:`generate` writes ``reference/generated/beam2.py``.
+
+**The kernel works in section frames.**  Its ``q1``, ``q2`` are the Euler
+parameters of the element's own section triads at its two ends, not
+necessarily the node frames.  ``K = (ψ − ψ0)/L0`` is the right curvature only
+for a straight reference: with ``ψ0 ≠ 0`` a small extra rotation δ gives
+``ψ − ψ0 ≈ J_r(ψ0)⁻¹ δ``, too stiff by ``|J_r(ψ0)⁻¹ δ|²/|δ|²`` normal to ψ0
+(23 % for the 90° kink two perpendicular beams sharing a node would give).
+So every element is straight in its own section frame (ψ0 = 0, Γ0 = E1 at
+rest) and each end a refers to it through a constant offset ``o_a`` from the
+node frame: ``Λ_a = A(q_a) A(o_a)``, section quaternion ``p_a = q_a ⊗ o_a``,
+``o_a = q_a⁰* ⊗ p_a⁰`` fixed at t = 0 (identity where the node frame is the
+section frame).  Kinks at shared nodes and the chords of a curved beam are
+then exact for any angle and the measure stays objective.  The assembly
+(``reference.elements.formulation.beam2_assemble``) composes ``p_a``
+(``section_quaternion``), calls this kernel and maps the rotational forces back
+to the node frames, ``S_θ,node = A(o_a) S_θ,section`` (``to_node_frame``),
+because ``δθ_section = A(o_a)ᵀ δθ_node``; a tangent of this kernel transforms
+as ``K_node = T K_sec Tᵀ``, ``T = blockdiag(I, A(o_1), I, A(o_2))``.  ``psi0``
+and ``gamma0`` stay inputs (computed from the section frames at rest, 0 and E1
+to round-off for a Beam2 of the Domain).
 """
 
 from __future__ import annotations
@@ -90,10 +110,10 @@ def kernels() -> list[Kernel]:
     args = [
         ("x1", list(inp["x1"]), "position of node 1 (inertial) [m]"),
         ("x2", list(inp["x2"]), "position of node 2 (inertial) [m]"),
-        ("q1", inp["q1"], "Euler parameters of node 1 (section triad)"),
-        ("q2", inp["q2"], "Euler parameters of node 2 (section triad)"),
+        ("q1", inp["q1"], "Euler parameters of the section triad at end 1, p1 = q_node1 ⊗ o1"),
+        ("q2", inp["q2"], "Euler parameters of the section triad at end 2, p2 = q_node2 ⊗ o2"),
         ("L0", inp["L0"], "reference length [m]"),
-        ("psi0", list(inp["psi0"]), "reference relative rotation ψ0 = log(A1ᵀA2) at rest [rad]"),
+        ("psi0", list(inp["psi0"]), "reference relative rotation ψ0 = log(A1ᵀA2) of the section triads at rest (0: straight) [rad]"),
         ("gamma0", list(inp["gamma0"]), "reference Γ0 = Amᵀx' at rest (E1 for a straight beam)"),
         ("c", inp["c"], "section stiffness EA, GA2, GA3 [N], GJ, EI2, EI3 [N m²]"),
     ]
@@ -102,7 +122,7 @@ def kernels() -> list[Kernel]:
             "internal_forces",
             "Beam2 internal nodal forces (the exact gradient of the strain energy), strains, resultants.\n\n"
             "    Paper eq. (3): the vector S of ``M a + S = F``.  Order of ``s``:\n"
-            "    S_u1 (inertial, N), S_θ1 (body frame of node 1, N m), S_u2, S_θ2.",
+            "    S_u1 (inertial, N), S_θ1 (section frame of end 1, N m), S_u2, S_θ2 (section frame of end 2).",
             args,
             [("s", out["S"], "internal forces [S_u1, S_θ1, S_u2, S_θ2] (12,)"),
              ("strain", list(out["Gamma"]) + list(out["Kappa"]), "Γ (3) then K (3) at the midpoint [-, 1/m]"),

@@ -72,6 +72,7 @@ def cmd_derive(args) -> int:
 def cmd_crosscheck(args) -> int:
     Unsupported = _module("crosscheck.exudyn_model", "crosscheck").Unsupported
     run = _module("crosscheck.harness", "crosscheck").run
+    from reference.observables import ObservableError
     from flexmbs.progress import ProgressBar
 
     refine = args.refine or 1
@@ -83,6 +84,10 @@ def cmd_crosscheck(args) -> int:
                   progress=ProgressBar("reference"), exudyn_progress=ProgressBar("Exudyn   "))
     except Unsupported as exc:
         raise CommandError(f"{args.deck}: cannot be cross-checked in Exudyn: {exc}") from None
+    except ObservableError as exc:
+        raise CommandError(f"{args.deck}: {exc}") from None
+    if cmp.get("default"):
+        print("the deck has no [crosscheck] table: compared every node's position (default, 1 % of the length)")
     failed = [v for v in cmp["verdicts"] if not v.passed]
     for v in cmp["verdicts"]:
         print(f"{'pass' if v.passed else 'FAIL'}  {v.observable}: {v.measure:.3e} (tolerance {v.tolerance:g}, "
@@ -93,7 +98,12 @@ def cmd_crosscheck(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    return _module("flexmbs.plot", "plot").main(args)
+    from reference.observables import ObservableError
+
+    try:
+        return _module("flexmbs.plot", "plot").main(args)
+    except ObservableError as exc:
+        raise CommandError(f"{args.results}: --observable: {exc}") from None
 
 
 def cmd_report(args) -> int:
@@ -127,6 +137,8 @@ def parser() -> argparse.ArgumentParser:
     pl = sub.add_parser("plot", help="time histories, drift, energies and an animation from a results file")
     pl.add_argument("results")
     pl.add_argument("--node", action="append", help="node label (repeatable)")
+    pl.add_argument("--observable", action="append", metavar="EXPR",
+                    help="any observable, e.g. 'reaction_moment.z:crank drive' (repeatable; docs/observables.md)")
     pl.add_argument("--drift", action="store_true", help="constraint violation history")
     pl.add_argument("--energy", action="store_true", help="energy histories")
     pl.add_argument("--animate", metavar="NAME.gif", help="animation of the motion")

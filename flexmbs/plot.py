@@ -1,4 +1,4 @@
-"""``flexmbs plot RESULTS.h5``: time histories, constraint drift, energies, an animation; model drawings.
+"""``flexmbs plot RESULTS.h5``: time histories, any observable, constraint drift, energies, an animation; model drawings.
 
 Works on any results file honouring the contract (either engine).  The
 drawing of a configuration (:func:`configuration`) is the one used everywhere:
@@ -11,11 +11,13 @@ report's model sketches, its Fig. 14 and ``plot --animate`` all draw with it.
 from __future__ import annotations
 
 import tempfile
+import textwrap
 from pathlib import Path
 
 import numpy as np
 
-WHAT = "--node LABEL (position and velocity histories), --drift (constraint violation), --energy, --animate NAME.gif"
+WHAT = ("--node LABEL (position and velocity histories), --observable EXPR (any observable, docs/observables.md), "
+        "--drift (constraint violation), --energy, --animate NAME.gif")
 
 
 def save_figure(fig, path: Path, dpi: int = 120) -> Path:
@@ -135,7 +137,7 @@ def _load(path):
 
 
 def main(args) -> int:
-    if not (args.node or args.drift or args.energy or args.animate):
+    if not (args.node or getattr(args, "observable", None) or args.drift or args.energy or args.animate):
         raise OSError(f"{args.results}: nothing to plot; choose one or more of {WHAT}")
     r = _load(args.results)
     import matplotlib
@@ -148,8 +150,10 @@ def main(args) -> int:
     engine = r.attrs.get("engine", "")
     written = []
     for label in args.node or []:
-        if label not in r.labels:
-            raise KeyError(f"{args.results}: no node {label!r}; nodes are e.g. {', '.join(r.labels[:6])}")
+        try:
+            r.index(label)  # a label or BEAM:start / BEAM:end
+        except KeyError:
+            raise KeyError(f"{args.results}: no node {label!r}; nodes are e.g. {', '.join(r.labels[:6])}") from None
         fig, axes = plt.subplots(2, 1, figsize=(6.4, 5.0), sharex=True)
         for k, comp in enumerate("xyz"):
             axes[0].plot(r.time, r.position(label)[:, k], label=comp)
@@ -183,6 +187,8 @@ def main(args) -> int:
         ax.legend(fontsize=8)
         ax.set_title(f"energies ({engine})", fontsize=10)
         written.append(save_figure(fig, out / "energy.png"))
+    for text in getattr(args, "observable", None) or []:
+        written.append(plot_observable(r, text, out, plt))
     if args.animate:
         from flexmbs.progress import ProgressBar
 
@@ -194,6 +200,31 @@ def main(args) -> int:
     for path in written:
         print(f"wrote {path}")
     return 0
+
+
+def plot_observable(r, text: str, out: Path, plt) -> Path:
+    """Figure of one observable (``reference/observables.py``) over time: a scalar, the components of a
+    vector, or every node's displacement for ``position:*``."""
+    from reference.observables import parse
+
+    obs = parse(text, r)
+    values = obs.evaluate(r)
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    if values.ndim == 1:
+        ax.plot(r.time, values)
+    elif values.ndim == 2:
+        names = {4: ["q0", "q1", "q2", "q3"]}.get(values.shape[1], ["1", "2", "3"] if "section" in obs.kind
+                                                  else ["x", "y", "z"])
+        for k in range(values.shape[1]):
+            ax.plot(r.time, values[:, k], label=names[k])
+        ax.legend(fontsize=8)
+    else:
+        ax.plot(r.time, np.linalg.norm(values - values[:1], axis=2), lw=0.8)
+    ax.set_xlabel("time t [s]")
+    ax.set_ylabel(f"{obs.text} [{obs.unit}]", fontsize=8)
+    ax.set_title(textwrap.fill(f"{obs.describe()} ({r.attrs.get('engine', '')})", 80), fontsize=8)
+    safe = "".join(c if c.isalnum() or c in "._-" else "_" for c in text)
+    return save_figure(fig, out / f"observable_{safe}.png")
 
 
 def animate(r, path: Path, every: int = 1, magnify: float = 1.0, progress=None) -> Path:

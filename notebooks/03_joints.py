@@ -10,37 +10,54 @@
 # %% [markdown]
 # # Lesson 3 — Joints, constraint Jacobians and Lagrange multipliers
 #
-# A spherical joint keeps a point of body i on a point of body j:
-# `Φ = x_j + A_j s'_j − x_i − A_i s'_i = 0`. The engine needs its velocity Jacobian B,
-# `Φ̇ = B [v_i, ω_i, v_j, ω_j]`, with ω in the body frames. sympy derives it by perturbing
-# `A → A (I + δθ̃)` and differentiating — here is that derivation, as in `derivations/joints.py`.
+# A spherical joint keeps a point of body $i$ on a point of body $j$:
+# $$\Phi = x_j + A_j s'_j - x_i - A_i s'_i = 0,$$
+# with $s'$ the joint point in each body's frame. The engine needs the velocity Jacobian $B$,
+# $\dot\Phi = B\,[v_i, \omega_i, v_j, \omega_j]$, with the angular velocities $\omega$ **in the body frames**.
+# A body-frame rotation perturbs $A \to A(I + \tilde{\delta\theta})$, so the columns of $B$ for $\omega_i$ are
+# $\partial\Phi/\partial\delta\theta_i$ at $\delta\theta_i = 0$. sympy derives it exactly as
+# `derivations/joints.py` does for every joint (`docs/formulation.md` §5).
 
 # %%
 import sympy as sp
 
-from derivations.rotation_maps import rotation_matrix, skew
+try:
+    from IPython.display import display
+except ImportError:  # run as a plain script
+    display = sp.pprint
 
-xi, si = sp.Matrix(sp.symbols("x_i0:3")), sp.Matrix(sp.symbols("s_i0:3"))
-qi = sp.symbols("e0 e1 e2 e3")
-dth = sp.Matrix(sp.symbols("dtheta0:3"))
-A = rotation_matrix(qi)
-phi = -(xi + A * (sp.eye(3) + skew(dth)) * si)  # body i's side of the spherical joint
-B_omega = phi.jacobian(dth).subs({d: 0 for d in dth})
-print("∂Φ/∂ω_i =")
-sp.pprint(sp.simplify(B_omega - A * skew(si)))  # the textbook result: +A_i s̃'_i
+from derivations.rotation_maps import skew
 
-# %%
-assert sp.simplify(B_omega - A * skew(si)) == sp.zeros(3, 3)
+A = sp.Matrix(3, 3, lambda r, c: sp.Symbol(f"a_{r + 1}{c + 1}"))  # a generic rotation matrix A_i
+s = sp.Matrix(sp.symbols("s_1:4"))                                 # the joint point s'_i in body i
+x = sp.Matrix(sp.symbols("x_1:4"))
+dth = sp.Matrix(sp.symbols("delta_theta_1:4"))
+phi_i = -(x + A * (sp.eye(3) + skew(dth)) * s)                     # body i's side of Φ
+B_omega = phi_i.jacobian(dth).xreplace({d: 0 for d in dth})
+display(sp.Eq(sp.Symbol(r"\partial\Phi/\partial\omega_i"), B_omega, evaluate=False))
 
 # %% [markdown]
-# ## Lagrange multipliers on a pendulum
-# A rigid bar on a spherical joint to the ground, spinning about the vertical. The
-# stabilised multipliers keep ‖Φ‖ at the size of one step's linearisation error,
-# `h² v²/(2l)`, and energy is conserved to second order.
+# The matrix above is $A_i\,\tilde s'_i$ written out — the textbook result
+# $B_{\omega_i} = +A_i\tilde s'_i$ (Nikravesh 1988, ch. 11). sympy confirms it symbolically:
+
+# %%
+textbook = A * skew(s)
+display(sp.Eq(sp.Symbol(r"A_i \tilde{s}'_i"), textbook, evaluate=False))
+assert sp.simplify(B_omega - textbook) == sp.zeros(3, 3)
+assert phi_i.jacobian(x) == -sp.eye(3)  # and the v_i columns are −I
+
+# %% [markdown]
+# ## Lagrange multipliers on a spherical pendulum
+# A rigid bar on a spherical joint to the ground, swinging around the vertical (a conical
+# pendulum started off its steady cone, so it also nods). The constraint forces are $B^{\mathsf T}\lambda$;
+# the stabilised multipliers (`docs/formulation.md` §7) solve
+# $$\Big(B M^{-1}B^{\mathsf T} + \frac{\varepsilon}{h^2}I\Big)\lambda = \frac1h BV^* + \frac1{h^2}\Phi + \frac1h\Phi_t$$
+# each step, which keeps $\|\Phi\|$ at one step's linearisation error, about $h^2v^2/(2l)$, instead of letting it drift.
 
 # %%
 import os
 
+import matplotlib.pyplot as plt
 import numpy as np
 
 from reference.domain import Domain, SolverSettings
@@ -57,8 +74,62 @@ d.add_joint("spherical", bar, None, [0.0, 0.0, 0.0])
 d.add_interaction(Gravity(np.array([0.0, 0.0, -9.81])))
 bar.velocity = np.cross([0.0, 0.0, 2.0], com)
 bar.angular_velocity = R.matrix().T @ np.array([0.0, 0.0, 2.0])
-d.solver = SolverSettings(dt=1e-3, t_end=5.0 if QUICK else 50.0, output_every=50)
+d.solver = SolverSettings(dt=1e-3, t_end=5.0 if QUICK else 50.0, output_every=10)
 r = d.solve()
-E = r.energy["kinetic"] + 9.81 * r.position("bar")[:, 2]
-print("max ‖Φ‖ = %.2e, energy error = %.2e" % (r.constraint_violation.max(), abs(E - E[0]).max() / abs(E[0])))
+c = r.position("bar")
+E = r.energy["kinetic"] + 9.81 * c[:, 2]
+print("max ‖Φ‖ = %.2e m, energy error = %.2e" % (r.constraint_violation.max(), abs(E - E[0]).max() / abs(E[0])))
 assert r.constraint_violation.max() < 1e-5 and abs(E - E[0]).max() < 1e-3 * abs(E[0])
+
+fig, (ax, bx) = plt.subplots(1, 2, figsize=(9.0, 3.8))
+ax.plot(c[:, 0], c[:, 1], lw=0.8)
+ax.set_aspect("equal")
+ax.set_xlabel("x [m]")
+ax.set_ylabel("y [m]")
+ax.set_title("Figure 1 — centre of mass, top view", fontsize=10)
+bx.semilogy(r.time[1:], r.constraint_violation[1:], label="‖Φ‖ [m]")
+bx.semilogy(r.time[1:], np.abs(E[1:] - E[0]) / abs(E[0]) + 1e-17, label="|E − E(0)| / |E(0)| [–]")
+bx.set_xlabel("time t [s]")
+bx.set_ylabel("constraint violation, energy error")
+bx.set_title("Figure 2 — bounded drift, conserved energy", fontsize=10)
+bx.legend(fontsize=8)
+plt.show()
+
+# %% [markdown]
+# ## Exercises
+# **Exercise 1.** A *dot-1* constraint keeps two body-fixed unit vectors perpendicular:
+# $\Phi = a_i^{\mathsf T}a_j$ with $a = A a'$. Derive $\partial\Phi/\partial\omega_i$ with sympy as above and check it
+# against the formula $(a_i\times a_j)^{\mathsf T}A_i$ of `docs/formulation.md` §5.
+# The cell below is one answer.
+
+# %%
+Aj = sp.Matrix(3, 3, lambda r, c: sp.Symbol(f"b_{r + 1}{c + 1}"))
+ai, aj = sp.Matrix(sp.symbols("p_1:4")), sp.Matrix(sp.symbols("r_1:4"))
+phi_dot1 = ((A * (sp.eye(3) + skew(dth)) * ai).T * (Aj * aj))[0]
+derived = sp.Matrix([[sp.diff(phi_dot1, t) for t in dth]]).xreplace({t: 0 for t in dth})
+# δΦ = (A δθ̃ a')ᵀ a_j = δθ · (a' × Aᵀ a_j); for a rotation matrix A (a' × Aᵀa_j) = Aᵀ(a_i × a_j)
+formula = ai.cross(A.T * Aj * aj).T
+assert sp.expand(derived - formula) == sp.zeros(1, 3)
+Ar = sp.Matrix(RotationVector([0.3, -0.2, 0.5]).matrix())  # and with a real rotation: (a_i × a_j)ᵀ A_i
+vals = {**dict(zip(A, Ar)), **dict(zip(Aj, sp.Matrix(RotationVector([-0.1, 0.4, 0.2]).matrix()))),
+        **dict(zip(ai, [1, 0, 0])), **dict(zip(aj, [0, 1, 0]))}
+assert (derived.xreplace(vals) - ((Ar * sp.Matrix([1, 0, 0])).cross(Aj.xreplace(vals) * sp.Matrix([0, 1, 0]))).T * Ar).norm() < 1e-12
+print("exercise 1: the dot-1 row for ω_i is (a'_i × A_iᵀ a_j)ᵀ = (a_i × a_j)ᵀ A_i")
+
+# %% [markdown]
+# **Exercise 2.** Halve the step to $h = 5\times10^{-4}$ s: the drift bound $h^2v^2/(2l)$ predicts
+# $\|\Phi\|$ to fall by about 4. Check it on the first second.
+
+# %%
+peaks = []
+for h in (1e-3, 5e-4):
+    d2 = Domain("spherical pendulum")
+    b2 = d2.add_rigid_body("bar", 1.0, [1e-3, 1 / 12, 1 / 12], com, R.to_euler_parameters().q)
+    d2.add_joint("spherical", b2, None, [0.0, 0.0, 0.0])
+    d2.add_interaction(Gravity(np.array([0.0, 0.0, -9.81])))
+    b2.velocity = np.cross([0.0, 0.0, 2.0], com)
+    b2.angular_velocity = R.matrix().T @ np.array([0.0, 0.0, 2.0])
+    d2.solver = SolverSettings(dt=h, t_end=1.0, output_every=1)
+    peaks.append(d2.solve().constraint_violation.max())
+print("max ‖Φ‖: h = 1e-3: %.2e, h = 5e-4: %.2e, ratio %.2f" % (*peaks, peaks[0] / peaks[1]))
+assert 3.0 < peaks[0] / peaks[1] < 5.0

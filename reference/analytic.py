@@ -59,3 +59,102 @@ def fourbar_rocker_angle(theta, crank=1.0, coupler=5.0, rocker=4.0, ground=4.0, 
     bx = ax + along * ux - branch * across * uy
     by = ay + along * uy + branch * across * ux
     return np.arctan2(by, bx - ground)
+
+
+def pendulum_period(theta0: float, inertia_pivot: float, mass: float, g: float, distance: float) -> float:
+    """Period [s] of a rigid (physical) pendulum released from rest at ``theta0`` [rad] from the bottom.
+
+    ``T = 4 √(I_O/(m g d)) K(k)``, ``k = sin(θ0/2)``, K the complete elliptic
+    integral of the first kind (e.g. Landau & Lifshitz, *Mechanics*, §11).
+    ``inertia_pivot`` is the moment of inertia about the pivot axis, ``distance``
+    that of the centre of mass from the pivot.
+    """
+    from scipy.special import ellipk
+
+    return 4.0 * np.sqrt(inertia_pivot / (mass * g * distance)) * float(ellipk(np.sin(0.5 * theta0) ** 2))
+
+
+def steady_precession_rate(mass: float, g: float, length: float, inertia_pivot: float, inertia_axial: float,
+                           spin: float, tilt: float) -> float:
+    """Slow steady precession rate Ω [rad/s] of a heavy symmetric top.
+
+    A top on a fixed point, centre of mass at ``length`` along its symmetry
+    axis, tilted ``tilt`` [rad] from the upward vertical, with the angular
+    velocity component ``spin`` along the symmetry axis, precesses steadily at
+    Ω if ``m g l = Ω (C ω3 − A Ω cos θ)`` (A about the pivot, C axial;
+    Goldstein, *Classical Mechanics*, §5.7).  The slow root is returned.
+    """
+    a, b = inertia_pivot * np.cos(tilt), inertia_axial * spin
+    return (b - np.sqrt(b * b - 4.0 * a * mass * g * length)) / (2.0 * a)
+
+
+def double_pendulum_frequencies(m1: float, c1: float, J1: float, l1: float, m2: float, c2: float, J2: float,
+                                g: float) -> tuple[np.ndarray, np.ndarray]:
+    """Small-oscillation angular frequencies [rad/s] and mode shapes of a planar double pendulum of rigid bodies.
+
+    Body 1 hangs from a pivot (its centre of mass at ``c1`` below it, inertia
+    ``J1`` about the centre, the second pivot at ``l1``); body 2 hangs from the
+    second pivot (``c2``, ``J2``).  Linearising Lagrange's equations about the
+    hanging equilibrium gives ``M θ̈ + K θ = 0`` with
+    ``M = [[J1 + m1 c1² + m2 l1², m2 l1 c2], [m2 l1 c2, J2 + m2 c2²]]`` and
+    ``K = g diag(m1 c1 + m2 l1, m2 c2)``; returns ``(ω, modes)`` in ascending order.
+    """
+    from scipy.linalg import eigh
+
+    M = np.array([[J1 + m1 * c1**2 + m2 * l1**2, m2 * l1 * c2], [m2 * l1 * c2, J2 + m2 * c2**2]])
+    K = g * np.diag([m1 * c1 + m2 * l1, m2 * c2])
+    w2, modes = eigh(K, M)
+    return np.sqrt(w2), modes
+
+
+def torque_free_flip_period(inertia, omega0) -> float:
+    """Period [s] of the angular velocity of a torque-free rigid body (Euler's equations in the body frame).
+
+    Principal moments ``inertia`` (any order) and the initial body angular
+    velocity ``omega0``.  With ``I1 < I2 < I3`` (re-ordered here), energy
+    ``2E = ω·Iω`` and ``L² = |Iω|²``, the components are Jacobi elliptic functions
+    of ``τ = t √((I3 − I2)(L² − 2E I1)/(I1 I2 I3))`` with modulus
+    ``k² = (I2 − I1)(2E I3 − L²)/((I3 − I2)(L² − 2E I1))`` when ``L² > 2E I2``
+    (indices 1 and 3 swapped otherwise); the period is ``4K(k)`` in τ
+    (Landau & Lifshitz, *Mechanics*, §37).  For a spin near the intermediate
+    axis this is the period of the Dzhanibekov flip and back.
+    """
+    from scipy.special import ellipk
+
+    order = np.argsort(inertia)
+    I = np.asarray(inertia, dtype=float)[order]
+    w = np.asarray(omega0, dtype=float)[order]
+    E2 = float(np.sum(I * w * w))
+    L2 = float(np.sum((I * w) ** 2))
+    if L2 < E2 * I[1]:
+        I = I[::-1]
+    rate = np.sqrt((I[2] - I[1]) * (L2 - E2 * I[0]) / (I[0] * I[1] * I[2]))
+    k2 = (I[1] - I[0]) * (E2 * I[2] - L2) / ((I[2] - I[1]) * (L2 - E2 * I[0]))
+    return 4.0 * float(ellipk(k2)) / rate
+
+
+def cantilever_large_deflection(alpha: float) -> tuple[float, float, float]:
+    """Tip of a cantilever under a dead transverse tip load, inextensible elastica (Bisshopp & Drucker 1945).
+
+    ``alpha = P L²/EI``.  Returns ``(x/L, δ/L, θ_tip)``: the tip's coordinate
+    along the undeformed axis, its deflection along the load, and its rotation
+    [rad].  With ``k² = (1 + sin θ_tip)/2`` and ``sin φ1 = 1/(√2 k)`` the tip
+    rotation solves ``√α = K(k) − F(φ1, k)``; then ``x/L = √(2 sin θ_tip/α)`` and
+    ``δ/L = 1 − (2/√α)(E(k) − E(φ1, k))``.  E.g. α = 1: δ/L = 0.30172,
+    x/L = 0.94357 (Bisshopp & Drucker's table).
+    """
+    from scipy.optimize import brentq
+    from scipy.special import ellipe, ellipeinc, ellipk, ellipkinc
+
+    def parts(th):
+        m = (1.0 + np.sin(th)) / 2.0
+        return m, np.arcsin(1.0 / np.sqrt(2.0 * m))
+
+    def residual(th):
+        m, phi1 = parts(th)
+        return float(ellipk(m) - ellipkinc(phi1, m)) - np.sqrt(alpha)
+
+    th = brentq(residual, 1e-12, 0.5 * np.pi - 1e-12, xtol=1e-15)
+    m, phi1 = parts(th)
+    return (float(np.sqrt(2.0 * np.sin(th) / alpha)),
+            float(1.0 - 2.0 / np.sqrt(alpha) * (ellipe(m) - ellipeinc(phi1, m))), float(th))

@@ -24,12 +24,15 @@ import numpy as np
 from reference.algorithms import ALGORITHMS, Algorithm
 from reference.algorithms.staggered import OK
 from reference.elements import Beam2Formulation, Element, Section
+from reference.elements.formulation import beam2_resultants
 from reference.interactions import Constant, FixedCoordinates, Gravity, Interaction, NodalLoad, TimeFunction
 from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
 from reference.joints.master_slave import master_slave_parameters
 from reference.joints.assembly import apply_inverse_mass, assemble_constraints
 from reference.joints.joint import ROWS
+from reference.joints.reactions import reactions
 from reference.nodes import Node
+from reference.generated import rotation_maps as rm
 from reference.rotation import EulerParameters
 from reference.state import Model, Record, Scratch, State
 
@@ -80,6 +83,20 @@ class SolverSettings:
     max_iterations: int | None = None
 
 
+def free_block_inverse(inertia: np.ndarray, free_rot: np.ndarray) -> np.ndarray:
+    """Per node, the inverse of the rotary inertia restricted to the free rotations, zero-padded.
+
+    With some body-frame rotations fixed (ω_k = 0) and a full tensor J, the free
+    accelerations solve ``J_ff ω̇_f = g_f``; a diagonal J gives ``1/J_kk`` as before.
+    """
+    out = np.zeros_like(inertia)
+    for n in range(inertia.shape[0]):
+        f = np.flatnonzero(free_rot[n] > 0.0)
+        if f.size:
+            out[n][np.ix_(f, f)] = np.linalg.inv(inertia[n][np.ix_(f, f)])
+    return out
+
+
 def beam_triad(axis: np.ndarray, axis2_hint) -> np.ndarray:
     """Section triad ``[e1 e2 e3]`` (columns) of a straight beam.
 
@@ -96,6 +113,51 @@ def beam_triad(axis: np.ndarray, axis2_hint) -> np.ndarray:
     return np.column_stack([e1, e2, np.cross(e1, e2)])
 
 
+ARC_TOLERANCE = 1e-6
+
+
+def arc_geometry(start, end, center, n_elements: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and unit tangents of the shorter circular arc from ``start`` to ``end`` about ``center``.
+
+    ``n_elements + 1`` points at equal angles ``φ_i = i θ/n`` on the arc
+    (``θ < π`` the angle between the radii), tangents in the direction of
+    travel.  ``start`` and ``end`` must be equidistant from ``center`` to a
+    relative ``ARC_TOLERANCE`` (1e-6) of the radius, so that decimal
+    coordinates with 7 significant digits are accepted; the radius is then
+    interpolated linearly between the two so the end points are kept exactly.
+
+    Raises
+    ------
+    ValueError
+        Not equidistant, the centre on an end point, or start and end
+        diametrically opposite (the arc's plane is undefined).
+    """
+    c = np.asarray(center, dtype=float)
+    r1, r2 = np.asarray(start, dtype=float) - c, np.asarray(end, dtype=float) - c
+    R1, R2 = np.linalg.norm(r1), np.linalg.norm(r2)
+    if min(R1, R2) <= 0.0:
+        raise ValueError("the center coincides with an end point")
+    if abs(R1 - R2) > ARC_TOLERANCE * max(R1, R2):
+        raise ValueError(f"start and end are not equidistant from center ({R1:.9g} and {R2:.9g}, relative "
+                         f"difference {abs(R1 - R2) / max(R1, R2):.2g} > {ARC_TOLERANCE:g}); put both on one circle")
+    e1, e2 = r1 / R1, r2 / R2
+    normal = np.cross(e1, e2)
+    sin_t, cos_t = np.linalg.norm(normal), float(e1 @ e2)
+    if sin_t < ARC_TOLERANCE:
+        raise ValueError("start and end are diametrically opposite about center (or coincide): the arc's plane is "
+                         "undefined; split it into two arcs")
+    theta = math.atan2(sin_t, cos_t)
+    normal /= sin_t
+    f1 = np.cross(normal, e1)
+    phi = theta * np.arange(n_elements + 1) / n_elements
+    radius = R1 + (R2 - R1) * np.arange(n_elements + 1) / n_elements
+    radial = np.outer(np.cos(phi), e1) + np.outer(np.sin(phi), f1)
+    points = c + radius[:, None] * radial
+    points[0], points[-1] = start, end
+    tangents = np.cross(normal, radial)
+    return points, tangents
+
+
 @dataclass
 class Results:
     """Time histories of a run, as arrays in memory (the results file holds the same).
@@ -103,6 +165,15 @@ class Results:
     ``time`` (n,), ``position``/``velocity``/``angular_velocity`` (n,N,3),
     ``rotation`` (n,N,4), ``energy`` dict of (n,) arrays, ``labels`` (N,),
     ``status`` ("completed" or why it stopped), ``wall_time`` [s].
+    Joints (J): ``joint_labels``, ``reaction_forces`` and ``reaction_moments``
+    (n,J,3), the force and the moment about the joint point that each joint
+    exerts on its body_i, inertial [N], [N m] (NaN where not computed:
+    master/slave joints).  Elements (E): ``element_labels`` (``"beam/i"``),
+    ``section_forces``/``section_moments`` (n,E,3) at the midpoint, section
+    frame.  ``multipliers`` (n,m) the Lagrange multipliers (``M a + Bᵀλ = Q``).
+
+    Node keys are ids, labels, or the aliases ``BEAM:start`` and ``BEAM:end``
+    (the first and last node ``BEAM:i`` of a meshed beam).
     """
 
     time: np.ndarray
@@ -117,14 +188,27 @@ class Results:
     status: str = "completed"
     wall_time: float = 0.0
     attrs: dict = field(default_factory=dict)
+    joint_labels: list = field(default_factory=list)
+    reaction_forces: np.ndarray | None = None
+    reaction_moments: np.ndarray | None = None
+    element_labels: list = field(default_factory=list)
+    section_forces: np.ndarray | None = None
+    section_moments: np.ndarray | None = None
+    multipliers: np.ndarray | None = None
 
     def index(self, key) -> int:
+        """Column of a node: an id, a label, or ``BEAM:start`` / ``BEAM:end``."""
         if isinstance(key, (int, np.integer)):
             return int(key)
-        try:
+        if key in self.labels:
             return self.labels.index(key)
-        except ValueError:
-            raise KeyError(f"no node labelled {key!r}; labels are e.g. {self.labels[:4]}") from None
+        beam, _, which = str(key).rpartition(":")
+        if which in ("start", "end"):
+            numbered = [(int(lbl.rpartition(":")[2]), k) for k, lbl in enumerate(self.labels)
+                        if lbl.rpartition(":")[0] == beam and lbl.rpartition(":")[2].isdigit()]
+            if numbered:
+                return (min if which == "start" else max)(numbered)[1]
+        raise KeyError(f"no node labelled {key!r}; labels are e.g. {self.labels[:4]}")
 
     def position(self, key) -> np.ndarray:
         return self.positions[:, self.index(key)]
@@ -137,6 +221,32 @@ class Results:
 
     def angular_velocity(self, key) -> np.ndarray:
         return self.angular_velocities[:, self.index(key)]
+
+    def joint_index(self, joint) -> int:
+        if joint in self.joint_labels:
+            return self.joint_labels.index(joint)
+        raise KeyError(f"no joint labelled {joint!r}; joints are {self.joint_labels}")
+
+    def element_index(self, beam, element=None) -> int:
+        """Column of an element: its label ``"beam/i"``, or ``(beam, i)``."""
+        label = str(beam) if element is None else f"{beam}/{int(element)}"
+        if label in self.element_labels:
+            return self.element_labels.index(label)
+        raise KeyError(f"no element labelled {label!r}; elements are e.g. {self.element_labels[:4]}")
+
+    def reaction(self, joint) -> tuple[np.ndarray, np.ndarray]:
+        """``(force, moment)`` (n, 3) each: what ``joint`` exerts on its body_i, moment about the
+        joint point, inertial components [N], [N m]."""
+        k = self.joint_index(joint)
+        return self.reaction_forces[:, k], self.reaction_moments[:, k]
+
+    def section_force(self, beam, element=None) -> np.ndarray:
+        """Force resultant N (n, 3) at the midpoint of element ``beam/element``, section frame [N]."""
+        return self.section_forces[:, self.element_index(beam, element)]
+
+    def section_moment(self, beam, element=None) -> np.ndarray:
+        """Moment resultant M (n, 3) at the midpoint of element ``beam/element``, section frame [N m]."""
+        return self.section_moments[:, self.element_index(beam, element)]
 
 
 class Domain:
@@ -179,7 +289,8 @@ class Domain:
         if label in self._labels:
             raise ValueError(f"a node labelled {label!r} already exists")
         node = Node(node_id, label, position,
-                    np.array([1.0, 0, 0, 0]) if rotation is None else rotation, velocity, angular_velocity)
+                    np.array([1.0, 0, 0, 0]) if rotation is None else rotation, velocity, angular_velocity,
+                    frame_given=rotation is not None)
         self.nodes.append(node)
         self._labels[label] = node
         self._model = None
@@ -197,36 +308,63 @@ class Domain:
             return self._labels[key]
         raise KeyError(f"no node labelled {key!r}")
 
-    def add_element(self, formulation, nodes, label: str = "") -> Element:
-        element = Element(formulation, tuple(self.node(n).id for n in nodes), label)
+    def add_element(self, formulation, nodes, label: str = "", frames=None) -> Element:
+        """Add an element; ``frames`` its section triads at rest (Euler parameters per node, default: the node frames)."""
+        frames = None if frames is None else np.array(frames, dtype=float).reshape(len(nodes), 4)
+        element = Element(formulation, tuple(self.node(n).id for n in nodes), label, frames)
         self.elements.append(element)
         self._model = None
         return element
 
     def add_beam(self, label: str, start, end, n_elements: int, section: Section, axis2=(0.0, 1.0, 0.0),
-                 start_node: Node | None = None, end_node: Node | None = None) -> list[Node]:
-        """Mesh a straight beam from ``start`` to ``end`` into ``n_elements`` Beam2 elements.
+                 start_node: Node | None = None, end_node: Node | None = None, center=None) -> list[Node]:
+        """Mesh a straight beam, or a circular arc about ``center``, into ``n_elements`` Beam2 elements.
 
-        Nodes are labelled ``f"{label}:{i}"``; ``start_node``/``end_node`` reuse
-        existing nodes (their triads are reset to the beam's section triad).
+        Each element is straight in its own section frame (axis 1 along its
+        chord, axis 2 the ``axis2`` hint made orthogonal to it).  New nodes,
+        labelled ``f"{label}:{i}"``, get the beam's section triad on the beam's
+        axis (straight beam) or on the arc's tangent (:func:`arc_geometry`);
+        the kink between a node frame and an element's section frame is the
+        element end's constant offset (:class:`reference.state.Model`), exact
+        for any angle.  ``start_node``/``end_node`` reuse existing nodes: a
+        node whose frame is given (a ``[[nodes]]`` rotation, a rigid body, or
+        set by an earlier beam) keeps it; otherwise it takes this beam's end
+        frame.  Arcs converge at second order in the element size to the
+        circle (chords between nodes on the arc).
         """
         start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
         if n_elements < 1:
             raise ValueError(f"beam {label!r}: needs at least one element")
         if np.linalg.norm(end - start) <= 0.0:
             raise ValueError(f"beam {label!r}: start and end coincide")
-        q = EulerParameters.from_matrix(beam_triad(end - start, axis2)).q
+        for node, point in ((start_node, start), (end_node, end)):
+            if node is not None and np.linalg.norm(node.position - point) > 1e-12 * max(1.0, np.linalg.norm(point)):
+                raise ValueError(f"beam {label!r}: node {node.label!r} is not at the beam's end point {point.tolist()}")
+        if center is None:
+            points = start + np.outer(np.arange(n_elements + 1) / n_elements, end - start)
+            points[0], points[-1] = start, end
+            tangents = np.tile(end - start, (n_elements + 1, 1))
+        else:
+            points, tangents = arc_geometry(start, end, center, n_elements)
+        try:
+            node_q = [EulerParameters.from_matrix(beam_triad(t, axis2)).q for t in tangents]
+            elem_q = [EulerParameters.from_matrix(beam_triad(points[i + 1] - points[i], axis2)).q
+                      for i in range(n_elements)]
+        except ValueError as exc:
+            raise ValueError(f"beam {label!r}: {exc}; choose another axis2") from None
         formulation = Beam2Formulation(section)
         nodes = []
         for i in range(n_elements + 1):
             reuse = start_node if i == 0 else end_node if i == n_elements else None
             if reuse is not None:
-                reuse.rotation = q.copy()
+                if not reuse.frame_given:
+                    reuse.rotation, reuse.frame_given = node_q[i].copy(), True
                 nodes.append(reuse)
             else:
-                nodes.append(self.add_node(start + (end - start) * i / n_elements, q.copy(), f"{label}:{i}"))
+                node = self.add_node(points[i], node_q[i].copy(), f"{label}:{i}")
+                nodes.append(node)
         for i in range(n_elements):
-            self.add_element(formulation, (nodes[i], nodes[i + 1]), f"{label}/{i}")
+            self.add_element(formulation, (nodes[i], nodes[i + 1]), f"{label}/{i}", frames=(elem_q[i], elem_q[i]))
         return nodes
 
     def add_rigid_body(self, label: str, mass: float, inertia, position, rotation=None, points=None) -> Node:
@@ -250,7 +388,7 @@ class Domain:
         if not mass > 0.0 or not np.all(np.linalg.eigvalsh(0.5 * (inertia + inertia.T)) > 0.0):
             raise ValueError(f"rigid body {label!r}: mass and inertia must be positive")
         node = self.add_node(position, rotation, label)
-        node.mass, node.inertia = float(mass), inertia
+        node.mass, node.inertia, node.frame_given = float(mass), inertia, True
         node.points = {name: np.asarray(p, dtype=float) for name, p in (points or {}).items()}
         return node
 
@@ -328,6 +466,7 @@ class Domain:
         mass = np.array([n.mass for n in self.nodes], dtype=float)
         inertia = np.array([n.inertia for n in self.nodes], dtype=float).reshape(N, 3, 3)
         conn = np.zeros((len(self.elements), 2), dtype=np.int64)
+        offset = np.zeros((len(self.elements), 2, 4))
         L0 = np.zeros(len(self.elements))
         psi0 = np.zeros((len(self.elements), 3))
         gamma0 = np.zeros((len(self.elements), 3))
@@ -336,10 +475,15 @@ class Domain:
             ids = list(element.nodes)
             xs = np.array([self.nodes[i].position for i in ids])
             qs = np.array([self.nodes[i].rotation for i in ids])
-            for i, (m, J) in zip(ids, element.formulation.lumped_mass(xs)):
+            ps = qs if element.frames is None else element.frames
+            for a, i in enumerate(ids):
+                rm.quat_product(qs[a] * np.array([1.0, -1.0, -1.0, -1.0]), ps[a], offset[e, a])
+            # lumped rotary inertia: the section-frame diagonal, rotated into the node frame (O J Oᵀ)
+            for a, (i, (m, J)) in enumerate(zip(ids, element.formulation.lumped_mass(xs))):
+                O = EulerParameters(offset[e, a]).matrix()
                 mass[i] += m
-                inertia[i] += J
-            ref = element.formulation.reference_state(xs, qs)
+                inertia[i] += O @ J @ O.T
+            ref = element.formulation.reference_state(xs, ps)
             conn[e] = ids
             L0[e], psi0[e], gamma0[e] = ref["L0"], ref["psi0"], ref["gamma0"]
             stiff[e] = element.formulation.section.stiffness
@@ -392,8 +536,8 @@ class Domain:
         for j, p in enumerate(pars):
             tf_par[j, : len(p)] = p
         self._model = Model(
-            mass=mass, inertia=inertia, inertia_inv=np.linalg.inv(inertia), free=free,
-            conn=conn, L0=L0, psi0=psi0, gamma0=gamma0, stiff=stiff,
+            mass=mass, inertia=inertia, inertia_inv=free_block_inverse(inertia, free[:, 3:]), free=free,
+            conn=conn, offset=offset, L0=L0, psi0=psi0, gamma0=gamma0, stiff=stiff,
             load_node=np.array([self.node(ld.node).id for ld in loads], dtype=np.int64),
             load_code=np.array([ld.code for ld in loads], dtype=np.int64),
             load_vec=np.array([np.asarray(ld.vector, dtype=float) for ld in loads]).reshape(len(loads), 3),
@@ -604,6 +748,20 @@ class Domain:
                 writer.close(status)
         return self._results(records, status, _time.perf_counter() - wall0, algo)
 
+    def outputs(self, model: Model, x, q, lam, t: float) -> dict:
+        """Derived outputs of one record: joint reactions (all joints, NaN for master/slave ones)
+        and element section resultants (``reference/joints/reactions.py``, :func:`beam2_resultants`)."""
+        force, moment = reactions(model, x, q, lam, t)
+        J = len(self.joints)
+        out = {"reaction_force": np.full((J, 3), np.nan), "reaction_moment": np.full((J, 3), np.nan)}
+        rows = [k for k, j in enumerate(self.joints) if not isinstance(j.formulation, MasterSlave)]
+        out["reaction_force"][rows], out["reaction_moment"][rows] = force, moment
+        E = model.conn.shape[0]
+        out["section_force"], out["section_moment"] = np.zeros((E, 3)), np.zeros((E, 3))
+        beam2_resultants(x, q, model.conn, model.L0, model.psi0, model.gamma0, model.stiff,
+                         out["section_force"], out["section_moment"], np.zeros(24))
+        return out
+
     def _store(self, rec: Record, t: float, records: list, writer) -> None:
         entry = {
             "time": t, "position": rec.x.copy(), "rotation": rec.q.copy(), "velocity": rec.v.copy(),
@@ -611,6 +769,7 @@ class Domain:
             "velocity_violation_norm": rec.constraint[1], "multipliers": rec.lam.copy(),
             "kinetic": rec.energy[0], "strain": rec.energy[1], "external_work": rec.energy[2],
             "dissipated": rec.energy[3],
+            **self.outputs(self.model, rec.x, rec.q, rec.lam, t),
         }
         records.append(entry)
         if writer is not None:
@@ -628,4 +787,8 @@ class Domain:
             constraint_violation=stack("violation_norm"),
             velocity_constraint_violation=stack("velocity_violation_norm"),
             status=status, wall_time=wall, attrs={"algorithm": algo.name, "dt": algo.dt},
+            joint_labels=[j.label for j in self.joints], reaction_forces=stack("reaction_force"),
+            reaction_moments=stack("reaction_moment"), element_labels=[e.label for e in self.elements],
+            section_forces=stack("section_force"), section_moments=stack("section_moment"),
+            multipliers=stack("multipliers").reshape(len(records), -1),
         )

@@ -40,6 +40,10 @@ class Node:
         Rotary inertia [kg m²] in the body frame (accumulated or set).
     points : dict
         Named points of a rigid body, inertial coordinates at t = 0 [m].
+    frame_given : bool
+        The rotation was given (a ``[[nodes]]`` rotation, a rigid body, or set
+        by the first beam that uses the node): later beams keep it and refer
+        their section frames to it through constant offsets.
     """
 
     id: int
@@ -51,6 +55,7 @@ class Node:
     mass: float = 0.0
     inertia: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
     points: dict = field(default_factory=dict)
+    frame_given: bool = False
 
     def __post_init__(self):
         self.position = np.asarray(self.position, dtype=float).reshape(3)

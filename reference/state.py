@@ -16,11 +16,24 @@ import numpy as np
 class Model(NamedTuple):
     """Everything about the system that does not change during a run.
 
-    Nodes (N): ``mass`` (N,) [kg], ``inertia`` and ``inertia_inv`` (N,3,3)
-    body frame [kg m²], ``free`` (N,6) 1.0 for a free and 0.0 for a fixed
+    Nodes (N): ``mass`` (N,) [kg], ``inertia`` (N,3,3) body frame [kg m²]
+    (a full tensor where beams meet at an angle), ``inertia_inv`` (N,3,3) the
+    inverse of its block of free rotations, zero-padded, ``free`` (N,6) 1.0 for a free and 0.0 for a fixed
     coordinate (translations inertial, rotations body frame).
-    Beam2 elements (E): ``conn`` (E,2), ``L0`` (E,), ``psi0`` (E,3),
-    ``gamma0`` (E,3), ``stiff`` (E,6) = EA, GA2, GA3, GJ, EI2, EI3.
+    Beam2 elements (E): ``conn`` (E,2), ``offset`` (E,2,4), ``L0`` (E,),
+    ``psi0`` (E,3), ``gamma0`` (E,3), ``stiff`` (E,6) = EA, GA2, GA3, GJ, EI2,
+    EI3.  **Offsets**: ``offset[e, a]`` are the constant Euler parameters
+    ``o_a`` of the rotation from the frame of node ``conn[e, a]`` to element
+    e's own section frame at that end, ``Λ_a = A(q_a) A(o_a)``, i.e. section
+    quaternion ``p_a = q_a ⊗ o_a``; fixed at t = 0 as ``o_a = q_a⁰* ⊗ p_a⁰``.
+    The identity ``(1, 0, 0, 0)`` where the node frame is the section frame
+    (a straight beam's own nodes).  Body-frame quantities of an end transform
+    as ``δθ_section = A(o_a)ᵀ δθ_node``, forces as ``S_θ,node = A(o_a) S_θ,section``
+    and a section-frame tangent ``K_node = T K_sec Tᵀ`` with
+    ``T = blockdiag(I, A(o_1), I, A(o_2))`` (see
+    :func:`reference.elements.formulation.section_quaternion` and
+    :func:`~reference.elements.formulation.to_node_frame`).  ``psi0`` and
+    ``gamma0`` are of the section frames (0 and E1 for a straight element).
     Loads (L): ``load_node`` (L,), ``load_code`` (L,) 0 dead force,
     1 follower force, 2 dead moment, 3 follower moment; ``load_vec`` (L,3);
     ``load_tf`` (L,) index of the time function.
@@ -44,6 +57,7 @@ class Model(NamedTuple):
     inertia_inv: np.ndarray
     free: np.ndarray
     conn: np.ndarray
+    offset: np.ndarray
     L0: np.ndarray
     psi0: np.ndarray
     gamma0: np.ndarray
@@ -157,7 +171,7 @@ class Scratch(NamedTuple):
     @classmethod
     def for_model(cls, model: Model) -> "Scratch":
         N, m = model.mass.shape[0], model.n_constraints
-        return cls(np.zeros((N, 6)), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 3)), np.zeros(24),
+        return cls(np.zeros((N, 6)), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 3)), np.zeros(40),
                    np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((m, 6 * N)), np.zeros((m, 6 * N)),
                    np.zeros((m, m)), np.zeros(m), np.zeros(6), np.zeros((6, 12)), np.zeros(6), np.zeros(10),
                    np.zeros(120), np.zeros((12, 9)), np.zeros(9), np.zeros(9), np.zeros((12, 9)), np.zeros((9, 9)),

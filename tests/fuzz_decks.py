@@ -201,7 +201,7 @@ VOCABULARY = {
     "beams[]": {"label": ["c", "b"], "start": [[0.0, 0.0, 1.0]], "end": [[1.0, 0.0, 1.0]],
                 "start_node": ["hub", "b:end", "rb"], "end_node": ["b:2", "hub"], "elements": [1, 2, 8],
                 "section": ["s", "steel_rod", "rollup"], "axis2": [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
-                "rigid": [True, False]},
+                "rigid": [True, False], "center": [[0.5, 0.0, 1.0], [0.5, -0.5, 1.0], [0.0, 0.0, 0.0]]},
     "rigid_bodies[]": {"label": ["rb2", "rb"], "mass": [1.0, 1e-6], "inertia": [[1.0, 2.0, 3.0]],
                        "position": [[0.0, 0.0, 3.0]], "rotation": [[0.0, 0.0, 0.0, 1.0]],
                        "points": [{"p": [0.0, 0.0, 0.0]}, {}]},

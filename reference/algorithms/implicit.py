@@ -44,7 +44,7 @@ import math
 import numpy as np
 
 from reference.algorithms.staggered import external_forces
-from reference.elements.formulation import beam2_assemble
+from reference.elements.formulation import beam2_assemble, section_quaternion, tangent_to_node_frame
 from reference.generated import beam2 as generated_beam2
 from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
@@ -69,7 +69,7 @@ class Work:
         self.PHI = np.zeros(m)
         self.PHIt = np.zeros(m)
         self.Bl = np.zeros((m, 12))
-        self.s_el = np.zeros(24)
+        self.s_el = np.zeros(40)
         self.A = np.zeros(9)
         self.jphi, self.jB, self.jphit = np.zeros(6), np.zeros((6, 12)), np.zeros(6)
         self.prim_phi, self.prim_B = np.zeros(10), np.zeros(120)
@@ -86,7 +86,7 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
     prim_B).  With ``dynamic`` false the inertia, gyroscopic and damping terms are left out.
     """
     S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B = w_
-    U = beam2_assemble(x, q, model.conn, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
+    U = beam2_assemble(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
     external_forces(model, x, q, t, F, A)
     N = x.shape[0]
     c = model.damping
@@ -158,11 +158,11 @@ def beam2_tangent_fd(x1, x2, q1, q2, L0, psi0, gamma0, stiff, hx, K, small, s_el
             if node == 0:
                 _perturb(x1, q1, k, step, xp, qp, dq)
                 generated_beam2.internal_forces(xp, x2, qp, q2, L0, psi0, gamma0, stiff, s_el[:12], s_el[12:18],
-                                                s_el[18:])
+                                                s_el[18:24])
             else:
                 _perturb(x2, q2, k, step, xp, qp, dq)
                 generated_beam2.internal_forces(x1, xp, q1, qp, L0, psi0, gamma0, stiff, s_el[:12], s_el[12:18],
-                                                s_el[18:])
+                                                s_el[18:24])
             for a in range(12):
                 out[a] = s_el[a]
         for a in range(12):
@@ -302,8 +302,13 @@ def tangent_values(model, x, q, w, t, lam, cm, cc, ck, ce, hx, values, w_, small
     for e in range(E):
         i, j = model.conn[e, 0], model.conn[e, 1]
         if ck != 0.0:
-            beam2_tangent_fd(x[i], x[j], q[i], q[j], model.L0[e], model.psi0[e], model.gamma0[e], model.stiff[e],
+            # the element works in its section frames p_a = q_a ⊗ o_a; its tangent goes back to the nodes'
+            p1, p2 = s_el[24:28], s_el[28:32]
+            section_quaternion(q[i], model.offset[e, 0], p1)
+            section_quaternion(q[j], model.offset[e, 1], p2)
+            beam2_tangent_fd(x[i], x[j], p1, p2, model.L0[e], model.psi0[e], model.gamma0[e], model.stiff[e],
                              hx, K12, small, s_el)
+            tangent_to_node_frame(model.offset[e, 0], model.offset[e, 1], K12, s_el[32:35], s_el[35:38])
         else:
             K12[:, :] = 0.0
         for a in range(12):

@@ -154,7 +154,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     c = model.damping
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
-        U = beam2_assemble(x, q, model.conn, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
+        U = beam2_assemble(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
         external_forces(model, x, q, t, F, A)
         if n > 0:
             # trapezoidal work of the external forces over the last increment h V^{n-1/2},

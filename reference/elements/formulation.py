@@ -27,11 +27,19 @@ from reference.jit import kernel
 
 @dataclass
 class Element:
-    """One element placed in the Domain: a formulation and its node ids."""
+    """One element placed in the Domain: a formulation, its node ids and section frames.
+
+    ``frames`` (n_nodes, 4): Euler parameters of the element's own section
+    triad at each end in the initial configuration (for a Beam2 both equal
+    its straight triad); ``None``: the node frames are the section frames.
+    The constant offsets ``o_a = q_a⁰* ⊗ p_a⁰`` follow from them
+    (:class:`reference.state.Model`).
+    """
 
     formulation: "ElementFormulation"
     nodes: tuple
     label: str = ""
+    frames: object = None
 
 
 class ElementFormulation(ABC):
@@ -66,8 +74,11 @@ class Beam2Formulation(ElementFormulation):
     Strains and internal forces: see ``derivations/beam2.py`` (the internal
     force is the exact gradient of the element strain energy).  Mass: row-sum
     lumping ``m_i = ∫ N_i ρA ds = ρA L0/2`` and rotary inertia
-    ``J_i = (L0/2) diag(ρJ1, ρJ2, ρJ3)`` in the nodal (section) frame, constant
-    because rotary motion is written in the body frame (paper §3.1).
+    ``J_i = (L0/2) diag(ρJ1, ρJ2, ρJ3)`` in the element's section frame; the
+    Domain adds ``O_a J_i O_aᵀ`` to the node (``O_a`` the end's offset, a full
+    tensor at a kinked node), constant because rotary motion is written in the
+    body frame (paper §3.1).  ``q_nodes`` passed to the methods below are the
+    section triads of the ends (``p_a = q_a ⊗ o_a``).
 
     Parameters
     ----------
@@ -143,19 +154,99 @@ class Beam2Formulation(ElementFormulation):
 
 
 @kernel
-def beam2_assemble(x, q, conn, L0, psi0, gamma0, stiff, S, s_el):
+def section_quaternion(q_node, o, out):
+    """Section triad of an element end: ``p = q ⊗ o``, i.e. ``Λ = A(q) A(o)``.
+
+    ``q_node`` (4,) the node's Euler parameters, ``o`` (4,) the end's constant
+    offset (node frame → the element's section frame, see
+    :class:`reference.state.Model`), ``out`` (4,).
+    """
+    rm.quat_product(q_node, o, out)
+
+
+@kernel
+def to_node_frame(o, v, out):
+    """Body-frame moment of an element end from its section frame to the node frame: ``A(o) v``.
+
+    A body-frame rotation perturbation of the node, ``δθ_node``, is
+    ``δθ_section = A(o)ᵀ δθ_node`` in the section frame, so the virtual work
+    ``S_secᵀ δθ_section`` gives ``S_node = A(o) S_sec`` (``out`` may not be ``v``).
+    """
+    e0, e1, e2, e3 = o[0], o[1], o[2], o[3]
+    a = 2.0 * e0 * e0 - 1.0
+    d = 2.0 * (e1 * v[0] + e2 * v[1] + e3 * v[2])
+    out[0] = a * v[0] + d * e1 + 2.0 * e0 * (e2 * v[2] - e3 * v[1])
+    out[1] = a * v[1] + d * e2 + 2.0 * e0 * (e3 * v[0] - e1 * v[2])
+    out[2] = a * v[2] + d * e3 + 2.0 * e0 * (e1 * v[1] - e2 * v[0])
+
+
+@kernel
+def tangent_to_node_frame(o1, o2, K, v, out):
+    """A section-frame element tangent (12×12) to the node frames, in place: ``K ← T K Tᵀ``.
+
+    ``T = blockdiag(I, A(o1), I, A(o2))``: ``S_node = T s_sec`` and
+    ``δθ_section = A(o_a)ᵀ δθ_node`` exactly, so ``∂S_node/∂δ_node = T K_sec Tᵀ``.
+    ``v``, ``out`` (3,) scratch.
+    """
+    for pass_ in range(2):
+        for c in range(12):
+            for blk in range(2):
+                o = o1 if blk == 0 else o2
+                r0 = 3 + 6 * blk
+                for k in range(3):
+                    v[k] = K[r0 + k, c] if pass_ == 0 else K[c, r0 + k]
+                to_node_frame(o, v, out)
+                for k in range(3):
+                    if pass_ == 0:
+                        K[r0 + k, c] = out[k]
+                    else:
+                        K[c, r0 + k] = out[k]
+
+
+@kernel
+def beam2_assemble(x, q, conn, offset, L0, psi0, gamma0, stiff, S, s_el):
     """Add the internal forces of all Beam2 elements into ``S`` (N, 6); return ΣU.
 
-    ``S`` is zeroed first; ``s_el`` (24,) is scratch (forces, strains,
-    resultants).  Loops over the elements in compiled code and allocates nothing.
+    Each end's section triad is ``p_a = q_a ⊗ o_a`` (:func:`section_quaternion`,
+    ``offset`` (E,2,4)); the generated kernel works in the section frames and its
+    rotational forces are mapped back to the node frames (:func:`to_node_frame`).
+    ``S`` is zeroed first; ``s_el`` (40,) is scratch (forces, strains,
+    resultants, the two section quaternions, a rotated moment).  Loops over the
+    elements in compiled code and allocates nothing.
     """
     S[:, :] = 0.0
     U = 0.0
+    p1, p2, m = s_el[24:28], s_el[28:32], s_el[32:35]
     for e in range(conn.shape[0]):
         i, j = conn[e, 0], conn[e, 1]
-        U += generated_beam2.internal_forces(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e],
-                                             s_el[:12], s_el[12:18], s_el[18:])
-        for k in range(6):
+        section_quaternion(q[i], offset[e, 0], p1)
+        section_quaternion(q[j], offset[e, 1], p2)
+        U += generated_beam2.internal_forces(x[i], x[j], p1, p2, L0[e], psi0[e], gamma0[e], stiff[e],
+                                             s_el[:12], s_el[12:18], s_el[18:24])
+        to_node_frame(offset[e, 0], s_el[3:6], m)
+        for k in range(3):
             S[i, k] += s_el[k]
+            S[i, 3 + k] += m[k]
+        to_node_frame(offset[e, 1], s_el[9:12], m)
+        for k in range(3):
             S[j, k] += s_el[6 + k]
+            S[j, 3 + k] += m[k]
     return U
+
+
+@kernel
+def beam2_resultants(x, q, conn, L0, psi0, gamma0, stiff, N, M, s_el):
+    """Section resultants of all Beam2 elements at their midpoints, section frame.
+
+    ``N`` (E, 3) the force resultant ``C_Γ (Γ − Γ0)`` [N] (component 1 the axial
+    force, positive in tension; 2, 3 the shear forces) and ``M`` (E, 3) the moment
+    ``C_K K`` [N m] (1 torsion, 2, 3 bending), in the midpoint section frame
+    ``A_m`` of the generated kernel (``derivations/beam2.py``); ``s_el`` (24,) scratch.
+    """
+    for e in range(conn.shape[0]):
+        i, j = conn[e, 0], conn[e, 1]
+        generated_beam2.internal_forces(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e],
+                                        s_el[:12], s_el[12:18], s_el[18:])
+        for k in range(3):
+            N[e, k] = s_el[18 + k]
+            M[e, k] = s_el[21 + k]

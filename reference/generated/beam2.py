@@ -16,7 +16,7 @@ def internal_forces(x1, x2, q1, q2, L0, psi0, gamma0, c, s, strain, stress):
     """Beam2 internal nodal forces (the exact gradient of the strain energy), strains, resultants.
 
     Paper eq. (3): the vector S of ``M a + S = F``.  Order of ``s``:
-    S_u1 (inertial, N), S_θ1 (body frame of node 1, N m), S_u2, S_θ2.
+    S_u1 (inertial, N), S_θ1 (section frame of end 1, N m), S_u2, S_θ2 (section frame of end 2).
 
     Parameters (in this order)
     ----------
@@ -25,13 +25,13 @@ def internal_forces(x1, x2, q1, q2, L0, psi0, gamma0, c, s, strain, stress):
     x2 : array (3,)
         position of node 2 (inertial) [m]
     q1 : array (4,)
-        Euler parameters of node 1 (section triad)
+        Euler parameters of the section triad at end 1, p1 = q_node1 ⊗ o1
     q2 : array (4,)
-        Euler parameters of node 2 (section triad)
+        Euler parameters of the section triad at end 2, p2 = q_node2 ⊗ o2
     L0 : float
         reference length [m]
     psi0 : array (3,)
-        reference relative rotation ψ0 = log(A1ᵀA2) at rest [rad]
+        reference relative rotation ψ0 = log(A1ᵀA2) of the section triads at rest (0: straight) [rad]
     gamma0 : array (3,)
         reference Γ0 = Amᵀx' at rest (E1 for a straight beam)
     c : array (6,)

@@ -26,6 +26,8 @@ from reference.interactions import (
 )
 from reference.joints import Jacobian, MasterSlave
 from reference.joints.joint import ROWS as JOINT_KINDS
+from reference.observables import ObservableError
+from reference.observables import parse as parse_observable
 
 
 class DeckError(ValueError):
@@ -249,6 +251,17 @@ def _suggest_dt(t_end: float, limit: float) -> str:
     return f"dt = {t_end / n!r} ({n} steps to t_end = {t_end:g})"
 
 
+def _observable(rd: _Reader, text, entry: str, domain: Domain):
+    """Check an observable text against the model (``reference/observables.py``): one-line DeckError."""
+    if not isinstance(text, str):
+        raise rd.fail(entry, f"expected an observable text, got {_show(text)}",
+                      "e.g. 'position:beam:end'; free text goes in 'description' (docs/observables.md)")
+    try:
+        return parse_observable(text, domain)
+    except ObservableError as exc:
+        raise rd.fail(entry, f"{text!r}: {exc}", "" if ";" in str(exc) else "see docs/observables.md") from None
+
+
 def load_deck(path, overrides: dict | None = None) -> Domain:
     """Read and validate a deck; return a ready-to-solve :class:`~reference.domain.Domain`.
 
@@ -376,7 +389,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     for i, bm in enumerate(rd.items(deck, "beams")):
         entry = f"beams[{i}]"
         rd.keys(bm, entry, required=["label", "elements", "section"],
-                optional=["start", "end", "start_node", "end_node", "axis2", "rigid"])
+                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center"])
         label = rd.label(bm["label"], f"{entry}.label")
         if label in beams:
             raise rd.fail(f"{entry}.label", f"duplicate beam label {_show(label)}")
@@ -403,6 +416,9 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         if np.linalg.norm(ends[1][0] - ends[0][0]) <= 0.0:
             raise rd.fail(entry, "start and end coincide (zero-length beam)")
         axis2 = rd.direction(bm.get("axis2", [0.0, 1.0, 0.0]), f"{entry}.axis2")
+        center = rd.vector(bm["center"], f"{entry}.center") if "center" in bm else None
+        if center is not None and rigid:
+            raise rd.fail(f"{entry}.center", "a rigid bar is straight", "remove `center` or `rigid`")
         try:
             if rigid:
                 if ends[0][1] is not None or ends[1][1] is not None:
@@ -411,7 +427,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                 domain.add_rigid_bar(label, ends[0][0], ends[1][0], sections[sec_name], axis2)
             else:
                 beams[label] = domain.add_beam(label, ends[0][0], ends[1][0], n, sections[sec_name], axis2,
-                                               start_node=ends[0][1], end_node=ends[1][1])
+                                               start_node=ends[0][1], end_node=ends[1][1], center=center)
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
 
@@ -593,12 +609,16 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     for name, spec in checks.items():
         if not isinstance(spec, dict):
             raise rd.fail(f"checks.{name}", f"expected a table, got {_show(spec)}", f"write it as [checks.{name}]")
+        if "observable" in spec:
+            _observable(rd, spec["observable"], f"checks.{name}.observable", domain)
     domain.checks = checks
     crosscheck = rd.tables(deck, "crosscheck")
     for name, spec in crosscheck.items():
         entry = f"crosscheck.{name}"
         rd.keys(spec, entry, required=["observable", "tolerance", "reason"], optional=["relative_to", "refine"])
+        _observable(rd, spec["observable"], f"{entry}.observable", domain)
         rd.number(spec["tolerance"], f"{entry}.tolerance", positive=True)
+        rd.string(spec["reason"], f"{entry}.reason")
         if spec.get("relative_to", "absolute") not in ("length", "peak", "absolute"):
             raise rd.fail(f"{entry}.relative_to", f"unknown scale {_show(spec['relative_to'])}", "'length', 'peak' or 'absolute'")
         rd.integer(spec.get("refine", 1), f"{entry}.refine")

@@ -52,6 +52,8 @@ def write_vtk(domain, results, directory, name: str = "flexmbs") -> Path:
     references = [e.formulation.reference_state(x0[list(e.nodes)], np.array([domain.nodes[i].rotation for i in e.nodes]))
                   for e in domain.elements]
     point_of = {nid: k for k, nid in enumerate(beam_nodes)}
+    stored = getattr(results, "section_forces", None) is not None and results.section_forces.shape[1:] == (
+        len(domain.elements), 3)
     entries = []
     for step, t in enumerate(results.time):
         X, Q, V = results.positions[step], results.rotations[step], results.velocities[step]
@@ -62,12 +64,16 @@ def write_vtk(domain, results, directory, name: str = "flexmbs") -> Path:
             vel.append(V[nid])
             triads.append(_matrix(Q[nid]))
         lines, forces, moments = [], [], []
-        for e, ref in zip(domain.elements, references):
+        for k, (e, ref) in enumerate(zip(domain.elements, references)):
             i, j = e.nodes
             lines.append((point_of[i], point_of[j]))
-            _, stress = e.formulation.section_resultants(X[[i, j]], Q[[i, j]], ref)
-            forces.append(stress[:3])
-            moments.append(stress[3:])
+            if stored:  # the results' own section resultants (/elements/section_force, _moment)
+                forces.append(results.section_forces[step, k])
+                moments.append(results.section_moments[step, k])
+            else:
+                _, stress = e.formulation.section_resultants(X[[i, j]], Q[[i, j]], ref)
+                forces.append(stress[:3])
+                moments.append(stress[3:])
         for body in rigid:
             A = _matrix(Q[body.id])
             centre = len(pts)
