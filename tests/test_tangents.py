@@ -119,6 +119,18 @@ def test_beam2_tangent_is_the_derivative_of_the_internal_forces(seed, bend, twis
     assert skew_part_error(K, s) <= 1e-13  # round-off of |K| ~ 10
 
 
+def test_beam2_tangent_at_zero_relative_rotation():
+    """Identical nodal triads (ψ = 0 exactly: every coefficient at a = 0, |ψ| = √0) with a
+    stretched and sheared axis: K finite and equal to the central differences."""
+    f = Beam2Formulation(SECTION)
+    q = np.array([qexp([0.3, -1.2, 0.8])] * 2)
+    ref = f.reference_state(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), q)
+    x = np.array([[0.0, 0.0, 0.0], [1.1, 0.2, -0.1]])
+    s, K = beam_tangent(ref, x, q)
+    assert np.all(np.isfinite(K))
+    assert relative_error(K, central_difference(beam_forces(ref), x, q, 12)) <= RTOL
+
+
 def test_beam2_tangent_is_symmetric_at_rest_and_singular_for_rigid_motion():
     """In the unstrained configuration S = 0, so K is the (symmetric) material stiffness and
     annihilates the six rigid-body modes (translations; rotations δx_a = δφ × (x_a − x1),
