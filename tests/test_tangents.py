@@ -58,6 +58,22 @@ def relative_error(K, fd):
     return np.max(np.abs(K - fd)) / np.max(np.abs(fd))
 
 
+def skew_part_error(K, force):
+    """``K − Kᵀ − blockdiag(0, f̃_θ1, 0, f̃_θ2)`` relative to |K|.
+
+    A gradient ``f_a = dU[A ẽ_a]`` on the rotation group has the tangent
+    ``K_ab = d²U[A ẽ_a, A ẽ_b] + dU[A ẽ_b ẽ_a]``: the first term is symmetric, and
+    ``ẽ_b ẽ_a − ẽ_a ẽ_b = (e_b × e_a)~`` leaves ``(K − Kᵀ)_ab = f·(e_b × e_a) = (f̃)_ab`` on
+    each body's rotation block, exactly.
+    """
+    from reference.rotation import skew
+
+    expected = np.zeros((12, 12))
+    expected[3:6, 3:6] = skew(force[3:6])
+    expected[9:12, 9:12] = skew(force[9:12])
+    return np.max(np.abs(K - K.T - expected)) / np.max(np.abs(K))
+
+
 def beam_configuration(rng, bend, reference_twist):
     """A curved/twisted reference element and a large rotation + strain of it."""
     f = Beam2Formulation(SECTION)
@@ -91,7 +107,8 @@ def beam_tangent(ref, x, q):
 @pytest.mark.parametrize("seed", range(3))
 def test_beam2_tangent_is_the_derivative_of_the_internal_forces(seed, bend, twist):
     """K = ∂S/∂[δx1, δθ1, δx2, δθ2] in large rotations, strained states, curved references;
-    relative rotations from 1e-3 rad (series branches of the coefficients) to ~3 rad."""
+    relative rotations from 1e-3 rad (series branches of the coefficients) to ~3 rad.  Its
+    skew part is exactly that of a gradient on the rotation group (:func:`skew_part_error`)."""
     rng = np.random.default_rng(seed)
     ref, x, q = beam_configuration(rng, bend, twist)
     S = beam_forces(ref)
@@ -99,6 +116,19 @@ def test_beam2_tangent_is_the_derivative_of_the_internal_forces(seed, bend, twis
     assert np.array_equal(s, S(x, q))
     fd = central_difference(S, x, q, 12)
     assert relative_error(K, fd) <= RTOL
+    assert skew_part_error(K, s) <= 1e-13  # round-off of |K| ~ 10
+
+
+def test_beam2_tangent_at_zero_relative_rotation():
+    """Identical nodal triads (ψ = 0 exactly: every coefficient at a = 0, |ψ| = √0) with a
+    stretched and sheared axis: K finite and equal to the central differences."""
+    f = Beam2Formulation(SECTION)
+    q = np.array([qexp([0.3, -1.2, 0.8])] * 2)
+    ref = f.reference_state(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), q)
+    x = np.array([[0.0, 0.0, 0.0], [1.1, 0.2, -0.1]])
+    s, K = beam_tangent(ref, x, q)
+    assert np.all(np.isfinite(K))
+    assert relative_error(K, central_difference(beam_forces(ref), x, q, 12)) <= RTOL
 
 
 def test_beam2_tangent_is_symmetric_at_rest_and_singular_for_rigid_motion():
@@ -167,7 +197,8 @@ def joint_hessian(joint, x, q, t, lam):
 def test_joint_hessian_is_the_derivative_of_the_joint_forces(kind, ground):
     """``H = ∂(Bᵀλ)/∂[δx_i, δθ_i, δx_j, δθ_j]`` against central differences of Bᵀλ, B from the
     assembly's ``joint_rows`` (drives included, at a fixed t), 5 random configurations and
-    multipliers each; Φ, B, Φ_t returned alongside equal ``joint_rows``' exactly."""
+    multipliers each; Φ, B, Φ_t returned alongside equal ``joint_rows``' exactly; the skew part
+    of H is that of the gradient Bᵀλ (:func:`skew_part_error`)."""
     rng = np.random.default_rng(zlib.crc32(f"{kind}{ground}".encode()))
     for _ in range(5):
         joint, x, q = joint_setup(kind, rng, ground)
@@ -179,6 +210,7 @@ def test_joint_hessian_is_the_derivative_of_the_joint_forces(kind, ground):
         n_vars = 6 if ground else 12
         fd = central_difference(lambda xx, qq: joint.evaluate(xx, qq, t)[1].T @ lam, x, q, n_vars)
         assert relative_error(H[:, :n_vars], fd) <= RTOL, kind
+        assert skew_part_error(H, B.T @ lam) <= 1e-13, kind  # Bᵀλ is the gradient of λ·Φ
         if ground:
             assert np.all(H[6:, :] == 0.0) and np.all(H[:, 6:] == 0.0)
 
@@ -241,7 +273,7 @@ def test_derived_coefficients_match_40_digit_references():
     """``c_d(a) = c'(a)/a`` of c_cosc, c_sinc3, c_jinv against mpmath (40 digits) on 0 ≤ a ≤ π
     (the range the beam uses: |ψ| ≤ π) including both sides of the series switch at a = 2.
     Bound 1e-14 relative: above a = 2 the closed form of c_jinv_d still cancels by a factor
-    of ~10–60 (measured 4.5e-15); the others stay below 1.1e-15."""
+    of ~10–60 (measured 5.5e-15); the others stay below 1.1e-15."""
     import mpmath as mp
 
     mp.mp.dps = 40
@@ -257,3 +289,20 @@ def test_derived_coefficients_match_40_digit_references():
         assert func(0.0) == pytest.approx(limits[name], rel=1e-15)
         err = max(abs(float((func(a) - f(mp.mpf(a))) / f(mp.mpf(a)))) for a in grid)
         assert err < 1e-14, name
+
+
+def test_compiled_kernels_agree_with_plain_python():
+    """The numba-compiled tangents equal their plain-Python source (``py_func``, what
+    NUMBA_DISABLE_JIT=1 runs) to 1e-13 of |K| (compiled code may reorder operations)."""
+    rng = np.random.default_rng(11)
+    ref, x, q = beam_configuration(rng, 1.5, 0.5)
+    args = (x[0], x[1], q[0], q[1], ref["L0"], ref["psi0"], ref["gamma0"], SECTION.stiffness)
+    K, K_py = np.empty(144), np.empty(144)
+    tangents.beam2_tangent(*args, np.empty(12), K)
+    tangents.beam2_tangent.py_func(*args, np.empty(12), K_py)
+    assert np.max(np.abs(K - K_py)) <= 1e-13 * np.max(np.abs(K))
+    args = (rng.normal(size=3), qexp(rng.normal(size=3)), rng.normal(size=3), qexp(rng.normal(size=3)),
+            rng.normal(size=3), rng.normal(size=3), rng.normal(size=9), rng.normal(size=9), rng.normal(size=10))
+    tangents.joint_primitive_hessian(*args, K)
+    tangents.joint_primitive_hessian.py_func(*args, K_py)
+    assert np.max(np.abs(K - K_py)) <= 1e-13 * np.max(np.abs(K))
