@@ -310,7 +310,10 @@ class ForceElement(ABC):
         return np.eye(3)
 
     def stiffness_damping(self) -> tuple[np.ndarray, np.ndarray]:
-        raise NotImplementedError
+        """k, c (6 each): a one-measure element's ``stiffness`` and ``damping`` in the first slot."""
+        k, c = np.zeros(6), np.zeros(6)
+        k[0], c[0] = self.stiffness, self.damping
+        return k, c
 
     def rest(self) -> float:
         return 0.0
@@ -412,11 +415,6 @@ class PointToPoint(ForceElement):
     def points(self):
         return self.point_i, self.point_j
 
-    def stiffness_damping(self):
-        k, c = np.zeros(6), np.zeros(6)
-        k[0], c[0] = self.stiffness, self.damping
-        return k, c
-
     def rest(self):
         return float(self.rest_length)
 
@@ -469,11 +467,6 @@ class Rotational(ForceElement):
 
     def frame(self):
         return self._frame
-
-    def stiffness_damping(self):
-        k, c = np.zeros(6), np.zeros(6)
-        k[0], c[0] = self.stiffness, self.damping
-        return k, c
 
     def rest(self):
         return float(self.rest_angle)

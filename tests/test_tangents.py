@@ -14,25 +14,14 @@ import zlib
 import numpy as np
 import pytest
 
-from reference.elements import Beam2Formulation, Section
+from reference.elements import Beam2Formulation
 from reference.generated import beam2, tangents
 from reference.generated import rotation_maps as rm
 
+from test_beam2 import SECTION, qexp, qmul
+
 EPS = 1e-5
 RTOL = 1e-7
-SECTION = Section(EA=10.0, GA2=3.0, GA3=4.0, GJ=2.0, EI2=5.0, EI3=7.0, rhoA=1.0, rhoJ1=0.2, rhoJ2=0.1, rhoJ3=0.1)
-
-
-def qmul(p, q):
-    out = np.empty(4)
-    rm.quat_product(p, q, out)
-    return out
-
-
-def qexp(psi):
-    out = np.empty(4)
-    rm.exp_quaternion(np.asarray(psi, dtype=float), out)
-    return out
 
 
 def perturbed(x, q, k, eps):
