@@ -52,6 +52,11 @@ class Coefficient:
     order : int
         Series order (terms up to ``a**(order-1)``); chosen so that the
         truncation error at the threshold is below double precision round-off.
+    short_order : int
+        Order of a shorter series used first, below the angle where its first
+        omitted term falls under half an ulp of ``f(0)`` (computed by
+        :func:`short_series_threshold`): the small relative rotations of a
+        fine mesh take a few products instead of the long series.
     """
 
     name: str
@@ -59,6 +64,7 @@ class Coefficient:
     doc: str
     threshold: float = 0.1
     order: int = 14
+    short_order: int = 8
 
 
 @dataclass
@@ -132,21 +138,37 @@ def _printer(user_functions):
     )
 
 
+def short_series_threshold(series: sp.Expr, a: sp.Symbol, order: int) -> float:
+    """Largest ``|a|`` (two significant digits, rounded down) where the first term of ``series`` of
+    degree ≥ ``order`` is below 2⁻⁵³ |f(0)|: the truncated series is exact to double precision below it."""
+    poly = sp.Poly(series, a)
+    f0 = abs(poly.coeff_monomial(1))
+    k, ck = next((k, abs(c)) for (k,), c in sorted(poly.terms()) if k >= order and c != 0)
+    bound = (sp.Rational(1, 2**53) * f0 / ck) ** sp.Rational(1, k)
+    scale = sp.Integer(10) ** (sp.floor(sp.log(bound, 10)) - 1)
+    return float(sp.floor(bound / scale) * scale)
+
+
 def render_coefficient(coef: Coefficient) -> str:
-    """Source of one coefficient function (series below the threshold)."""
+    """Source of one coefficient function: short series, long series below the threshold, exact form."""
     a = sp.Symbol("a")
-    series = sp.series(coef.expr, a, 0, coef.order).removeO()
-    series = sp.nsimplify(sp.expand(series))
+    series = sp.nsimplify(sp.expand(sp.series(coef.expr, a, 0, coef.order).removeO()))
+    short = sp.nsimplify(sp.expand(sp.series(coef.expr, a, 0, coef.short_order).removeO()))
+    small = short_series_threshold(series, a, coef.short_order)
     printer = _printer([])
     exact = printer.doprint(coef.expr)
     approx = printer.doprint(sp.horner(series, a)) if series.has(a) else printer.doprint(series)
+    first = printer.doprint(sp.horner(short, a))
     return (
         f"{DECORATOR}\n"
         f"def {coef.name}(a):\n"
         f'    """{coef.doc}\n\n'
-        f"    Exact: ``{sp.sstr(coef.expr)}``; Taylor series of order {coef.order}\n"
-        f"    for |a| < {coef.threshold} (removable singularity at a = 0).\n"
+        f"    Exact: ``{sp.sstr(coef.expr)}``; Taylor series of order {coef.short_order} for\n"
+        f"    |a| < {small!r} and of order {coef.order} for |a| < {coef.threshold}, both exact to\n"
+        f"    double precision there (removable singularity at a = 0).\n"
         f'    """\n'
+        f"    if abs(a) < {small!r}:\n"
+        f"        return {first}\n"
         f"    if abs(a) < {coef.threshold!r}:\n"
         f"        return {approx}\n"
         f"    return {exact}\n"
@@ -160,12 +182,8 @@ def render_kernel(kernel: Kernel, user_functions=()) -> str:
     if kernel.returns is not None:
         exprs.append(kernel.returns[0])
     temps = sp.numbered_symbols("t")
-    body = []
-    for syms, stage_exprs in kernel.stages:
-        replacements, reduced = sp.cse(stage_exprs, symbols=temps, optimizations="basic", order="canonical")
-        body += [f"    {t} = {printer.doprint(e)}" for t, e in replacements]
-        body += [f"    {s} = {printer.doprint(e)}" for s, e in zip(syms, reduced)]
-    replacements, reduced = sp.cse(exprs, symbols=temps, optimizations="basic", order="canonical")
+    body, replacements, reduced = _shared_subexpressions(kernel.stages, exprs, temps)
+    body = [f"    {s} = {printer.doprint(e)}" for s, e in body]
 
     arg_names = [name for name, _, _ in kernel.inputs] + [name for name, _, _ in kernel.outputs]
     lines = [DECORATOR, f"def {kernel.name}({', '.join(arg_names)}):"]
@@ -194,6 +212,58 @@ def render_kernel(kernel: Kernel, user_functions=()) -> str:
     if kernel.returns is not None:
         lines.append(f"    return {printer.doprint(reduced[k])}")
     return "\n".join(lines) + "\n"
+
+
+def _shared_subexpressions(stages, exprs, temps):
+    """Common subexpressions shared across the stages and the outputs, in a valid order.
+
+    One :func:`sympy.cse` over every stage's expressions and the outputs (the stage
+    symbols stay atoms), so that a quantity two stages both need — the angle
+    ``|ψ|`` and its coefficient functions, say — is computed once.  Returns the
+    assignments ``(symbol, expr)`` of the stages and their temporaries, ordered so
+    that each comes after what it uses and, among those ready, by stage (a
+    temporary goes with the first stage that needs it); then the output
+    temporaries and the reduced outputs.
+    """
+    defs = [(sym, e) for syms, stage_exprs in stages for sym, e in zip(syms, stage_exprs)]
+    stage_of = {}
+    for k, (syms, _) in enumerate(stages):
+        for sym in syms:
+            stage_of[sym] = k
+    replacements, reduced = sp.cse([e for _, e in defs] + list(exprs), symbols=temps, optimizations="basic",
+                                   order="canonical")
+    items = list(replacements) + [(sym, e) for (sym, _), e in zip(defs, reduced[:len(defs)])]
+    defined = {sym for sym, _ in items}
+    deps = {sym: e.free_symbols & defined for sym, e in items}
+    users: dict = {sym: [] for sym, _ in items}
+    for sym, _ in items:
+        for d in deps[sym]:
+            users[d].append(sym)
+    n_stages = len(stages)
+    rank: dict = {}
+
+    def stage_rank(sym):
+        # the stage a symbol is first needed by (temporaries only the outputs need: after all stages)
+        if sym not in rank:
+            rank[sym] = stage_of[sym] if sym in stage_of else min(
+                (stage_rank(u) for u in users[sym]), default=n_stages)
+        return rank[sym]
+
+    order = {sym: k for k, (sym, _) in enumerate(items)}
+    pending = sorted(items, key=lambda it: (stage_rank(it[0]), it[0] in stage_of, order[it[0]]))
+    emitted, body = set(), []
+    while pending:
+        for k, (sym, e) in enumerate(pending):
+            if deps[sym] <= emitted:
+                body.append((sym, e))
+                emitted.add(sym)
+                del pending[k]
+                break
+        else:
+            raise ValueError("circular staged definitions")
+    staged = [(sym, e) for sym, e in body if stage_rank(sym) < n_stages]
+    rest = [(sym, e) for sym, e in body if stage_rank(sym) >= n_stages]
+    return staged, rest, reduced[len(defs):]
 
 
 def render_module(generator: str, docstring: str, parts: list[str], imports=("import math", "", JIT_IMPORT)) -> str:

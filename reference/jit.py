@@ -5,6 +5,12 @@ compiles them (cached on disk) unless ``NUMBA_DISABLE_JIT=1`` is set, in which
 case they run as ordinary Python — slower, but every line can be stepped
 through in a debugger.  numba reads that variable itself.
 
+A hot loop calls its small kernels through :func:`inlined`: the same Python
+function compiled to be inlined into the caller.  A call of a compiled
+function with array views (``x[i]``, ``w[0:12]``) otherwise costs two atomic
+reference-count updates per view (numba's runtime), which cost more than the
+Beam2 element's arithmetic; inlined, numba removes them.
+
 A loop over independent items (the Beam2 elements) may be a
 :func:`parallel_kernel` with ``prange``; it runs on :func:`threads` threads,
 set by the environment variable ``FLEXMBS_THREADS`` (default 1: on a machine
@@ -31,7 +37,7 @@ from pathlib import Path
 import numba
 from numba import prange
 
-__all__ = ["kernel", "parallel_kernel", "prange", "threads", "use_threads", "source_digest"]
+__all__ = ["kernel", "inlined", "parallel_kernel", "prange", "threads", "use_threads", "source_digest"]
 
 THREADS_ENV = "FLEXMBS_THREADS"
 ENGINE = Path(__file__).resolve().parent
@@ -54,6 +60,17 @@ if not os.environ.get("NUMBA_CACHE_DIR"):
 def kernel(func):
     """Compile ``func`` in nopython mode with an on-disk cache."""
     return numba.njit(cache=True, fastmath=False)(func)
+
+
+def inlined(func):
+    """``func`` (a :func:`kernel` or a plain function) compiled to be inlined at every call site.
+
+    With ``NUMBA_DISABLE_JIT=1`` it is the plain Python function.
+    """
+    py_func = getattr(func, "py_func", func)
+    if numba.config.DISABLE_JIT:
+        return py_func
+    return numba.njit(cache=True, fastmath=False, inline="always")(py_func)
 
 
 def parallel_kernel(func):

@@ -102,7 +102,9 @@ def test_beam2_tangent_is_the_derivative_of_the_internal_forces(seed, bend, twis
     ref, x, q = beam_configuration(rng, bend, twist)
     S = beam_forces(ref)
     s, K = beam_tangent(ref, x, q)
-    assert np.array_equal(s, S(x, q))
+    # the same force as the force kernel, to round-off (the two generated kernels share their
+    # subexpressions differently, so the last bits may differ)
+    assert np.max(np.abs(s - S(x, q))) <= 1e-14 * np.max(np.abs(s))
     fd = central_difference(S, x, q, 12)
     assert relative_error(K, fd) <= RTOL
     assert skew_part_error(K, s) <= 1e-13  # round-off of |K| ~ 10

@@ -38,7 +38,7 @@ from reference.elements.formulation import beam2_assemble_parallel
 from reference.forces import force_element_dissipation, force_element_forces
 from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
-from reference.jit import kernel, use_threads
+from reference.jit import inlined, kernel, use_threads
 from reference.joints.assembly import (
     SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
 )
@@ -46,9 +46,15 @@ from reference.joints.master_slave import master_slave_positions, master_slave_p
 from reference.monitor import likely_cause
 from reference.state import Model, Record, Scratch, State
 
+_cayley_update = inlined(rm.cayley_update)
+
 GYRO_SWEEPS = 4
-"""Fixed-point sweeps of the midpoint gyroscopic term (contraction factor
+"""Most fixed-point sweeps of the midpoint gyroscopic term (contraction factor
 ≈ h|ω|, so four sweeps reach round-off for h|ω| ≲ 1e-3)."""
+
+SWEEP_TOLERANCE = 2.0**-52
+"""The sweeps stop early once a sweep changes ω by less than this relative to |ω| (round-off):
+a slowly turning node (h|ω| ≲ 1e-8, most nodes of a beam) needs two."""
 
 CONSTRAINED_SWEEPS = 3
 """Extra (kick, projection) passes when there are joints (contraction ≈ h|ω|)."""
@@ -116,35 +122,52 @@ def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sw
     the nodes of joints (``model.constrained_nodes``).
     """
     c = model.damping
+    J, Jinv = model.inertia, model.inertia_inv  # indexed [i, a, b]: a row view would cost two atomic updates
     count = model.constrained_nodes.shape[0] if only_constrained else v.shape[0]
     for p in range(count):
         i = model.constrained_nodes[p] if only_constrained else p
         n_sweeps = sweeps if model.node_constrained[i] else sweeps + extra_free_sweeps
-        m = model.mass[i]
+        m_inv = 1.0 / model.mass[i]
         for k in range(3):
-            v_new[i, k] = model.free[i, k] * (v[i, k] + hk * ((F[i, k] - S[i, k]) / m - c * v[i, k]))
-        J = model.inertia[i]
-        Jinv = model.inertia_inv[i]
+            v_new[i, k] = model.free[i, k] * (v[i, k] + hk * ((F[i, k] - S[i, k]) * m_inv - c * v[i, k]))
         w0, w1, w2 = w[i, 0], w[i, 1], w[i, 2]
         r0, r1, r2 = F[i, 3] - S[i, 3], F[i, 4] - S[i, 4], F[i, 5] - S[i, 5]
-        # damping moment −c J ω at the old half step
-        r0 -= c * (J[0, 0] * w0 + J[0, 1] * w1 + J[0, 2] * w2)
-        r1 -= c * (J[1, 0] * w0 + J[1, 1] * w1 + J[1, 2] * w2)
-        r2 -= c * (J[2, 0] * w0 + J[2, 1] * w1 + J[2, 2] * w2)
+        if c != 0.0:  # damping moment −c J ω at the old half step
+            r0 -= c * (J[i, 0, 0] * w0 + J[i, 0, 1] * w1 + J[i, 0, 2] * w2)
+            r1 -= c * (J[i, 1, 0] * w0 + J[i, 1, 1] * w1 + J[i, 1, 2] * w2)
+            r2 -= c * (J[i, 2, 0] * w0 + J[i, 2, 1] * w1 + J[i, 2, 2] * w2)
         n0, n1, n2 = w0, w1, w2
         if from_guess:
             n0, n1, n2 = w_new[i, 0], w_new[i, 1], w_new[i, 2]
-        for _ in range(n_sweeps):
+        # a principal-axes inertia (every node of a straight beam) needs a third of the products
+        diagonal = J[i, 0, 1] == 0.0 and J[i, 0, 2] == 0.0 and J[i, 1, 2] == 0.0 and J[i, 1, 0] == 0.0 and \
+            J[i, 2, 0] == 0.0 and J[i, 2, 1] == 0.0 and Jinv[i, 0, 1] == 0.0 and Jinv[i, 0, 2] == 0.0 and \
+            Jinv[i, 1, 2] == 0.0 and Jinv[i, 1, 0] == 0.0 and Jinv[i, 2, 0] == 0.0 and Jinv[i, 2, 1] == 0.0
+        for sweep in range(n_sweeps):
             b0, b1, b2 = 0.5 * (w0 + n0), 0.5 * (w1 + n1), 0.5 * (w2 + n2)
-            j0 = J[0, 0] * b0 + J[0, 1] * b1 + J[0, 2] * b2
-            j1 = J[1, 0] * b0 + J[1, 1] * b1 + J[1, 2] * b2
-            j2 = J[2, 0] * b0 + J[2, 1] * b1 + J[2, 2] * b2
+            if diagonal:
+                j0, j1, j2 = J[i, 0, 0] * b0, J[i, 1, 1] * b1, J[i, 2, 2] * b2
+            else:
+                j0 = J[i, 0, 0] * b0 + J[i, 0, 1] * b1 + J[i, 0, 2] * b2
+                j1 = J[i, 1, 0] * b0 + J[i, 1, 1] * b1 + J[i, 1, 2] * b2
+                j2 = J[i, 2, 0] * b0 + J[i, 2, 1] * b1 + J[i, 2, 2] * b2
             g0 = r0 - (b1 * j2 - b2 * j1)
             g1 = r1 - (b2 * j0 - b0 * j2)
             g2 = r2 - (b0 * j1 - b1 * j0)
-            n0 = model.free[i, 3] * (w0 + hk * (Jinv[0, 0] * g0 + Jinv[0, 1] * g1 + Jinv[0, 2] * g2))
-            n1 = model.free[i, 4] * (w1 + hk * (Jinv[1, 0] * g0 + Jinv[1, 1] * g1 + Jinv[1, 2] * g2))
-            n2 = model.free[i, 5] * (w2 + hk * (Jinv[2, 0] * g0 + Jinv[2, 1] * g1 + Jinv[2, 2] * g2))
+            if diagonal:
+                m0 = model.free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0))
+                m1 = model.free[i, 4] * (w1 + hk * (Jinv[i, 1, 1] * g1))
+                m2 = model.free[i, 5] * (w2 + hk * (Jinv[i, 2, 2] * g2))
+            else:
+                m0 = model.free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0 + Jinv[i, 0, 1] * g1 + Jinv[i, 0, 2] * g2))
+                m1 = model.free[i, 4] * (w1 + hk * (Jinv[i, 1, 0] * g0 + Jinv[i, 1, 1] * g1 + Jinv[i, 1, 2] * g2))
+                m2 = model.free[i, 5] * (w2 + hk * (Jinv[i, 2, 0] * g0 + Jinv[i, 2, 1] * g1 + Jinv[i, 2, 2] * g2))
+            # converged to round-off: a further sweep would change nothing
+            done = sweep > 0 and abs(m0 - n0) + abs(m1 - n1) + abs(m2 - n2) <= \
+                SWEEP_TOLERANCE * (abs(m0) + abs(m1) + abs(m2))
+            n0, n1, n2 = m0, m1, m2
+            if done:
+                break
         w_new[i, 0], w_new[i, 1], w_new[i, 2] = n0, n1, n2
 
 
@@ -152,11 +175,10 @@ def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sw
 def _kinetic(model, v, w):
     T = 0.0
     for i in range(v.shape[0]):
-        J = model.inertia[i]
         T += 0.5 * model.mass[i] * (v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2)
         for a in range(3):
             for b in range(3):
-                T += 0.5 * w[i, a] * J[a, b] * w[i, b]
+                T += 0.5 * w[i, a] * model.inertia[i, a, b] * w[i, b]
     return T
 
 
@@ -178,7 +200,6 @@ def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
     P_old = 0.0
     P_new = 0.0
     for i in range(v.shape[0]):
-        J = model.inertia[i]
         for a in range(3):
             va = c * v[i, a] + d * v_new[i, a]
             T += 0.5 * model.mass[i] * va * va
@@ -186,7 +207,7 @@ def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
             P_new += F[i, a] * v_new[i, a] + F[i, 3 + a] * w_new[i, a]
             wa = c * w[i, a] + d * w_new[i, a]
             for b in range(3):
-                T += 0.5 * wa * J[a, b] * (c * w[i, b] + d * w_new[i, b])
+                T += 0.5 * wa * model.inertia[i, a, b] * (c * w[i, b] + d * w_new[i, b])
     E = T + U
     if not mean:  # the first step: E₀ only
         guard[0] = E
@@ -240,16 +261,18 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             # trapezoidal work of the external forces over the last increment h V^{n-1/2},
             # and the energy dissipated by the damping forces evaluated at V^{n-1/2}
             dW = 0.0
-            dD = 0.0
             for i in range(N):
-                J = model.inertia[i]
                 for a in range(3):
                     dW += 0.5 * (f_prev[i, a] + F[i, a]) * v[i, a] + 0.5 * (f_prev[i, 3 + a] + F[i, 3 + a]) * w[i, a]
-                    dD += model.mass[i] * v[i, a] * v[i, a] * model.free[i, a]
-                    for b in range(3):
-                        dD += w[i, a] * J[a, b] * w[i, b] * model.free[i, 3 + a]
             clock[2] += h * dW
-            clock[3] += h * c * dD
+            if c != 0.0:
+                dD = 0.0
+                for i in range(N):
+                    for a in range(3):
+                        dD += model.mass[i] * v[i, a] * v[i, a] * model.free[i, a]
+                        for b in range(3):
+                            dD += w[i, a] * model.inertia[i, a, b] * w[i, b] * model.free[i, 3 + a]
+                clock[3] += h * c * dD
         hk = h if n > 0 else 0.5 * h
         # a node outside every joint keeps its predicted velocity through the constrained passes
         # below, which would only add gyroscopic sweeps to it: it gets all of them at once
@@ -314,16 +337,18 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         if scratch.guard[2] > 0.0 and _balance(model, v, w, v_new, w_new, F, h, P_drive, n > 0, U, clock,
                                                scratch.guard):
             return BLOWUP
+        total = 0.0  # non-finite if any velocity is (or overflows: diverged too)
         for i in range(N):
             for a in range(3):
-                if not math.isfinite(v_new[i, a]) or not math.isfinite(w_new[i, a]):
-                    return DIVERGED
+                total += v_new[i, a] + w_new[i, a]
+        if not math.isfinite(total):
+            return DIVERGED
         for i in range(N):
             for a in range(3):
                 v[i, a] = v_new[i, a]
                 w[i, a] = w_new[i, a]
                 x[i, a] += h * v_new[i, a]
-            rm.cayley_update(q[i], w_new[i], h, q_tmp)
+            _cayley_update(q[i], w_new[i], h, q_tmp)
             nrm = math.sqrt(q_tmp[0] ** 2 + q_tmp[1] ** 2 + q_tmp[2] ** 2 + q_tmp[3] ** 2)
             for a in range(4):
                 q[i, a] = q_tmp[a] / nrm

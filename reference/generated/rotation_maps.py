@@ -15,9 +15,12 @@ from reference.jit import kernel
 def c_sinc(a):
     """sin(a)/a.
 
-    Exact: ``sin(a)/a``; Taylor series of order 14
-    for |a| < 0.1 (removable singularity at a = 0).
+    Exact: ``sin(a)/a``; Taylor series of order 8 for
+    |a| < 0.05 and of order 14 for |a| < 0.1, both exact to
+    double precision there (removable singularity at a = 0).
     """
+    if abs(a) < 0.05:
+        return a**2*(a**2*(1/120 - 1/5040*a**2) - 1/6) + 1
     if abs(a) < 0.1:
         return a**2*(a**2*(a**2*(a**2*(a**2*((1/6227020800)*a**2 - 1/39916800) + 1/362880) - 1/5040) + 1/120) - 1/6) + 1
     return math.sin(a)/a
@@ -27,9 +30,12 @@ def c_sinc(a):
 def c_cosc(a):
     """(1 - cos a)/a**2, the second coefficient of exp(a~).
 
-    Exact: ``(1 - cos(a))/a**2``; Taylor series of order 26
-    for |a| < 1.0 (removable singularity at a = 0).
+    Exact: ``(1 - cos(a))/a**2``; Taylor series of order 8 for
+    |a| < 0.061 and of order 26 for |a| < 1.0, both exact to
+    double precision there (removable singularity at a = 0).
     """
+    if abs(a) < 0.061:
+        return a**2*(a**2*(1/720 - 1/40320*a**2) - 1/24) + 1/2
     if abs(a) < 1.0:
         return a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*((1/403291461126605635584000000)*a**2 - 1/620448401733239439360000) + 1/1124000727777607680000) - 1/2432902008176640000) + 1/6402373705728000) - 1/20922789888000) + 1/87178291200) - 1/479001600) + 1/3628800) - 1/40320) + 1/720) - 1/24) + 1/2
     return (1 - math.cos(a))/a**2
@@ -39,9 +45,12 @@ def c_cosc(a):
 def c_sinc3(a):
     """(a - sin a)/a**3, the third coefficient of the SO(3) Jacobians.
 
-    Exact: ``(a - sin(a))/a**3``; Taylor series of order 26
-    for |a| < 1.0 (removable singularity at a = 0).
+    Exact: ``(a - sin(a))/a**3``; Taylor series of order 8 for
+    |a| < 0.072 and of order 26 for |a| < 1.0, both exact to
+    double precision there (removable singularity at a = 0).
     """
+    if abs(a) < 0.072:
+        return a**2*(a**2*(1/5040 - 1/362880*a**2) - 1/120) + 1/6
     if abs(a) < 1.0:
         return a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*((1/10888869450418352160768000000)*a**2 - 1/15511210043330985984000000) + 1/25852016738884976640000) - 1/51090942171709440000) + 1/121645100408832000) - 1/355687428096000) + 1/1307674368000) - 1/6227020800) + 1/39916800) - 1/362880) + 1/5040) - 1/120) + 1/6
     return (a - math.sin(a))/a**3
@@ -51,9 +60,12 @@ def c_sinc3(a):
 def c_jinv(a):
     """(1 - (a/2) cot(a/2))/a**2, the quadratic coefficient of the inverse Jacobian (finite up to a = 2 pi).
 
-    Exact: ``(-a*cos(a/2)/(2*sin(a/2)) + 1)/a**2``; Taylor series of order 26
-    for |a| < 1.0 (removable singularity at a = 0).
+    Exact: ``(-a*cos(a/2)/(2*sin(a/2)) + 1)/a**2``; Taylor series of order 8 for
+    |a| < 0.067 and of order 26 for |a| < 1.0, both exact to
+    double precision there (removable singularity at a = 0).
     """
+    if abs(a) < 0.067:
+        return a**2*(a**2*((1/1209600)*a**2 + 1/30240) + 1/720) + 1/12
     if abs(a) < 1.0:
         return a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*((657931/186134520519971831808000000)*a**2 + 236364091/1693824136731743669452800000) + 77683/14101100039391805440000) + 174611/802857662698291200000) + 43867/5109094217170944000) + 3617/10670622842880000) + 1/74724249600) + 691/1307674368000) + 1/47900160) + 1/1209600) + 1/30240) + 1/720) + 1/12
     return (-1/2*a*math.cos((1/2)*a)/math.sin((1/2)*a) + 1)/a**2
@@ -63,9 +75,12 @@ def c_jinv(a):
 def c_asinc(a):
     """a/sin(a), for the logarithm from Euler parameters (a = half angle).
 
-    Exact: ``a/sin(a)``; Taylor series of order 14
-    for |a| < 0.1 (removable singularity at a = 0).
+    Exact: ``a/sin(a)``; Taylor series of order 8 for
+    |a| < 0.029 and of order 14 for |a| < 0.1, both exact to
+    double precision there (removable singularity at a = 0).
     """
+    if abs(a) < 0.029:
+        return a**2*(a**2*((31/15120)*a**2 + 7/360) + 1/6) + 1
     if abs(a) < 0.1:
         return a**2*(a**2*(a**2*(a**2*(a**2*((1414477/653837184000)*a**2 + 73/3421440) + 127/604800) + 31/15120) + 7/360) + 1/6) + 1
     return a/math.sin(a)
