@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from reference.algorithms import ALGORITHMS
-from reference.domain import Domain, SolverSettings
+from reference.algorithms import ALGORITHMS, SolverSettings
+from reference.domain import Domain
 from reference.elements import Section
 from reference.expressions import ExpressionError
 from reference.forces import KINDS as SPRING_KINDS
