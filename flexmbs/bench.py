@@ -12,7 +12,8 @@ sparse stage) and of two beams welded by a ``fixed`` joint against the same
 beams sharing a node — and the Beam2 throughput (µs per element-step, 768
 elements) beside PyElastica's on the same clamped rod (the ``bench`` extra),
 with both tips printed: the same answer at the same step.  Per-step costs time
-the compiled stepping alone (median of ``repeat`` after a warm-up).
+the compiled stepping alone (median of ``repeat`` after a warm-up).  Then the
+share of a run spent writing ParaView output (2,000 elements, 1,000 outputs).
 
 Last, the implicit algorithms (issue 8): the static roll-up against Exudyn's
 static solver, and the work–precision study — for the three-bar and its steel
@@ -495,6 +496,41 @@ def beam_throughput(repeat: int = 3) -> tuple[float, float | None]:
     return per["flexmbs"], per["PyElastica"]
 
 
+def vtk_cost(elements: int = 2000, outputs: int = 1000, every: int = 5) -> float:
+    """Share of ``flexmbs run`` spent writing ParaView output: a 2,000-element cantilever with 1,000 outputs.
+
+    The same cantilever as the throughput case, meshed finer, with a results file;
+    the solve and then :func:`reference.io.vtk.write_vtk` are timed after a short
+    warm-up run (compilation).  Prints and returns vtk / (solve + vtk) (target ≤ 20 %).
+    """
+    import tempfile
+
+    from reference.domain import Domain
+    from reference.interactions import Clamp, NodalLoad
+    from reference.io.vtk import write_vtk
+
+    c = THROUGHPUT
+    d = Domain(f"cantilever of {elements} elements")
+    nodes = d.add_beam("rod", (0.0, 0.0, 0.0), (c["length"], 0.0, 0.0), elements, _throughput_section())
+    d.add_interaction(Clamp(nodes[0]))
+    d.add_interaction(NodalLoad(nodes[-1], np.array([0.0, c["torque"], 0.0]), moment=True))
+    dt = 0.5 * d.critical_time_step()
+    d.solver.dt, d.solver.output_every = dt, every
+    with tempfile.TemporaryDirectory() as tmp:
+        warm = d.solve(t_end=2 * every * dt, results_path=Path(tmp) / "warm.h5")
+        write_vtk(d, warm, Path(tmp) / "warm")
+        t0 = time.perf_counter()
+        r = d.solve(t_end=outputs * every * dt, results_path=Path(tmp) / "results.h5")
+        t1 = time.perf_counter()
+        path = write_vtk(d, r, Path(tmp) / "vtk")
+        t2 = time.perf_counter()
+        size = path.stat().st_size
+    share = (t2 - t1) / (t2 - t0)
+    print(f"VTK output: {elements} elements, {len(r.time)} outputs ({outputs * every} steps): solve {t1 - t0:.2f} s, "
+          f"VTKHDF {t2 - t1:.2f} s ({size / 2**20:.0f} MiB) = {share:.1%} of the run (target ≤ 20 %)")
+    return share
+
+
 def main(args=None) -> int:
     repeat = getattr(args, "repeat", 3) or 3
     rows = []
@@ -514,6 +550,8 @@ def main(args=None) -> int:
     welded_vs_shared(repeat)
     print()
     beam_throughput(repeat)
+    print()
+    vtk_cost()
     quick = bool(getattr(args, "quick", False)) or os.environ.get("FLEXMBS_QUICK") == "1"
     print()
     lines = static_rollup()

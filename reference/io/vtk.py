@@ -13,11 +13,14 @@ Each output step holds
   element (from the results when they hold them, else computed), zero on
   rigid-body cells.
 
-The topology is written once and replayed for every step (the format's offsets),
-the per-step arrays are computed for all points at once and written in blocks;
-the arrays are single precision (plotting needs no more, and it halves the file;
-``displacement`` keeps small motions that single-precision coordinates would round).  ``--vtk-every`` thins the output further.  The file is
-written with h5py (VTKHDF is HDF5); ``vtk`` is not needed to write it.
+The topology is written once and replayed for every step (the format's offsets).
+The per-step arrays are read from the results file a block of outputs at a time
+(never the whole history: memory stays bounded), computed by one compiled loop
+over the points and written in blocks; they are single precision (plotting
+needs no more, and it halves the file; ``displacement`` keeps small motions
+that single-precision coordinates would round).  ``--vtk-every`` thins the
+output further.  The file is written with h5py (VTKHDF is HDF5); ``vtk`` is not
+needed to write it.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ import h5py
 import numpy as np
 
 from reference.elements.formulation import beam2_resultants
+from reference.jit import kernel
 
 BLOCK = 64
 """Output steps computed and written together."""
@@ -83,13 +87,13 @@ class _Layout:
                 vertices.append(centre)
         self.node_of_point = np.array(self.node_of_point, dtype=np.int64)
         self.offsets = np.array(self.offsets, dtype=float).reshape(-1, 3)
-        self.with_offset = np.flatnonzero(np.any(self.offsets != 0.0, axis=1))  # rigid-body points off the centre
         self.lines = np.array(lines, dtype=np.int64).reshape(-1, 2)
         self.vertices = np.array(vertices, dtype=np.int64)
         self.n_elements = len(domain.elements)
         x0 = np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3)
         q0 = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4)
-        self.p0 = self.points(x0[None], q0[None])[0]
+        A = rotation_matrices(q0[self.node_of_point])
+        self.p0 = x0[self.node_of_point] + np.einsum("pij,pj->pi", A, self.offsets)
 
     @property
     def n_points(self) -> int:
@@ -99,14 +103,73 @@ class _Layout:
     def n_cells(self) -> int:
         return len(self.vertices) + len(self.lines)
 
-    def points(self, X, Q):
-        """Point positions (k, P, 3) and triads (k, P, 3, 3) from node positions (k, N, 3), rotations (k, N, 4)."""
-        A = rotation_matrices(Q[:, self.node_of_point])
-        pts = X[:, self.node_of_point]
-        off = self.with_offset
-        if len(off):
-            pts[:, off] += np.einsum("kpij,pj->kpi", A[:, off], self.offsets[off])
-        return pts, A
+
+@kernel
+def point_arrays(X, Q, V, W, node_of_point, offsets, p0, points, displacement, velocity, t1, t2, t3):
+    """Fill the per-point arrays (k, P, 3), single precision, of k outputs.
+
+    A point at body-frame offset s from its node moves as x + A s with velocity
+    v + A (ω × s) (ω body frame); its triad is A's columns.  X, V, W (k, N, 3),
+    Q (k, N, 4) scalar first; ``node_of_point`` (P,), ``offsets`` (P, 3), ``p0``
+    (P, 3) the reference positions.
+    """
+    A = np.empty((3, 3))
+    for s in range(X.shape[0]):
+        for p in range(node_of_point.shape[0]):
+            n = node_of_point[p]
+            e0, e1, e2, e3 = Q[s, n, 0], Q[s, n, 1], Q[s, n, 2], Q[s, n, 3]
+            A[0, 0] = e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3
+            A[1, 1] = e0 * e0 - e1 * e1 + e2 * e2 - e3 * e3
+            A[2, 2] = e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3
+            A[0, 1] = 2.0 * (e1 * e2 - e0 * e3)
+            A[1, 0] = 2.0 * (e1 * e2 + e0 * e3)
+            A[0, 2] = 2.0 * (e1 * e3 + e0 * e2)
+            A[2, 0] = 2.0 * (e1 * e3 - e0 * e2)
+            A[1, 2] = 2.0 * (e2 * e3 - e0 * e1)
+            A[2, 1] = 2.0 * (e2 * e3 + e0 * e1)
+            s0, s1, s2 = offsets[p, 0], offsets[p, 1], offsets[p, 2]
+            w0, w1, w2 = W[s, n, 0], W[s, n, 1], W[s, n, 2]
+            c0, c1, c2 = w1 * s2 - w2 * s1, w2 * s0 - w0 * s2, w0 * s1 - w1 * s0
+            for i in range(3):
+                x = X[s, n, i] + A[i, 0] * s0 + A[i, 1] * s1 + A[i, 2] * s2
+                points[s, p, i] = x
+                displacement[s, p, i] = x - p0[p, i]
+                velocity[s, p, i] = V[s, n, i] + A[i, 0] * c0 + A[i, 1] * c1 + A[i, 2] * c2
+                t1[s, p, i] = A[i, 0]
+                t2[s, p, i] = A[i, 1]
+                t3[s, p, i] = A[i, 2]
+
+
+class _History:
+    """Blocks of output records, read from the results file one block at a time (or from memory)."""
+
+    NAMES = {"positions": "nodes/position", "rotations": "nodes/rotation", "velocities": "nodes/velocity",
+             "angular_velocities": "nodes/angular_velocity", "section_forces": "elements/section_force",
+             "section_moments": "elements/section_moment"}
+
+    def __init__(self, results):
+        self.results = results
+        source = getattr(results, "source", None)
+        in_memory = all(k in results.__dict__ for k in ("positions", "rotations", "velocities", "angular_velocities"))
+        self.file = h5py.File(source, "r") if source is not None and not in_memory else None
+
+    def block(self, start: int, stop: int, every: int) -> dict:
+        """Outputs ``start:stop:every`` of every history (section arrays None where not stored)."""
+        rows = slice(start, stop, every)
+        out = {}
+        for key, path in self.NAMES.items():
+            if self.file is not None:
+                out[key] = self.file[path][rows] if path in self.file else None
+            else:
+                value = self.results.__dict__.get(key)
+                if value is None and key.startswith("section"):
+                    value = getattr(self.results, key)
+                out[key] = None if value is None else np.asarray(value)[rows]
+        return out
+
+    def close(self) -> None:
+        if self.file is not None:
+            self.file.close()
 
 
 def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1) -> Path:
@@ -118,68 +181,73 @@ def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1)
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / f"{safe_name(name)}.vtkhdf"
     lay = _Layout(domain)
-    steps = np.arange(0, len(results.time), max(int(every), 1))
-    n, P, C = len(steps), lay.n_points, lay.n_cells
-    model = domain.model
-    s_el = np.zeros(32)
-    E = lay.n_elements
-    stored = results.section_forces.shape[1:] == (E, 3) and not np.isnan(results.section_forces).all()
-    with h5py.File(path, "w") as f:
-        root = f.create_group("VTKHDF")
-        root.attrs["Version"] = np.array([2, 1], dtype=np.int64)
-        root.attrs.create("Type", np.bytes_("PolyData"), dtype=h5py.string_dtype("ascii", len("PolyData")))
-        root.create_dataset("NumberOfPoints", data=np.array([P], dtype=np.int64))
-        for group, conn in (("Vertices", lay.vertices.reshape(-1, 1)), ("Lines", lay.lines),
-                            ("Polygons", np.zeros((0, 3), dtype=np.int64)), ("Strips", np.zeros((0, 3), dtype=np.int64))):
-            g = root.create_group(group)
-            g.create_dataset("NumberOfCells", data=np.array([len(conn)], dtype=np.int64))
-            g.create_dataset("NumberOfConnectivityIds", data=np.array([conn.size], dtype=np.int64))
-            g.create_dataset("Offsets", data=np.arange(0, conn.size + 1, max(conn.shape[1], 1), dtype=np.int64))
-            g.create_dataset("Connectivity", data=conn.reshape(-1).astype(np.int64))
-        points = root.create_dataset("Points", shape=(n * P, 3), dtype="f4")
-        pd, cd = root.create_group("PointData"), root.create_group("CellData")
-        arrays = {name: pd.create_dataset(name, shape=(n * P, 3), dtype="f4")
-                  for name in ("displacement", "velocity", "triad_1", "triad_2", "triad_3")}
-        forces = {name: cd.create_dataset(name, shape=(n * C, 3), dtype="f4") for name in ("N", "M")}
-        st = root.create_group("Steps")
-        st.attrs["NSteps"] = n
-        st.create_dataset("Values", data=np.asarray(results.time, dtype=float)[steps])
-        st.create_dataset("PartOffsets", data=np.zeros(n, dtype=np.int64))
-        st.create_dataset("NumberOfParts", data=np.ones(n, dtype=np.int64))
-        st.create_dataset("PointOffsets", data=np.arange(n, dtype=np.int64) * P)
-        st.create_dataset("CellOffsets", data=np.zeros((n, 4), dtype=np.int64))
-        st.create_dataset("ConnectivityIdOffsets", data=np.zeros((n, 4), dtype=np.int64))
-        for group, size, names in (("PointDataOffsets", P, arrays), ("CellDataOffsets", C, forces)):
-            g = st.create_group(group)
-            for key in names:
-                g.create_dataset(key, data=np.arange(n, dtype=np.int64) * size)
-        node_rows = lay.node_of_point
-        for b0 in range(0, n, BLOCK):
-            idx = steps[b0:b0 + BLOCK]
-            k = len(idx)
-            X, Q = results.positions[idx], results.rotations[idx]
-            V, W = results.velocities[idx], results.angular_velocities[idx]
-            pts, A = lay.points(X, Q)
-            rows = slice(b0 * P, (b0 + k) * P)
-            points[rows] = pts.reshape(-1, 3)
-            arrays["displacement"][rows] = (pts - lay.p0[None]).reshape(-1, 3)
-            vel = V[:, node_rows]
-            off = lay.with_offset
-            if len(off):
-                vel[:, off] += np.einsum("kpij,kpj->kpi", A[:, off],
-                                         np.cross(W[:, node_rows[off]], lay.offsets[off][None]))
-            arrays["velocity"][rows] = vel.reshape(-1, 3)
-            for c in range(3):
-                arrays[f"triad_{c + 1}"][rows] = A[..., :, c].reshape(-1, 3)
-            NM = np.zeros((2, k, C, 3))
-            beams = slice(len(lay.vertices), len(lay.vertices) + E)
+    every = max(int(every), 1)
+    times = np.asarray(results.time, dtype=float)[::every]
+    history = _History(results)
+    try:
+        with h5py.File(path, "w") as f:
+            _write_vtk(f, lay, history, times, every, domain.model)
+    finally:
+        history.close()
+    return path
+
+
+def _write_vtk(f, lay: _Layout, history: _History, times: np.ndarray, every: int, model) -> None:
+    """The VTKHDF groups of the whole file: topology once, then the outputs ``times`` block by block."""
+    n, P, C, E = len(times), lay.n_points, lay.n_cells, lay.n_elements
+    root = f.create_group("VTKHDF")
+    root.attrs["Version"] = np.array([2, 1], dtype=np.int64)
+    root.attrs.create("Type", np.bytes_("PolyData"), dtype=h5py.string_dtype("ascii", len("PolyData")))
+    root.create_dataset("NumberOfPoints", data=np.array([P], dtype=np.int64))
+    for group, conn in (("Vertices", lay.vertices.reshape(-1, 1)), ("Lines", lay.lines),
+                        ("Polygons", np.zeros((0, 3), dtype=np.int64)), ("Strips", np.zeros((0, 3), dtype=np.int64))):
+        g = root.create_group(group)
+        g.create_dataset("NumberOfCells", data=np.array([len(conn)], dtype=np.int64))
+        g.create_dataset("NumberOfConnectivityIds", data=np.array([conn.size], dtype=np.int64))
+        g.create_dataset("Offsets", data=np.arange(0, conn.size + 1, max(conn.shape[1], 1), dtype=np.int64))
+        g.create_dataset("Connectivity", data=conn.reshape(-1).astype(np.int64))
+    names = ("displacement", "velocity", "triad_1", "triad_2", "triad_3")
+    points = root.create_dataset("Points", shape=(n * P, 3), dtype="f4")
+    pd, cd = root.create_group("PointData"), root.create_group("CellData")
+    arrays = {name: pd.create_dataset(name, shape=(n * P, 3), dtype="f4") for name in names}
+    forces = {name: cd.create_dataset(name, shape=(n * C, 3), dtype="f4") for name in ("N", "M")}
+    st = root.create_group("Steps")
+    st.attrs["NSteps"] = n
+    st.create_dataset("Values", data=times)
+    st.create_dataset("PartOffsets", data=np.zeros(n, dtype=np.int64))
+    st.create_dataset("NumberOfParts", data=np.ones(n, dtype=np.int64))
+    st.create_dataset("PointOffsets", data=np.arange(n, dtype=np.int64) * P)
+    st.create_dataset("CellOffsets", data=np.zeros((n, 4), dtype=np.int64))
+    st.create_dataset("ConnectivityIdOffsets", data=np.zeros((n, 4), dtype=np.int64))
+    for group, size, keys in (("PointDataOffsets", P, arrays), ("CellDataOffsets", C, forces)):
+        g = st.create_group(group)
+        for key in keys:
+            g.create_dataset(key, data=np.arange(n, dtype=np.int64) * size)
+    buffers = np.empty((6, BLOCK, P, 3), dtype=np.float32)
+    beams = slice(len(lay.vertices), len(lay.vertices) + E)
+    for b0 in range(0, n, BLOCK):
+        k = min(BLOCK, n - b0)
+        h = history.block(b0 * every, (b0 + k - 1) * every + 1, every)
+        X, Q = h["positions"], h["rotations"]
+        out = buffers[:, :k]
+        point_arrays(X, Q, h["velocities"], h["angular_velocities"], lay.node_of_point, lay.offsets, lay.p0,
+                     *out)
+        rows = slice(b0 * P, (b0 + k) * P)
+        points[rows] = out[0].reshape(-1, 3)
+        for name, values in zip(names, out[1:]):
+            arrays[name][rows] = values.reshape(-1, 3)
+        NM = np.zeros((2, k, C, 3), dtype=np.float32)
+        if E:
+            stored = h["section_forces"] is not None and h["section_forces"].shape[1:] == (E, 3) \
+                and not np.isnan(h["section_forces"]).all()
             if stored:
-                NM[0, :, beams], NM[1, :, beams] = results.section_forces[idx], results.section_moments[idx]
+                NM[0, :, beams], NM[1, :, beams] = h["section_forces"], h["section_moments"]
             else:
+                Nb, Mb, s_el = np.zeros((E, 3)), np.zeros((E, 3)), np.zeros(32)
                 for s in range(k):
                     beam2_resultants(X[s], Q[s], model.conn, model.offset, model.L0, model.psi0, model.gamma0,
-                                     model.stiff, NM[0, s, beams], NM[1, s, beams], s_el)
-            cells = slice(b0 * C, (b0 + k) * C)
-            forces["N"][cells] = NM[0].reshape(-1, 3)
-            forces["M"][cells] = NM[1].reshape(-1, 3)
-    return path
+                                     model.stiff, Nb, Mb, s_el)
+                    NM[0, s, beams], NM[1, s, beams] = Nb, Mb
+        cells = slice(b0 * C, (b0 + k) * C)
+        forces["N"][cells] = NM[0].reshape(-1, 3)
+        forces["M"][cells] = NM[1].reshape(-1, 3)
