@@ -26,8 +26,8 @@ step of central differences) while every number stays finite, and the run would
   length or shortened below ``1 / MAX_STRETCH`` of it.
 
 The message names the likely cause: the time step, when it is above
-``SAFETY × the critical estimate`` (:data:`reference.io.deck.SAFETY` keeps decks below
-that), else the loads (the deformation they produce, or the energy they put in).
+``SAFETY × the critical estimate`` (the deck reader keeps decks below that,
+:func:`reference.io.deck_solution.read_solver`), else the loads (the deformation they produce, or the energy they put in).
 """
 
 from __future__ import annotations

@@ -18,11 +18,12 @@ import numpy as np
 import pytest
 
 from reference.algorithms.staggered import external_forces
-from reference.domain import Domain, arc_geometry
+from reference.domain import Domain
 from reference.elements import Beam2Formulation, Section
 from reference.elements.formulation import beam2_assemble
 from reference.generated import rotation_maps as rm
 from reference.interactions import Clamp, NodalLoad
+from reference.mesh import arc_geometry
 from reference.rotation import EulerParameters
 
 

@@ -17,6 +17,7 @@ from reference.elements import Section
 from reference.interactions import Gravity
 from reference.io.deck import load_deck
 from reference.joints.assembly import OK, assemble_constraints, constraint_impulse, factor_constraints
+from reference.joints.setup import constraint_blocks
 from reference.joints.sparse import constraint_pattern, jacobian_csr_structure
 from reference.state import Scratch
 from tests.test_pendulum import four_bar
@@ -123,7 +124,7 @@ def test_jacobian_csr_structure_gives_the_dense_B():
     x = np.array([n.position for n in d.nodes]) + 0.01
     q = np.array([n.rotation for n in d.nodes])
     _, _, Bg, _ = d.constraint_matrices(model, x, q, 0.3)
-    _, _, Bj, _ = d._constraint_blocks(model, x, q, 0.3)
+    _, _, Bj, _ = constraint_blocks(model, x, q, 0.3)
     indptr, indices, source = jacobian_csr_structure(model.jt_i, model.jt_j, model.jt_neq, len(d.nodes))
     B = scipy.sparse.csr_matrix((Bj.reshape(-1)[source], indices, indptr), shape=Bg.shape)
     assert np.array_equal(B.toarray(), Bg)

@@ -5,7 +5,7 @@ algorithm`` up in: a new algorithm is a subclass of :class:`Algorithm` in its
 own module, added here by name.
 """
 
-from reference.algorithms.base import Algorithm
+from reference.algorithms.base import Algorithm, SolverSettings
 from reference.algorithms.generalized_alpha import GeneralizedAlpha
 from reference.algorithms.staggered import StaggeredCentralDifference, step
 from reference.algorithms.static import Static
@@ -13,4 +13,5 @@ from reference.algorithms.static import Static
 ALGORITHMS = {cls.name: cls for cls in (StaggeredCentralDifference, Static, GeneralizedAlpha)}
 """Algorithm classes by deck name."""
 
-__all__ = ["ALGORITHMS", "Algorithm", "GeneralizedAlpha", "StaggeredCentralDifference", "Static", "step"]
+__all__ = ["ALGORITHMS", "Algorithm", "GeneralizedAlpha", "SolverSettings", "StaggeredCentralDifference", "Static",
+           "step"]

@@ -1,0 +1,292 @@
+"""Constraint set-up: from the Domain's joints to the Model's constraint fields, checked at t = 0.
+
+When the Domain is initialised (paper §4.3, ``Initialization``) its joints are
+split by formulation (§4.2.3): the :class:`~reference.joints.Jacobian` ones
+give Lagrange-multiplier rows, the :class:`~reference.joints.MasterSlave` ones
+eliminated coordinates.  This module
+
+1. sorts and validates them (:func:`multiplier_joints`, :func:`master_slave_joints`);
+2. lays out the :class:`~reference.state.Model`'s constraint fields
+   (:func:`constraint_fields`): the joint tables, each row's ε, the fixed
+   sparsity of ``B M⁻¹ Bᵀ`` (:mod:`reference.joints.sparse`) and the
+   master/slave parameters;
+3. refuses redundant, unregularised constraints, naming the joints of the loop
+   (:func:`check_redundancy`), and makes initial velocities consistent with the
+   velocity constraints (:func:`project_initial_velocities`) — both with the
+   step's own sparse factor of ``B M⁻¹ Bᵀ`` (docs/formulation.md §7).
+
+:func:`constraint_matrices` gives Φ, Φ_t, B and B M⁻¹ as dense arrays for
+tests and tools; the step never forms them.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from reference.joints.assembly import (
+    apply_inverse_mass, assemble_constraints, assemble_w, jacobian_times, sparse_cholesky, sparse_solve,
+    subtract_transpose,
+)
+from reference.joints.formulation import MasterSlave
+from reference.joints.joint import ROWS, Joint
+from reference.joints.master_slave import master_slave_parameters
+from reference.joints.sparse import constraint_pattern
+from reference.state import Model, State
+
+DEPENDENT_PIVOT = 1e-10
+"""A constraint row whose Cholesky pivot in ``B M⁻¹ Bᵀ`` is below this fraction of
+its diagonal entry (its remainder's M⁻¹-norm below 1e-5 of its own) depends on
+the rows before it.  The pivot is a difference of squares, so round-off leaves
+~1e-15 of the diagonal in a truly dependent row; the independent rows of the
+rigid four-bar (tests/test_pendulum.py) stay above 3e-4."""
+
+
+def multiplier_joints(joints: list[Joint]) -> list[Joint]:
+    """Joints treated by Lagrange multipliers (the :class:`~reference.joints.Jacobian` formulation)."""
+    return [j for j in joints if not isinstance(j.formulation, MasterSlave)]
+
+
+def master_slave_joints(joints: list[Joint], beam_nodes: set[int], fixed: set[int]) -> list[Joint]:
+    """Joints treated by master/slave elimination, validated.
+
+    Only spherical and revolute joints; the slave (``body_i``) must be a beam
+    node at the joint point, slave of no other joint and master of none; the
+    master (``body_j``) a body, not the ground; neither may have fixed coordinates.
+
+    Parameters
+    ----------
+    joints : list of Joint
+        All joints of the Domain.
+    beam_nodes, fixed : set of int
+        Ids of the nodes of elements, and of the nodes with fixed coordinates.
+
+    Raises
+    ------
+    ValueError
+        ``joint 'LABEL': problem`` for the first joint that breaks a rule.
+    """
+    joints = [j for j in joints if isinstance(j.formulation, MasterSlave)]
+    slaves = [j.body_i.id for j in joints]
+    masters = {j.body_j.id for j in joints if j.body_j is not None}
+    for j in joints:
+        problem = None
+        if j.kind not in ("spherical", "revolute"):
+            problem = f"master/slave is available for spherical and revolute joints, not {j.kind}"
+        elif j.body_j is None:
+            problem = "the master (body_j) of a master/slave joint cannot be the ground; use a clamp or fixed coordinates"
+        elif j.body_i.id not in beam_nodes:
+            problem = "the slave (body_i) of a master/slave joint must be a beam node"
+        elif np.linalg.norm(j.body_i.position - j.point) > 1e-9 * max(1.0, np.linalg.norm(j.point)):
+            problem = "the slave node must sit at the joint point"
+        elif slaves.count(j.body_i.id) > 1 or j.body_i.id in masters:
+            problem = f"node {j.body_i.label!r} is the slave of one master/slave joint and used by another"
+        elif j.body_i.id in fixed or j.body_j.id in fixed:
+            problem = "master and slave of a master/slave joint may not have fixed coordinates"
+        if problem:
+            raise ValueError(f"joint {j.label!r}: {problem}")
+    return joints
+
+
+def constraint_fields(lagrange: list[Joint], master_slave: list[Joint], n_nodes: int,
+                      tf_index: Callable) -> dict:
+    """The :class:`~reference.state.Model` fields of the constraints (joints ``jt_*``, ``row_eps``,
+    the sparsity of ``B M⁻¹ Bᵀ``, ``node_constrained``, ``constrained_nodes``, master/slave ``ms_*``).
+
+    Parameters
+    ----------
+    lagrange : list of Joint
+        The multiplier joints (:func:`multiplier_joints`), in the order of their rows.
+    master_slave : list of Joint
+        The validated master/slave joints (:func:`master_slave_joints`).
+    n_nodes : int
+        Number of nodes N.
+    tf_index : callable(TimeFunction) → int
+        The row of a time function in the Model's table (added if new).
+    """
+    J = len(lagrange)
+    jt = {"jt_i": np.zeros(J, dtype=np.int64), "jt_j": np.zeros(J, dtype=np.int64), "jt_par": np.zeros((J, 24)),
+          "jt_rows": np.full((J, 6), -1, dtype=np.int64), "jt_neq": np.zeros(J, dtype=np.int64),
+          "jt_row0": np.zeros(J, dtype=np.int64), "jt_drive": np.zeros(J, dtype=np.int64),
+          "jt_tf": np.zeros(J, dtype=np.int64)}
+    row_eps, row0 = [], 0
+    for k, joint in enumerate(lagrange):
+        jt["jt_i"][k] = joint.body_i.id
+        jt["jt_j"][k] = -1 if joint.body_j is None else joint.body_j.id
+        jt["jt_par"][k] = joint.body_fixed()
+        jt["jt_rows"][k, : len(ROWS[joint.kind])] = ROWS[joint.kind]
+        jt["jt_neq"][k] = joint.n_equations
+        jt["jt_row0"][k] = row0
+        jt["jt_drive"][k] = joint.drive_code
+        jt["jt_tf"][k] = tf_index(joint.time_function)
+        row0 += joint.n_equations
+        row_eps += [joint.formulation.epsilon] * joint.n_equations
+    node_constrained = np.zeros(n_nodes, dtype=np.int64)
+    for joint in lagrange + master_slave:
+        for body in (joint.body_i, joint.body_j):
+            if body is not None:
+                node_constrained[body.id] = 1
+    ms = master_slave
+    return {
+        **jt, "row_eps": np.array(row_eps, dtype=float),
+        **_pattern_fields(jt, [joint.formulation.epsilon > 0.0 for joint in lagrange]),
+        "node_constrained": node_constrained,
+        "constrained_nodes": np.flatnonzero(node_constrained).astype(np.int64),
+        "ms_master": np.array([j.body_j.id for j in ms], dtype=np.int64),
+        "ms_slave": np.array([j.body_i.id for j in ms], dtype=np.int64),
+        "ms_kind": np.array([0 if j.kind == "spherical" else 1 for j in ms], dtype=np.int64),
+        "ms_par": np.array([master_slave_parameters(j) for j in ms]).reshape(len(ms), 9),
+    }
+
+
+def _pattern_fields(jt: dict, regularised: list) -> dict:
+    """The Model's sparsity fields of ``B M⁻¹ Bᵀ`` (:func:`reference.joints.sparse.constraint_pattern`).
+
+    The regularised joints (ε > 0) are eliminated last, so that
+    :func:`check_redundancy` attributes a redundancy to them where it can.
+    """
+    pattern = constraint_pattern(jt["jt_i"], jt["jt_j"], jt["jt_neq"], np.array(regularised, dtype=np.int64))
+    return {"row_iperm": pattern.row_iperm, "L_colptr": pattern.L_colptr, "L_rowidx": pattern.L_rowidx,
+            "L_rowptr": pattern.L_rowptr, "L_rowcol": pattern.L_rowcol, "L_rowpos": pattern.L_rowpos,
+            "wc_joints": pattern.wc_joints, "wc_pos": pattern.wc_pos}
+
+
+def constraint_blocks(model: Model, x, q, t: float):
+    """Φ (m,), Φ_t (m,) and the joints' blocks of B and B M⁻¹ (J, 6, 12) at a configuration.
+
+    Evaluated by the step's compiled kernels
+    (:func:`reference.joints.assembly.assemble_constraints`, ``apply_inverse_mass``).
+    """
+    m, J = model.n_constraints, model.jt_i.shape[0]
+    PHI, PHIt, Bj, BMj = np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12))
+    assemble_constraints(model, x, q, float(t), PHI, PHIt, Bj, np.zeros(10), np.zeros(120))
+    apply_inverse_mass(model, Bj, BMj)
+    return PHI, PHIt, Bj, BMj
+
+
+def constraint_matrices(model: Model, x, q, t: float = 0.0):
+    """Global Φ (m,), Φ_t (m,), B (m, 6N) and B M⁻¹ (m, 6N) at a configuration, dense.
+
+    Columns ``[v_n | ω_n]`` per node n (inertial velocity, body-frame angular
+    velocity).  A convenience for tests and tools (the step never forms these arrays).
+    """
+    PHI, PHIt, Bj, BMj = constraint_blocks(model, x, q, t)
+    N, m = x.shape[0], model.n_constraints
+    Bg, BM = np.zeros((m, 6 * N)), np.zeros((m, 6 * N))
+    for k in range(Bj.shape[0]):
+        r0, mk = model.jt_row0[k], model.jt_neq[k]
+        for side, n in enumerate((model.jt_i[k], model.jt_j[k])):
+            if n >= 0:
+                Bg[r0:r0 + mk, 6 * n:6 * n + 6] += Bj[k, :mk, 6 * side:6 * side + 6]
+                BM[r0:r0 + mk, 6 * n:6 * n + 6] += BMj[k, :mk, 6 * side:6 * side + 6]
+    return PHI, PHIt, Bg, BM
+
+
+def dependent_rows(model: Model, Bj, BMj):
+    """Sparse Cholesky of ``B M⁻¹ Bᵀ`` dropping dependent rows: the factor and the dropped rows' flags.
+
+    A row is dropped when its pivot — the squared M⁻¹-norm of what remains of
+    it after the rows eliminated before it are projected out, as in
+    Gram–Schmidt — is below :data:`DEPENDENT_PIVOT` of its own squared norm.
+    """
+    Lx, dependent = np.zeros(model.L_rowidx.shape[0]), np.zeros(model.n_constraints, dtype=np.int64)
+    assemble_w(model, Bj, BMj, Lx)
+    sparse_cholesky(model, Lx, np.zeros(model.n_constraints), 0.0, DEPENDENT_PIVOT, dependent)
+    return Lx, dependent
+
+
+def dependency_rows(model: Model, Lx, dependent, positions) -> list[int]:
+    """The constraint rows taking part in the dependencies of the dropped rows at ``positions``.
+
+    A dropped row p is ``Σ_k c_k`` (earlier rows k) with ``Lᵀ c = L[p, :p]ᵀ``
+    (its factor row in the orthonormalised basis mapped back to the rows);
+    the rows with ``|c_k| > 1e-8 max |c|`` and p itself are returned.
+    """
+    if len(positions) == 0:
+        return []
+    import scipy.sparse
+    import scipy.sparse.linalg
+
+    m = model.n_constraints
+    ncol = np.diff(model.L_colptr)
+    cols = np.repeat(np.arange(m), ncol)
+    values = Lx.copy()
+    values[model.L_colptr[:-1][dependent == 1]] = 1.0  # dropped rows: unit pivot, zero column
+    L = scipy.sparse.csr_matrix((values, (model.L_rowidx, cols)), shape=(m, m))
+    row_perm = np.argsort(model.row_iperm)
+    rows: set[int] = set()
+    for p in positions:
+        rhs = np.zeros(m)
+        lrow = L.getrow(p)
+        rhs[lrow.indices] = lrow.data
+        rhs[p] = 0.0
+        rhs[dependent == 1] = 0.0
+        c = scipy.sparse.linalg.spsolve_triangular(L.T.tocsr(), rhs, lower=False)
+        big = np.abs(c) > 1e-8 * max(np.abs(c).max(), 1e-300)
+        rows.update(row_perm[np.flatnonzero(big)].tolist() + [int(row_perm[p])])
+    return sorted(rows)
+
+
+def check_redundancy(model: Model, lagrange: list[Joint], x, q) -> None:
+    """Refuse redundant constraints that are not regularised (ε = 0), naming the joints.
+
+    The rows of B at ``(x, q)`` (the initial configuration) are orthogonalised
+    in the M⁻¹ inner product ``⟨a, b⟩ = a M⁻¹ bᵀ`` (the metric of ``B M⁻¹ Bᵀ``)
+    by the sparse Cholesky factorisation of ``B M⁻¹ Bᵀ`` in the elimination
+    order of the step (:func:`dependent_rows`): a row whose pivot is negligible
+    depends on the rows eliminated before it.  Cost as for one step's
+    factorisation.
+
+    Parameters
+    ----------
+    model : Model
+    lagrange : list of Joint
+        The multiplier joints, in the order of their rows (:func:`multiplier_joints`).
+    x, q : arrays (N, 3), (N, 4)
+        Positions and Euler parameters.
+
+    Raises
+    ------
+    ValueError
+        ``redundant constraints: …``, naming the joints of the loop and a fix.
+    """
+    if model.n_constraints == 0:
+        return
+    _, _, Bj, BMj = constraint_blocks(model, x, q, 0.0)
+    Lx, dependent = dependent_rows(model, Bj, BMj)
+    redundant = np.flatnonzero(dependent[model.row_iperm])
+    owner = [joint for joint in lagrange for _ in range(joint.n_equations)]
+    unregularised = [r for r in redundant if owner[r].formulation.epsilon == 0.0]
+    involved = dependency_rows(model, Lx, dependent, model.row_iperm[unregularised])
+    labels = {owner[r].label for r in involved}
+    loop = [j for j in lagrange if j.label in labels]
+    stiff = [j.label for j in loop if j.formulation.epsilon == 0.0]
+    if not stiff:
+        return
+    revolute = [j.label for j in loop if j.kind == "revolute"]
+    fix = f"regularise one of {', '.join(stiff)} (epsilon > 0, a compliance)"
+    if len(revolute) >= 2:
+        fix += (f", or replace revolute {revolute[-1]} by a spherical and {revolute[-2]} by a universal joint "
+                "(a spherical alone leaves one redundant)")
+    raise ValueError(f"redundant constraints: {len(redundant)} equation(s) depend on the others in the loop of "
+                     f"joints {', '.join(j.label for j in loop)}; {fix}")
+
+
+def project_initial_velocities(model: Model, state: State) -> None:
+    """Make the initial velocities consistent: ``V = V0 − M⁻¹Bᵀ (B M⁻¹ Bᵀ)⁻¹ (B V0 + Φ_t)``, in place.
+
+    The M-orthogonal projection changes the kinetic energy least; for a
+    mechanism driven from rest it gives the velocities of the driven motion.
+    Solved with the sparse factor of the step's pattern; dependent
+    (regularised redundant) rows are dropped, which leaves the projection
+    unchanged when the velocity constraints are consistent.
+    """
+    _, PHIt, Bj, BMj = constraint_blocks(model, state.x, state.q, state.t)
+    Lx, _ = dependent_rows(model, Bj, BMj)
+    rhs = np.zeros(model.n_constraints)
+    jacobian_times(model, Bj, state.v, state.w, rhs)
+    y = np.zeros_like(rhs)
+    y[model.row_iperm] = rhs + PHIt
+    sparse_solve(model, Lx, y)
+    subtract_transpose(model, BMj, y[model.row_iperm], state.v, state.w)

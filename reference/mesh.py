@@ -1,0 +1,101 @@
+"""Beam geometry for meshing: nodes on a line or an arc, and section triads.
+
+:meth:`reference.domain.Domain.add_beam` meshes a beam into Beam2 elements
+with these: the node points (:func:`straight_line` or :func:`arc_geometry`),
+the section triad of each node (from the tangent of the line or arc) and of
+each element (from its chord), as Euler parameters (:func:`section_frames`).
+A straight rigid bar takes its body frame from :func:`beam_triad`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from reference.rotation import EulerParameters
+
+ARC_TOLERANCE = 1e-6
+"""Largest relative difference of the distances of an arc's two ends from its centre."""
+
+
+def beam_triad(axis: np.ndarray, axis2_hint) -> np.ndarray:
+    """Section triad ``[e1 e2 e3]`` (columns) of a straight beam.
+
+    ``e1`` along the beam, ``e2`` the hint made orthogonal to ``e1``,
+    ``e3 = e1 × e2``.
+    """
+    e1 = np.asarray(axis, dtype=float)
+    e1 = e1 / np.linalg.norm(e1)
+    hint = np.asarray(axis2_hint, dtype=float)
+    e2 = hint - hint.dot(e1) * e1
+    if np.linalg.norm(e2) < 1e-9 * max(np.linalg.norm(hint), 1.0):
+        raise ValueError(f"section axis 2 {hint.tolist()} is parallel to the beam axis {e1.tolist()}")
+    e2 = e2 / np.linalg.norm(e2)
+    return np.column_stack([e1, e2, np.cross(e1, e2)])
+
+
+def straight_line(start: np.ndarray, end: np.ndarray, n_elements: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and tangents of a straight beam: ``n_elements + 1`` equally spaced points, the end points exact."""
+    points = start + np.outer(np.arange(n_elements + 1) / n_elements, end - start)
+    points[0], points[-1] = start, end
+    return points, np.tile(end - start, (n_elements + 1, 1))
+
+
+def arc_geometry(start, end, center, n_elements: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and unit tangents of the shorter circular arc from ``start`` to ``end`` about ``center``.
+
+    ``n_elements + 1`` points at equal angles ``φ_i = i θ/n`` on the arc
+    (``θ < π`` the angle between the radii), tangents in the direction of
+    travel.  ``start`` and ``end`` must be equidistant from ``center`` to a
+    relative ``ARC_TOLERANCE`` (1e-6) of the radius, so that decimal
+    coordinates with 7 significant digits are accepted; the radius is then
+    interpolated linearly between the two so the end points are kept exactly.
+
+    Raises
+    ------
+    ValueError
+        Not equidistant, the centre on an end point, or start and end
+        diametrically opposite (the arc's plane is undefined).
+    """
+    c = np.asarray(center, dtype=float)
+    r1, r2 = np.asarray(start, dtype=float) - c, np.asarray(end, dtype=float) - c
+    R1, R2 = np.linalg.norm(r1), np.linalg.norm(r2)
+    if min(R1, R2) <= 0.0:
+        raise ValueError("the center coincides with an end point")
+    if abs(R1 - R2) > ARC_TOLERANCE * max(R1, R2):
+        raise ValueError(f"start and end are not equidistant from center ({R1:.9g} and {R2:.9g}, relative "
+                         f"difference {abs(R1 - R2) / max(R1, R2):.2g} > {ARC_TOLERANCE:g}); put both on one circle")
+    e1, e2 = r1 / R1, r2 / R2
+    normal = np.cross(e1, e2)
+    sin_t, cos_t = np.linalg.norm(normal), float(e1 @ e2)
+    if sin_t < ARC_TOLERANCE:
+        raise ValueError("start and end are diametrically opposite about center (or coincide): the arc's plane is "
+                         "undefined; split it into two arcs")
+    theta = math.atan2(sin_t, cos_t)
+    normal /= sin_t
+    f1 = np.cross(normal, e1)
+    phi = theta * np.arange(n_elements + 1) / n_elements
+    radius = R1 + (R2 - R1) * np.arange(n_elements + 1) / n_elements
+    radial = np.outer(np.cos(phi), e1) + np.outer(np.sin(phi), f1)
+    points = c + radius[:, None] * radial
+    points[0], points[-1] = start, end
+    tangents = np.cross(normal, radial)
+    return points, tangents
+
+
+def section_frames(points: np.ndarray, tangents: np.ndarray, axis2) -> tuple[list, list]:
+    """Euler parameters of the section triads (:func:`beam_triad` with the hint ``axis2``).
+
+    Returns the nodes' triads, on the ``tangents`` (n + 1), and the elements'
+    triads, on the chords ``points[i + 1] − points[i]`` (n).
+
+    Raises
+    ------
+    ValueError
+        ``axis2`` parallel to a tangent or a chord.
+    """
+    node_q = [EulerParameters.from_matrix(beam_triad(t, axis2)).q for t in tangents]
+    elem_q = [EulerParameters.from_matrix(beam_triad(points[i + 1] - points[i], axis2)).q
+              for i in range(len(points) - 1)]
+    return node_q, elem_q
