@@ -17,7 +17,6 @@ def evaluate(ctx):
 
     domain = ctx.domain()
     r = ctx.solve(domain, results_file=True)
-    tip = domain.nodes[-1].label
     checks = [ctx.check("energy", "|Δ(W_gravity − T − U)| / peak T", "0 (conservative)", energy_error(r)),
               ctx.check("drift", "max ‖Φ‖ [m]", "0", np.max(r.constraint_violation))]
     # deflection of the tip from the chord's direction of the first element: how much the beam bends

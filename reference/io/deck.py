@@ -91,8 +91,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
         elif key not in OVERRIDES:
             raise DeckError(f"{path}: unknown override {key!r}; valid: {', '.join(sorted(OVERRIDES))} or the "
                             "dotted name of a deck value, e.g. solver.damping or sections.NAME.EI2")
-    refine = rd.integer(overrides.get("refine", 1), "override refine")
-    refine = rd.integer(refine, "override refine (--refine)", maximum=MAX_ELEMENTS,
+    refine = rd.integer(overrides.get("refine", 1), "override refine (--refine)", maximum=MAX_ELEMENTS,
                         fix=f"a model has at most {MAX_ELEMENTS} elements")
     rd.keys(deck, "deck", optional=sorted(TOP_LEVEL))
 
