@@ -72,11 +72,11 @@ def external_forces(model, x, q, t, F, A):
     A force applied at a body-fixed point (``model.load_arm`` ≠ 0) adds its
     moment ``arm × force`` (body frame) about the node.
     """
-    F[:, :] = 0.0
-    g = model.gravity
+    g0, g1, g2 = model.gravity[0], model.gravity[1], model.gravity[2]
+    mass = model.mass
     for i in range(F.shape[0]):
-        for k in range(3):
-            F[i, k] = model.mass[i] * g[k]
+        F[i, 0], F[i, 1], F[i, 2] = mass[i] * g0, mass[i] * g1, mass[i] * g2
+        F[i, 3], F[i, 4], F[i, 5] = 0.0, 0.0, 0.0
     for l in range(model.load_node.shape[0]):
         i = model.load_node[l]
         j = model.load_tf[l]
