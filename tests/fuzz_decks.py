@@ -341,7 +341,8 @@ def mutate_structure(rng: random.Random, deck: dict) -> None:
             k = rng.choice(arrays)
             deck[k].append(dict(rng.choice(deck[k])))  # a duplicate entry (duplicate labels, double joints)
     elif op < 0.96:
-        deck.pop(rng.choice(list(deck)), None)
+        if deck:  # an earlier mutation may have emptied it
+            deck.pop(rng.choice(list(deck)), None)
     else:
         name = rng.choice([p for p in VOCABULARY if p])
         base = name.rstrip("[]").rstrip(".*")

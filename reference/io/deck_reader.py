@@ -42,6 +42,8 @@ _TOKEN = re.compile(r'"""[\s\S]*?"""|\'\'\'[\s\S]*?\'\'\'|"(?:\\.|[^"\\\n])*"|\'
 
 
 def _clip(text: str, n: int) -> str:
+    """``text`` on one line (control characters such as a newline in a quoted key escaped), at most n characters."""
+    text = "".join(repr(c)[1:-1] if unicodedata.category(c)[0] == "C" else c for c in text)
     return text if len(text) <= n else text[: n - 1] + "…"
 
 
