@@ -36,11 +36,12 @@ import numpy as np
 
 from reference.generated import joints as generated
 from reference.interactions import tf_derivative, tf_integral, tf_value
-from reference.jit import kernel
+from reference.jit import inlined, kernel
 
 OK, SINGULAR = 0, 2
 GROUND_X = np.zeros(3)
 GROUND_Q = np.array([1.0, 0.0, 0.0, 0.0])
+_joint_primitives = inlined(generated.joint_primitives)  # its eight argument views then cost no reference counts
 """The ground's position and Euler parameters (read-only constants)."""
 
 
@@ -53,10 +54,9 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
     drive with s = f(t) / s = ∫f.
     """
     if j >= 0:
-        generated.joint_primitives(x[i], q[i], x[j], q[j], par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
+        _joint_primitives(x[i], q[i], x[j], q[j], par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
     else:
-        generated.joint_primitives(x[i], q[i], GROUND_X, GROUND_Q, par[0:3], par[3:6], par[6:15], par[15:24],
-                                   prim_phi, prim_B)
+        _joint_primitives(x[i], q[i], GROUND_X, GROUND_Q, par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
     if drive == 0:
         for r in range(phi.shape[0]):
             row = rows[r]
