@@ -21,7 +21,7 @@ from reference.algorithms import Algorithm
 from reference.algorithms.staggered import OK
 from reference.elements.formulation import beam2_resultants
 from reference.io.results import MemoryRecorder, Results
-from reference.jit import kernel
+from reference.jit import inlined, kernel
 from reference.joints import MasterSlave
 from reference.joints.reactions import joint_reactions
 from reference.joints.reactions import scratch as reaction_scratch
@@ -82,12 +82,15 @@ class Outputs:
         return self.entry
 
 
+_joint_reactions = inlined(joint_reactions)  # a compiled call with the Model costs two atomic updates per array
+
+
 @kernel
 def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, section_moment, s_el,
                     jphi, jB, jphit, prim_phi, prim_B, A):
     """Joint reactions into the rows ``slot`` of ``force``, ``moment`` (J, 3) and section
     resultants into ``section_force``, ``section_moment`` (E, 3), in one compiled call."""
-    joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, prim_phi, prim_B, A)
+    _joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, prim_phi, prim_B, A)
     beam2_resultants(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
                      section_force, section_moment, s_el)
 

@@ -47,7 +47,7 @@ import numpy as np
 from reference.algorithms.implicit import (
     DIVERGED, NO_CONVERGENCE, OK, SINGULAR, ImplicitAlgorithm, compose, evaluate, write_record,
 )
-from reference.jit import kernel
+from reference.jit import inlined, kernel
 from reference.linalg import SingularMatrix, lu_solve
 from reference.state import Record
 
@@ -217,9 +217,10 @@ class GeneralizedAlpha(ImplicitAlgorithm):
 def _power(model, Bl, lam, v, w):
     """``−λᵀ B V`` (power of the constraint forces) from the local rows ``Bl``."""
     P = 0.0
-    for k in range(model.jt_i.shape[0]):
-        i, j = model.jt_i[k], model.jt_j[k]
-        for r in range(model.jt_row0[k], model.jt_row0[k] + model.jt_neq[k]):
+    jt_i, jt_j, jt_row0, jt_neq = model.jt_i, model.jt_j, model.jt_row0, model.jt_neq
+    for k in range(jt_i.shape[0]):
+        i, j = jt_i[k], jt_j[k]
+        for r in range(jt_row0[k], jt_row0[k] + jt_neq[k]):
             acc = 0.0
             for a in range(3):
                 acc += Bl[r, a] * v[i, a] + Bl[r, 3 + a] * w[i, a]
@@ -235,13 +236,21 @@ def _dissipation(model, v, w):
     from the evaluation)."""
     c = model.damping
     D = 0.0
-    J = model.inertia
+    J, mass = model.inertia, model.mass
     for i in range(v.shape[0]):
         for a in range(3):
-            D += model.mass[i] * v[i, a] * v[i, a]
+            D += mass[i] * v[i, a] * v[i, a]
             for b in range(3):
                 D += w[i, a] * J[i, a, b] * w[i, b]
     return c * D
+
+
+_evaluate = inlined(evaluate)
+_write_record = inlined(write_record)
+_power_inlined = inlined(_power)
+_dissipation_inlined = inlined(_dissipation)
+"""The model-taking kernels that :func:`steps` calls every iteration, inlined: a compiled call
+with the Model costs an atomic reference-count update per array of it, twice."""
 
 
 @kernel
@@ -270,9 +279,10 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     N = x.shape[0]
     m = lam.shape[0]
     n_free = rhs.shape[0] - m
+    row_eps = model.row_eps
     if par[14] == 1.0:
         par[14] = 0.0
-        write_record(model, x, q, v, w, par[11], clock, lam, PHI, PHIt, Bl, rec)
+        _write_record(model, x, q, v, w, par[11], clock, lam, PHI, PHIt, Bl, rec)
     for step in range(n_steps):
         t1 = clock[0] + h
         if not (step == 0 and par[12] == 1.0):
@@ -296,7 +306,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                     x1[i, k] = x[i, k] + h * dq[i, k]
                     psi[i, k] = h * dq[i, 3 + k]
             compose(q, psi, q1, tmp)
-            par[11] = evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
+            par[11] = _evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
             if par[9] < 0.0:
                 return REFACTOR, step
             for i in range(N):
@@ -306,7 +316,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                     if dof[i, k] >= 0:
                         rhs[dof[i, k]] = -ck * r[i, k]
             for k in range(m):
-                rhs[n_free + k] = -(PHI[k] - model.row_eps[k] * lamn[k])
+                rhs[n_free + k] = -(PHI[k] - row_eps[k] * lamn[k])
             lu_solve(factors, rhs, lwork, sol)
             size = 0.0
             for i in range(N):
@@ -345,8 +355,8 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                 psi[i, k] = h * dq[i, 3 + k]
         compose(q, psi, q1, tmp)
         # energy bookkeeping with the last evaluation (within the Newton tolerance of the step's end)
-        P1 = _power(model, Bl, lamn, Vn[:, :3], Vn[:, 3:])
-        D1 = _dissipation(model, Vn[:, :3], Vn[:, 3:]) + fe_out[0]
+        P1 = _power_inlined(model, Bl, lamn, Vn[:, :3], Vn[:, 3:])
+        D1 = _dissipation_inlined(model, Vn[:, :3], Vn[:, 3:]) + fe_out[0]
         dW = 0.0
         for i in range(N):
             for k in range(6):
