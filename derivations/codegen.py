@@ -149,12 +149,19 @@ def short_series_threshold(series: sp.Expr, a: sp.Symbol, order: int) -> float:
     return float(sp.floor(bound / scale) * scale)
 
 
+def short_threshold(coef: Coefficient) -> float:
+    """Where ``coef``'s short series takes over (:func:`short_series_threshold` of its long series)."""
+    a = sp.Symbol("a")
+    series = sp.nsimplify(sp.expand(sp.series(coef.expr, a, 0, coef.order).removeO()))
+    return short_series_threshold(series, a, coef.short_order)
+
+
 def render_coefficient(coef: Coefficient) -> str:
     """Source of one coefficient function: short series, long series below the threshold, exact form."""
     a = sp.Symbol("a")
     series = sp.nsimplify(sp.expand(sp.series(coef.expr, a, 0, coef.order).removeO()))
     short = sp.nsimplify(sp.expand(sp.series(coef.expr, a, 0, coef.short_order).removeO()))
-    small = short_series_threshold(series, a, coef.short_order)
+    small = short_threshold(coef)
     printer = _printer([])
     exact = printer.doprint(coef.expr)
     approx = printer.doprint(sp.horner(series, a)) if series.has(a) else printer.doprint(series)

@@ -58,7 +58,7 @@ import numpy as np
 
 from reference.generated import forces as generated
 from reference.interactions import TimeFunction, tf_value
-from reference.jit import kernel
+from reference.jit import inlined, kernel
 from reference.joints.assembly import GROUND_Q, GROUND_X
 from reference.joints.joint import joint_frame
 from reference.rotation import EulerParameters
@@ -67,7 +67,7 @@ POINT_TO_POINT, ROTATIONAL, BUSHING = 0, 1, 2
 KINDS = {"point_to_point": POINT_TO_POINT, "rotational": ROTATIONAL, "bushing": BUSHING}
 
 
-@kernel
+@inlined
 def _measures(model, x, q, k, e, B):
     """Measures ``e`` and Jacobian ``B`` (row-major, 12 columns) of element k; returns their number.
 
@@ -107,7 +107,7 @@ def _measures(model, x, q, k, e, B):
     return m
 
 
-@kernel
+@inlined
 def _rate(B, r, v, w, i, j):
     """``(B V)_r`` with V = [v_i, ω_i, v_j, ω_j]."""
     acc = 0.0
@@ -118,7 +118,7 @@ def _rate(B, r, v, w, i, j):
     return acc
 
 
-@kernel
+@inlined
 def _spread(B, r, f, i, j, F):
     """``F −= B_rᵀ f`` on nodes i and j (inertial force, body moment)."""
     for a in range(6):
@@ -127,7 +127,7 @@ def _spread(B, r, f, i, j, F):
             F[j, a] -= f * B[12 * r + 6 + a]
 
 
-@kernel
+@inlined
 def _continuous(angle, k, raw):
     """The last angle plus the wrapped difference to ``raw``."""
     d = raw - angle[k]
@@ -135,7 +135,7 @@ def _continuous(angle, k, raw):
     return angle[k] + d
 
 
-@kernel
+@inlined
 def force_element_forces(model, x, q, v, w, t, angle, F, F_ext, e, B):
     """Forces of all force elements at one configuration; returns ``(energy, dissipation rate)``.
 
@@ -187,7 +187,7 @@ def force_element_forces(model, x, q, v, w, t, angle, F, F_ext, e, B):
     return energy, dissipation
 
 
-@kernel
+@inlined
 def force_element_dissipation(model, x, q, v, w, v_new, w_new, e, B):
     """Work rate of the dampers over a kick: ``Σ c (B_e V⁻)·(B_e V̄)``, ``V̄ = ½(V⁻ + V⁺)`` [W].
 

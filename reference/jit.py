@@ -5,11 +5,14 @@ compiles them (cached on disk) unless ``NUMBA_DISABLE_JIT=1`` is set, in which
 case they run as ordinary Python — slower, but every line can be stepped
 through in a debugger.  numba reads that variable itself.
 
-A hot loop calls its small kernels through :func:`inlined`: the same Python
-function compiled to be inlined into the caller.  A call of a compiled
-function with array views (``x[i]``, ``w[0:12]``) otherwise costs two atomic
-reference-count updates per view (numba's runtime), which cost more than the
-Beam2 element's arithmetic; inlined, numba removes them.
+numba counts references to arrays with atomic updates: passing an array
+view (``x[i]``, ``w[0:12]``) or the Model (a tuple of some seventy arrays) to a
+compiled function, or reading ``model.free`` inside a loop, costs two atomic
+updates per array and call or iteration — measured with ``perf``, more than
+the Beam2 element's arithmetic and most of a joint's step.  So the step's
+helpers are :func:`inlined` (the same Python function compiled to be inlined
+where it is called; numba then drops the updates), and a kernel binds the
+Model's arrays it needs to local names once, before its loops.
 
 A loop over independent items (the Beam2 elements) may be a
 :func:`parallel_kernel` with ``prange``; it runs on :func:`threads` threads,

@@ -57,3 +57,21 @@ def test_derivations_do_not_import_the_engine():
                 assert not node.module.startswith("reference"), f"{path.name} imports {node.module}"
             if isinstance(node, ast.Import):
                 assert not any(a.name.startswith("reference") for a in node.names), path.name
+
+
+def test_stages_share_their_subexpressions():
+    """One CSE over all the stages (derivations.codegen): the Beam2 element takes |ψ| (one square
+    root), exp(ψ̃/2)'s and J_r(ψ/2)'s coefficient c_cosc(|ψ|/2) once each, and every name is
+    assigned once, after what it uses."""
+    text = (derivations.GENERATED_DIR / "beam2.py").read_text(encoding="utf-8")
+    body = text[text.index("def internal_forces"):]
+    assert body.count("c_cosc(") == 1 and body.count("c_sinc3(") == 1 and body.count("c_jinv(") == 1
+    assert body.count("math.sqrt(") == 2  # |r_v| for the logarithm and |ψ|
+    func = next(n for n in ast.parse(text).body if isinstance(n, ast.FunctionDef) and n.name == "internal_forces")
+    assigned = {a.arg for a in func.args.args}
+    for stmt in func.body[1:]:
+        if isinstance(stmt, ast.Assign) and isinstance(stmt.targets[0], ast.Name):
+            used = {n.id for n in ast.walk(stmt.value) if isinstance(n, ast.Name)} - {"math"}
+            assert used <= assigned | {"c_asinc", "c_cosc", "c_sinc", "c_sinc3", "c_jinv", "branch_sign"}, stmt.lineno
+            assert stmt.targets[0].id not in assigned, stmt.targets[0].id
+            assigned.add(stmt.targets[0].id)

@@ -1,7 +1,7 @@
 """Rotations (reference/rotation.py and the generated kernels it wraps).
 
 Round trips among the parametrisations and matrices, group properties, behaviour
-near 0 (across the series thresholds of the coefficient functions, 0.1 and 1) and near π,
+near 0 (across the series thresholds of the coefficient functions) and near π,
 the Cayley update, the SO(3) Jacobians, the coefficient functions against mpmath,
 and the Rodrigues half-turn refusal.  Hypothesis drives the "for every rotation"
 claims.  Every tolerance states its reason; EPS = 2.2e-16 is the double epsilon.
@@ -15,6 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from derivations.codegen import short_threshold
 from derivations.rotation_maps import COEFFICIENTS
 
 from reference.generated import rotation_maps as rm
@@ -376,6 +377,8 @@ LIMIT_AT_ZERO = {"c_sinc": 1.0, "c_cosc": 0.5, "c_sinc3": 1 / 6, "c_jinv": 1 / 1
 # The closed forms of c_cosc, c_sinc3 and c_jinv subtract nearly equal numbers (relative round-off
 # ≈ 6 eps/a² for c_sinc3), so their series runs to a = 1; c_sinc and c_asinc switch at 0.1.
 THRESHOLD = {c.name: c.threshold for c in COEFFICIENTS}
+SHORT = {c.name: short_threshold(c) for c in COEFFICIENTS}
+"""Below these the short series (order 8) is used, exact to double precision by construction."""
 TOL = 1e-15  # ~4 ulps: both branches are exact to round-off on their side of the switch
 
 
@@ -388,20 +391,21 @@ def _rel_err(name, a) -> float:
 
 @pytest.mark.parametrize("name", list(EXACT))
 def test_coefficients_against_mpmath(name):
-    """Both branches to 1e-15 relative from 1e-12 up to the top of the range (π/2 for c_asinc,
-    whose argument is a half angle; 3 for the others): series truncation is below 1e-19 at each
+    """All three branches to 1e-15 relative from 1e-12 up to the top of the range (π/2 for c_asinc,
+    whose argument is a half angle; 3 for the others): series truncation is below 2⁻⁵³ at each
     threshold, the closed forms lose at most ~1.5e-15 to cancellation above it (measured 8e-16).
     With a single switch at 0.1 the closed forms lost up to 2.5e-13 (c_jinv)."""
     top = 1.5 if name == "c_asinc" else 3.0
-    t = THRESHOLD[name]
-    for a in [1e-12, 1e-8, 1e-4, 0.05, 0.0999, 0.1001, 0.5, t * (1 - 1e-9), t * (1 + 1e-9), 1.5, top]:
+    t, s = THRESHOLD[name], SHORT[name]
+    assert 0.02 < s < t  # the short series covers the relative rotations of a fine mesh
+    for a in [1e-12, 1e-8, 1e-4, 0.01, s * (1 - 1e-9), s * (1 + 1e-9), 0.0999, 0.1001, 0.5, t * (1 - 1e-9),
+              t * (1 + 1e-9), 1.5, top]:
         assert _rel_err(name, a) <= TOL, (name, a)
 
 
-def _jump(name, d=1e-12) -> float:
-    """Jump of the generated coefficient across its threshold t, with the true slope removed: the
-    difference of its relative errors at t + d (closed form) and t − d (series)."""
-    t = THRESHOLD[name]
+def _jump(name, t, d=1e-12) -> float:
+    """Jump of the generated coefficient across a switch at t, with the true slope removed: the
+    difference of its relative errors at t + d and t − d."""
     with mpmath.workdps(50):
         f = getattr(rm, name)
         err = [mpmath.mpf(f(a)) - EXACT[name](mpmath.mpf(a)) for a in (t + d, t - d)]
@@ -409,10 +413,11 @@ def _jump(name, d=1e-12) -> float:
 
 
 @pytest.mark.parametrize("name", list(EXACT))
-def test_coefficients_continuous_across_the_series_threshold(name):
-    """Series just below and closed form just above the switch agree, once the true change f'·2e-12
-    is removed, to 1e-15 (~4 ulps)."""
-    assert _jump(name) <= TOL
+def test_coefficients_continuous_across_the_series_thresholds(name):
+    """Short and long series, long series and closed form agree across each switch, once the true
+    change f'·2e-12 is removed, to 1e-15 (~4 ulps)."""
+    assert _jump(name, SHORT[name]) <= TOL
+    assert _jump(name, THRESHOLD[name]) <= TOL
 
 
 @pytest.mark.parametrize("delta", [0.0, 1e-12, 5e-9])

@@ -104,10 +104,6 @@ PARALLEL_ELEMENTS = 8
 instead of the serial one (no parallel launch): measured 1.6 against 2.1 µs at 4 elements,
 3.2 against 2.7 µs at 12; both give the same numbers."""
 
-_joint_rows = inlined(joint_rows)
-_external_forces = inlined(external_forces)
-"""Inlined: a compiled call that takes the Model increments and decrements the reference count of
-every one of its ~50 arrays (atomic operations), which cost more than these loops."""
 
 
 @kernel
@@ -128,7 +124,7 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
                                     S, W)
     else:
         U = beam2_assemble(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
-    _external_forces(model, x, q, t, F, A)
+    external_forces(model, x, q, t, F, A)
     N = x.shape[0]
     if model.fe_kind.shape[0] > 0:
         # springs and dampers like internal forces (S −= G), actuators into F
@@ -170,7 +166,7 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
         r0 = jt_row0[k]
         i, j = jt_i[k], jt_j[k]
         tf = jt_tf[k]
-        _joint_rows(x, q, i, j, jt_par[k], jt_rows[k], jt_drive[k], tf_kind[tf], tf_par[tf], t, jphi[:neq], jB[:neq],
+        joint_rows(x, q, i, j, jt_par[k], jt_rows[k], jt_drive[k], tf_kind[tf], tf_par[tf], t, jphi[:neq], jB[:neq],
                     jphit[:neq], prim_phi, prim_B)
         for rr in range(neq):
             PHI[r0 + rr] = jphi[rr]

@@ -65,7 +65,7 @@ the constraint matrix lost rank (redundant or degenerate joints); ``BLOWUP`` tha
 energy balance failed (:attr:`reference.state.Scratch.guard`)."""
 
 
-@kernel
+@inlined
 def external_forces(model, x, q, t, F, A):
     """External generalised forces at time t into ``F`` (N,6): inertial force, body moment.
 
@@ -111,7 +111,7 @@ def external_forces(model, x, q, t, F, A):
             F[i, 5] += arm[0] * b1 - arm[1] * b0
 
 
-@kernel
+@inlined
 def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sweeps, only_constrained):
     """Explicit predictor of the half-step velocities (stage 2), fixed coordinates kept at rest.
 
@@ -121,15 +121,17 @@ def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sw
     no joint get ``extra_free_sweeps`` more.  ``only_constrained``: visit only
     the nodes of joints (``model.constrained_nodes``).
     """
-    c = model.damping
-    J, Jinv = model.inertia, model.inertia_inv  # indexed [i, a, b]: a row view would cost two atomic updates
-    count = model.constrained_nodes.shape[0] if only_constrained else v.shape[0]
+    # the model's arrays bound once: a field read inside the loop costs two atomic reference-count
+    # updates per iteration (numba), and a row view (J[i]) as many
+    c, J, Jinv, free, mass = model.damping, model.inertia, model.inertia_inv, model.free, model.mass
+    constrained_nodes, node_constrained = model.constrained_nodes, model.node_constrained
+    count = constrained_nodes.shape[0] if only_constrained else v.shape[0]
     for p in range(count):
-        i = model.constrained_nodes[p] if only_constrained else p
-        n_sweeps = sweeps if model.node_constrained[i] else sweeps + extra_free_sweeps
-        m_inv = 1.0 / model.mass[i]
+        i = constrained_nodes[p] if only_constrained else p
+        n_sweeps = sweeps if node_constrained[i] else sweeps + extra_free_sweeps
+        m_inv = 1.0 / mass[i]
         for k in range(3):
-            v_new[i, k] = model.free[i, k] * (v[i, k] + hk * ((F[i, k] - S[i, k]) * m_inv - c * v[i, k]))
+            v_new[i, k] = free[i, k] * (v[i, k] + hk * ((F[i, k] - S[i, k]) * m_inv - c * v[i, k]))
         w0, w1, w2 = w[i, 0], w[i, 1], w[i, 2]
         r0, r1, r2 = F[i, 3] - S[i, 3], F[i, 4] - S[i, 4], F[i, 5] - S[i, 5]
         if c != 0.0:  # damping moment −c J ω at the old half step
@@ -155,13 +157,13 @@ def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sw
             g1 = r1 - (b2 * j0 - b0 * j2)
             g2 = r2 - (b0 * j1 - b1 * j0)
             if diagonal:
-                m0 = model.free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0))
-                m1 = model.free[i, 4] * (w1 + hk * (Jinv[i, 1, 1] * g1))
-                m2 = model.free[i, 5] * (w2 + hk * (Jinv[i, 2, 2] * g2))
+                m0 = free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0))
+                m1 = free[i, 4] * (w1 + hk * (Jinv[i, 1, 1] * g1))
+                m2 = free[i, 5] * (w2 + hk * (Jinv[i, 2, 2] * g2))
             else:
-                m0 = model.free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0 + Jinv[i, 0, 1] * g1 + Jinv[i, 0, 2] * g2))
-                m1 = model.free[i, 4] * (w1 + hk * (Jinv[i, 1, 0] * g0 + Jinv[i, 1, 1] * g1 + Jinv[i, 1, 2] * g2))
-                m2 = model.free[i, 5] * (w2 + hk * (Jinv[i, 2, 0] * g0 + Jinv[i, 2, 1] * g1 + Jinv[i, 2, 2] * g2))
+                m0 = free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0 + Jinv[i, 0, 1] * g1 + Jinv[i, 0, 2] * g2))
+                m1 = free[i, 4] * (w1 + hk * (Jinv[i, 1, 0] * g0 + Jinv[i, 1, 1] * g1 + Jinv[i, 1, 2] * g2))
+                m2 = free[i, 5] * (w2 + hk * (Jinv[i, 2, 0] * g0 + Jinv[i, 2, 1] * g1 + Jinv[i, 2, 2] * g2))
             # converged to round-off: a further sweep would change nothing
             done = sweep > 0 and abs(m0 - n0) + abs(m1 - n1) + abs(m2 - n2) <= \
                 SWEEP_TOLERANCE * (abs(m0) + abs(m1) + abs(m2))
@@ -171,18 +173,19 @@ def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sw
         w_new[i, 0], w_new[i, 1], w_new[i, 2] = n0, n1, n2
 
 
-@kernel
+@inlined
 def _kinetic(model, v, w):
     T = 0.0
+    mass, J = model.mass, model.inertia
     for i in range(v.shape[0]):
-        T += 0.5 * model.mass[i] * (v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2)
+        T += 0.5 * mass[i] * (v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2)
         for a in range(3):
             for b in range(3):
-                T += 0.5 * w[i, a] * model.inertia[i, a, b] * w[i, b]
+                T += 0.5 * w[i, a] * J[i, a, b] * w[i, b]
     return T
 
 
-@kernel
+@inlined
 def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
     """The energy-balance guard of one step (:mod:`reference.monitor`): ``True`` when
     ``E − E₀ − W + D > tolerance × S + h (|F·V⁻| + |F·V⁺| + |P_drive|)`` (energy gained
@@ -196,18 +199,19 @@ def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
     ``guard`` = [E₀, S, tolerance, residual, E]."""
     c = 0.5 if mean else 1.0
     d = 0.5 if mean else 0.0
+    mass, J = model.mass, model.inertia
     T = 0.0
     P_old = 0.0
     P_new = 0.0
     for i in range(v.shape[0]):
         for a in range(3):
             va = c * v[i, a] + d * v_new[i, a]
-            T += 0.5 * model.mass[i] * va * va
+            T += 0.5 * mass[i] * va * va
             P_old += F[i, a] * v[i, a] + F[i, 3 + a] * w[i, a]
             P_new += F[i, a] * v_new[i, a] + F[i, 3 + a] * w_new[i, a]
             wa = c * w[i, a] + d * w_new[i, a]
             for b in range(3):
-                T += 0.5 * wa * model.inertia[i, a, b] * (c * w[i, b] + d * w_new[i, b])
+                T += 0.5 * wa * J[i, a, b] * (c * w[i, b] + d * w_new[i, b])
     E = T + U
     if not mean:  # the first step: E₀ only
         guard[0] = E
@@ -267,11 +271,12 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             clock[2] += h * dW
             if c != 0.0:
                 dD = 0.0
+                mass, J, free = model.mass, model.inertia, model.free
                 for i in range(N):
                     for a in range(3):
-                        dD += model.mass[i] * v[i, a] * v[i, a] * model.free[i, a]
+                        dD += mass[i] * v[i, a] * v[i, a] * free[i, a]
                         for b in range(3):
-                            dD += w[i, a] * model.inertia[i, a, b] * w[i, b] * model.free[i, 3 + a]
+                            dD += w[i, a] * J[i, a, b] * w[i, b] * free[i, 3 + a]
                 clock[3] += h * c * dD
         hk = h if n > 0 else 0.5 * h
         # a node outside every joint keeps its predicted velocity through the constrained passes

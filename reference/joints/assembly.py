@@ -36,16 +36,15 @@ import numpy as np
 
 from reference.generated import joints as generated
 from reference.interactions import tf_derivative, tf_integral, tf_value
-from reference.jit import inlined, kernel
+from reference.jit import inlined
 
 OK, SINGULAR = 0, 2
 GROUND_X = np.zeros(3)
 GROUND_Q = np.array([1.0, 0.0, 0.0, 0.0])
-_joint_primitives = inlined(generated.joint_primitives)  # its eight argument views then cost no reference counts
 """The ground's position and Euler parameters (read-only constants)."""
 
 
-@kernel
+@inlined
 def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, prim_phi, prim_B):
     """Rows of one joint: Φ (m,), local B (m, 12) = [v_i | ω_i | v_j | ω_j], Φ_t (m,).
 
@@ -54,9 +53,10 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
     drive with s = f(t) / s = ∫f.
     """
     if j >= 0:
-        _joint_primitives(x[i], q[i], x[j], q[j], par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
+        generated.joint_primitives(x[i], q[i], x[j], q[j], par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
     else:
-        _joint_primitives(x[i], q[i], GROUND_X, GROUND_Q, par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
+        generated.joint_primitives(x[i], q[i], GROUND_X, GROUND_Q, par[0:3], par[3:6], par[6:15], par[15:24],
+                                   prim_phi, prim_B)
     if drive == 0:
         for r in range(phi.shape[0]):
             row = rows[r]
@@ -89,49 +89,53 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
                 B[r, k] = 0.0
 
 
-@kernel
+@inlined
 def assemble_constraints(model, x, q, t, PHI, PHIt, Bj, prim_phi, prim_B):
     """Φ (m,), Φ_t (m,) and every joint's block of B, ``Bj[k, :m_k]`` (J, 6, 12), at time t."""
-    for k in range(model.jt_i.shape[0]):
-        m = model.jt_neq[k]
-        r0 = model.jt_row0[k]
-        tf = model.jt_tf[k]
-        joint_rows(x, q, model.jt_i[k], model.jt_j[k], model.jt_par[k], model.jt_rows[k], model.jt_drive[k],
-                   model.tf_kind[tf], model.tf_par[tf], t, PHI[r0:r0 + m], Bj[k, :m], PHIt[r0:r0 + m],
-                   prim_phi, prim_B)
+    jt_i, jt_j, jt_neq, jt_row0, jt_tf = model.jt_i, model.jt_j, model.jt_neq, model.jt_row0, model.jt_tf
+    jt_par, jt_rows, jt_drive, tf_kind, tf_par = model.jt_par, model.jt_rows, model.jt_drive, model.tf_kind, model.tf_par
+    for k in range(jt_i.shape[0]):
+        m = jt_neq[k]
+        r0 = jt_row0[k]
+        tf = jt_tf[k]
+        joint_rows(x, q, jt_i[k], jt_j[k], jt_par[k], jt_rows[k], jt_drive[k], tf_kind[tf], tf_par[tf], t,
+                   PHI[r0:r0 + m], Bj[k, :m], PHIt[r0:r0 + m], prim_phi, prim_B)
 
 
-@kernel
+@inlined
 def apply_inverse_mass(model, Bj, BMj):
     """Per-joint blocks of ``B M⁻¹`` with the lumped, block-diagonal M (fixed coordinates have M⁻¹ = 0)."""
+    jt_i, jt_j, jt_neq = model.jt_i, model.jt_j, model.jt_neq
+    free, mass, Jinv = model.free, model.mass, model.inertia_inv
     for k in range(Bj.shape[0]):
         for side in range(2):
-            n = model.jt_i[k] if side == 0 else model.jt_j[k]
+            n = jt_i[k] if side == 0 else jt_j[k]
             c0 = 6 * side
-            for r in range(model.jt_neq[k]):
+            for r in range(jt_neq[k]):
                 if n < 0:
                     for a in range(6):
                         BMj[k, r, c0 + a] = 0.0
                     continue
                 for a in range(3):
-                    BMj[k, r, c0 + a] = Bj[k, r, c0 + a] * model.free[n, a] / model.mass[n]
+                    BMj[k, r, c0 + a] = Bj[k, r, c0 + a] * free[n, a] / mass[n]
                 for a in range(3):
                     acc = 0.0
                     for b in range(3):
-                        acc += Bj[k, r, c0 + 3 + b] * model.free[n, 3 + b] * model.inertia_inv[n, b, a]
-                    BMj[k, r, c0 + 3 + a] = acc * model.free[n, 3 + a]
+                        acc += Bj[k, r, c0 + 3 + b] * free[n, 3 + b] * Jinv[n, b, a]
+                    BMj[k, r, c0 + 3 + a] = acc * free[n, 3 + a]
 
 
-@kernel
+@inlined
 def assemble_w(model, Bj, BMj, Lx):
     """The lower triangle of ``W = B M⁻¹ Bᵀ`` into L's slots (fill slots zero), elimination order."""
     Lx[:] = 0.0
-    for t in range(model.wc_joints.shape[0]):
-        a, b = model.wc_joints[t, 0], model.wc_joints[t, 1]
-        ca, cb = 6 * model.wc_joints[t, 2], 6 * model.wc_joints[t, 3]
-        for r in range(model.jt_neq[a]):
-            for s in range(model.jt_neq[b]):
-                p = model.wc_pos[t, r, s]
+    wc_joints, wc_pos, jt_neq = model.wc_joints, model.wc_pos, model.jt_neq
+    for t in range(wc_joints.shape[0]):
+        a, b = wc_joints[t, 0], wc_joints[t, 1]
+        ca, cb = 6 * wc_joints[t, 2], 6 * wc_joints[t, 3]
+        for r in range(jt_neq[a]):
+            for s in range(jt_neq[b]):
+                p = wc_pos[t, r, s]
                 if p < 0:
                     continue
                 acc = 0.0
@@ -140,7 +144,7 @@ def assemble_w(model, Bj, BMj, Lx):
                 Lx[p] += acc
 
 
-@kernel
+@inlined
 def sparse_cholesky(model, Lx, work, scale_tol, own_tol, dependent):
     """Factor the matrix held in L's slots in place, ``W = L Lᵀ``: left-looking, column by column.
 
@@ -152,7 +156,7 @@ def sparse_cholesky(model, Lx, work, scale_tol, own_tol, dependent):
     column j is zeroed (the row is dropped, as Gram–Schmidt drops it) and the
     factorisation goes on.  Returns ``OK`` or ``SINGULAR``.
     """
-    colptr, rowidx = model.L_colptr, model.L_rowidx
+    colptr, rowidx, rowptr, rowcol, rowpos = model.L_colptr, model.L_rowidx, model.L_rowptr, model.L_rowcol, model.L_rowpos
     m = colptr.shape[0] - 1
     scale = 0.0
     for j in range(m):
@@ -161,9 +165,9 @@ def sparse_cholesky(model, Lx, work, scale_tol, own_tol, dependent):
         for p in range(colptr[j], colptr[j + 1]):
             work[rowidx[p]] = Lx[p]
         own = work[j]
-        for e in range(model.L_rowptr[j], model.L_rowptr[j + 1]):
-            c = model.L_rowcol[e]
-            p0 = model.L_rowpos[e]
+        for e in range(rowptr[j], rowptr[j + 1]):
+            c = rowcol[e]
+            p0 = rowpos[e]
             ljc = Lx[p0]
             if ljc == 0.0:
                 continue
@@ -184,7 +188,7 @@ def sparse_cholesky(model, Lx, work, scale_tol, own_tol, dependent):
     return OK
 
 
-@kernel
+@inlined
 def sparse_solve(model, Lx, y):
     """Solve ``L Lᵀ y = rhs`` in place (elimination order); a dropped row (zero pivot) gets y = 0."""
     colptr, rowidx = model.L_colptr, model.L_rowidx
@@ -207,7 +211,7 @@ def sparse_solve(model, Lx, y):
         y[j] = s / d
 
 
-@kernel
+@inlined
 def factor_constraints(model, Bj, BMj, Lx, work, h, hk):
     """``B M⁻¹`` blocks and the sparse Cholesky factor of ``B M⁻¹ Bᵀ + ε/(h h_k) I`` into ``Lx``.
 
@@ -217,20 +221,22 @@ def factor_constraints(model, Bj, BMj, Lx, work, h, hk):
     apply_inverse_mass(model, Bj, BMj)
     assemble_w(model, Bj, BMj, Lx)
     m = work.shape[0]
+    colptr, iperm, eps = model.L_colptr, model.row_iperm, model.row_eps
     for r in range(m):
-        Lx[model.L_colptr[model.row_iperm[r]]] += model.row_eps[r] / (h * hk)
+        Lx[colptr[iperm[r]]] += eps[r] / (h * hk)
     return sparse_cholesky(model, Lx, work, 1e-13, 0.0, model.row_iperm[:0])
 
 
-@kernel
+@inlined
 def jacobian_times(model, Bj, v, w, out):
     """``out = B V`` (m,) from the joint blocks, ``V = [v | ω]`` per node."""
+    jt_i, jt_j, jt_neq, jt_row0 = model.jt_i, model.jt_j, model.jt_neq, model.jt_row0
     for k in range(Bj.shape[0]):
-        r0 = model.jt_row0[k]
-        for r in range(model.jt_neq[k]):
+        r0 = jt_row0[k]
+        for r in range(jt_neq[k]):
             acc = 0.0
             for side in range(2):
-                n = model.jt_i[k] if side == 0 else model.jt_j[k]
+                n = jt_i[k] if side == 0 else jt_j[k]
                 if n < 0:
                     continue
                 for a in range(3):
@@ -238,50 +244,53 @@ def jacobian_times(model, Bj, v, w, out):
             out[r0 + r] = acc
 
 
-@kernel
+@inlined
 def subtract_transpose(model, Cj, lam, v, w):
     """``V −= Cᵀ λ`` for a block matrix ``C`` (``B`` or ``B M⁻¹``) given by its joint blocks ``Cj``."""
+    jt_i, jt_j, jt_neq, jt_row0 = model.jt_i, model.jt_j, model.jt_neq, model.jt_row0
     for k in range(Cj.shape[0]):
-        r0 = model.jt_row0[k]
+        r0 = jt_row0[k]
         for side in range(2):
-            n = model.jt_i[k] if side == 0 else model.jt_j[k]
+            n = jt_i[k] if side == 0 else jt_j[k]
             if n < 0:
                 continue
-            for r in range(model.jt_neq[k]):
+            for r in range(jt_neq[k]):
                 lr = lam[r0 + r]
                 for a in range(3):
                     v[n, a] -= Cj[k, r, 6 * side + a] * lr
                     w[n, a] -= Cj[k, r, 6 * side + 3 + a] * lr
 
 
-@kernel
+@inlined
 def constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
     """Stabilised implicit stage with the factor ``Lx``: correct ``v, w`` (N,3) in place.
 
     ``lam`` receives λ = Λ/h_k.
     """
     m = PHI.shape[0]
+    iperm = model.row_iperm
     jacobian_times(model, Bj, v, w, lam)
     for r in range(m):
-        work[model.row_iperm[r]] = lam[r] + PHIt[r] + PHI[r] / h
+        work[iperm[r]] = lam[r] + PHIt[r] + PHI[r] / h
     sparse_solve(model, Lx, work)
     for r in range(m):
-        lam[r] = work[model.row_iperm[r]]
+        lam[r] = work[iperm[r]]
     subtract_transpose(model, BMj, lam, v, w)
     for r in range(m):
         lam[r] /= hk
 
 
-@kernel
+@inlined
 def constraint_power(model, Bj, lam, v_old, w_old, v_new, w_new):
     """``−λᵀ B V̄`` with ``V̄ = ½(V_old + V_new)``: the power of the constraint forces."""
     P = 0.0
+    jt_i, jt_j, jt_neq, jt_row0 = model.jt_i, model.jt_j, model.jt_neq, model.jt_row0
     for k in range(Bj.shape[0]):
-        r0 = model.jt_row0[k]
-        for r in range(model.jt_neq[k]):
+        r0 = jt_row0[k]
+        for r in range(jt_neq[k]):
             acc = 0.0
             for side in range(2):
-                n = model.jt_i[k] if side == 0 else model.jt_j[k]
+                n = jt_i[k] if side == 0 else jt_j[k]
                 if n < 0:
                     continue
                 for a in range(3):

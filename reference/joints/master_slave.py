@@ -33,12 +33,12 @@ import math
 import numpy as np
 
 from reference.generated import rotation_maps as rm
-from reference.jit import kernel
+from reference.jit import inlined
 
 SPHERICAL, REVOLUTE = 0, 1
 
 
-@kernel
+@inlined
 def _pair_matrices(model, k, q, T, A_m, A_s):
     """Fill ``T`` (12 × d) for pair k at Euler parameters ``q``; return d."""
     m, s = model.ms_master[k], model.ms_slave[k]
@@ -73,7 +73,7 @@ def _pair_matrices(model, k, q, T, A_m, A_s):
     return 7
 
 
-@kernel
+@inlined
 def master_slave_project(model, q, v, w, T, A_m, A_s, MT, TMT, rhs):
     """Replace each pair's velocities by ``T u``, ``(TᵀMT) u = TᵀM V`` (in place)."""
     for k in range(model.ms_master.shape[0]):
@@ -128,7 +128,7 @@ def master_slave_project(model, q, v, w, T, A_m, A_s, MT, TMT, rhs):
             w[s, a] = ws
 
 
-@kernel
+@inlined
 def master_slave_positions(model, x, q, A_m, A_s, q_tmp, r):
     """Set each slave's dependent coordinates from its master (after the drift)."""
     for k in range(model.ms_master.shape[0]):
