@@ -36,6 +36,8 @@ import math
 
 import numpy as np
 
+from reference.jit import kernel
+
 TOLERANCE = 0.5
 """Energy-balance residual, as a fraction of the energy scale, that stops a run."""
 MAX_STRETCH = 10.0
@@ -79,8 +81,8 @@ class BlowUpMonitor:
     def residual(self, energy) -> tuple[float, float]:
         """(energy-balance residual, energy scale) [J] of ``energy`` = [kinetic, strain, external work,
         dissipated] (:attr:`reference.state.Record.energy`)."""
-        E = energy[0] + energy[1]
-        W, D = energy[2], energy[3]
+        T, U, W, D = energy.tolist()
+        E = T + U
         if self.E0 is None:
             self.E0 = E
         self.scale = max(self.scale, abs(self.E0) + abs(W) + abs(D))
@@ -91,7 +93,7 @@ class BlowUpMonitor:
         absurd deformation of the node positions ``x``), else ``""``; keeps the largest energy-balance
         residual seen (:attr:`worst`, a fraction of the energy scale) for reports."""
         r, S = self.residual(energy)
-        E = energy[0] + energy[1]
+        E = float(energy[0] + energy[1])
         self.peak_energy = max(self.peak_energy, E)
         if S > 0.0:
             self.worst = max(self.worst, r / S)
@@ -113,7 +115,7 @@ class BlowUpMonitor:
                 f"{r / max(S, 1e-300):.2g} × the energy put in)")
 
     def stretch(self, x: np.ndarray) -> str | None:
-        if not len(self.L0):
+        if not len(self.L0) or not _stretched(x, self.conn, self.L0, MAX_STRETCH):
             return None
         with np.errstate(all="ignore"):
             L = np.linalg.norm(x[self.conn[:, 1]] - x[self.conn[:, 0]], axis=1)
@@ -127,6 +129,19 @@ class BlowUpMonitor:
     def cause(self, what: str) -> str:
         """``what`` happened; add the likely cause and the fix."""
         return f"{what}: {likely_cause(self.dt, self.critical, self.explicit)}"
+
+
+@kernel
+def _stretched(x, conn, L0, limit):
+    """Whether an element's length ratio (current / initial) is not within ``(1/limit, limit)``
+    (or not a number): the compiled screen of :meth:`BlowUpMonitor.stretch`."""
+    for e in range(conn.shape[0]):
+        i, j = conn[e, 0], conn[e, 1]
+        d0, d1, d2 = x[j, 0] - x[i, 0], x[j, 1] - x[i, 1], x[j, 2] - x[i, 2]
+        ratio = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / L0[e]
+        if not (ratio < limit and ratio > 1.0 / limit):
+            return True
+    return False
 
 
 def likely_cause(dt: float, critical: float, explicit: bool = True) -> str:

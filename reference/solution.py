@@ -14,6 +14,7 @@ run, the sink is closed with a status saying how it ended.
 from __future__ import annotations
 
 import time as _time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -21,6 +22,7 @@ from reference.algorithms import Algorithm
 from reference.algorithms.staggered import OK
 from reference.elements.formulation import beam2_resultants
 from reference.io.results import MemoryRecorder, Results
+from reference.jit import inlined, kernel
 from reference.joints import MasterSlave
 from reference.joints.reactions import joint_reactions
 from reference.joints.reactions import scratch as reaction_scratch
@@ -32,52 +34,95 @@ class SolverDiverged(RuntimeError):
     """The run failed or blew up; the results written so far are kept."""
 
 
+class OutputArrays(NamedTuple):
+    """The arrays of the :class:`~reference.state.Model` that the derived outputs read.
+
+    :func:`derived_outputs` takes these in place of the Model (its kernels read the same
+    fields by name): a compiled call unboxes every array it is given, ~0.1 µs each, and the
+    Model has some seventy.
+    """
+
+    jt_i: np.ndarray
+    jt_j: np.ndarray
+    jt_par: np.ndarray
+    jt_rows: np.ndarray
+    jt_neq: np.ndarray
+    jt_row0: np.ndarray
+    jt_drive: np.ndarray
+    jt_tf: np.ndarray
+    tf_kind: np.ndarray
+    tf_par: np.ndarray
+    conn: np.ndarray
+    offset: np.ndarray
+    L0: np.ndarray
+    psi0: np.ndarray
+    gamma0: np.ndarray
+    stiff: np.ndarray
+
+
 class Outputs:
-    """Derived outputs of a record: joint reactions and element section resultants.
+    """The output record of a run: the algorithm's :class:`~reference.state.Record` and the derived
+    outputs, joint reactions and element section resultants, as one dict of preallocated arrays.
 
     Reactions of all joints (NaN for master/slave ones, which have no
     multipliers; :func:`reference.joints.reactions.joint_reactions`) and the
     section resultants N, M at every element's midpoint
-    (:func:`~reference.elements.formulation.beam2_resultants`); compiled, ~35 µs
-    per output.
+    (:func:`~reference.elements.formulation.beam2_resultants`), both computed by one
+    compiled call (:func:`derived_outputs`) into arrays allocated once.
 
     Parameters
     ----------
     model : Model
     joints : list of Joint
         The Domain's joints, in the order of the results' ``/joints``.
+    rec : Record
+        The record the algorithm fills.
     """
 
-    def __init__(self, model: Model, joints: list):
+    def __init__(self, model: Model, joints: list, rec: Record):
         rows = [k for k, j in enumerate(joints) if not isinstance(j.formulation, MasterSlave)]
-        self.model, self.n_joints = model, len(joints)
-        self.slot, self.partial = np.array(rows, dtype=np.int64), len(rows) < len(joints)
+        self.model, self.rec = model, rec
+        self.arrays = OutputArrays(*(getattr(model, name) for name in OutputArrays._fields))
+        self.slot = np.array(rows, dtype=np.int64)
+        J, E = len(joints), model.conn.shape[0]
+        # rows of master/slave joints are never written: NaN once
+        self.force, self.moment = np.full((J, 3), np.nan), np.full((J, 3), np.nan)
+        self.section_force, self.section_moment = np.zeros((E, 3)), np.zeros((E, 3))
         self.scratch, self.s_el = reaction_scratch(), np.zeros(32)
+        self.time = np.zeros(())
+        self.entry = {
+            "time": self.time, "position": rec.x, "rotation": rec.q, "velocity": rec.v,
+            "angular_velocity": rec.w, "violation_norm": rec.constraint[0, ...],
+            "velocity_violation_norm": rec.constraint[1, ...], "multipliers": rec.lam,
+            "kinetic": rec.energy[0, ...], "strain": rec.energy[1, ...], "external_work": rec.energy[2, ...],
+            "dissipated": rec.energy[3, ...], "reaction_force": self.force, "reaction_moment": self.moment,
+            "section_force": self.section_force, "section_moment": self.section_moment,
+        }
+        """Record key (:data:`reference.io.results.DATASETS`) → value; views of arrays that every
+        :meth:`record` overwrites (a sink copies them)."""
 
-    def __call__(self, x, q, lam, t: float) -> dict:
-        """``reaction_force``, ``reaction_moment`` (J, 3), ``section_force``, ``section_moment`` (E, 3)."""
-        model = self.model
-        J, E = self.n_joints, model.conn.shape[0]
-        force = np.full((J, 3), np.nan) if self.partial else np.empty((J, 3))
-        moment = np.full((J, 3), np.nan) if self.partial else np.empty((J, 3))
-        joint_reactions(model, x, q, lam, float(t), self.slot, force, moment, *self.scratch)
-        section_force, section_moment = np.empty((E, 3)), np.empty((E, 3))
-        beam2_resultants(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
-                         section_force, section_moment, self.s_el)
-        return {"reaction_force": force, "reaction_moment": moment, "section_force": section_force,
-                "section_moment": section_moment}
+    def record(self, t: float) -> dict:
+        """Complete the record at time ``t`` with the derived outputs; returns :attr:`entry`."""
+        rec = self.rec
+        self.time[()] = t
+        derived_outputs(self.arrays, rec.x, rec.q, rec.lam, float(t), self.slot, self.force, self.moment,
+                        self.section_force, self.section_moment, self.s_el, *self.scratch)
+        return self.entry
 
 
-def record(rec: Record, t: float, outputs: Outputs) -> dict:
-    """One output record: record key → value (:data:`reference.io.results.DATASETS`)."""
-    return {
-        "time": t, "position": rec.x.copy(), "rotation": rec.q.copy(), "velocity": rec.v.copy(),
-        "angular_velocity": rec.w.copy(), "violation_norm": rec.constraint[0],
-        "velocity_violation_norm": rec.constraint[1], "multipliers": rec.lam.copy(),
-        "kinetic": rec.energy[0], "strain": rec.energy[1], "external_work": rec.energy[2],
-        "dissipated": rec.energy[3],
-        **outputs(rec.x, rec.q, rec.lam, t),
-    }
+_joint_reactions = inlined(joint_reactions)  # a compiled call with the Model costs two atomic updates per array
+
+
+@kernel
+def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, section_moment, s_el,
+                    jphi, jB, jphit, prim_phi, prim_B, A):
+    """Joint reactions into the rows ``slot`` of ``force``, ``moment`` (J, 3) and section
+    resultants into ``section_force``, ``section_moment`` (E, 3), in one compiled call.
+
+    ``model`` is the :class:`~reference.state.Model` or its :class:`OutputArrays`."""
+    _joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, prim_phi, prim_B, A)
+    beam2_resultants(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
+                     section_force, section_moment, s_el)
 
 
 def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, results_path=None, progress=None,
@@ -90,13 +135,13 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     """
     every = max(int(domain.solver.output_every), 1)
     scratch, rec = Scratch.for_model(model), Record.empty(len(domain.nodes), model.n_constraints)
-    outputs = Outputs(model, domain.joints)
+    outputs = Outputs(model, domain.joints, rec)
     watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True)) if monitor else None
     scratch.guard[2] = GUARD_TOLERANCE if monitor else 0.0
     if results_path is not None:
         from reference.io.results import ResultsWriter
 
-        sink = ResultsWriter(results_path, domain, algo, template=record(rec, 0.0, outputs))
+        sink = ResultsWriter(results_path, domain, algo, template=outputs.entry)
         domain.last_run["path"] = str(results_path)
     else:
         sink = MemoryRecorder(n_total // every + 2, [n.label for n in domain.nodes], [j.label for j in domain.joints],
@@ -109,7 +154,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
             chunk = min(every, n_total - done)
             t_record = state.t
             code = algo.advance(model, state, chunk, rec, scratch)
-            sink.append(record(rec, t_record, outputs))
+            sink.append(outputs.record(t_record))
             why = watch.check(rec.energy, rec.x) if watch is not None and code == OK else ""
             if why:
                 status = f"diverged after t = {t_record:.6g}"

@@ -60,3 +60,25 @@ def test_shipped_models_keep_the_energy_balance(tmp_path):
     for deck, t_end in (("embedded_beam.toml", 0.5), ("three_bar.toml", 1.0)):
         r = load_deck(MODELS / deck, overrides={"t_end": t_end}).solve()
         assert r.status == "completed"
+
+
+def test_stretch_check_names_the_most_deformed_element():
+    """The monitor's compiled screen and its message: an element stretched 12 × (or collapsed, or
+    not a number) is named; the worst by |log(ratio)| when several are; a sound mesh passes."""
+    from reference.monitor import MAX_STRETCH, BlowUpMonitor
+
+    d = load_deck(MODELS / "embedded_beam.toml")
+    d.initialization()
+    watch = BlowUpMonitor(d, d.solver.dt)
+    x = np.array([n.position for n in d.nodes], dtype=float)
+    assert watch.stretch(x) is None
+    conn, L0 = d.model.conn, d.model.L0
+    i, j = conn[3]
+    y = x.copy()
+    y[j:] += (1.2 * MAX_STRETCH - 1.0) * (x[j] - x[i])  # element 3 stretched 12 ×, the rest moved rigidly
+    message = watch.stretch(y)
+    assert message == f"element {d.elements[3].label!r} is {np.linalg.norm(y[j] - y[i]) / L0[3]:.3g} × its initial length"
+    y[conn[7, 1]] = y[conn[7, 0]] + 1e-4 * (y[conn[7, 1]] - y[conn[7, 0]])  # element 7 collapsed further
+    assert repr(d.elements[7].label) in watch.stretch(y)
+    y[5, 0] = np.nan
+    assert watch.stretch(y) is not None

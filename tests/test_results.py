@@ -50,3 +50,25 @@ def test_blow_up_stops_with_a_message_and_keeps_the_results(tmp_path):
     back = load_results(tmp_path / "r.h5")
     assert back.status.startswith("diverged")
     assert len(back.time) >= 1 and np.all(np.isfinite(back.positions))
+
+
+def test_writer_copies_each_record_and_flushes_in_blocks(tmp_path, monkeypatch):
+    """The solution loop hands the writer the same arrays every record (overwritten in place):
+    each record must be copied at append; blocks are written when they fill up (FLUSH_BYTES)."""
+    from reference.io import results as res
+
+    record_bytes = (1 + 2 * 3 + 1) * 8  # time, position (2, 3), strain
+    monkeypatch.setattr(res, "FLUSH_BYTES", 3 * record_bytes)  # blocks of 4 records
+    monkeypatch.setattr(res, "FLUSH_SECONDS", 1e9)
+    position, strain = np.zeros((2, 3)), np.zeros(())
+    writer = res.ResultsWriter(tmp_path / "r.h5", labels=["a", "b"], ids=[1, 2])
+    for k in range(10):
+        position[:] = k
+        strain[()] = 10.0 * k
+        writer.append({"time": 0.1 * k, "position": position, "strain": strain})
+        assert writer.n == 4 * ((k + 1) // 4), k  # records in the file: written at every 4th
+    writer.close()
+    with h5py.File(tmp_path / "r.h5") as f:
+        assert np.array_equal(f["time"][()], 0.1 * np.arange(10))
+        assert np.array_equal(f["nodes/position"][()], np.arange(10.0)[:, None, None] * np.ones((10, 2, 3)))
+        assert np.array_equal(f["energy/strain"][()], 10.0 * np.arange(10)) and f.attrs["status"] == "completed"

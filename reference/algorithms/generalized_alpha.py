@@ -45,10 +45,11 @@ import math
 import numpy as np
 
 from reference.algorithms.implicit import (
-    DIVERGED, NO_CONVERGENCE, OK, SINGULAR, ImplicitAlgorithm, compose, evaluate,
+    DIVERGED, NO_CONVERGENCE, OK, SINGULAR, ImplicitAlgorithm, compose, evaluate, write_record,
 )
-from reference.jit import kernel
+from reference.jit import inlined, kernel
 from reference.linalg import SingularMatrix, lu_solve
+from reference.state import Record
 
 REFACTOR = 4
 """Internal status of :func:`steps`: the kept factor contracts too slowly."""
@@ -154,39 +155,43 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             N = x.shape[0]
             self.arrays = tuple(np.zeros((N, 6)) for _ in range(7)) + (
                 np.zeros(model.n_constraints), np.zeros(model.n_constraints), np.zeros(n), np.zeros(n), np.zeros(n),
-                np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4), np.zeros(2))
+                np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4), np.zeros((N, 3)))
             h = self.dt
             am, af, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
             self.par = np.array([h, am, af, gamma, beta, self.tolerance, self.L, self.contraction,
-                                 self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0])
+                                 self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0, 0.0])
+            self._no_record = Record.empty(N, model.n_constraints)
             self.energy = np.array([self.P, self.D])
         par, energy = self.par, self.energy
-        if record is not None:
-            # the last Newton evaluation of the previous step is this state within the tolerance
-            U = par[11] if np.isfinite(par[11]) else self.evaluate(model, x, q, v, w, self.vd, self.lam, clock[0], True)
-            self.write_record(record, model, x, q, v, w, U, clock, self.lam)
-        h = self.dt
-        am, af, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
-        bp = (1.0 - am) / (h * h * beta * (1.0 - af))
-        ck, cc = 1.0 / bp, (gamma / (h * beta)) / bp
-        par[10] = 0.0
-        dq, Vn = self.arrays[0], self.arrays[1]
-        lamn = self.arrays[7]
-        x1, q1 = self.arrays[12], self.arrays[13]
         left = int(n_steps)
+        rec = self._no_record
+        if record is not None:
+            if left > 0 and math.isfinite(par[11]):
+                # the last Newton evaluation of the previous step is this state within the
+                # tolerance: the compiled steps write the record from it before stepping
+                par[14] = 1.0
+                rec = record
+            else:
+                U = par[11] if np.isfinite(par[11]) else self.evaluate(model, x, q, v, w, self.vd, self.lam,
+                                                                        clock[0], True)
+                self.write_record(record, model, x, q, v, w, U, clock, self.lam)
+        par[10] = 0.0
         while left > 0:
             if self.lu is None:
                 par[9] = -1.0  # only predict: the factor is made at the predictor
-            out = steps(model, x, q, v, w, self.vd, self.a, self.lam, clock, f_prev, energy, self.dof, par, left,
-                        self.factors if self.lu is not None else self._no_factor, self.wt, self.arrays)
-            code, done = out
+            code, done = steps(model, x, q, v, w, self.vd, self.a, self.lam, clock, f_prev, energy, self.dof, par,
+                               left, self.factors if self.lu is not None else self._no_factor, self.wt, self.arrays,
+                               rec)
             left -= done
             if code == OK:
                 continue
             if code == REFACTOR:
+                arr, h = self.arrays, self.dt
+                bp = (1.0 - self.alpha_m) / (h * h * self.beta * (1.0 - self.alpha_f))
+                ck, cc = 1.0 / bp, (self.gamma / (h * self.beta)) / bp
                 try:
-                    self.lu = self.factor(model, x1, q1, np.ascontiguousarray(Vn[:, 3:]), clock[0] + h, lamn, 1.0, cc,
-                                          ck, psi=np.ascontiguousarray(h * dq[:, 3:]))
+                    self.lu = self.factor(model, arr[12], arr[13], np.ascontiguousarray(arr[1][:, 3:]), clock[0] + h,
+                                          arr[7], 1.0, cc, ck, psi=np.ascontiguousarray(h * arr[0][:, 3:]))
                 except SingularMatrix:
                     self.stopped_at = clock[0]
                     self.P, self.D = energy
@@ -212,9 +217,10 @@ class GeneralizedAlpha(ImplicitAlgorithm):
 def _power(model, Bl, lam, v, w):
     """``−λᵀ B V`` (power of the constraint forces) from the local rows ``Bl``."""
     P = 0.0
-    for k in range(model.jt_i.shape[0]):
-        i, j = model.jt_i[k], model.jt_j[k]
-        for r in range(model.jt_row0[k], model.jt_row0[k] + model.jt_neq[k]):
+    jt_i, jt_j, jt_row0, jt_neq = model.jt_i, model.jt_j, model.jt_row0, model.jt_neq
+    for k in range(jt_i.shape[0]):
+        i, j = jt_i[k], jt_j[k]
+        for r in range(jt_row0[k], jt_row0[k] + jt_neq[k]):
             acc = 0.0
             for a in range(3):
                 acc += Bl[r, a] * v[i, a] + Bl[r, 3 + a] * w[i, a]
@@ -230,17 +236,25 @@ def _dissipation(model, v, w):
     from the evaluation)."""
     c = model.damping
     D = 0.0
+    J, mass = model.inertia, model.mass
     for i in range(v.shape[0]):
-        J = model.inertia[i]
         for a in range(3):
-            D += model.mass[i] * v[i, a] * v[i, a]
+            D += mass[i] * v[i, a] * v[i, a]
             for b in range(3):
-                D += w[i, a] * J[a, b] * w[i, b]
+                D += w[i, a] * J[i, a, b] * w[i, b]
     return c * D
 
 
+_evaluate = inlined(evaluate)
+_write_record = inlined(write_record)
+_power_inlined = inlined(_power)
+_dissipation_inlined = inlined(_dissipation)
+"""The model-taking kernels that :func:`steps` calls every iteration, inlined: a compiled call
+with the Model costs an atomic reference-count update per array of it, twice."""
+
+
 @kernel
-def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr):
+def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr, rec):
     """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton).
 
     Returns ``(status, steps done)``; ``REFACTOR`` (a correction shrank by less than
@@ -249,12 +263,13 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     and the step resumes from that iterate.  At most ``max_iterations`` corrections per step
     (``NO_CONVERGENCE`` otherwise).
     ``par`` = [h, α_m, α_f, γ, β, tolerance, L, contraction, max_iterations, fresh, iterations, U,
-    resume, corrections of this step] (fresh: 1 the factor is new, −1 there is none yet;
+    resume, corrections of this step, record] (fresh: 1 the factor is new, −1 there is none yet;
     iterations counted here; U the strain energy of the last evaluation; resume: 1 to continue
-    the interrupted step's iterate).
+    the interrupted step's iterate; record: 1 to first write the output record ``rec`` of the
+    current state from the last evaluation, :func:`reference.algorithms.implicit.write_record`).
     """
-    dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, _e = arr
-    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B, fe = wt
+    dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, psi = arr
+    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B, fe, W = wt
     fe_out = fe[8]
     h, am, af, gamma, beta, tol, L, contraction = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
     max_it = int(par[8])
@@ -264,7 +279,10 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     N = x.shape[0]
     m = lam.shape[0]
     n_free = rhs.shape[0] - m
-    psi = np.empty((N, 3))
+    row_eps = model.row_eps
+    if par[14] == 1.0:
+        par[14] = 0.0
+        _write_record(model, x, q, v, w, par[11], clock, lam, PHI, PHIt, Bl, rec)
     for step in range(n_steps):
         t1 = clock[0] + h
         if not (step == 0 and par[12] == 1.0):
@@ -288,7 +306,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                     x1[i, k] = x[i, k] + h * dq[i, k]
                     psi[i, k] = h * dq[i, 3 + k]
             compose(q, psi, q1, tmp)
-            par[11] = evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
+            par[11] = _evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
             if par[9] < 0.0:
                 return REFACTOR, step
             for i in range(N):
@@ -298,7 +316,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                     if dof[i, k] >= 0:
                         rhs[dof[i, k]] = -ck * r[i, k]
             for k in range(m):
-                rhs[n_free + k] = -(PHI[k] - model.row_eps[k] * lamn[k])
+                rhs[n_free + k] = -(PHI[k] - row_eps[k] * lamn[k])
             lu_solve(factors, rhs, lwork, sol)
             size = 0.0
             for i in range(N):
@@ -337,8 +355,8 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                 psi[i, k] = h * dq[i, 3 + k]
         compose(q, psi, q1, tmp)
         # energy bookkeeping with the last evaluation (within the Newton tolerance of the step's end)
-        P1 = _power(model, Bl, lamn, Vn[:, :3], Vn[:, 3:])
-        D1 = _dissipation(model, Vn[:, :3], Vn[:, 3:]) + fe_out[0]
+        P1 = _power_inlined(model, Bl, lamn, Vn[:, :3], Vn[:, 3:])
+        D1 = _dissipation_inlined(model, Vn[:, :3], Vn[:, 3:]) + fe_out[0]
         dW = 0.0
         for i in range(N):
             for k in range(6):

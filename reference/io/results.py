@@ -141,8 +141,8 @@ class ResultsWriter:
         self.f.flush()
         os.replace(partial, path)  # the file appears complete, header and empty datasets
         self.n = 0
-        self._buffer: list[dict] = []
-        self._bytes = 0
+        self._block: dict[str, np.ndarray] = {}
+        self._rows = 0
         self._flushed = time.monotonic()
 
     def _create(self, key: str, shape: tuple) -> None:
@@ -155,30 +155,38 @@ class ResultsWriter:
     def append(self, entry: dict) -> None:
         """Append one output record (a dict of numbers and arrays, keys as in :data:`DATASETS`).
 
-        Records are written in blocks, at least every ``FLUSH_SECONDS`` of wall
-        time, every ``FLUSH_BYTES`` and on close (one HDF5 resize per record would
-        cost milliseconds).
+        The values are copied at once (the caller may reuse its arrays) into a block of
+        preallocated rows, written at the latest when the buffered records exceed
+        ``FLUSH_BYTES``, every ``FLUSH_SECONDS`` of wall time and on close (one HDF5
+        resize per record would cost milliseconds).  The first record fixes the keys and shapes.
         """
-        self._buffer.append(entry)
-        self._bytes += sum(np.size(v) for v in entry.values()) * 8
-        if self._bytes > FLUSH_BYTES or time.monotonic() - self._flushed > FLUSH_SECONDS:
+        if not self._block:
+            shapes = {k: np.shape(v) for k, v in entry.items()}
+            size = sum(int(np.prod(s)) for s in shapes.values()) * 8
+            capacity = FLUSH_BYTES // max(size, 1) + 1
+            self._block = {k: np.empty((capacity, *s)) for k, s in shapes.items()}
+        k = self._rows
+        for key, block in self._block.items():
+            block[k] = entry[key]
+        self._rows = k + 1
+        if self._rows == next(iter(self._block.values())).shape[0] or \
+                time.monotonic() - self._flushed > FLUSH_SECONDS:
             self.flush()
 
     def flush(self) -> None:
         """Write the buffered records and flush the file."""
-        if self._buffer:
-            n, k = self.n, len(self._buffer)
-            for key in self._buffer[0]:
-                block = np.array([e[key] for e in self._buffer], dtype=float)
+        if self._rows:
+            n, k = self.n, self._rows
+            for key, block in self._block.items():
                 self._create(key, block.shape[1:])
                 name = dataset_path(key)
                 if name not in self.f:
                     continue
                 ds = self.f[name]
                 ds.resize((n + k, *ds.shape[1:]))
-                ds[n:] = block
+                ds[n:] = block[:k]
             self.n = n + k
-            self._buffer, self._bytes = [], 0
+            self._rows = 0
         self.f.flush()
         self._flushed = time.monotonic()
 
