@@ -69,6 +69,7 @@ REPRODUCERS = {
     "slash in meta.name": ("meta.name", changed('name = "cantilever"', 'name = "sub/dir"'), "unusable name"),
     "meta.name escaping the output folder": ("meta.name", changed('name = "cantilever"', 'name = "../../escaped"'),
                                              "unusable name"),
+    "a quoted key holding a newline (make fuzz)": ("deck.secti\\ns", '"secti\\ns" = 1\n' + EXAMPLE, "unknown key"),
 }
 
 
