@@ -283,30 +283,17 @@ class Domain:
         return min(limits) if limits else math.inf
 
     def _lumped_masses(self) -> list:
-        """``(m, J)`` of every node with the elements' lumped masses added (as :meth:`initialization`)."""
-        out = [[n.mass, np.array(n.inertia, dtype=float)] for n in self.nodes]
-        for element in self.elements:
-            xs = np.array([self.nodes[i].position for i in element.nodes])
-            for i, (m, J) in zip(element.nodes, element.formulation.lumped_mass(xs)):
-                out[i][0] += m
-                out[i][1] = out[i][1] + J
-        return [(m, J) for m, J in out]
+        """``(m, J)`` of every node with the elements' lumped masses added, J in the node frame."""
+        mass, inertia, _ = self._lumped()
+        return list(zip(mass, inertia))
 
-    def _length(self, element: Element) -> float:
-        a, b = (self.nodes[i].position for i in element.nodes)
-        return float(np.linalg.norm(b - a))
-
-    def initialization(self) -> Model:
-        """Assemble the plain-data model: lumped masses, references, loads (paper: Initialization)."""
+    def _lumped(self):
+        """Node masses (N,) and rotary inertias (N,3,3, node frames) with the elements' lumped
+        masses added, and the elements' end offsets (E,2,4) (:class:`reference.state.Model`)."""
         N = len(self.nodes)
         mass = np.array([n.mass for n in self.nodes], dtype=float)
         inertia = np.array([n.inertia for n in self.nodes], dtype=float).reshape(N, 3, 3)
-        conn = np.zeros((len(self.elements), 2), dtype=np.int64)
         offset = np.zeros((len(self.elements), 2, 4))
-        L0 = np.zeros(len(self.elements))
-        psi0 = np.zeros((len(self.elements), 3))
-        gamma0 = np.zeros((len(self.elements), 3))
-        stiff = np.zeros((len(self.elements), 6))
         for e, element in enumerate(self.elements):
             ids = list(element.nodes)
             xs = np.array([self.nodes[i].position for i in ids])
@@ -319,6 +306,25 @@ class Domain:
                 O = EulerParameters(offset[e, a]).matrix()
                 mass[i] += m
                 inertia[i] += O @ J @ O.T
+        return mass, inertia, offset
+
+    def _length(self, element: Element) -> float:
+        a, b = (self.nodes[i].position for i in element.nodes)
+        return float(np.linalg.norm(b - a))
+
+    def initialization(self) -> Model:
+        """Assemble the plain-data model: lumped masses, references, loads (paper: Initialization)."""
+        N = len(self.nodes)
+        mass, inertia, offset = self._lumped()
+        conn = np.zeros((len(self.elements), 2), dtype=np.int64)
+        L0 = np.zeros(len(self.elements))
+        psi0 = np.zeros((len(self.elements), 3))
+        gamma0 = np.zeros((len(self.elements), 3))
+        stiff = np.zeros((len(self.elements), 6))
+        for e, element in enumerate(self.elements):
+            ids = list(element.nodes)
+            xs = np.array([self.nodes[i].position for i in ids])
+            ps = np.array([self.nodes[i].rotation for i in ids]) if element.frames is None else element.frames
             ref = element.formulation.reference_state(xs, ps)
             conn[e] = ids
             L0[e], psi0[e], gamma0[e] = ref["L0"], ref["psi0"], ref["gamma0"]
