@@ -391,16 +391,18 @@ def _throughput_section():
                    EI3=c["E"] * I, rhoA=rho * A, rhoJ1=rho * 2.0 * I, rhoJ2=rho * I, rhoJ3=rho * I)
 
 
-def throughput_cantilever():
-    """The throughput case in flexmbs: Beam2 elements, clamp at x = 0, dead end moment about y."""
+def throughput_cantilever(elements: int | None = None):
+    """The throughput case in flexmbs: Beam2 elements (default ``THROUGHPUT["elements"]``), clamp at
+    x = 0, dead end moment about y."""
     import numpy as np
 
     from reference.domain import Domain, SolverSettings
     from reference.interactions import Clamp, NodalLoad
 
     c = THROUGHPUT
-    d = Domain(f"cantilever of {c['elements']} elements")
-    nodes = d.add_beam("rod", (0.0, 0.0, 0.0), (c["length"], 0.0, 0.0), c["elements"], _throughput_section())
+    elements = elements or c["elements"]
+    d = Domain(f"cantilever of {elements} elements")
+    nodes = d.add_beam("rod", (0.0, 0.0, 0.0), (c["length"], 0.0, 0.0), elements, _throughput_section())
     d.add_interaction(Clamp(nodes[0]))
     d.add_interaction(NodalLoad(nodes[-1], np.array([0.0, c["torque"], 0.0]), moment=True))
     d.solver = SolverSettings(dt=c["dt"], t_end=c["steps"] * c["dt"], output_every=c["steps"])
@@ -508,15 +510,9 @@ def vtk_cost(elements: int = 2000, outputs: int = 1000, every: int = 5) -> float
     """
     import tempfile
 
-    from reference.domain import Domain
-    from reference.interactions import Clamp, NodalLoad
     from reference.io.vtk import write_vtk
 
-    c = THROUGHPUT
-    d = Domain(f"cantilever of {elements} elements")
-    nodes = d.add_beam("rod", (0.0, 0.0, 0.0), (c["length"], 0.0, 0.0), elements, _throughput_section())
-    d.add_interaction(Clamp(nodes[0]))
-    d.add_interaction(NodalLoad(nodes[-1], np.array([0.0, c["torque"], 0.0]), moment=True))
+    d = throughput_cantilever(elements)
     dt = 0.5 * d.critical_time_step()
     d.solver.dt, d.solver.output_every = dt, every
     with tempfile.TemporaryDirectory() as tmp:

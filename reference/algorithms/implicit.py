@@ -54,7 +54,7 @@ import numpy as np
 from reference.algorithms.staggered import external_forces
 from reference.forces import force_element_forces, force_element_tangent
 from reference.elements.formulation import (
-    _is_identity, beam2_assemble, beam2_assemble_parallel, section_quaternion, tangent_to_node_frame,
+    beam2_assemble, beam2_assemble_parallel, is_identity, section_quaternion, tangent_to_node_frame,
 )
 from reference.generated import rotation_maps as rm
 from reference.generated import tangents as generated_tangents
@@ -260,7 +260,7 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, smal
                 p += 1
     for e in range(E):
         i, j = model.conn[e, 0], model.conn[e, 1]
-        if ck != 0.0 and _is_identity(model.offset[e, 0]) and _is_identity(model.offset[e, 1]):
+        if ck != 0.0 and is_identity(model.offset[e, 0]) and is_identity(model.offset[e, 1]):
             # section frames are the node frames (straight beams): p_a = q_a and T = I exactly
             generated_tangents.beam2_tangent(x[i], x[j], q[i], q[j], model.L0[e], model.psi0[e], model.gamma0[e],
                                              model.stiff[e], s_el[:12], K144)

@@ -203,8 +203,8 @@ def tangent_to_node_frame(o1, o2, K, v, out):
                         K[c, r0 + k] = out[k]
 
 
-@kernel
-def _identity(o):
+@inlined
+def is_identity(o):
     """True for the identity offset (1, 0, 0, 0), with which ``q ⊗ o = q`` and ``A(o) v = v`` exactly."""
     return o[0] == 1.0 and o[1] == 0.0 and o[2] == 0.0 and o[3] == 0.0
 
@@ -212,10 +212,9 @@ def _identity(o):
 _internal_forces = inlined(generated_beam2.internal_forces)
 _section_quaternion = inlined(section_quaternion)
 _to_node_frame = inlined(to_node_frame)
-_is_identity = inlined(_identity)
 
 
-@kernel
+@inlined
 def beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, w):
     """Internal forces of Beam2 element e into ``w`` (40,), node frames; returns its strain energy.
 
@@ -224,11 +223,11 @@ def beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, w):
     is the generated kernel's scratch (section-frame forces, strains,
     resultants) and the two section quaternions ``p_a = q_a ⊗ o_a``
     (:func:`section_quaternion`, ``offset`` (E,2,4); not composed where both
-    offsets are the identity).  The element loops inline it (:func:`reference.jit.inlined`).
+    offsets are the identity).  Inlined where it is called (:func:`reference.jit.inlined`).
     """
     i, j = conn[e, 0], conn[e, 1]
     o1, o2 = offset[e, 0], offset[e, 1]
-    if _is_identity(o1) and _is_identity(o2):  # section frames are the node frames (straight beams): same numbers
+    if is_identity(o1) and is_identity(o2):  # section frames are the node frames (straight beams): same numbers
         w[39] = _internal_forces(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e],
                                  w[:12], w[12:18], w[18:24])
         for k in range(3):
@@ -244,10 +243,7 @@ def beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, w):
     return w[39]
 
 
-_element = inlined(beam2_element)
-
-
-@kernel
+@inlined
 def _add_element(conn, e, W, r, S):
     """Add the node-frame forces of element e (row r of ``W``, see :func:`beam2_element`) into ``S``."""
     i, j = conn[e, 0], conn[e, 1]
@@ -258,8 +254,6 @@ def _add_element(conn, e, W, r, S):
         S[j, k] += W[r, 6 + k]
         S[j, 3 + k] += W[r, 35 + k]
 
-
-_add = inlined(_add_element)
 
 
 @kernel
@@ -276,15 +270,15 @@ def beam2_assemble(x, q, conn, offset, L0, psi0, gamma0, stiff, S, s_el):
     U = 0.0
     W = s_el.reshape((1, 40))
     for e in range(conn.shape[0]):
-        U += _element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, s_el)
-        _add(conn, e, W, 0, S)
+        U += beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, s_el)
+        _add_element(conn, e, W, 0, S)
     return U
 
 
 @parallel_kernel
 def _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W):
     for e in prange(conn.shape[0]):
-        _element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, W[e])
+        beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, W[e])
 
 
 @kernel
@@ -305,7 +299,7 @@ def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
     U = 0.0
     for e in range(conn.shape[0]):
         U += W[e, 39]
-        _add(conn, e, W, e, S)
+        _add_element(conn, e, W, e, S)
     return U
 
 

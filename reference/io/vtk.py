@@ -32,10 +32,12 @@ import h5py
 import numpy as np
 
 from reference.elements.formulation import beam2_resultants
-from reference.jit import kernel
+from reference.generated import rotation_maps as rm
+from reference.jit import inlined, kernel
 
 BLOCK = 64
 """Output steps computed and written together."""
+_rotation_matrix = inlined(rm.rotation_matrix)
 
 
 def rotation_matrices(q: np.ndarray) -> np.ndarray:
@@ -109,35 +111,27 @@ def point_arrays(X, Q, V, W, node_of_point, offsets, p0, points, displacement, v
     """Fill the per-point arrays (k, P, 3), single precision, of k outputs.
 
     A point at body-frame offset s from its node moves as x + A s with velocity
-    v + A (ω × s) (ω body frame); its triad is A's columns.  X, V, W (k, N, 3),
+    v + A (ω × s) (ω body frame); its triad is A's columns (A from
+    :func:`reference.generated.rotation_maps.rotation_matrix`).  X, V, W (k, N, 3),
     Q (k, N, 4) scalar first; ``node_of_point`` (P,), ``offsets`` (P, 3), ``p0``
     (P, 3) the reference positions.
     """
-    A = np.empty((3, 3))
+    A = np.empty(9)  # row-major
     for s in range(X.shape[0]):
         for p in range(node_of_point.shape[0]):
             n = node_of_point[p]
-            e0, e1, e2, e3 = Q[s, n, 0], Q[s, n, 1], Q[s, n, 2], Q[s, n, 3]
-            A[0, 0] = e0 * e0 + e1 * e1 - e2 * e2 - e3 * e3
-            A[1, 1] = e0 * e0 - e1 * e1 + e2 * e2 - e3 * e3
-            A[2, 2] = e0 * e0 - e1 * e1 - e2 * e2 + e3 * e3
-            A[0, 1] = 2.0 * (e1 * e2 - e0 * e3)
-            A[1, 0] = 2.0 * (e1 * e2 + e0 * e3)
-            A[0, 2] = 2.0 * (e1 * e3 + e0 * e2)
-            A[2, 0] = 2.0 * (e1 * e3 - e0 * e2)
-            A[1, 2] = 2.0 * (e2 * e3 - e0 * e1)
-            A[2, 1] = 2.0 * (e2 * e3 + e0 * e1)
+            _rotation_matrix(Q[s, n], A)
             s0, s1, s2 = offsets[p, 0], offsets[p, 1], offsets[p, 2]
             w0, w1, w2 = W[s, n, 0], W[s, n, 1], W[s, n, 2]
             c0, c1, c2 = w1 * s2 - w2 * s1, w2 * s0 - w0 * s2, w0 * s1 - w1 * s0
             for i in range(3):
-                x = X[s, n, i] + A[i, 0] * s0 + A[i, 1] * s1 + A[i, 2] * s2
+                x = X[s, n, i] + A[3 * i] * s0 + A[3 * i + 1] * s1 + A[3 * i + 2] * s2
                 points[s, p, i] = x
                 displacement[s, p, i] = x - p0[p, i]
-                velocity[s, p, i] = V[s, n, i] + A[i, 0] * c0 + A[i, 1] * c1 + A[i, 2] * c2
-                t1[s, p, i] = A[i, 0]
-                t2[s, p, i] = A[i, 1]
-                t3[s, p, i] = A[i, 2]
+                velocity[s, p, i] = V[s, n, i] + A[3 * i] * c0 + A[3 * i + 1] * c1 + A[3 * i + 2] * c2
+                t1[s, p, i] = A[3 * i]
+                t2[s, p, i] = A[3 * i + 1]
+                t3[s, p, i] = A[3 * i + 2]
 
 
 class _History:
