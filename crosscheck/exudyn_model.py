@@ -73,7 +73,7 @@ import time
 
 import numpy as np
 
-from reference.forces import BUSHING, POINT_TO_POINT, ROTATIONAL, force_element_forces
+from reference.forces import BUSHING, POINT_TO_POINT, ROTATIONAL
 from reference.generated import rotation_maps as rm
 from reference.interactions import Gravity, LineLoad, NodalLoad
 from reference.rotation import EulerParameters
@@ -120,9 +120,17 @@ def _node_offset(domain, node, s):
     return np.zeros(3) if np.linalg.norm(s) <= 1e-12 * _scale(domain) else None
 
 
+EXUDYN_ELEMENTS = {"beam2": "ObjectBeamGeometricallyExact"}
+"""The element families with an Exudyn counterpart (:mod:`reference.elements.families`)."""
+
+
 def check_supported(domain) -> None:
     """Raise :class:`Unsupported` naming the first feature Exudyn cannot express."""
     beam_nodes = {i for e in domain.elements for i in e.nodes}
+    for e in domain.elements:
+        if e.formulation.family not in EXUDYN_ELEMENTS:
+            raise Unsupported(f"element {e.label!r} is of the family {e.formulation.family!r}, which has no Exudyn "
+                              f"counterpart (translated: {', '.join(EXUDYN_ELEMENTS)}); compare converged meshes instead")
     for j in domain.joints:
         if j.formulation.epsilon > 0.0:
             raise Unsupported(f"joint {j.label!r} is regularised (epsilon = {j.formulation.epsilon:g}): redundant "
@@ -204,12 +212,13 @@ def _build(domain, progress, t_end):
     state = domain.initial_conditions()  # includes the consistent projection if the deck asks for it
     # each node's Exudyn node carries the section frame of the node's first element end: offset o_p
     primary = np.tile([1.0, 0.0, 0.0, 0.0], (len(domain.nodes), 1))
+    beams = {int(e): (data, r) for data in model.elements for r, e in enumerate(data.index)}  # beam2 (preflight)
     seen = set()
     for e, element in enumerate(domain.elements):
         for a, i in enumerate(element.nodes):
             if i not in seen:
                 seen.add(i)
-                primary[i] = model.offset[e, a]
+                primary[i] = beams[e][0].offset[beams[e][1], a]
 
     def exudyn_node(i, o):
         p = _qmul(q0[i], o)
@@ -243,8 +252,9 @@ def _build(domain, progress, t_end):
         section.massPerLength = sec.rhoA
         section.inertia = np.diag(sec.rotary_inertia).tolist()
         ends = []
+        data, r = beams[e]
         for a, i in enumerate(element.nodes):
-            o = model.offset[e, a]
+            o = data.offset[r, a]
             if abs(abs(o @ primary[i]) - 1.0) < 1e-14:
                 ends.append(nodes[i])
                 continue
@@ -253,7 +263,7 @@ def _build(domain, progress, t_end):
             mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[marker(domain.nodes[i], _matrix(o)), weld],
                                                  constrainedAxes=[1] * 6))
         beam_objects.append(mbs.AddObject(eii.ObjectBeamGeometricallyExact(
-            nodeNumbers=ends, length=float(model.L0[e]), sectionData=section)))
+            nodeNumbers=ends, length=float(data.L0[r]), sectionData=section)))
 
     time_functions = []
     joint_objects = {}
@@ -556,16 +566,16 @@ def joint_reactions(domain, times, rot, local) -> tuple[np.ndarray, np.ndarray]:
 
 def measured(domain, times, pos, rot, vel, omg, wall, dt):
     """Constraint residuals and energies of a trajectory, by the reference's definitions."""
+    from reference.evaluation.forces import generalized_forces
     from reference.io.results import Results
-    from reference.elements.formulation import beam2_assemble
-    from reference.algorithms.staggered import external_forces
+    from reference.state import element_work
 
     model = domain.model
     n, N = len(times), len(domain.nodes)
     phi = np.zeros(n)
     phid = np.zeros(n)
     kinetic, strain, work = np.zeros(n), np.zeros(n), np.zeros(n)
-    S, F, s_el, A = np.zeros((N, 6)), np.zeros((N, 6)), np.zeros(40), np.zeros(9)
+    S, F, A, ework = np.zeros((N, 6)), np.zeros((N, 6)), np.zeros(9), element_work(model)
     G, angle, prim_phi, prim_B = np.zeros((N, 6)), np.zeros(model.fe_kind.shape[0]), np.zeros(10), np.zeros(120)
     power = np.zeros(n)
     for i in range(n):
@@ -574,11 +584,9 @@ def measured(domain, times, pos, rot, vel, omg, wall, dt):
             V = np.concatenate([vel[i], omg[i]], axis=1).reshape(-1)
             phi[i], phid[i] = np.linalg.norm(PHI), np.linalg.norm(Bg @ V + PHIt)
         kinetic[i] = 0.5 * np.sum(model.mass[:, None] * vel[i] ** 2) + 0.5 * np.einsum("ni,nij,nj->", omg[i], model.inertia, omg[i])
-        strain[i] = beam2_assemble(pos[i], rot[i], model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
-        external_forces(model, pos[i], rot[i], times[i], F, A)
-        # springs: their energy is strain energy, their actuators external loads
-        strain[i] += force_element_forces(model, pos[i], rot[i], vel[i], omg[i], times[i], angle, G, F, prim_phi,
-                                          prim_B)[0]
+        # the elements' and springs' energy is strain energy, the actuators external loads
+        strain[i] = generalized_forces(model, ework, pos[i], rot[i], vel[i], omg[i], times[i], S, F, G, angle, A,
+                                       prim_phi, prim_B)[0]
         power[i] = np.sum(F[:, :3] * vel[i]) + np.sum(F[:, 3:] * omg[i])
         if i > 0:
             work[i] = work[i - 1] + 0.5 * (power[i] + power[i - 1]) * (times[i] - times[i - 1])

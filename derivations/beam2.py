@@ -40,7 +40,7 @@ node frame: ``Λ_a = A(q_a) A(o_a)``, section quaternion ``p_a = q_a ⊗ o_a``,
 ``o_a = q_a⁰* ⊗ p_a⁰`` fixed at t = 0 (identity where the node frame is the
 section frame).  Kinks at shared nodes and the chords of a curved beam are
 then exact for any angle and the measure stays objective.  The assembly
-(``reference.elements.formulation.beam2_assemble``) composes ``p_a``
+(``reference.elements.beam2.beam2_assemble``) composes ``p_a``
 (``section_quaternion``), calls this kernel and maps the rotational forces back
 to the node frames, ``S_θ,node = A(o_a) S_θ,section`` (``to_node_frame``),
 because ``δθ_section = A(o_a)ᵀ δθ_node``; a tangent of this kernel transforms

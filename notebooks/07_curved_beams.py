@@ -40,7 +40,7 @@ import numpy as np
 import reference
 from reference.domain import Domain
 from reference.elements import Beam2Formulation, Section
-from reference.elements.formulation import beam2_assemble
+from reference.elements.beam2 import beam2_assemble
 from reference.interactions import Clamp, NodalLoad, SmoothStep
 from reference.rotation import EulerParameters, RotationVector, right_jacobian_inverse
 
@@ -66,8 +66,9 @@ def kink_ratio(kink_deg, delta=1e-6):
     x = np.array([n1.position, n2.position])
     q = np.array([q1, EulerParameters(q2).product(RotationVector([delta, 0, 0]).to_euler_parameters()).q])
     S, s_el = np.zeros((2, 6)), np.zeros(40)
-    beam2_assemble(x, q, m.conn, m.offset, m.L0, m.psi0, m.gamma0, m.stiff, S, s_el)
-    new = np.linalg.norm(s_el[15:18]) * m.L0[0] / delta
+    b = m.elements[0]  # the Beam2 family's plain data (reference.elements.beam2.Beam2Data)
+    beam2_assemble(x, q, b.conn, b.offset, b.L0, b.psi0, b.gamma0, b.stiff, S, s_el)
+    new = np.linalg.norm(s_el[15:18]) * b.L0[0] / delta
     old = np.linalg.norm(right_jacobian_inverse([0, 0, a]) @ [1.0, 0, 0])
     return new, old
 

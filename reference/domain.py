@@ -26,7 +26,9 @@ import numpy as np
 
 from reference.algorithms import ALGORITHMS, Algorithm, SolverSettings
 from reference.algorithms.staggered import OK
-from reference.elements import Beam2Formulation, Element, Section
+from reference.elements import Element, Section
+from reference.elements.families import DEFAULT_FAMILY, ELEMENT_FAMILIES
+from reference.elements.formulation import PlacedElement
 from reference.forces import ForceElement
 from reference.generated import rotation_maps as rm
 from reference.interactions import (
@@ -124,8 +126,10 @@ class Domain:
         return element
 
     def add_beam(self, label: str, start, end, n_elements: int, section: Section, axis2=(0.0, 1.0, 0.0),
-                 start_node: Node | None = None, end_node: Node | None = None, center=None) -> list[Node]:
-        """Mesh a straight beam, or a circular arc about ``center``, into ``n_elements`` Beam2 elements.
+                 start_node: Node | None = None, end_node: Node | None = None, center=None,
+                 element: str = DEFAULT_FAMILY) -> list[Node]:
+        """Mesh a straight beam, or a circular arc about ``center``, into ``n_elements`` elements of the
+        family ``element`` (a name of :data:`reference.elements.families.ELEMENT_FAMILIES`, two-node).
 
         Each element is straight in its own section frame (axis 1 along its
         chord, axis 2 the ``axis2`` hint made orthogonal to it).  New nodes,
@@ -142,6 +146,8 @@ class Domain:
         start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
         if n_elements < 1:
             raise ValueError(f"beam {label!r}: needs at least one element")
+        if element not in ELEMENT_FAMILIES:
+            raise ValueError(f"beam {label!r}: unknown element {element!r}; known: {', '.join(ELEMENT_FAMILIES)}")
         if np.linalg.norm(end - start) <= 0.0:
             raise ValueError(f"beam {label!r}: start and end coincide")
         for node, point in ((start_node, start), (end_node, end)):
@@ -155,7 +161,7 @@ class Domain:
             node_q, elem_q = section_frames(points, tangents, axis2)
         except ValueError as exc:
             raise ValueError(f"beam {label!r}: {exc}; choose another axis2") from None
-        formulation = Beam2Formulation(section)
+        formulation = ELEMENT_FAMILIES[element](section)
         nodes = []
         for i in range(n_elements + 1):
             reuse = start_node if i == 0 else end_node if i == n_elements else None
@@ -200,7 +206,7 @@ class Domain:
 
         Mass ``ρA L``; inertia about the centre in the section frame
         ``diag(ρJ1 L, ρJ2 L + ρA L³/12, ρJ3 L + ρA L³/12)`` — the uniform bar
-        (the paper meshes its rigid bars with two Beam2 elements; a rigid bar
+        (the paper meshes its rigid bars with two beam elements; a rigid bar
         has no deformation, so one body carries exactly the same inertia).
         Named points ``start``, ``end`` and ``centre``.
         """
@@ -289,24 +295,27 @@ class Domain:
 
     def _lumped(self):
         """Node masses (N,) and rotary inertias (N,3,3, node frames) with the elements' lumped
-        masses added, and the elements' end offsets (E,2,4) (:class:`reference.state.Model`)."""
+        masses added, and each element placed at t = 0 (:class:`~reference.elements.formulation.PlacedElement`:
+        node positions, section triads and the end offsets ``o_a = q_a⁰* ⊗ p_a⁰``)."""
         N = len(self.nodes)
         mass = np.array([n.mass for n in self.nodes], dtype=float)
         inertia = np.array([n.inertia for n in self.nodes], dtype=float).reshape(N, 3, 3)
-        offset = np.zeros((len(self.elements), 2, 4))
+        placed = []
         for e, element in enumerate(self.elements):
             ids = list(element.nodes)
             xs = np.array([self.nodes[i].position for i in ids])
             qs = np.array([self.nodes[i].rotation for i in ids])
             ps = qs if element.frames is None else element.frames
-            for a, i in enumerate(ids):
-                rm.quat_product(qs[a] * np.array([1.0, -1.0, -1.0, -1.0]), ps[a], offset[e, a])
+            offset = np.zeros((len(ids), 4))
+            for a in range(len(ids)):
+                rm.quat_product(qs[a] * np.array([1.0, -1.0, -1.0, -1.0]), ps[a], offset[a])
             # lumped rotary inertia: the section-frame diagonal, rotated into the node frame (O J Oᵀ)
             for a, (i, (m, J)) in enumerate(zip(ids, element.formulation.lumped_mass(xs))):
-                O = EulerParameters(offset[e, a]).matrix()
+                O = EulerParameters(offset[a]).matrix()
                 mass[i] += m
                 inertia[i] += O @ J @ O.T
-        return mass, inertia, offset
+            placed.append(PlacedElement(e, element, xs, ps, offset))
+        return mass, inertia, placed
 
     def _length(self, element: Element) -> float:
         a, b = (self.nodes[i].position for i in element.nodes)
@@ -315,20 +324,15 @@ class Domain:
     def initialization(self) -> Model:
         """Assemble the plain-data model: lumped masses, references, loads (paper: Initialization)."""
         N = len(self.nodes)
-        mass, inertia, offset = self._lumped()
-        conn = np.zeros((len(self.elements), 2), dtype=np.int64)
-        L0 = np.zeros(len(self.elements))
-        psi0 = np.zeros((len(self.elements), 3))
-        gamma0 = np.zeros((len(self.elements), 3))
-        stiff = np.zeros((len(self.elements), 6))
-        for e, element in enumerate(self.elements):
-            ids = list(element.nodes)
-            xs = np.array([self.nodes[i].position for i in ids])
-            ps = np.array([self.nodes[i].rotation for i in ids]) if element.frames is None else element.frames
-            ref = element.formulation.reference_state(xs, ps)
-            conn[e] = ids
-            L0[e], psi0[e], gamma0[e] = ref["L0"], ref["psi0"], ref["gamma0"]
-            stiff[e] = element.formulation.section.stiffness
+        mass, inertia, placed = self._lumped()
+        by_family: dict[str, list] = {}
+        for item in placed:
+            by_family.setdefault(item.element.formulation.family, []).append(item)
+        unknown = sorted(set(by_family) - set(ELEMENT_FAMILIES))
+        if unknown:
+            raise ValueError(f"element family {unknown[0]!r} is not registered; known: {', '.join(ELEMENT_FAMILIES)} "
+                             "(reference.elements.families.register)")
+        elements = tuple(ELEMENT_FAMILIES[name].pack(by_family[name]) for name in ELEMENT_FAMILIES if name in by_family)
         massless = [n.label for n, m in zip(self.nodes, mass) if not m > 0.0]
         if massless:
             raise ValueError(f"nodes without mass (attach them to an element or give them a mass): {massless[:5]}")
@@ -355,7 +359,8 @@ class Domain:
 
         load_tf = np.array([tf_index(ld.time_function) for ld in loads], dtype=np.int64)
         lagrange = setup.multiplier_joints(self.joints)
-        constraints = setup.constraint_fields(lagrange, self.master_slave_joints(), N, tf_index)
+        constraints = setup.constraint_fields(self.joints, N, tf_index, {i for e in self.elements for i in e.nodes},
+                                              {self.node(bc.node).id for bc in self.boundary_conditions})
         fes = self.force_elements
         fe = {"fe_kind": np.array([f.kind for f in fes], dtype=np.int64),
               "fe_i": np.array([f.body_i.id for f in fes], dtype=np.int64),
@@ -378,7 +383,7 @@ class Domain:
             tf_par[j, : len(p)] = p
         self._model = Model(
             mass=mass, inertia=inertia, inertia_inv=free_block_inverse(inertia, free[:, 3:]), free=free,
-            conn=conn, offset=offset, L0=L0, psi0=psi0, gamma0=gamma0, stiff=stiff,
+            elements=elements,
             load_node=np.array([self.node(ld.node).id for ld in loads], dtype=np.int64),
             load_code=np.array([ld.code for ld in loads], dtype=np.int64),
             load_vec=np.array([np.asarray(ld.vector, dtype=float) for ld in loads]).reshape(len(loads), 3),
@@ -389,12 +394,6 @@ class Domain:
         )
         setup.check_redundancy(self._model, lagrange, *self._configuration())
         return self._model
-
-    def master_slave_joints(self) -> list[Joint]:
-        """Joints treated by master/slave elimination, validated
-        (:func:`reference.joints.setup.master_slave_joints`)."""
-        return setup.master_slave_joints(self.joints, {i for e in self.elements for i in e.nodes},
-                                         {self.node(bc.node).id for bc in self.boundary_conditions})
 
     def _configuration(self, x=None, q=None):
         """Positions and Euler parameters: the nodes' initial ones where not given."""

@@ -68,8 +68,12 @@ class BlowUpMonitor:
 
     def __init__(self, domain, dt: float, explicit: bool = True):
         model = domain.model
-        self.conn = model.conn
-        self.L0 = model.L0
+        # every element's end nodes and their initial distance (a two-node beam's reference length)
+        self.conn = np.zeros((model.n_elements, 2), dtype=np.int64)
+        for data in model.elements:
+            self.conn[data.index] = data.conn[:, [0, -1]]
+        x0 = np.array([n.position for n in domain.nodes]).reshape(-1, 3)
+        self.L0 = np.linalg.norm(x0[self.conn[:, 1]] - x0[self.conn[:, 0]], axis=1)
         self.dt, self.explicit = dt, explicit
         self.critical = domain.critical_time_step()
         self.labels = [e.label for e in domain.elements]

@@ -20,14 +20,13 @@ import numpy as np
 
 from reference.algorithms import Algorithm
 from reference.algorithms.staggered import OK
-from reference.elements.formulation import beam2_resultants
+from reference.elements.families import resultants
 from reference.io.results import MemoryRecorder, Results
 from reference.jit import inlined, kernel
-from reference.joints import MasterSlave
 from reference.joints.reactions import joint_reactions
 from reference.joints.reactions import scratch as reaction_scratch
 from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor
-from reference.state import Model, Record, Scratch, State
+from reference.state import Model, Record, Scratch, State, element_work
 
 
 class SolverDiverged(RuntimeError):
@@ -52,12 +51,7 @@ class OutputArrays(NamedTuple):
     jt_tf: np.ndarray
     tf_kind: np.ndarray
     tf_par: np.ndarray
-    conn: np.ndarray
-    offset: np.ndarray
-    L0: np.ndarray
-    psi0: np.ndarray
-    gamma0: np.ndarray
-    stiff: np.ndarray
+    elements: tuple
 
 
 class Outputs:
@@ -67,7 +61,7 @@ class Outputs:
     Reactions of all joints (NaN for master/slave ones, which have no
     multipliers; :func:`reference.joints.reactions.joint_reactions`) and the
     section resultants N, M at every element's midpoint
-    (:func:`~reference.elements.formulation.beam2_resultants`), both computed by one
+    (:func:`reference.elements.families.resultants`), both computed by one
     compiled call (:func:`derived_outputs`) into arrays allocated once.
 
     Parameters
@@ -80,15 +74,15 @@ class Outputs:
     """
 
     def __init__(self, model: Model, joints: list, rec: Record):
-        rows = [k for k, j in enumerate(joints) if not isinstance(j.formulation, MasterSlave)]
+        rows = [k for k, j in enumerate(joints) if j.formulation.multipliers]
         self.model, self.rec = model, rec
         self.arrays = OutputArrays(*(getattr(model, name) for name in OutputArrays._fields))
         self.slot = np.array(rows, dtype=np.int64)
-        J, E = len(joints), model.conn.shape[0]
+        J, E = len(joints), model.n_elements
         # rows of master/slave joints are never written: NaN once
         self.force, self.moment = np.full((J, 3), np.nan), np.full((J, 3), np.nan)
         self.section_force, self.section_moment = np.zeros((E, 3)), np.zeros((E, 3))
-        self.scratch, self.s_el = reaction_scratch(), np.zeros(32)
+        self.scratch, self.element_work = reaction_scratch(), element_work(model)
         self.time = np.zeros(())
         self.entry = {
             "time": self.time, "position": rec.x, "rotation": rec.q, "velocity": rec.v,
@@ -106,7 +100,7 @@ class Outputs:
         rec = self.rec
         self.time[()] = t
         derived_outputs(self.arrays, rec.x, rec.q, rec.lam, float(t), self.slot, self.force, self.moment,
-                        self.section_force, self.section_moment, self.s_el, *self.scratch)
+                        self.section_force, self.section_moment, self.element_work, *self.scratch)
         return self.entry
 
 
@@ -114,15 +108,14 @@ _joint_reactions = inlined(joint_reactions)  # a compiled call with the Model co
 
 
 @kernel
-def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, section_moment, s_el,
+def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, section_moment, element_work,
                     jphi, jB, jphit, prim_phi, prim_B, A):
     """Joint reactions into the rows ``slot`` of ``force``, ``moment`` (J, 3) and section
     resultants into ``section_force``, ``section_moment`` (E, 3), in one compiled call.
 
     ``model`` is the :class:`~reference.state.Model` or its :class:`OutputArrays`."""
     _joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, prim_phi, prim_B, A)
-    beam2_resultants(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
-                     section_force, section_moment, s_el)
+    resultants(model.elements, element_work, x, q, section_force, section_moment)
 
 
 def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, results_path=None, progress=None,

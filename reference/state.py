@@ -12,6 +12,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from reference.elements.families import family_of
+
 
 class Model(NamedTuple):
     """Everything about the system that does not change during a run.
@@ -20,20 +22,20 @@ class Model(NamedTuple):
     (a full tensor where beams meet at an angle), ``inertia_inv`` (N,3,3) the
     inverse of its block of free rotations, zero-padded, ``free`` (N,6) 1.0 for a free and 0.0 for a fixed
     coordinate (translations inertial, rotations body frame).
-    Beam2 elements (E): ``conn`` (E,2), ``offset`` (E,2,4), ``L0`` (E,),
-    ``psi0`` (E,3), ``gamma0`` (E,3), ``stiff`` (E,6) = EA, GA2, GA3, GJ, EI2,
-    EI3.  **Offsets**: ``offset[e, a]`` are the constant Euler parameters
-    ``o_a`` of the rotation from the frame of node ``conn[e, a]`` to element
-    e's own section frame at that end, ``Λ_a = A(q_a) A(o_a)``, i.e. section
-    quaternion ``p_a = q_a ⊗ o_a``; fixed at t = 0 as ``o_a = q_a⁰* ⊗ p_a⁰``.
-    The identity ``(1, 0, 0, 0)`` where the node frame is the section frame
-    (a straight beam's own nodes).  Body-frame quantities of an end transform
-    as ``δθ_section = A(o_a)ᵀ δθ_node``, forces as ``S_θ,node = A(o_a) S_θ,section``
-    and a section-frame tangent ``K_node = T K_sec Tᵀ`` with
-    ``T = blockdiag(I, A(o_1), I, A(o_2))`` (see
+    Elements: ``elements``, a tuple with one entry per element family present
+    (:mod:`reference.elements.families`, in registry order), each the family's
+    plain data (e.g. :class:`reference.elements.beam2.Beam2Data`), whose first
+    fields are ``conn`` (E_f, n) and ``index`` (E_f,) the elements' numbers in
+    the Domain.  **Offsets**: a family with section frames keeps per element
+    end the constant Euler parameters ``o_a`` of the rotation from the frame
+    of its node to the element's own section frame there, ``Λ_a = A(q_a) A(o_a)``,
+    i.e. section quaternion ``p_a = q_a ⊗ o_a``; fixed at t = 0 as
+    ``o_a = q_a⁰* ⊗ p_a⁰``; the identity ``(1, 0, 0, 0)`` where the node frame is
+    the section frame (a straight beam's own nodes).  Body-frame quantities of
+    an end transform as ``δθ_section = A(o_a)ᵀ δθ_node``, forces as
+    ``S_θ,node = A(o_a) S_θ,section`` (see
     :func:`reference.elements.formulation.section_quaternion` and
-    :func:`~reference.elements.formulation.to_node_frame`).  ``psi0`` and
-    ``gamma0`` are of the section frames (0 and E1 for a straight element).
+    :func:`~reference.elements.formulation.to_node_frame`).
     Loads (L): ``load_node`` (L,), ``load_code`` (L,) 0 dead force,
     1 follower force, 2 dead moment, 3 follower moment; ``load_vec`` (L,3);
     ``load_tf`` (L,) index of the time function.
@@ -70,12 +72,7 @@ class Model(NamedTuple):
     inertia: np.ndarray
     inertia_inv: np.ndarray
     free: np.ndarray
-    conn: np.ndarray
-    offset: np.ndarray
-    L0: np.ndarray
-    psi0: np.ndarray
-    gamma0: np.ndarray
-    stiff: np.ndarray
+    elements: tuple
     load_node: np.ndarray
     load_code: np.ndarray
     load_vec: np.ndarray
@@ -121,6 +118,10 @@ class Model(NamedTuple):
     def n_constraints(self) -> int:
         return int(self.row_eps.shape[0])
 
+    @property
+    def n_elements(self) -> int:
+        return sum(int(data.conn.shape[0]) for data in self.elements)
+
 
 class State(NamedTuple):
     """The state at step n.
@@ -154,6 +155,11 @@ class State(NamedTuple):
         return State(*(a.copy() for a in self))
 
 
+def element_work(model: Model) -> tuple:
+    """The element families' work arrays for ``model`` (one per entry of ``model.elements``)."""
+    return tuple(family_of(data).work(data) for data in model.elements)
+
+
 class Record(NamedTuple):
     """One output record at an integer step: configuration, integer-step
     velocities (mean of the two half-step ones), energies
@@ -179,16 +185,14 @@ class Scratch(NamedTuple):
 
     Constraints: ``PHI``, ``PHIt``, ``lam``, ``work`` (m,); the joints' blocks of
     B and of B M⁻¹, ``Bj`` and ``BMj`` (J,6,12); the values of the sparse
-    Cholesky factor ``Lx`` (nnz,).  Beam2 elements: ``W_el`` (E,40) one row per
-    element for the parallel element loop
-    (:func:`reference.elements.formulation.beam2_assemble_parallel`).
+    Cholesky factor ``Lx`` (nnz,).  ``elements``: the element families' work
+    arrays, one entry per entry of :attr:`Model.elements` (the family's ``work``).
     """
 
     S: np.ndarray
     F: np.ndarray
     v_new: np.ndarray
     w_new: np.ndarray
-    s_el: np.ndarray
     q_tmp: np.ndarray
     A: np.ndarray
     PHI: np.ndarray
@@ -210,14 +214,14 @@ class Scratch(NamedTuple):
     guard: np.ndarray
     """Energy-balance guard ``[E₀, S, tolerance, residual, energy]`` (:mod:`reference.monitor`): an
     algorithm that supports it stops when the residual exceeds tolerance × S; tolerance 0 turns it off."""
-    W_el: np.ndarray
+    elements: tuple
     G: np.ndarray
 
     @classmethod
     def for_model(cls, model: Model) -> "Scratch":
         N, m, J = model.mass.shape[0], model.n_constraints, model.jt_i.shape[0]
-        return cls(np.zeros((N, 6)), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 3)), np.zeros(40),
+        return cls(np.zeros((N, 6)), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 3)),
                    np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12)),
                    np.zeros(model.L_rowidx.shape[0]), np.zeros(m), np.zeros(m), np.zeros(10),
                    np.zeros(120), np.zeros((12, 9)), np.zeros(9), np.zeros(9), np.zeros((12, 9)), np.zeros((9, 9)),
-                   np.zeros(9), np.zeros(4), np.zeros(5), np.zeros((model.conn.shape[0], 40)), np.zeros((N, 6)))
+                   np.zeros(9), np.zeros(4), np.zeros(5), element_work(model), np.zeros((N, 6)))

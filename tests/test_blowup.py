@@ -72,7 +72,7 @@ def test_stretch_check_names_the_most_deformed_element():
     watch = BlowUpMonitor(d, d.solver.dt)
     x = np.array([n.position for n in d.nodes], dtype=float)
     assert watch.stretch(x) is None
-    conn, L0 = d.model.conn, d.model.L0
+    conn, L0 = d.model.elements[0].conn, d.model.elements[0].L0
     i, j = conn[3]
     y = x.copy()
     y[j:] += (1.2 * MAX_STRETCH - 1.0) * (x[j] - x[i])  # element 3 stretched 12 ×, the rest moved rigidly

@@ -141,10 +141,10 @@ def test_newton_matrix_matches_finite_differences():
     algo.prepare(model)
     algo.evaluate(model, x, q, x, x, x, lam, t, False)
     lu_matrix = algo.pattern
-    from reference.algorithms.implicit import tangent_values
+    from reference.evaluation.tangent import tangent_values
 
     wk = algo.work
-    tangent_values(model, x, q, x, algo.zero_psi, t, lam, 0.0, 0.0, 1.0, 1.0, wk.values, algo.wt, wk.small, wk.K12)
+    tangent_values(model, x, q, x, algo.zero_psi, t, lam, 0.0, 0.0, 1.0, 1.0, wk.values, algo.wt, wk.small, wk.K12, wk.Kel)
     K = lu_matrix.matrix(wk.values).toarray()
     nf = algo.n_free
     num = np.zeros((nf + model.n_constraints, nf))

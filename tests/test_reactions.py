@@ -104,7 +104,7 @@ def test_rollup_section_moment_is_pi_EI_over_L_at_k1():
     d = Domain.from_deck(MODELS / "embedded_beam.toml", overrides={"t_end": 1.0})
     r = d.solve()
     sec = d.elements[0].formulation.section
-    L = sum(d.model.L0)
+    L = sum(d.model.elements[0].L0)
     expected = np.pi * sec.EI2 / L
     magnitude = np.linalg.norm(r.section_moments[-1], axis=1)
     assert np.max(np.abs(magnitude / expected - 1.0)) <= 0.01
@@ -162,7 +162,7 @@ def test_rollup_section_moment_with_the_static_algorithm_is_exact():
     d.solver = SolverSettings(algorithm="static", dt=0.1, t_end=1.0, load_steps=10, output_every=1)
     r = d.solve()
     sec = d.elements[0].formulation.section
-    expected = np.pi * sec.EI2 / sum(d.model.L0)
+    expected = np.pi * sec.EI2 / sum(d.model.elements[0].L0)
     assert r.time[-1] == pytest.approx(1.0)
     assert np.max(np.abs(np.linalg.norm(r.section_moments[-1], axis=1) / expected - 1.0)) <= 1e-8
 

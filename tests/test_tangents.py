@@ -208,11 +208,11 @@ def test_joint_hessian_is_the_derivative_of_the_joint_forces(kind, ground):
 
 @pytest.mark.parametrize("seed", range(4))
 def test_load_tangents_are_the_derivatives_of_the_external_forces(seed):
-    """The engine's external forces (``staggered.external_forces``) of a follower force and a dead
+    """The engine's external forces (``reference.evaluation.forces.external_forces``) of a follower force and a dead
     moment on a rigid body, differentiated along q → q ⊗ exp(ε δθ) by central differences:
     ``∂F_u/∂δθ = f(t) follower_force_tangent``, ``∂F_θ/∂δθ = f(t) dead_moment_tangent``;
     dead forces, follower moments and gravity do not depend on the configuration."""
-    from reference.algorithms.staggered import external_forces
+    from reference.evaluation.forces import external_forces
     from reference.domain import Domain
     from reference.interactions import Gravity, NodalLoad, Sine
 

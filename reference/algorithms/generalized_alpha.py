@@ -269,7 +269,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     current state from the last evaluation, :func:`reference.algorithms.implicit.write_record`).
     """
     dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, psi = arr
-    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B, fe, W = wt
+    S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = wt
     fe_out = fe[8]
     h, am, af, gamma, beta, tol, L, contraction = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
     max_it = int(par[8])

@@ -51,42 +51,39 @@ import math
 
 import numpy as np
 
-from reference.algorithms.staggered import external_forces
-from reference.forces import force_element_forces, force_element_tangent
-from reference.elements.formulation import (
-    beam2_assemble, beam2_assemble_parallel, is_identity, section_quaternion, tangent_to_node_frame,
-)
+from reference.algorithms.base import Algorithm
+from reference.elements.families import family_of
+from reference.evaluation.forces import generalized_forces
+from reference.evaluation.tangent import newton_pattern, tangent_values
 from reference.generated import rotation_maps as rm
-from reference.generated import tangents as generated_tangents
-from reference.interactions import tf_value
 from reference.jit import inlined, kernel
 from reference.joints.assembly import joint_rows
-from reference.joints.hessian import joint_rows_hessian
-from reference.joints.sparse import jacobian_row_columns
-from reference.algorithms.base import Algorithm
-from reference.linalg import BlockPattern, SingularMatrix, SparseLU, lu_solve
+from reference.linalg import SingularMatrix, SparseLU, lu_solve
+from reference.state import element_work
 
 
 class Work:
     """Work arrays of the implicit algorithms for one model (allocated once)."""
 
     def __init__(self, model):
-        N, m, E, J = model.mass.shape[0], model.n_constraints, model.conn.shape[0], model.jt_i.shape[0]
+        N, m, J = model.mass.shape[0], model.n_constraints, model.jt_i.shape[0]
         self.S = np.zeros((N, 6))
         self.F = np.zeros((N, 6))
         self.r = np.zeros((N, 6))
         self.PHI = np.zeros(m)
         self.PHIt = np.zeros(m)
         self.Bl = np.zeros((m, 12))
-        self.s_el = np.zeros(40)
-        self.W = np.zeros((E, 40))  # one row per Beam2 element (beam2_assemble_parallel)
+        self.elements = element_work(model)  # the element families' work arrays
         self.A = np.zeros(9)
         self.jphi, self.jB, self.jphit = np.zeros(6), np.zeros((6, 12)), np.zeros(6)
         self.prim_phi, self.prim_B = np.zeros(10), np.zeros(120)
         self.small = np.zeros((8, 12))
         self.K12 = np.zeros((12, 12))
+        sizes = [6 * family_of(data).n_nodes for data in model.elements]
+        self.Kel = np.zeros(max(sizes + [12]) ** 2)  # one element's tangent block (flat)
         nF = model.fe_kind.shape[0]
-        self.values = np.zeros(36 * N + 144 * E + 144 * J + 24 * m + m + 144 * nF)
+        blocks = sum(size * size * data.conn.shape[0] for size, data in zip(sizes, model.elements))
+        self.values = np.zeros(36 * N + blocks + 144 * J + 24 * m + m + 144 * nF)
         # force elements: their spring/damper forces G, continuous angles, work arrays of
         # reference.forces, the damping matrix, the velocities of the last evaluation (zero for a
         # static one; the tangent is taken there) and [damper power] of the last evaluation
@@ -98,48 +95,28 @@ class Work:
         self.fe_out = np.zeros(1)
 
 
-PARALLEL_ELEMENTS = 8
-"""From this many Beam2 elements on, :func:`evaluate` computes them with the parallel element loop
-(:func:`~reference.elements.formulation.beam2_assemble_parallel`, no per-view reference counts)
-instead of the serial one (no parallel launch): measured 1.6 against 2.1 µs at 4 elements,
-3.2 against 2.7 µs at 12; both give the same numbers."""
-
-
-
 @kernel
 def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
     """Residual ``r`` (N,6), constraint rows ``Φ, Φ_t, B`` (local (m,12)) at time t; returns U.
 
-    ``w_`` is a tuple of work arrays (S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi,
-    prim_B, fe, W) with ``fe`` those of the force elements and ``W`` (E, 40) the Beam2 elements'
-    rows of the parallel element loop (:func:`work_tuple`, :data:`PARALLEL_ELEMENTS`).  With ``dynamic``
+    ``w_`` is a tuple of work arrays (S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi,
+    prim_B, fe, elements) with ``fe`` those of the force elements and ``elements`` the element
+    families' (:func:`work_tuple`); the forces are :func:`reference.evaluation.forces.generalized_forces`.  With ``dynamic``
     false the inertia, gyroscopic and damping terms are left out and the force elements see
     zero velocities.  U includes the springs' energy; the dampers' power ``Σ c (B_e V)²`` [W]
     goes to ``fe_out[0]``.
     """
-    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B, fe, W = w_
+    S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = w_
     G, angle, fe_e, fe_B, fe_G, C12, fv, fw, fe_out = fe
-    if model.conn.shape[0] >= PARALLEL_ELEMENTS:
-        U = beam2_assemble_parallel(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
-                                    S, W)
-    else:
-        U = beam2_assemble(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff, S, s_el)
-    external_forces(model, x, q, t, F, A)
     N = x.shape[0]
     if model.fe_kind.shape[0] > 0:
-        # springs and dampers like internal forces (S −= G), actuators into F
+        # the force elements' dampers see the velocities (none in a static evaluation)
         for i in range(N):
             for k in range(3):
                 fv[i, k] = v[i, k] if dynamic else 0.0
                 fw[i, k] = w[i, k] if dynamic else 0.0
-            for k in range(6):
-                G[i, k] = 0.0
-        U_fe, D_fe = force_element_forces(model, x, q, fv, fw, t, angle, G, F, fe_e, fe_B)
-        U += U_fe
-        fe_out[0] = D_fe
-        for i in range(N):
-            for k in range(6):
-                S[i, k] -= G[i, k]
+    U, D_fe = generalized_forces(model, elements, x, q, fv, fw, t, S, F, G, angle, A, fe_e, fe_B)
+    fe_out[0] = D_fe
     # the model's arrays are taken out once: each access of a Model field in a loop costs two
     # atomic reference-count updates
     c = model.damping
@@ -180,225 +157,9 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
     return U
 
 
-@kernel
-def load_tangent(model, q, t, i, K6, T9):
-    """Add ``−∂F/∂δ`` of the configuration-dependent loads on node i into the 6×6 block ``K6``:
-    follower forces (generated ``follower_force_tangent``) and dead moments (``dead_moment_tangent``)."""
-    for l in range(model.load_node.shape[0]):
-        if model.load_node[l] != i:
-            continue
-        code = model.load_code[l]
-        if code != 1 and code != 2:
-            continue
-        tf = model.load_tf[l]
-        f = tf_value(model.tf_kind[tf], model.tf_par[tf], t)
-        if code == 1:
-            generated_tangents.follower_force_tangent(q[i], model.load_vec[l], T9)
-            r0 = 0
-        else:
-            generated_tangents.dead_moment_tangent(q[i], model.load_vec[l], T9)
-            r0 = 3
-        for a in range(3):
-            for b in range(3):
-                K6[r0 + a, 3 + b] -= f * T9[3 * a + b]
-
-
-_load_tangent = inlined(load_tangent)
-
-
-@kernel
-def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, small, K12):
-    """Block values of the Newton matrix (order of :func:`newton_pattern`) into ``values``.
-
-    ``c_e`` multiplies the −ε diagonal (``1/c_k`` in Newton); with ``c_k = 0`` the
-    stiffness blocks are zero and not computed (the mass matrix of the initial accelerations).
-    ``psi`` (N,3): when the unknown rotation δ enters as ``q = q_n ⊗ exp(ψ + δ)`` (generalized-α),
-    the configuration-dependent blocks are multiplied on the right by the tangent operator
-    ``J_r(ψ)`` of each node (``exp(ψ + δ) = exp(ψ) exp(J_r(ψ) δ) + O(δ²)``); zeros for the
-    static update ``q ⊗ exp(δ)``.  The force elements' blocks ``c_k K T + c_c C`` come last, at
-    the velocities and angles of the last :func:`evaluate` (K with the actuator forces' tangent).
-    """
-    Jr = small[7, :9]
-    J9 = small[6, :9]
-    wts = small[5, :10]
-    K144 = K12.reshape(144)
-    N = x.shape[0]
-    E = model.conn.shape[0]
-    NJ = model.jt_i.shape[0]
-    m = lam.shape[0]
-    S, F, r, PHI, PHIt, Bl, s_el, A, jphi, jB, jphit, prim_phi, prim_B, fe, W = w_
-    G, angle, fe_e, fe_B, fe_G, C12, fv, fw, fe_out = fe
-    c = model.damping
-    p = 0
-    for i in range(N):
-        blk = K12[:6, :6]
-        for a in range(6):
-            for b in range(6):
-                blk[a, b] = 0.0
-        _load_tangent(model, q, t, i, blk, A)
-        J = model.inertia
-        for a in range(6):
-            for b in range(6):
-                blk[a, b] *= ck
-        _times_right_jacobian(blk, 3, psi[i], Jr)
-        for a in range(3):
-            blk[a, a] += model.mass[i] * (cm + cc * c)
-        for a in range(3):
-            for b in range(3):
-                blk[3 + a, 3 + b] += (cm + cc * c) * J[i, a, b]
-        if cc != 0.0:
-            for a in range(3):
-                for b in range(3):
-                    J9[3 * a + b] = J[i, a, b]
-            generated_tangents.gyroscopic_tangent(J9, w[i], A)
-            for a in range(3):
-                for b in range(3):
-                    blk[3 + a, 3 + b] += cc * A[3 * a + b]
-        for a in range(6):
-            for b in range(6):
-                values[p] = blk[a, b]
-                p += 1
-    for e in range(E):
-        i, j = model.conn[e, 0], model.conn[e, 1]
-        if ck != 0.0 and is_identity(model.offset[e, 0]) and is_identity(model.offset[e, 1]):
-            # section frames are the node frames (straight beams): p_a = q_a and T = I exactly
-            generated_tangents.beam2_tangent(x[i], x[j], q[i], q[j], model.L0[e], model.psi0[e], model.gamma0[e],
-                                             model.stiff[e], s_el[:12], K144)
-        elif ck != 0.0:
-            # the element works in its section frames p_a = q_a ⊗ o_a; its tangent goes back to the nodes'
-            p1, p2 = s_el[24:28], s_el[28:32]
-            section_quaternion(q[i], model.offset[e, 0], p1)
-            section_quaternion(q[j], model.offset[e, 1], p2)
-            generated_tangents.beam2_tangent(x[i], x[j], p1, p2, model.L0[e], model.psi0[e], model.gamma0[e],
-                                             model.stiff[e], s_el[:12], K144)
-            tangent_to_node_frame(model.offset[e, 0], model.offset[e, 1], K12, s_el[32:35], s_el[35:38])
-        else:
-            K12[:, :] = 0.0
-        _times_right_jacobian(K12, 3, psi[i], Jr)
-        _times_right_jacobian(K12, 9, psi[j], Jr)
-        for a in range(12):
-            for b in range(12):
-                values[p] = ck * K12[a, b]
-                p += 1
-    for k in range(NJ):
-        if ck != 0.0:
-            neq = model.jt_neq[k]
-            r0 = model.jt_row0[k]
-            tf = model.jt_tf[k]
-            joint_rows_hessian(x, q, model.jt_i[k], model.jt_j[k], model.jt_par[k], model.jt_rows[k],
-                               model.jt_drive[k], model.tf_kind[tf], model.tf_par[tf], t, lam[r0:r0 + neq],
-                               jphi[:neq], jB[:neq], jphit[:neq], K12, prim_phi, prim_B, wts)
-        else:
-            K12[:, :] = 0.0
-        _times_right_jacobian(K12, 3, psi[model.jt_i[k]], Jr)
-        if model.jt_j[k] >= 0:
-            _times_right_jacobian(K12, 9, psi[model.jt_j[k]], Jr)
-        for a in range(12):
-            for b in range(12):
-                values[p] = ck * K12[a, b]
-                p += 1
-    Bs = small[5:7, :]
-    for k in range(NJ):
-        for rr in range(model.jt_row0[k], model.jt_row0[k] + model.jt_neq[k]):
-            for b in range(12):
-                Bs[0, b] = Bl[rr, b]
-            _times_right_jacobian(Bs[:1], 3, psi[model.jt_i[k]], Jr)
-            if model.jt_j[k] >= 0:
-                _times_right_jacobian(Bs[:1], 9, psi[model.jt_j[k]], Jr)
-            for b in range(12):
-                values[p] = Bs[0, b]
-                p += 1
-    for rr in range(m):
-        for b in range(12):
-            values[p] = Bl[rr, b]
-            p += 1
-    for rr in range(m):
-        values[p] = -model.row_eps[rr] * ce
-        p += 1
-    for k in range(model.fe_kind.shape[0]):
-        force_element_tangent(model, x, q, fv, fw, angle, k, K12, C12, fe_e, fe_B, fe_G)
-        tf = model.fe_tf[k]
-        if tf >= 0:
-            # a point-to-point actuator force f_a(t) (an external load −B_ℓᵀ f_a turning with the line):
-            # its tangent f_a G_ℓ, G_ℓ the tangent of the length's Jacobian row that
-            # force_element_tangent leaves in the first 144 entries of its work array
-            fa = tf_value(model.tf_kind[tf], model.tf_par[tf], t)
-            nc = 12 if model.fe_j[k] >= 0 else 6
-            for a in range(nc):
-                for b in range(nc):
-                    K12[a, b] += fa * fe_G[12 * a + b]
-        _times_right_jacobian(K12, 3, psi[model.fe_i[k]], Jr)
-        if model.fe_j[k] >= 0:
-            _times_right_jacobian(K12, 9, psi[model.fe_j[k]], Jr)
-        for a in range(12):
-            for b in range(12):
-                values[p] = ck * K12[a, b] + cc * C12[a, b]
-                p += 1
-    return p
-
-
-@kernel
-def _right_jacobian_columns(K, c0, psi, Jr):
-    """``K[:, c0:c0+3] ← K[:, c0:c0+3] J_r(ψ)`` (skipped for ψ = 0)."""
-    if psi[0] == 0.0 and psi[1] == 0.0 and psi[2] == 0.0:
-        return
-    rm.right_jacobian(psi, Jr)
-    for a in range(K.shape[0]):
-        k0, k1, k2 = K[a, c0], K[a, c0 + 1], K[a, c0 + 2]
-        for b in range(3):
-            K[a, c0 + b] = k0 * Jr[b] + k1 * Jr[3 + b] + k2 * Jr[6 + b]
-
-
-_times_right_jacobian = inlined(_right_jacobian_columns)
-
-
 def work_tuple(w: Work):
     fe = (w.G, w.angle, w.fe_e, w.fe_B, w.fe_G, w.C12, w.fe_v, w.fe_w, w.fe_out)
-    return (w.S, w.F, w.r, w.PHI, w.PHIt, w.Bl, w.s_el, w.A, w.jphi, w.jB, w.jphit, w.prim_phi, w.prim_B, fe, w.W)
-
-
-def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
-    """The block pattern of the Newton matrix and the unknown index of every node coordinate.
-
-    Returns the :class:`~reference.linalg.BlockPattern` and ``dof`` (N,6): the
-    unknown of each coordinate, −1 if fixed; the multipliers follow the free coordinates.
-    """
-    N, m = model.mass.shape[0], model.n_constraints
-    free = model.free.reshape(-1) > 0.5
-    dof = np.full(6 * N, -1, dtype=np.int64)
-    dof[free] = np.arange(int(free.sum()))
-    n_free = int(free.sum())
-    dof6 = dof.reshape(N, 6)
-    rows, cols = [], []
-
-    def block(nodes_r, nodes_c):
-        idx_r = np.concatenate([dof6[n] if n >= 0 else np.full(6, -1) for n in nodes_r])
-        idx_c = np.concatenate([dof6[n] if n >= 0 else np.full(6, -1) for n in nodes_c])
-        rows.append(np.repeat(idx_r, idx_c.size))
-        cols.append(np.tile(idx_c, idx_r.size))
-
-    for i in range(N):
-        block([i], [i])
-    for e in range(model.conn.shape[0]):
-        block(list(model.conn[e]), list(model.conn[e]))
-    for k in range(model.jt_i.shape[0]):
-        nodes = [model.jt_i[k], model.jt_j[k]]
-        block(nodes, nodes)
-    row_dofs = jacobian_row_columns(model.jt_i, model.jt_j, model.jt_neq, dof6)
-    for rr, idx in enumerate(row_dofs):
-        rows.append(np.full(12, n_free + rr))
-        cols.append(idx)
-    for rr, idx in enumerate(row_dofs):
-        rows.append(idx)
-        cols.append(np.full(12, n_free + rr))
-    rows.append(n_free + np.arange(m))
-    cols.append(n_free + np.arange(m))
-    for k in range(model.fe_kind.shape[0]):
-        nodes = [model.fe_i[k], model.fe_j[k]]
-        block(nodes, nodes)
-    rows = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
-    cols = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)
-    return BlockPattern(rows, cols, n_free + m), dof6
+    return (w.S, w.F, w.r, w.PHI, w.PHIt, w.Bl, w.A, w.jphi, w.jB, w.jphit, w.prim_phi, w.prim_B, fe, w.elements)
 
 
 OK, DIVERGED, SINGULAR, NO_CONVERGENCE = 0, 1, 2, 3
@@ -482,7 +243,7 @@ class ImplicitAlgorithm(Algorithm):
         wk = self.work
         ce = 1.0 / ck if ce is None else ce
         psi = self.zero_psi if psi is None else psi
-        tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12)
+        tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12, wk.Kel)
         return self.slu.factor(self.pattern.matrix(wk.values))
 
     def solve(self, lu, rhs_nodes: np.ndarray, rhs_rows: np.ndarray):

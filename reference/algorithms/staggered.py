@@ -4,10 +4,11 @@ One step from ``t_n`` to ``t_{n+1}`` (docs/formulation.md §6, "Park's two-stage
 staggered step"; the staging is a reconstruction, the originals of Park, Chiou
 & Downer 1990 not being at hand):
 
-1. forces at ``t_n``: internal ``S`` (Beam2 kernel, and the force elements of
+1. forces at ``t_n`` (:func:`reference.evaluation.forces.generalized_forces`):
+   internal ``S`` (every element family, and the force elements of
    :mod:`reference.forces`, their dampers at ``V^{n−½}``), external ``F`` (dead
-   and follower loads × time functions, gravity, actuators), damping
-   ``−c m v``, ``−c J ω``;
+   and follower loads × time functions, gravity, actuators); damping
+   ``−c m v``, ``−c J ω`` in the kick;
 2. **kick** (explicit predictor) of the half-step velocities,
    ``v* = v^{n−½} + h m⁻¹(F − S_u)`` and, in the body frame,
    ``J(ω* − ω^{n−½}) = h (M_b − S_θ − ω̄ × J ω̄)``,
@@ -34,10 +35,9 @@ import math
 
 
 from reference.algorithms.base import Algorithm
-from reference.elements.formulation import beam2_assemble_parallel
-from reference.forces import force_element_dissipation, force_element_forces
+from reference.evaluation.forces import generalized_forces
+from reference.forces import force_element_dissipation
 from reference.generated import rotation_maps as rm
-from reference.interactions import tf_value
 from reference.jit import inlined, kernel, use_threads
 from reference.joints.assembly import (
     SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
@@ -63,52 +63,6 @@ OK, DIVERGED, BLOWUP = 0, 1, 3
 """Status codes of :func:`advance`; ``SINGULAR`` (2, from the joint assembly) means
 the constraint matrix lost rank (redundant or degenerate joints); ``BLOWUP`` that the
 energy balance failed (:attr:`reference.state.Scratch.guard`)."""
-
-
-@inlined
-def external_forces(model, x, q, t, F, A):
-    """External generalised forces at time t into ``F`` (N,6): inertial force, body moment.
-
-    A force applied at a body-fixed point (``model.load_arm`` ≠ 0) adds its
-    moment ``arm × force`` (body frame) about the node.
-    """
-    g0, g1, g2 = model.gravity[0], model.gravity[1], model.gravity[2]
-    mass = model.mass
-    for i in range(F.shape[0]):
-        F[i, 0], F[i, 1], F[i, 2] = mass[i] * g0, mass[i] * g1, mass[i] * g2
-        F[i, 3], F[i, 4], F[i, 5] = 0.0, 0.0, 0.0
-    for l in range(model.load_node.shape[0]):
-        i = model.load_node[l]
-        j = model.load_tf[l]
-        f = tf_value(model.tf_kind[j], model.tf_par[j], t)
-        code = model.load_code[l]
-        vec = model.load_vec[l]
-        if code == 0:
-            for k in range(3):
-                F[i, k] += f * vec[k]
-        elif code == 3:
-            for k in range(3):
-                F[i, 3 + k] += f * vec[k]
-        else:
-            rm.rotation_matrix(q[i], A)
-            if code == 1:  # follower force: inertial = A f_body
-                for k in range(3):
-                    F[i, k] += f * (A[3 * k] * vec[0] + A[3 * k + 1] * vec[1] + A[3 * k + 2] * vec[2])
-            else:  # dead moment: body = A^T M
-                for k in range(3):
-                    F[i, 3 + k] += f * (A[k] * vec[0] + A[3 + k] * vec[1] + A[6 + k] * vec[2])
-        arm = model.load_arm[l]
-        if code <= 1 and (arm[0] != 0.0 or arm[1] != 0.0 or arm[2] != 0.0):
-            if code == 0:  # body components of the dead force
-                rm.rotation_matrix(q[i], A)
-                b0 = f * (A[0] * vec[0] + A[3] * vec[1] + A[6] * vec[2])
-                b1 = f * (A[1] * vec[0] + A[4] * vec[1] + A[7] * vec[2])
-                b2 = f * (A[2] * vec[0] + A[5] * vec[1] + A[8] * vec[2])
-            else:
-                b0, b1, b2 = f * vec[0], f * vec[1], f * vec[2]
-            F[i, 3] += arm[1] * b2 - arm[2] * b1
-            F[i, 4] += arm[2] * b0 - arm[0] * b2
-            F[i, 5] += arm[0] * b1 - arm[1] * b0
 
 
 @inlined
@@ -248,19 +202,9 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     c = model.damping
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
-        U = beam2_assemble_parallel(x, q, model.conn, model.offset, model.L0, model.psi0, model.gamma0, model.stiff,
-                                    S, scratch.W_el)
-        external_forces(model, x, q, t, F, A)
-        if n_fe > 0:
-            # springs and dampers act like internal forces (S −= their force; energy in U), their
-            # actuators like external loads (into F, work counted below); dampers use V^{n−½}
-            G[:, :] = 0.0
-            U_fe, _ = force_element_forces(model, x, q, v, w, t, state.angle, G, F, scratch.prim_phi,
-                                              scratch.prim_B)
-            U += U_fe
-            for i in range(N):
-                for a in range(6):
-                    S[i, a] -= G[i, a]
+        # dampers of the force elements at V^{n−½}
+        U, _ = generalized_forces(model, scratch.elements, x, q, v, w, t, S, F, G, state.angle, A, scratch.prim_phi,
+                                  scratch.prim_B)
         if n > 0:
             # trapezoidal work of the external forces over the last increment h V^{n-1/2},
             # and the energy dissipated by the damping forces evaluated at V^{n-1/2}

@@ -31,7 +31,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from reference.elements.formulation import beam2_resultants
+from reference.elements.families import resultants
+from reference.state import element_work
 from reference.generated import rotation_maps as rm
 from reference.jit import inlined, kernel
 
@@ -237,10 +238,9 @@ def _write_vtk(f, lay: _Layout, history: _History, times: np.ndarray, every: int
             if stored:
                 NM[0, :, beams], NM[1, :, beams] = h["section_forces"], h["section_moments"]
             else:
-                Nb, Mb, s_el = np.zeros((E, 3)), np.zeros((E, 3)), np.zeros(32)
+                Nb, Mb, work = np.zeros((E, 3)), np.zeros((E, 3)), element_work(model)
                 for s in range(k):
-                    beam2_resultants(X[s], Q[s], model.conn, model.offset, model.L0, model.psi0, model.gamma0,
-                                     model.stiff, Nb, Mb, s_el)
+                    resultants(model.elements, work, X[s], Q[s], Nb, Mb)
                     NM[0, s, beams], NM[1, s, beams] = Nb, Mb
         cells = slice(b0 * C, (b0 + k) * C)
         forces["N"][cells] = NM[0].reshape(-1, 3)

@@ -1,17 +1,34 @@
-"""How constraints enter the equations of motion (the paper's ``Joint_Formulation``, Fig. 5)."""
+"""How constraints enter the equations of motion (the paper's ``Joint_Formulation``, Fig. 5).
+
+Each formulation is a strategy the Domain hands its joints to: it validates them
+and lays out their part of the :class:`~reference.state.Model`
+(:meth:`JointFormulation.model_fields`); the algorithms then treat each part with
+its own stage (multiplier rows: ``reference/joints/assembly.py``; eliminated
+coordinates: ``reference/joints/master_slave.py``).  :data:`FORMULATIONS` lists
+them in the order their fields are laid out; a penalty or augmented-Lagrangian
+formulation would be one more class there.
+"""
 
 from __future__ import annotations
 
-from abc import ABC
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from reference.joints.joint import ROWS
+from reference.joints.master_slave import master_slave_parameters
+from reference.joints.sparse import constraint_pattern
 
 
 class JointFormulation(ABC):
     """Abstract treatment of a joint's constraint equations.
 
-    A subclass says how the joint's equations are enforced in the staggered
-    step.  It provides ``name`` and the parameters its treatment needs; the
-    Domain assembles joints of one formulation together:
+    Subclasses provide ``name`` (the deck's ``formulation``), ``epsilon`` (the
+    regularisation, if any), ``multipliers`` (True when the joint has rows of the
+    Lagrange-multiplier system, hence reactions from its multipliers) and
+    :meth:`model_fields`, the Model fields of all joints of the formulation:
 
     - :class:`Jacobian`: Lagrange multipliers from the constraint Jacobian B,
       solved by the stabilised implicit procedure (``reference/joints/assembly.py``);
@@ -21,6 +38,18 @@ class JointFormulation(ABC):
 
     name: str
     epsilon: float = 0.0
+    multipliers: bool = True
+
+    @classmethod
+    @abstractmethod
+    def model_fields(cls, joints: list, n_nodes: int, tf_index: Callable, beam_nodes: set, fixed: set) -> dict:
+        """Validate ``joints`` (all of this formulation, in the Domain's order) and return their
+        :class:`~reference.state.Model` fields.
+
+        ``tf_index(time_function) → int`` gives a time function's row in the Model's table
+        (adding it); ``beam_nodes`` and ``fixed`` are the ids of the nodes of elements and of
+        the nodes with fixed coordinates.  Raises ``ValueError("joint 'LABEL': problem")``.
+        """
 
 
 @dataclass
@@ -39,10 +68,39 @@ class Jacobian(JointFormulation):
 
     epsilon: float = 0.0
     name = "jacobian"
+    multipliers = True
 
     def __post_init__(self):
         if not self.epsilon >= 0.0:
             raise ValueError(f"epsilon must be ≥ 0, got {self.epsilon!r}")
+
+    @classmethod
+    def model_fields(cls, joints, n_nodes, tf_index, beam_nodes, fixed) -> dict:
+        """The joint tables ``jt_*`` (rows in the joints' order), each row's ``row_eps`` and the
+        fixed sparsity of ``B M⁻¹ Bᵀ`` (:func:`reference.joints.sparse.constraint_pattern`)."""
+        J = len(joints)
+        jt = {"jt_i": np.zeros(J, dtype=np.int64), "jt_j": np.zeros(J, dtype=np.int64), "jt_par": np.zeros((J, 24)),
+              "jt_rows": np.full((J, 6), -1, dtype=np.int64), "jt_neq": np.zeros(J, dtype=np.int64),
+              "jt_row0": np.zeros(J, dtype=np.int64), "jt_drive": np.zeros(J, dtype=np.int64),
+              "jt_tf": np.zeros(J, dtype=np.int64)}
+        row_eps, row0 = [], 0
+        for k, joint in enumerate(joints):
+            jt["jt_i"][k] = joint.body_i.id
+            jt["jt_j"][k] = -1 if joint.body_j is None else joint.body_j.id
+            jt["jt_par"][k] = joint.body_fixed()
+            jt["jt_rows"][k, : len(ROWS[joint.kind])] = ROWS[joint.kind]
+            jt["jt_neq"][k] = joint.n_equations
+            jt["jt_row0"][k] = row0
+            jt["jt_drive"][k] = joint.drive_code
+            jt["jt_tf"][k] = tf_index(joint.time_function)
+            row0 += joint.n_equations
+            row_eps += [joint.formulation.epsilon] * joint.n_equations
+        pattern = constraint_pattern(jt["jt_i"], jt["jt_j"], jt["jt_neq"],
+                                     np.array([joint.formulation.epsilon > 0.0 for joint in joints], dtype=np.int64))
+        return {**jt, "row_eps": np.array(row_eps, dtype=float),
+                "row_iperm": pattern.row_iperm, "L_colptr": pattern.L_colptr, "L_rowidx": pattern.L_rowidx,
+                "L_rowptr": pattern.L_rowptr, "L_rowcol": pattern.L_rowcol, "L_rowpos": pattern.L_rowpos,
+                "wc_joints": pattern.wc_joints, "wc_pos": pattern.wc_pos}
 
 
 @dataclass
@@ -57,3 +115,38 @@ class MasterSlave(JointFormulation):
 
     name = "master_slave"
     epsilon: float = 0.0
+    multipliers = False
+
+    @classmethod
+    def model_fields(cls, joints, n_nodes, tf_index, beam_nodes, fixed) -> dict:
+        """``ms_master``, ``ms_slave``, ``ms_kind`` (0 spherical, 1 revolute) and ``ms_par``, after the rules:
+        only spherical and revolute joints; the slave (``body_i``) a beam node at the joint point, slave of
+        no other joint and master of none; the master (``body_j``) a body, not the ground; neither with
+        fixed coordinates."""
+        slaves = [j.body_i.id for j in joints]
+        masters = {j.body_j.id for j in joints if j.body_j is not None}
+        for j in joints:
+            problem = None
+            if j.kind not in ("spherical", "revolute"):
+                problem = f"master/slave is available for spherical and revolute joints, not {j.kind}"
+            elif j.body_j is None:
+                problem = ("the master (body_j) of a master/slave joint cannot be the ground; use a clamp or "
+                           "fixed coordinates")
+            elif j.body_i.id not in beam_nodes:
+                problem = "the slave (body_i) of a master/slave joint must be a beam node"
+            elif np.linalg.norm(j.body_i.position - j.point) > 1e-9 * max(1.0, np.linalg.norm(j.point)):
+                problem = "the slave node must sit at the joint point"
+            elif slaves.count(j.body_i.id) > 1 or j.body_i.id in masters:
+                problem = f"node {j.body_i.label!r} is the slave of one master/slave joint and used by another"
+            elif j.body_i.id in fixed or j.body_j.id in fixed:
+                problem = "master and slave of a master/slave joint may not have fixed coordinates"
+            if problem:
+                raise ValueError(f"joint {j.label!r}: {problem}")
+        return {"ms_master": np.array([j.body_j.id for j in joints], dtype=np.int64),
+                "ms_slave": np.array([j.body_i.id for j in joints], dtype=np.int64),
+                "ms_kind": np.array([0 if j.kind == "spherical" else 1 for j in joints], dtype=np.int64),
+                "ms_par": np.array([master_slave_parameters(j) for j in joints]).reshape(len(joints), 9)}
+
+
+FORMULATIONS = (Jacobian, MasterSlave)
+"""The joint formulations, in the order their Model fields are laid out."""

@@ -5,11 +5,10 @@ split by formulation (§4.2.3): the :class:`~reference.joints.Jacobian` ones
 give Lagrange-multiplier rows, the :class:`~reference.joints.MasterSlave` ones
 eliminated coordinates.  This module
 
-1. sorts and validates them (:func:`multiplier_joints`, :func:`master_slave_joints`);
-2. lays out the :class:`~reference.state.Model`'s constraint fields
-   (:func:`constraint_fields`): the joint tables, each row's ε, the fixed
-   sparsity of ``B M⁻¹ Bᵀ`` (:mod:`reference.joints.sparse`) and the
-   master/slave parameters;
+1. hands them to their formulations, which validate them and lay out the
+   :class:`~reference.state.Model`'s constraint fields (:func:`constraint_fields`):
+   the joint tables, each row's ε, the fixed sparsity of ``B M⁻¹ Bᵀ``
+   (:mod:`reference.joints.sparse`) and the master/slave parameters;
 3. refuses redundant, unregularised constraints, naming the joints of the loop
    (:func:`check_redundancy`), and makes initial velocities consistent with the
    velocity constraints (:func:`project_initial_velocities`) — both with the
@@ -29,10 +28,8 @@ from reference.joints.assembly import (
     apply_inverse_mass, assemble_constraints, assemble_w, jacobian_times, sparse_cholesky, sparse_solve,
     subtract_transpose,
 )
-from reference.joints.formulation import MasterSlave
+from reference.joints.formulation import FORMULATIONS
 from reference.joints.joint import ROWS, Joint
-from reference.joints.master_slave import master_slave_parameters
-from reference.joints.sparse import constraint_pattern
 from reference.state import Model, State
 
 DEPENDENT_PIVOT = 1e-10
@@ -44,112 +41,43 @@ rigid four-bar (tests/test_pendulum.py) stay above 3e-4."""
 
 
 def multiplier_joints(joints: list[Joint]) -> list[Joint]:
-    """Joints treated by Lagrange multipliers (the :class:`~reference.joints.Jacobian` formulation)."""
-    return [j for j in joints if not isinstance(j.formulation, MasterSlave)]
+    """Joints with rows in the Lagrange-multiplier system (``formulation.multipliers``), in order."""
+    return [j for j in joints if j.formulation.multipliers]
 
 
-def master_slave_joints(joints: list[Joint], beam_nodes: set[int], fixed: set[int]) -> list[Joint]:
-    """Joints treated by master/slave elimination, validated.
-
-    Only spherical and revolute joints; the slave (``body_i``) must be a beam
-    node at the joint point, slave of no other joint and master of none; the
-    master (``body_j``) a body, not the ground; neither may have fixed coordinates.
+def constraint_fields(joints: list[Joint], n_nodes: int, tf_index: Callable, beam_nodes: set, fixed: set) -> dict:
+    """The :class:`~reference.state.Model` fields of the constraints: each formulation's own
+    (:meth:`~reference.joints.formulation.JointFormulation.model_fields` of every class of
+    :data:`~reference.joints.formulation.FORMULATIONS`, with its joints in the Domain's order) and
+    ``node_constrained``, ``constrained_nodes`` (the nodes of any joint).
 
     Parameters
     ----------
     joints : list of Joint
         All joints of the Domain.
-    beam_nodes, fixed : set of int
-        Ids of the nodes of elements, and of the nodes with fixed coordinates.
-
-    Raises
-    ------
-    ValueError
-        ``joint 'LABEL': problem`` for the first joint that breaks a rule.
-    """
-    joints = [j for j in joints if isinstance(j.formulation, MasterSlave)]
-    slaves = [j.body_i.id for j in joints]
-    masters = {j.body_j.id for j in joints if j.body_j is not None}
-    for j in joints:
-        problem = None
-        if j.kind not in ("spherical", "revolute"):
-            problem = f"master/slave is available for spherical and revolute joints, not {j.kind}"
-        elif j.body_j is None:
-            problem = "the master (body_j) of a master/slave joint cannot be the ground; use a clamp or fixed coordinates"
-        elif j.body_i.id not in beam_nodes:
-            problem = "the slave (body_i) of a master/slave joint must be a beam node"
-        elif np.linalg.norm(j.body_i.position - j.point) > 1e-9 * max(1.0, np.linalg.norm(j.point)):
-            problem = "the slave node must sit at the joint point"
-        elif slaves.count(j.body_i.id) > 1 or j.body_i.id in masters:
-            problem = f"node {j.body_i.label!r} is the slave of one master/slave joint and used by another"
-        elif j.body_i.id in fixed or j.body_j.id in fixed:
-            problem = "master and slave of a master/slave joint may not have fixed coordinates"
-        if problem:
-            raise ValueError(f"joint {j.label!r}: {problem}")
-    return joints
-
-
-def constraint_fields(lagrange: list[Joint], master_slave: list[Joint], n_nodes: int,
-                      tf_index: Callable) -> dict:
-    """The :class:`~reference.state.Model` fields of the constraints (joints ``jt_*``, ``row_eps``,
-    the sparsity of ``B M⁻¹ Bᵀ``, ``node_constrained``, ``constrained_nodes``, master/slave ``ms_*``).
-
-    Parameters
-    ----------
-    lagrange : list of Joint
-        The multiplier joints (:func:`multiplier_joints`), in the order of their rows.
-    master_slave : list of Joint
-        The validated master/slave joints (:func:`master_slave_joints`).
     n_nodes : int
         Number of nodes N.
     tf_index : callable(TimeFunction) → int
         The row of a time function in the Model's table (added if new).
+    beam_nodes, fixed : set of int
+        Ids of the nodes of elements, and of the nodes with fixed coordinates.
     """
-    J = len(lagrange)
-    jt = {"jt_i": np.zeros(J, dtype=np.int64), "jt_j": np.zeros(J, dtype=np.int64), "jt_par": np.zeros((J, 24)),
-          "jt_rows": np.full((J, 6), -1, dtype=np.int64), "jt_neq": np.zeros(J, dtype=np.int64),
-          "jt_row0": np.zeros(J, dtype=np.int64), "jt_drive": np.zeros(J, dtype=np.int64),
-          "jt_tf": np.zeros(J, dtype=np.int64)}
-    row_eps, row0 = [], 0
-    for k, joint in enumerate(lagrange):
-        jt["jt_i"][k] = joint.body_i.id
-        jt["jt_j"][k] = -1 if joint.body_j is None else joint.body_j.id
-        jt["jt_par"][k] = joint.body_fixed()
-        jt["jt_rows"][k, : len(ROWS[joint.kind])] = ROWS[joint.kind]
-        jt["jt_neq"][k] = joint.n_equations
-        jt["jt_row0"][k] = row0
-        jt["jt_drive"][k] = joint.drive_code
-        jt["jt_tf"][k] = tf_index(joint.time_function)
-        row0 += joint.n_equations
-        row_eps += [joint.formulation.epsilon] * joint.n_equations
+    unknown = [j for j in joints if type(j.formulation) not in FORMULATIONS]
+    if unknown:
+        raise ValueError(f"joint {unknown[0].label!r}: formulation {type(unknown[0].formulation).__name__} is not one "
+                         f"of {', '.join(f.__name__ for f in FORMULATIONS)}")
+    fields: dict = {}
+    for formulation in FORMULATIONS:
+        own = [j for j in joints if type(j.formulation) is formulation]
+        fields.update(formulation.model_fields(own, n_nodes, tf_index, beam_nodes, fixed))
     node_constrained = np.zeros(n_nodes, dtype=np.int64)
-    for joint in lagrange + master_slave:
+    for joint in joints:
         for body in (joint.body_i, joint.body_j):
             if body is not None:
                 node_constrained[body.id] = 1
-    ms = master_slave
-    return {
-        **jt, "row_eps": np.array(row_eps, dtype=float),
-        **_pattern_fields(jt, [joint.formulation.epsilon > 0.0 for joint in lagrange]),
-        "node_constrained": node_constrained,
-        "constrained_nodes": np.flatnonzero(node_constrained).astype(np.int64),
-        "ms_master": np.array([j.body_j.id for j in ms], dtype=np.int64),
-        "ms_slave": np.array([j.body_i.id for j in ms], dtype=np.int64),
-        "ms_kind": np.array([0 if j.kind == "spherical" else 1 for j in ms], dtype=np.int64),
-        "ms_par": np.array([master_slave_parameters(j) for j in ms]).reshape(len(ms), 9),
-    }
-
-
-def _pattern_fields(jt: dict, regularised: list) -> dict:
-    """The Model's sparsity fields of ``B M⁻¹ Bᵀ`` (:func:`reference.joints.sparse.constraint_pattern`).
-
-    The regularised joints (ε > 0) are eliminated last, so that
-    :func:`check_redundancy` attributes a redundancy to them where it can.
-    """
-    pattern = constraint_pattern(jt["jt_i"], jt["jt_j"], jt["jt_neq"], np.array(regularised, dtype=np.int64))
-    return {"row_iperm": pattern.row_iperm, "L_colptr": pattern.L_colptr, "L_rowidx": pattern.L_rowidx,
-            "L_rowptr": pattern.L_rowptr, "L_rowcol": pattern.L_rowcol, "L_rowpos": pattern.L_rowpos,
-            "wc_joints": pattern.wc_joints, "wc_pos": pattern.wc_pos}
+    fields["node_constrained"] = node_constrained
+    fields["constrained_nodes"] = np.flatnonzero(node_constrained).astype(np.int64)
+    return fields
 
 
 def constraint_blocks(model: Model, x, q, t: float):

@@ -1,0 +1,332 @@
+"""The geometrically exact two-node beam (``Beam2_Formulation`` of the paper, §4.2.2, Fig. 4): element family ``"beam2"``.
+
+The per-element arithmetic is the sympy-generated code of
+``reference/generated/beam2.py`` (``derivations/beam2.py``) and its tangent
+``reference/generated/tangents.py`` (``derivations/tangents.py``).  The element
+works in its section frames ``p_a = q_a ⊗ o_a``
+(:func:`~reference.elements.formulation.section_quaternion`); its rotational forces
+and tangent go back to the node frames.  :func:`beam2_assemble` runs it over all
+elements at once (compiled, allocation-free); the family's compiled calls
+(:meth:`Beam2Formulation.assemble`, ``tangent_values``, ``resultants``) are what the
+algorithms reach through :mod:`reference.elements.families`.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from reference.elements.element_type import Beam2, ElementType
+from reference.elements.formulation import (
+    ElementFormulation, PlacedElement, is_identity, section_quaternion, tangent_to_node_frame, to_node_frame,
+)
+from reference.elements.section import Section
+from reference.generated import beam2 as generated_beam2
+from reference.generated import rotation_maps as rm
+from reference.generated import tangents as generated_tangents
+from reference.jit import inlined, kernel, parallel_kernel, prange
+from reference.newton_blocks import store_block
+
+PARALLEL_ELEMENTS = 8
+"""From this many elements on, the forces are computed by the parallel element loop
+(:func:`beam2_assemble_parallel`'s, no per-view reference counts) instead of the serial one
+(no parallel launch): measured 1.6 against 2.1 µs at 4 elements, 3.2 against 2.7 µs at 12;
+both give the same numbers."""
+
+
+class Beam2Data(NamedTuple):
+    """The Beam2 elements of a model (E elements), as the compiled kernels take them.
+
+    ``conn`` (E, 2) node numbers; ``index`` (E,) the elements' numbers in the Domain;
+    ``offset`` (E, 2, 4) the constant Euler parameters ``o_a`` from the frame of node
+    ``conn[e, a]`` to the element's section frame at that end (``p_a = q_a ⊗ o_a``, fixed at
+    t = 0 as ``o_a = q_a⁰* ⊗ p_a⁰``; the identity where the node frame is the section frame);
+    ``L0`` (E,) reference length [m]; ``psi0``, ``gamma0`` (E, 3) the reference relative
+    rotation and ``Γ0`` of the section frames (0 and E1 for a straight element);
+    ``stiff`` (E, 6) = EA, GA2, GA3, GJ, EI2, EI3.
+    """
+
+    conn: np.ndarray
+    index: np.ndarray
+    offset: np.ndarray
+    L0: np.ndarray
+    psi0: np.ndarray
+    gamma0: np.ndarray
+    stiff: np.ndarray
+
+
+_internal_forces = inlined(generated_beam2.internal_forces)
+_section_quaternion = inlined(section_quaternion)
+_to_node_frame = inlined(to_node_frame)
+
+
+@inlined
+def beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, w):
+    """Internal forces of Beam2 element e into ``w`` (40,), node frames; returns its strain energy.
+
+    ``w[0:3]``, ``w[6:9]`` the forces on the two nodes (inertial), ``w[32:35]``,
+    ``w[35:38]`` their moments in the node frames, ``w[39]`` the energy; the rest
+    is the generated kernel's scratch (section-frame forces, strains,
+    resultants) and the two section quaternions ``p_a = q_a ⊗ o_a``
+    (:func:`section_quaternion`, ``offset`` (E,2,4); not composed where both
+    offsets are the identity).  Inlined where it is called (:func:`reference.jit.inlined`).
+    """
+    i, j = conn[e, 0], conn[e, 1]
+    o1, o2 = offset[e, 0], offset[e, 1]
+    if is_identity(o1) and is_identity(o2):  # section frames are the node frames (straight beams): same numbers
+        w[39] = _internal_forces(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e],
+                                 w[:12], w[12:18], w[18:24])
+        for k in range(3):
+            w[32 + k] = w[3 + k]
+            w[35 + k] = w[9 + k]
+        return w[39]
+    _section_quaternion(q[i], o1, w[24:28])
+    _section_quaternion(q[j], o2, w[28:32])
+    w[39] = _internal_forces(x[i], x[j], w[24:28], w[28:32], L0[e], psi0[e], gamma0[e], stiff[e],
+                             w[:12], w[12:18], w[18:24])
+    _to_node_frame(o1, w[3:6], w[32:35])
+    _to_node_frame(o2, w[9:12], w[35:38])
+    return w[39]
+
+
+@inlined
+def _add_element(conn, e, W, r, S):
+    """Add the node-frame forces of element e (row r of ``W``, see :func:`beam2_element`) into ``S``."""
+    i, j = conn[e, 0], conn[e, 1]
+    for k in range(3):
+        S[i, k] += W[r, k]
+        S[i, 3 + k] += W[r, 32 + k]
+    for k in range(3):
+        S[j, k] += W[r, 6 + k]
+        S[j, 3 + k] += W[r, 35 + k]
+
+
+
+@kernel
+def beam2_assemble(x, q, conn, offset, L0, psi0, gamma0, stiff, S, s_el):
+    """Add the internal forces of all Beam2 elements into ``S`` (N, 6); return ΣU.
+
+    Each end's section triad is ``p_a = q_a ⊗ o_a`` (:func:`section_quaternion`,
+    ``offset`` (E,2,4)); the generated kernel works in the section frames and its
+    rotational forces are mapped back to the node frames (:func:`to_node_frame`).
+    ``S`` is zeroed first; ``s_el`` (40,) is scratch (:func:`beam2_element`).
+    Loops over the elements in compiled code and allocates nothing.
+    """
+    S[:, :] = 0.0
+    U = 0.0
+    W = s_el.reshape((1, 40))
+    for e in range(conn.shape[0]):
+        U += beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, s_el)
+        _add_element(conn, e, W, 0, S)
+    return U
+
+
+@parallel_kernel
+def _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W):
+    for e in prange(conn.shape[0]):
+        beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, W[e])
+
+
+@kernel
+def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
+    """:func:`beam2_assemble` with the elements computed in parallel, bit for bit the same result.
+
+    The elements are independent: each writes its own row of ``W`` (E, 40)
+    (:func:`beam2_element`) on the threads of :func:`reference.jit.use_threads`;
+    then one thread adds the rows into ``S`` and ΣU in element order — the
+    serial kernel's order — so the result does not depend on the thread count.
+    This is the algorithms' path also on one thread: measured at 768 elements,
+    0.08 µs per element against 0.21 µs for the serial :func:`beam2_assemble`,
+    whose loop spends the difference on atomic reference-count updates of the
+    element's array views (``perf``; numba removes fewer of them there).
+    """
+    _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
+    S[:, :] = 0.0
+    U = 0.0
+    for e in range(conn.shape[0]):
+        U += W[e, 39]
+        _add_element(conn, e, W, e, S)
+    return U
+
+
+@inlined
+def _family_assemble(data, W, x, q, S):
+    """:meth:`Beam2Formulation.assemble`: the internal forces of the elements added into ``S``
+    in element order (the parallel element loop from :data:`PARALLEL_ELEMENTS` elements on, the
+    same numbers either way); returns the strain energy."""
+    conn, offset, L0, psi0, gamma0, stiff = data.conn, data.offset, data.L0, data.psi0, data.gamma0, data.stiff
+    E = conn.shape[0]
+    if E >= PARALLEL_ELEMENTS:
+        _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
+    else:
+        for e in range(E):
+            beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, W[e])
+    U = 0.0
+    for e in range(E):
+        U += W[e, 39]
+        _add_element(conn, e, W, e, S)
+    return U
+
+
+@inlined
+def _family_tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
+    """:meth:`Beam2Formulation.tangent_values`: each element's 12×12 tangent (material + geometric,
+    the generated ``beam2_tangent``, section frames taken back to the node frames) times ``ck``."""
+    conn, offset, L0, psi0, gamma0, stiff = data.conn, data.offset, data.L0, data.psi0, data.gamma0, data.stiff
+    K144 = K[:144]
+    K12 = K144.reshape((12, 12))
+    for e in range(conn.shape[0]):
+        i, j = conn[e, 0], conn[e, 1]
+        s_el = W[e]
+        if ck != 0.0 and is_identity(offset[e, 0]) and is_identity(offset[e, 1]):
+            # section frames are the node frames (straight beams): p_a = q_a and T = I exactly
+            generated_tangents.beam2_tangent(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e],
+                                             s_el[:12], K144)
+        elif ck != 0.0:
+            p1, p2 = s_el[24:28], s_el[28:32]
+            section_quaternion(q[i], offset[e, 0], p1)
+            section_quaternion(q[j], offset[e, 1], p2)
+            generated_tangents.beam2_tangent(x[i], x[j], p1, p2, L0[e], psi0[e], gamma0[e], stiff[e], s_el[:12],
+                                             K144)
+            tangent_to_node_frame(offset[e, 0], offset[e, 1], K12, s_el[32:35], s_el[35:38])
+        else:
+            K12[:, :] = 0.0
+        p = store_block(K12, conn[e], 2, psi, Jr, ck, values, p)
+    return p
+
+
+@inlined
+def _family_resultants(data, W, x, q, N, M):
+    """:meth:`Beam2Formulation.resultants`: the section resultants at every element's midpoint, section
+    frame, into the rows ``data.index`` of ``N``, ``M`` (E, 3).
+
+    ``N`` the force resultant ``C_Γ (Γ − Γ0)`` [N] (component 1 the axial force, positive in
+    tension; 2, 3 the shear forces) and ``M`` the moment ``C_K K`` [N m] (1 torsion, 2, 3
+    bending), in the midpoint section frame ``A_m`` of the generated kernel
+    (``derivations/beam2.py``), evaluated with the ends' section triads ``p_a = q_a ⊗ o_a``.
+    """
+    conn, offset, L0, psi0, gamma0, stiff = data.conn, data.offset, data.L0, data.psi0, data.gamma0, data.stiff
+    for e in range(conn.shape[0]):
+        s_el = W[e]
+        p1, p2 = s_el[24:28], s_el[28:32]
+        i, j = conn[e, 0], conn[e, 1]
+        section_quaternion(q[i], offset[e, 0], p1)
+        section_quaternion(q[j], offset[e, 1], p2)
+        generated_beam2.internal_forces(x[i], x[j], p1, p2, L0[e], psi0[e], gamma0[e], stiff[e],
+                                        s_el[:12], s_el[12:18], s_el[18:24])
+        r = data.index[e]
+        for k in range(3):
+            N[r, k] = s_el[18 + k]
+            M[r, k] = s_el[21 + k]
+    return 0.0
+
+
+class Beam2Formulation(ElementFormulation):
+    """Geometrically exact two-node beam, one-point integration, lumped mass.
+
+    Strains and internal forces: see ``derivations/beam2.py`` (the internal
+    force is the exact gradient of the element strain energy).  Mass: row-sum
+    lumping ``m_i = ∫ N_i ρA ds = ρA L0/2`` and rotary inertia
+    ``J_i = (L0/2) diag(ρJ1, ρJ2, ρJ3)`` in the element's section frame; the
+    Domain adds ``O_a J_i O_aᵀ`` to the node (``O_a`` the end's offset, a full
+    tensor at a kinked node), constant because rotary motion is written in the
+    body frame (paper §3.1).  ``q_nodes`` passed to the methods below are the
+    section triads of the ends (``p_a = q_a ⊗ o_a``).
+
+    Parameters
+    ----------
+    section : Section
+    element_type : ElementType, default Beam2()
+    """
+
+    family = "beam2"
+    n_nodes = 2
+    Data = Beam2Data
+    assemble = staticmethod(_family_assemble)
+    tangent_values = staticmethod(_family_tangent_values)
+    resultants = staticmethod(_family_resultants)
+
+    def __init__(self, section: Section, element_type: ElementType | None = None):
+        self.section = section
+        self.element_type = element_type or Beam2()
+
+    @classmethod
+    def pack(cls, placed: list[PlacedElement]) -> Beam2Data:
+        """The family's plain data from its elements placed at t = 0 (reference states of the section frames)."""
+        E = len(placed)
+        data = Beam2Data(np.zeros((E, 2), dtype=np.int64), np.zeros(E, dtype=np.int64), np.zeros((E, 2, 4)),
+                         np.zeros(E), np.zeros((E, 3)), np.zeros((E, 3)), np.zeros((E, 6)))
+        for e, item in enumerate(placed):
+            ref = item.element.formulation.reference_state(item.x, item.p)
+            data.conn[e], data.index[e], data.offset[e] = item.element.nodes, item.index, item.offset
+            data.L0[e], data.psi0[e], data.gamma0[e] = ref["L0"], ref["psi0"], ref["gamma0"]
+            data.stiff[e] = item.element.formulation.section.stiffness
+        return data
+
+    @staticmethod
+    def work(data: Beam2Data) -> np.ndarray:
+        """One row of 40 per element (:func:`beam2_element`)."""
+        return np.zeros((data.conn.shape[0], 40))
+
+    def lumped_mass(self, x_nodes):
+        length = float(np.linalg.norm(x_nodes[1] - x_nodes[0]))
+        xi, w = self.element_type.mass_points()
+        out = []
+        for i in range(self.element_type.n_nodes):
+            share = sum(wk * self.element_type.shape_functions(xk)[i] for xk, wk in zip(xi, w)) * length / 2
+            out.append((self.section.rhoA * share, np.diag(self.section.rotary_inertia * share)))
+        return out
+
+    def reference_state(self, x_nodes, q_nodes):
+        """Reference length ``L0``, relative rotation ``ψ0`` and ``Γ0 = Amᵀ x'``.
+
+        With these the element is unstrained in its initial configuration
+        (a curved or kinked reference is allowed).
+        """
+        length = float(np.linalg.norm(x_nodes[1] - x_nodes[0]))
+        if length <= 0.0:
+            raise ValueError("Beam2 element of zero length")
+        r = np.empty(4)
+        rm.quat_product(q_nodes[0] * np.array([1, -1, -1, -1]), q_nodes[1], r)
+        psi0 = np.empty(3)
+        rm.log_quaternion(r, psi0)
+        # Γ0 = Am^T x' with the reference itself: evaluate with Γ0 = 0 and read Γ.
+        _, _, strain, _ = self._evaluate(x_nodes, q_nodes, {"L0": length, "psi0": psi0, "gamma0": np.zeros(3)})
+        return {"L0": length, "psi0": psi0, "gamma0": strain[:3].copy()}
+
+    def _evaluate(self, x_nodes, q_nodes, reference):
+        s, strain, stress = np.empty(12), np.empty(6), np.empty(6)
+        U = generated_beam2.internal_forces(
+            x_nodes[0], x_nodes[1], q_nodes[0], q_nodes[1], reference["L0"], reference["psi0"],
+            reference["gamma0"], self.section.stiffness, s, strain, stress,
+        )
+        return s, U, strain, stress
+
+    def internal_forces(self, x_nodes, q_nodes, reference):
+        s, U, _, _ = self._evaluate(x_nodes, q_nodes, reference)
+        return s, U
+
+    def section_resultants(self, x_nodes, q_nodes, reference):
+        """Strains ``(Γ, K)`` and resultants ``(N, M)`` at the midpoint, section frame."""
+        _, _, strain, stress = self._evaluate(x_nodes, q_nodes, reference)
+        return strain, stress
+
+    def critical_time_step(self, length):
+        """Stability limit of central differences for one lumped element [s].
+
+        The minimum of the axial ``L0 √(ρA/EA)``, torsional ``L0 √(ρJ1/GJ)``,
+        bending–rotation ``L0 √(ρJ/EI)`` limits and the coupled shear–rotation
+        mode ``2/√((GA/ρA)(4/L0² + ρA/ρJ))`` (docs/formulation.md §3; each matched the
+        eigenvalue limit within 0.5 %, the last is ~9 % conservative).
+        """
+        s = self.section
+        limits = [
+            length * np.sqrt(s.rhoA / s.EA),
+            length * np.sqrt(s.rhoJ1 / s.GJ),
+            length * np.sqrt(s.rhoJ2 / s.EI2),
+            length * np.sqrt(s.rhoJ3 / s.EI3),
+        ]
+        for GA, rhoJ in ((s.GA3, s.rhoJ2), (s.GA2, s.rhoJ3)):
+            limits.append(2.0 / np.sqrt((GA / s.rhoA) * (4.0 / length**2 + s.rhoA / rhoJ)))
+        return float(min(limits))

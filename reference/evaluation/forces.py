@@ -1,0 +1,95 @@
+"""Generalised forces of the model at a configuration and time (the right-hand side of eq. (5)).
+
+Per node (N, 6): an inertial force and a body-frame moment.  The internal forces
+``S`` are those of every element family (:func:`reference.elements.families.assemble_forces`)
+and of the force elements' springs and dampers (:mod:`reference.forces`, subtracted:
+they act on the bodies like internal forces and their energy is strain energy); the
+external forces ``F`` are the loads (dead and follower forces and moments, times their
+time functions), gravity and the force elements' actuators (their work is external work).
+"""
+
+from __future__ import annotations
+
+from reference.elements.families import assemble_forces
+from reference.forces import force_element_forces
+from reference.generated import rotation_maps as rm
+from reference.interactions import tf_value
+from reference.jit import inlined
+
+
+@inlined
+def external_forces(model, x, q, t, F, A):
+    """External generalised forces at time t into ``F`` (N,6): inertial force, body moment.
+
+    A force applied at a body-fixed point (``model.load_arm`` ≠ 0) adds its
+    moment ``arm × force`` (body frame) about the node.
+    """
+    g0, g1, g2 = model.gravity[0], model.gravity[1], model.gravity[2]
+    mass = model.mass
+    for i in range(F.shape[0]):
+        F[i, 0], F[i, 1], F[i, 2] = mass[i] * g0, mass[i] * g1, mass[i] * g2
+        F[i, 3], F[i, 4], F[i, 5] = 0.0, 0.0, 0.0
+    for l in range(model.load_node.shape[0]):
+        i = model.load_node[l]
+        j = model.load_tf[l]
+        f = tf_value(model.tf_kind[j], model.tf_par[j], t)
+        code = model.load_code[l]
+        vec = model.load_vec[l]
+        if code == 0:
+            for k in range(3):
+                F[i, k] += f * vec[k]
+        elif code == 3:
+            for k in range(3):
+                F[i, 3 + k] += f * vec[k]
+        else:
+            rm.rotation_matrix(q[i], A)
+            if code == 1:  # follower force: inertial = A f_body
+                for k in range(3):
+                    F[i, k] += f * (A[3 * k] * vec[0] + A[3 * k + 1] * vec[1] + A[3 * k + 2] * vec[2])
+            else:  # dead moment: body = A^T M
+                for k in range(3):
+                    F[i, 3 + k] += f * (A[k] * vec[0] + A[3 + k] * vec[1] + A[6 + k] * vec[2])
+        arm = model.load_arm[l]
+        if code <= 1 and (arm[0] != 0.0 or arm[1] != 0.0 or arm[2] != 0.0):
+            if code == 0:  # body components of the dead force
+                rm.rotation_matrix(q[i], A)
+                b0 = f * (A[0] * vec[0] + A[3] * vec[1] + A[6] * vec[2])
+                b1 = f * (A[1] * vec[0] + A[4] * vec[1] + A[7] * vec[2])
+                b2 = f * (A[2] * vec[0] + A[5] * vec[1] + A[8] * vec[2])
+            else:
+                b0, b1, b2 = f * vec[0], f * vec[1], f * vec[2]
+            F[i, 3] += arm[1] * b2 - arm[2] * b1
+            F[i, 4] += arm[2] * b0 - arm[0] * b2
+            F[i, 5] += arm[0] * b1 - arm[1] * b0
+
+
+@inlined
+def generalized_forces(model, element_work, x, q, v, w, t, S, F, G, angle, A, fe_phi, fe_B):
+    """Internal forces into ``S`` and external forces into ``F`` (N, 6) at time t; returns
+    ``(U, D)``: the strain energy of the elements and springs [J] and the power of the force
+    elements' dampers ``Σ c (B_e V)²`` [W] at the velocities ``v``, ``w`` (N, 3; ω body frame).
+
+    ``element_work`` the element families' work arrays (:func:`reference.state.element_work`);
+    ``G`` (N, 6) receives the force elements' forces; ``angle`` (F,) the rotational springs'
+    continuous angles, carried on (:mod:`reference.forces`); ``A`` (9,), ``fe_phi``, ``fe_B``
+    scratch (at least 6 and 72 entries).
+    """
+    N = x.shape[0]
+    for i in range(N):
+        for a in range(6):
+            S[i, a] = 0.0
+    U = assemble_forces(model.elements, element_work, x, q, S)
+    external_forces(model, x, q, t, F, A)
+    D = 0.0
+    if model.fe_kind.shape[0] > 0:
+        # springs and dampers act like internal forces (S −= their force; energy in U), their
+        # actuators like external loads (into F)
+        for i in range(N):
+            for a in range(6):
+                G[i, a] = 0.0
+        U_fe, D = force_element_forces(model, x, q, v, w, t, angle, G, F, fe_phi, fe_B)
+        U += U_fe
+        for i in range(N):
+            for a in range(6):
+                S[i, a] -= G[i, a]
+    return U, D
