@@ -25,7 +25,6 @@ import math
 import numpy as np
 
 from reference.algorithms import ALGORITHMS, Algorithm, SolverSettings
-from reference.algorithms.staggered import OK
 from reference.elements import Element, Section
 from reference.elements.families import DEFAULT_FAMILY, ELEMENT_FAMILIES
 from reference.elements.formulation import PlacedElement
@@ -40,7 +39,8 @@ from reference.mesh import arc_geometry, beam_triad, section_frames, straight_li
 from reference.nodes import Node
 from reference.rotation import EulerParameters
 from reference.solution import SolverDiverged, run
-from reference.state import Model, Scratch, State
+from reference.state import Model, State
+from reference.status import OK
 
 
 def free_block_inverse(inertia: np.ndarray, free_rot: np.ndarray) -> np.ndarray:
@@ -434,7 +434,7 @@ class Domain:
         state = self.state if self.state is not None else self.initial_conditions()
         algo = self.algorithm()
         n = int(round((time - state.t) / algo.dt))
-        if n > 0 and algo.advance(model, state, n, None, Scratch.for_model(model)) != OK:
+        if n > 0 and algo.advance(model, state, algo.start(model, state, self.critical_time_step()), n, None) != OK:
             raise SolverDiverged(f"the solution became non-finite before t = {time}")
         return state
 

@@ -13,20 +13,21 @@ run, the sink is closed with a status saying how it ended.
 
 from __future__ import annotations
 
+import math
 import time as _time
 from typing import NamedTuple
 
 import numpy as np
 
 from reference.algorithms import Algorithm
-from reference.algorithms.staggered import OK
 from reference.elements.families import resultants
 from reference.io.results import MemoryRecorder, Results
 from reference.jit import inlined, kernel
 from reference.joints.reactions import joint_reactions
 from reference.joints.reactions import scratch as reaction_scratch
-from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor
-from reference.state import Model, Record, Scratch, State, element_work
+from reference.monitor import BlowUpMonitor
+from reference.state import Model, Record, State, element_work
+from reference.status import OK
 
 
 class SolverDiverged(RuntimeError):
@@ -127,10 +128,10 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     the results path, the status, the last time, the energy scale and the work.
     """
     every = max(int(domain.solver.output_every), 1)
-    scratch, rec = Scratch.for_model(model), Record.empty(len(domain.nodes), model.n_constraints)
+    rec = Record.empty(len(domain.nodes), model.n_constraints)
     outputs = Outputs(model, domain.joints, rec)
     watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True)) if monitor else None
-    scratch.guard[2] = GUARD_TOLERANCE if monitor else 0.0
+    run_state = None
     if results_path is not None:
         from reference.io.results import ResultsWriter
 
@@ -142,20 +143,20 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     status = "failed: stopped before the first step"
     wall0 = _time.perf_counter()
     try:
+        run_state = algo.start(model, state, domain.critical_time_step() if algo.explicit else math.inf, monitor)
+        domain.last_run["solver"] = run_state
         done = 0
         while True:
             chunk = min(every, n_total - done)
             t_record = state.t
-            code = algo.advance(model, state, chunk, rec, scratch)
+            code = algo.advance(model, state, run_state, chunk, rec)
             sink.append(outputs.record(t_record))
             why = watch.check(rec.energy, rec.x) if watch is not None and code == OK else ""
             if why:
                 status = f"diverged after t = {t_record:.6g}"
                 raise SolverDiverged(f"{why} (stopped at t = {t_record:.6g}); results up to then are kept")
             if code != OK:
-                status, message = algo.failure(code, state.t, domain)
-                if watch is not None:
-                    message += watch.guard_report(scratch.guard, state.clock[2])
+                status, message = algo.failure(code, state, run_state)
                 raise SolverDiverged(message)
             done += chunk
             if progress is not None and chunk > 0:
@@ -175,7 +176,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
         status = f"terminated at t = {state.t:.6g}"
         raise
     finally:
-        domain.last_run.update(status=status, t=state.t, energy=float(scratch.guard[4]),
+        domain.last_run.update(status=status, t=state.t, energy=float(getattr(run_state, "energy", math.nan)),
                                work=float(state.clock[2]))
         sink.close(status)
     return sink.results(_time.perf_counter() - wall0)

@@ -13,13 +13,21 @@ class Algorithm(ABC):
     ``explicit`` (True if the step is bounded by the critical time step),
     ``deck_required``/``deck_optional`` (its ``[solver]`` keys besides ``algorithm``),
     ``refusal(model) → str | None`` (why it cannot run a model),
-    ``from_settings(settings, dt=None)`` (build from
-    :class:`SolverSettings`, ``dt`` an override),
-    ``advance(model, state, n_steps, record, scratch) → status``, which moves
-    the :class:`~reference.state.State` forward in place by ``n_steps`` steps
-    and, when ``record`` is given, fills it with the output at the starting
-    time, and ``failure(code, t_last, domain) → (status, message)`` for a
-    status other than 0 (success).
+    ``from_settings(settings, dt=None)`` (build from :class:`SolverSettings`, ``dt``
+    an override), and:
+
+    - ``start(model, state, critical_step=inf, guard=True) → run``: the algorithm's
+      run state — everything it carries from one call of ``advance`` to the next
+      besides the :class:`~reference.state.State` (work arrays, multipliers,
+      accelerations, factors, counters); the algorithm object itself keeps only its
+      settings, so a run can be continued or restarted from any (state, run) pair.
+      ``critical_step`` [s] is the Domain's estimate (for an explicit scheme's
+      messages), ``guard`` whether the per-step energy guard is on;
+    - ``advance(model, state, run, n_steps, record) → status``: moves the state (and
+      the run) forward in place by ``n_steps`` steps and, when ``record`` is given,
+      fills it with the output at the starting time; the status is a code of
+      :mod:`reference.status`;
+    - ``failure(code, state, run) → (status, message)`` for a code other than ``OK``.
     """
 
     name: str
@@ -37,10 +45,13 @@ class Algorithm(ABC):
     def from_settings(cls, settings, dt=None) -> "Algorithm": ...
 
     @abstractmethod
-    def advance(self, model, state, n_steps, record, scratch) -> int: ...
+    def start(self, model, state, critical_step: float = float("inf"), guard: bool = True): ...
 
     @abstractmethod
-    def failure(self, code: int, t_last: float, domain) -> tuple[str, str]: ...
+    def advance(self, model, state, run, n_steps: int, record) -> int: ...
+
+    @abstractmethod
+    def failure(self, code: int, state, run) -> tuple[str, str]: ...
 
 
 @dataclass

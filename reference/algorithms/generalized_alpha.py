@@ -44,15 +44,13 @@ import math
 
 import numpy as np
 
-from reference.algorithms.implicit import (
-    DIVERGED, NO_CONVERGENCE, OK, SINGULAR, ImplicitAlgorithm, compose, evaluate, write_record,
-)
+from dataclasses import dataclass, field
+
+from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, evaluate, write_record
 from reference.jit import inlined, kernel
 from reference.linalg import SingularMatrix, lu_solve
 from reference.state import Record
-
-REFACTOR = 4
-"""Internal status of :func:`steps`: the kept factor contracts too slowly."""
+from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR
 
 
 def parameters(rho_inf: float) -> tuple[float, float, float, float]:
@@ -61,6 +59,42 @@ def parameters(rho_inf: float) -> tuple[float, float, float, float]:
     af = rho_inf / (rho_inf + 1.0)
     gamma = 0.5 + af - am
     return am, af, gamma, 0.25 * (gamma + 0.5) ** 2
+
+
+@dataclass
+class GeneralizedAlphaRun:
+    """Generalized-α's run state (:meth:`GeneralizedAlpha.start`), advanced only by
+    :meth:`GeneralizedAlpha.advance`: everything carried from one step to the next besides the
+    :class:`~reference.state.State`.
+
+    ``system`` the model's Newton system; ``L`` the model size [m] of the convergence test;
+    ``vd``, ``a`` (N, 6) the accelerations V̇ and the algorithmic accelerations; ``lam`` (m,)
+    the multipliers; ``powers`` = [constraint power P, dissipated power D] of the last step;
+    ``factors`` the kept LU factor (None: none yet); ``par`` the compiled steps' settings and
+    counters (:func:`steps`); ``arrays`` their work arrays; ``started`` whether the consistent
+    initial accelerations are computed; ``iterations``, ``factorizations`` counts;
+    ``stopped_at`` the time where a failed step stopped.
+    """
+
+    system: NewtonSystem
+    L: float
+    vd: np.ndarray | None = None
+    a: np.ndarray | None = None
+    lam: np.ndarray | None = None
+    powers: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    factors: tuple | None = None
+    par: np.ndarray | None = None
+    arrays: tuple = ()
+    started: bool = False
+    iterations: int = 0
+    factorizations: int = 0
+    stopped_at: float | None = None
+    history: list = field(default_factory=list)
+
+
+NO_FACTOR = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
+             np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
+"""Empty factor arrays, passed to the compiled steps before the first factorisation."""
 
 
 class GeneralizedAlpha(ImplicitAlgorithm):
@@ -93,29 +127,28 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             raise ValueError(f"rho_inf must lie in [0, 1], got {rho_inf!r}")
         self.rho_inf = float(rho_inf)
         self.alpha_m, self.alpha_f, self.gamma, self.beta = parameters(self.rho_inf)
-        self._run = None
-        self.iterations = 0
-        self.factorizations = 0
-        self.lu = None
 
     @classmethod
     def from_settings(cls, settings, dt=None):
         return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or 1e-10, settings.max_iterations or 15)
 
-    def _start(self, model, state):
+    def start(self, model, state, critical_step=None, guard=True) -> GeneralizedAlphaRun:
+        """A run from ``state``: the Newton system; the initial accelerations are computed by the first
+        :meth:`advance`."""
+        return GeneralizedAlphaRun(self.newton_system(model), self.length_scale(state.x))
+
+    def _initial_accelerations(self, run, state) -> int:
         """Consistent initial accelerations and multipliers at the state's time."""
+        system = run.system
+        model = system.model
         x, q, v, w, f_prev, clock = state[:6]
         N, m = x.shape[0], model.n_constraints
         t = clock[0]
-        self.L = self.length_scale(x)
-        self.lu = None
-        self._no_factor = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
-                           np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
         vd = np.zeros((N, 6))
         lam = np.zeros(m)
-        self.work.angle[:] = state.angle  # the force elements' continuous angles
-        U = self.evaluate(model, x, q, v, w, vd, lam, t, True)
-        r0 = self.work.r.copy()
+        system.work.angle[:] = state.angle  # the force elements' continuous angles
+        system.evaluate(x, q, v, w, vd, lam, t, True)
+        r0 = system.work.r.copy()
         rate = np.zeros(m)
         if m:
             tau = 1e-3 * self.dt
@@ -124,92 +157,78 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                 xs = x + sgn * tau * v
                 qs = np.empty_like(q)
                 compose(q, sgn * tau * w, qs, np.empty(4))
-                self.evaluate(model, xs, qs, v, w, vd, lam, t + sgn * tau, True)
-                g.append(self.work.PHIt + self.constraint_rate(model, v, w))
+                system.evaluate(xs, qs, v, w, vd, lam, t + sgn * tau, True)
+                g.append(system.work.PHIt + system.constraint_rate(v, w))
             rate = (g[0] - g[1]) / (2.0 * tau)
-            U = self.evaluate(model, x, q, v, w, vd, lam, t, True)
+            system.evaluate(x, q, v, w, vd, lam, t, True)
         try:
-            lu = self.factor(model, x, q, w, t, lam, 1.0, 0.0, 0.0, ce=0.0)
-            vd, lam = self.solve(lu, -r0, -rate)
+            lu = system.factor(x, q, w, t, lam, 1.0, 0.0, 0.0, ce=0.0)
+            vd, lam = system.solve(lu, -r0, -rate)
         except SingularMatrix:
             return SINGULAR
-        self.vd, self.a, self.lam = vd, vd.copy(), lam
-        self.U = U
-        self.evaluate(model, x, q, v, w, vd, lam, t, True)
-        f_prev[:] = self.work.F
-        self.P = _power(model, self.work.Bl, lam, v, w)
-        self.D = _dissipation(model, v, w) + self.work.fe_out[0]
-        self._run = (state, clock[1])
+        run.vd, run.a, run.lam = vd, vd.copy(), lam
+        system.evaluate(x, q, v, w, vd, lam, t, True)
+        f_prev[:] = system.work.F
+        run.powers = np.array([_power(model, system.work.Bl, lam, v, w),
+                               _dissipation(model, v, w) + system.work.fe_out[0]])
+        n = system.pattern.n
+        run.arrays = tuple(np.zeros((N, 6)) for _ in range(7)) + (
+            np.zeros(m), np.zeros(m), np.zeros(n), np.zeros(n), np.zeros(n),
+            np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4), np.zeros((N, 3)))
+        run.par = np.array([self.dt, self.alpha_m, self.alpha_f, self.gamma, self.beta, self.tolerance, run.L,
+                            self.contraction, self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0, 0.0])
+        run.started = True
         return OK
 
-    def advance(self, model, state, n_steps, record, scratch) -> int:
-        self.prepare(model)
+    def advance(self, model, state, run, n_steps, record) -> int:
+        system = run.system
         x, q, v, w, f_prev, clock = state[:6]
-        if self._run is None or self._run[0] is not state or self._run[1] != clock[1]:
-            self.stopped_at = None
-            code = self._start(model, state)
+        if not run.started:
+            run.stopped_at = None
+            code = self._initial_accelerations(run, state)
             if code != OK:
-                self.stopped_at = clock[0]
+                run.stopped_at = clock[0]
                 return code
-            n = self.pattern.n
-            N = x.shape[0]
-            self.arrays = tuple(np.zeros((N, 6)) for _ in range(7)) + (
-                np.zeros(model.n_constraints), np.zeros(model.n_constraints), np.zeros(n), np.zeros(n), np.zeros(n),
-                np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4), np.zeros((N, 3)))
-            h = self.dt
-            am, af, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
-            self.par = np.array([h, am, af, gamma, beta, self.tolerance, self.L, self.contraction,
-                                 self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0, 0.0])
-            self._no_record = Record.empty(N, model.n_constraints)
-            self.energy = np.array([self.P, self.D])
-        par, energy = self.par, self.energy
+        par, energy = run.par, run.powers
         left = int(n_steps)
-        rec = self._no_record
+        rec = Record.empty(x.shape[0], model.n_constraints) if record is None else record
         if record is not None:
             if left > 0 and math.isfinite(par[11]):
                 # the last Newton evaluation of the previous step is this state within the
                 # tolerance: the compiled steps write the record from it before stepping
                 par[14] = 1.0
-                rec = record
             else:
-                U = par[11] if np.isfinite(par[11]) else self.evaluate(model, x, q, v, w, self.vd, self.lam,
-                                                                        clock[0], True)
-                self.write_record(record, model, x, q, v, w, U, clock, self.lam)
+                U = par[11] if np.isfinite(par[11]) else system.evaluate(x, q, v, w, run.vd, run.lam, clock[0], True)
+                system.write_record(record, x, q, v, w, U, clock, run.lam)
         par[10] = 0.0
         while left > 0:
-            if self.lu is None:
+            if run.factors is None:
                 par[9] = -1.0  # only predict: the factor is made at the predictor
-            code, done = steps(model, x, q, v, w, self.vd, self.a, self.lam, clock, f_prev, energy, self.dof, par,
-                               left, self.factors if self.lu is not None else self._no_factor, self.wt, self.arrays,
-                               rec)
+            code, done = steps(model, x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, energy, system.dof, par,
+                               left, NO_FACTOR if run.factors is None else run.factors, system.wt, run.arrays, rec)
             left -= done
             if code == OK:
                 continue
             if code == REFACTOR:
-                arr, h = self.arrays, self.dt
+                arr, h = run.arrays, self.dt
                 bp = (1.0 - self.alpha_m) / (h * h * self.beta * (1.0 - self.alpha_f))
                 ck, cc = 1.0 / bp, (self.gamma / (h * self.beta)) / bp
                 try:
-                    self.lu = self.factor(model, arr[12], arr[13], np.ascontiguousarray(arr[1][:, 3:]), clock[0] + h,
-                                          arr[7], 1.0, cc, ck, psi=np.ascontiguousarray(h * arr[0][:, 3:]))
+                    run.factors = system.factor(arr[12], arr[13], np.ascontiguousarray(arr[1][:, 3:]), clock[0] + h,
+                                                arr[7], 1.0, cc, ck, psi=np.ascontiguousarray(h * arr[0][:, 3:]))
                 except SingularMatrix:
-                    self.stopped_at = clock[0]
-                    self.P, self.D = energy
+                    run.stopped_at = clock[0]
                     return SINGULAR
-                self.factors = self.lu
-                self.factorizations += 1
+                run.factorizations += 1
                 par[9] = 1.0  # the interrupted step resumes with a fresh factor
                 continue
-            self.lu = None
+            run.factors = None
             par[12] = 0.0
-            self.stopped_at = clock[0]
-            self.P, self.D = energy
-            state.angle[:] = self.work.angle
+            run.stopped_at = clock[0]
+            state.angle[:] = system.work.angle
             return code
-        self.P, self.D = energy
-        state.angle[:] = self.work.angle
-        self.iterations += int(par[10])
-        self._run = (state, clock[1])
+        state.angle[:] = system.work.angle
+        run.iterations += int(par[10])
         return OK
 
 

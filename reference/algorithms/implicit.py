@@ -60,6 +60,7 @@ from reference.jit import inlined, kernel
 from reference.joints.assembly import joint_rows
 from reference.linalg import SingularMatrix, SparseLU, lu_solve
 from reference.state import element_work
+from reference.status import newton_failure
 
 
 class Work:
@@ -162,16 +163,98 @@ def work_tuple(w: Work):
     return (w.S, w.F, w.r, w.PHI, w.PHIt, w.Bl, w.A, w.jphi, w.jB, w.jphit, w.prim_phi, w.prim_B, fe, w.elements)
 
 
-OK, DIVERGED, SINGULAR, NO_CONVERGENCE = 0, 1, 2, 3
-"""Status codes of the implicit algorithms' ``advance`` (OK, DIVERGED and SINGULAR as in the explicit scheme)."""
+class NewtonSystem:
+    """The Newton system of one model, built once per run: its block pattern, the unknown of every
+    node coordinate, the work arrays, the sparse LU, and the evaluations that fill them.
+
+    Parameters
+    ----------
+    model : Model
+
+    Attributes
+    ----------
+    pattern : BlockPattern
+        The Newton matrix's blocks (:func:`reference.evaluation.tangent.newton_pattern`).
+    dof : ndarray (N, 6)
+        The unknown of each node coordinate, −1 where fixed; ``free`` the mask, ``n_free`` the count.
+    work : Work
+        The arrays every evaluation writes (``work.r`` the residual, ``work.PHI`` the constraints, …).
+    """
+
+    def __init__(self, model):
+        self.model = model
+        self.pattern, self.dof = newton_pattern(model)
+        self.free = self.dof >= 0
+        self.n_free = int(self.free.sum())
+        self.work = Work(model)
+        self.wt = work_tuple(self.work)
+        self.zero_psi = np.zeros((model.mass.shape[0], 3))
+        self.slu = SparseLU(self.pattern.n)
+
+    def evaluate(self, x, q, v, w, vd, lam, t, dynamic) -> float:
+        """:func:`evaluate` into :attr:`work`; returns the strain energy."""
+        return evaluate(self.model, x, q, v, w, vd, lam, t, dynamic, self.wt)
+
+    def residual_norm(self, ck: float, lam) -> float:
+        """‖[c_k r; Φ − ελ]‖ of the last :meth:`evaluate` (free coordinates only)."""
+        r = self.work.r[self.free]
+        phi = self.work.PHI - self.model.row_eps * lam
+        return float(math.sqrt(ck * ck * r @ r + phi @ phi))
+
+    def factor(self, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
+        """Assemble and factor the Newton matrix at ``(x, q, ω, t, λ)``; returns the factor arrays
+        (:class:`reference.linalg.SparseLU`: SuperLU once, compiled refactorisations after).
+
+        Raises :class:`reference.linalg.SingularMatrix` when the matrix is singular.
+        """
+        wk = self.work
+        ce = 1.0 / ck if ce is None else ce
+        psi = self.zero_psi if psi is None else psi
+        tangent_values(self.model, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12, wk.Kel)
+        return self.slu.factor(self.pattern.matrix(wk.values))
+
+    def solve(self, lu, rhs_nodes: np.ndarray, rhs_rows: np.ndarray):
+        """Solve with the factor arrays ``lu``: node part (N,6) and constraint part (m,) → (δ (N,6), μ (m,))."""
+        rhs = np.empty(self.pattern.n)
+        rhs[: self.n_free] = rhs_nodes[self.free]
+        rhs[self.n_free:] = rhs_rows
+        sol = np.empty_like(rhs)
+        lu_solve(lu, rhs, self.slu.work, sol)
+        if not np.all(np.isfinite(sol)):
+            raise SingularMatrix("non-finite Newton correction")
+        delta = np.zeros_like(rhs_nodes)
+        delta[self.free] = sol[: self.n_free]
+        return delta, sol[self.n_free:]
+
+    def newton_correction(self, lu, ck, lam):
+        """Correction from the last :meth:`evaluate`: right-hand side ``−[c_k r; Φ − ελ]``."""
+        return self.solve(lu, -ck * self.work.r, -(self.work.PHI - self.model.row_eps * lam))
+
+    def write_record(self, rec, x, q, v, w, U, energy_clock, lam) -> None:
+        """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B)."""
+        write_record(self.model, x, q, v, w, U, energy_clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl, rec)
+
+    def constraint_rate(self, v, w) -> np.ndarray:
+        """``B V`` (m,) from the last evaluation's local rows."""
+        model, Bl = self.model, self.work.Bl
+        out = np.zeros(Bl.shape[0])
+        V = np.concatenate([v, w], axis=1)
+        for k in range(model.jt_i.shape[0]):
+            r0, neq = int(model.jt_row0[k]), int(model.jt_neq[k])
+            i, j = int(model.jt_i[k]), int(model.jt_j[k])
+            out[r0:r0 + neq] = Bl[r0:r0 + neq, :6] @ V[i]
+            if j >= 0:
+                out[r0:r0 + neq] += Bl[r0:r0 + neq, 6:] @ V[j]
+        return out
 
 
 class ImplicitAlgorithm(Algorithm):
-    """Base of the Newton-based algorithms: settings, the Newton system, records, failure messages.
+    """Base of the Newton-based algorithms: settings, convergence test, failure messages.
 
-    Subclasses provide ``name``, ``defaults`` (their deck keys) and
-    ``advance(model, state, n_steps, record, scratch) → status``; they call
-    :meth:`prepare` once per model and :meth:`solve_newton_system` per iteration.
+    Subclasses provide ``name``, their deck keys, ``start`` (a run state holding a
+    :class:`NewtonSystem` built by :meth:`newton_system`) and ``advance``.  The run
+    state has ``stopped_at`` (the time or load factor where a failed step stopped, or
+    None) and ``history`` (the residual norms of the last step's Newton iterations).
 
     Parameters
     ----------
@@ -192,9 +275,6 @@ class ImplicitAlgorithm(Algorithm):
         self.dt = float(dt)
         self.tolerance = float(tolerance)
         self.max_iterations = int(max_iterations)
-        self._model = None
-        self.history: list[list[float]] = []
-        self.stopped_at: float | None = None
 
     @staticmethod
     def refusal(model) -> str | None:
@@ -204,64 +284,17 @@ class ImplicitAlgorithm(Algorithm):
                     "formulation = \"jacobian\" (Lagrange multipliers) for those joints")
         return None
 
-    def prepare(self, model) -> None:
-        """Symbolic work once per model: pattern, work arrays, length scale."""
-        if self._model is model:
-            return
+    def newton_system(self, model) -> NewtonSystem:
+        """The model's :class:`NewtonSystem`, after :meth:`refusal` (raises ValueError with its reason)."""
         problem = self.refusal(model)
         if problem:
             raise ValueError(problem)
-        self._model = model
-        self.pattern, self.dof = newton_pattern(model)
-        self.free = self.dof >= 0
-        self.n_free = int(self.free.sum())
-        self.work = Work(model)
-        self.wt = work_tuple(self.work)
-        self.zero_psi = np.zeros((model.mass.shape[0], 3))
-        self.slu = SparseLU(self.pattern.n)
+        return NewtonSystem(model)
 
-    def length_scale(self, x: np.ndarray) -> float:
+    @staticmethod
+    def length_scale(x: np.ndarray) -> float:
         span = float(np.max(np.ptp(x, axis=0))) if x.shape[0] > 1 else 0.0
         return max(span, 1e-3)
-
-    def evaluate(self, model, x, q, v, w, vd, lam, t, dynamic) -> float:
-        return evaluate(model, x, q, v, w, vd, lam, t, dynamic, self.wt)
-
-    def residual_norm(self, ck: float, lam) -> float:
-        """‖[c_k r; Φ − ελ]‖ of the last :meth:`evaluate` (free coordinates only)."""
-        model = self._model
-        r = self.work.r[self.free]
-        phi = self.work.PHI - model.row_eps * lam
-        return float(math.sqrt(ck * ck * r @ r + phi @ phi))
-
-    def factor(self, model, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
-        """Assemble and factor the Newton matrix at ``(x, q, ω, t, λ)``; returns the factor arrays
-        (:class:`reference.linalg.SparseLU`: SuperLU once, compiled refactorisations after).
-
-        Raises :class:`reference.linalg.SingularMatrix` when the matrix is singular.
-        """
-        wk = self.work
-        ce = 1.0 / ck if ce is None else ce
-        psi = self.zero_psi if psi is None else psi
-        tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12, wk.Kel)
-        return self.slu.factor(self.pattern.matrix(wk.values))
-
-    def solve(self, lu, rhs_nodes: np.ndarray, rhs_rows: np.ndarray):
-        """Solve with the factor arrays ``lu``: node part (N,6) and constraint part (m,) → (δ (N,6), μ (m,))."""
-        rhs = np.empty(self.pattern.n)
-        rhs[: self.n_free] = rhs_nodes[self.free]
-        rhs[self.n_free:] = rhs_rows
-        sol = np.empty_like(rhs)
-        lu_solve(lu, rhs, self.slu.work, sol)
-        if not np.all(np.isfinite(sol)):
-            raise SingularMatrix("non-finite Newton correction")
-        delta = np.zeros_like(rhs_nodes)
-        delta[self.free] = sol[: self.n_free]
-        return delta, sol[self.n_free:]
-
-    def newton_correction(self, lu, model, ck, lam):
-        """Correction from the last :meth:`evaluate`: right-hand side ``−[c_k r; Φ − ελ]``."""
-        return self.solve(lu, -ck * self.work.r, -(self.work.PHI - model.row_eps * lam))
 
     def correction_size(self, delta: np.ndarray, L: float) -> float:
         """Largest correction: translations over the model size L, rotations in rad."""
@@ -270,39 +303,11 @@ class ImplicitAlgorithm(Algorithm):
     def converged(self, delta: np.ndarray, L: float) -> bool:
         return self.correction_size(delta, L) <= self.tolerance
 
-    def write_record(self, rec, model, x, q, v, w, U, energy_clock, lam) -> None:
-        """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B)."""
-        write_record(model, x, q, v, w, U, energy_clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl, rec)
-
-    def constraint_rate(self, model, v, w) -> np.ndarray:
-        """``B V`` (m,) from the last evaluation's local rows."""
-        Bl = self.work.Bl
-        out = np.zeros(Bl.shape[0])
-        V = np.concatenate([v, w], axis=1)
-        for k in range(model.jt_i.shape[0]):
-            r0, neq = int(model.jt_row0[k]), int(model.jt_neq[k])
-            i, j = int(model.jt_i[k]), int(model.jt_j[k])
-            out[r0:r0 + neq] = Bl[r0:r0 + neq, :6] @ V[i]
-            if j >= 0:
-                out[r0:r0 + neq] += Bl[r0:r0 + neq, 6:] @ V[j]
-        return out
-
-    def failure(self, code: int, t_last: float, domain) -> tuple[str, str]:
-        """``(status, message)`` for a failed ``advance`` after the record at ``t_last``."""
-        t = self.stopped_at if self.stopped_at is not None else t_last
-        where = f"{self.progress_name} {t:.6g}"
-        if code == SINGULAR:
-            return (f"singular tangent at {where}",
-                    f"the Newton matrix became singular at {where} (a mechanism with an unconstrained "
-                    "motion, redundant or degenerate joints, or a buckling point); results up to there are kept. "
-                    "Constrain the free motion, regularise the joints (epsilon > 0) or stop before the limit point.")
-        if code == NO_CONVERGENCE:
-            return (f"Newton did not converge at {where}",
-                    f"Newton did not converge beyond {where} within {self.max_iterations} iterations"
-                    f"{' ' + self.cut_note if self.cut_note else ''}; results up to there are kept. "
-                    f"{self.no_convergence_fix}")
-        return (f"diverged after {where}",
-                f"the solution became non-finite after {where}; results up to there are kept. Check the loads.")
+    def failure(self, code: int, state, run) -> tuple[str, str]:
+        """``(status, message)`` for a failed ``advance`` (:func:`reference.status.newton_failure`)."""
+        t = run.stopped_at if run.stopped_at is not None else state.t
+        return newton_failure(code, f"{self.progress_name} {t:.6g}", self.max_iterations, self.cut_note,
+                              self.no_convergence_fix)
 
     progress_name = "t ="
     cut_note = ""

@@ -32,7 +32,7 @@ one-step, pure-function face for tests and teaching.
 from __future__ import annotations
 
 import math
-
+from typing import NamedTuple
 
 from reference.algorithms.base import Algorithm
 from reference.evaluation.forces import generalized_forces
@@ -40,11 +40,12 @@ from reference.forces import force_element_dissipation
 from reference.generated import rotation_maps as rm
 from reference.jit import inlined, kernel, use_threads
 from reference.joints.assembly import (
-    SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
+    assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
 )
 from reference.joints.master_slave import master_slave_positions, master_slave_project
-from reference.monitor import likely_cause
+from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, likely_cause
 from reference.state import Model, Record, Scratch, State
+from reference.status import BLOWUP, DIVERGED, OK, SINGULAR, explicit_failure
 
 _cayley_update = inlined(rm.cayley_update)
 
@@ -59,10 +60,6 @@ a slowly turning node (h|ω| ≲ 1e-8, most nodes of a beam) needs two."""
 CONSTRAINED_SWEEPS = 3
 """Extra (kick, projection) passes when there are joints (contraction ≈ h|ω|)."""
 
-OK, DIVERGED, BLOWUP = 0, 1, 3
-"""Status codes of :func:`advance`; ``SINGULAR`` (2, from the joint assembly) means
-the constraint matrix lost rank (redundant or degenerate joints); ``BLOWUP`` that the
-energy balance failed (:attr:`reference.state.Scratch.guard`)."""
 
 
 @inlined
@@ -337,21 +334,34 @@ class StaggeredCentralDifference(Algorithm):
     def from_settings(cls, settings, dt=None):
         return cls(dt or settings.dt)
 
-    def failure(self, code, t_last, domain):
-        if code == SINGULAR:
-            return (f"singular constraints after t = {t_last:.6g}",
-                    f"the constraint matrix became singular after t = {t_last:.6g} "
-                    "(redundant or degenerate joints); results up to that time are kept. "
-                    "Regularise the joints (epsilon > 0) or remove the redundancy.")
-        what = "the energy balance failed" if code == BLOWUP else "the solution became non-finite"
-        return (f"diverged after t = {t_last:.6g}",
-                f"{what} after t = {t_last:.6g}: {likely_cause(self.dt, domain.critical_time_step())}; "
-                "results up to that time are kept")
+    def start(self, model, state, critical_step=math.inf, guard=True) -> "ExplicitRun":
+        """The run state: the step's work arrays (:class:`~reference.state.Scratch`, its energy guard on
+        when ``guard``) and the critical step for the messages."""
+        scratch = Scratch.for_model(model)
+        scratch.guard[2] = GUARD_TOLERANCE if guard else 0.0
+        return ExplicitRun(scratch, float(critical_step))
 
-    def advance(self, model: Model, state: State, n_steps: int, record: Record | None, scratch: Scratch) -> int:
+    def failure(self, code, state, run):
+        status, message = explicit_failure(code, state.t, likely_cause(self.dt, run.critical_step))
+        return status, message + BlowUpMonitor.guard_report(run.scratch.guard, state.clock[2])
+
+    def advance(self, model: Model, state: State, run: "ExplicitRun", n_steps: int, record: Record | None) -> int:
         rec = record if record is not None else Record.empty(state.x.shape[0], model.n_constraints)
         use_threads()
-        return advance(model, state, self.dt, int(n_steps), record is not None, rec, scratch)
+        return advance(model, state, self.dt, int(n_steps), record is not None, rec, run.scratch)
+
+
+class ExplicitRun(NamedTuple):
+    """The staggered scheme's run state: its work arrays and energy guard, and the Domain's critical
+    step estimate [s] (for the message of a blow-up)."""
+
+    scratch: Scratch
+    critical_step: float
+
+    @property
+    def energy(self) -> float:
+        """Kinetic + strain energy at the last guarded step [J]."""
+        return float(self.scratch.guard[4])
 
 
 def step(model: Model, state: State, h: float) -> State:

@@ -26,15 +26,37 @@ work of the prescribed drives, ``−½(λ_old B_old + λ_new B_new)·Δ``;
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
-from reference.algorithms.implicit import (
-    DIVERGED, NO_CONVERGENCE, OK, SINGULAR, ImplicitAlgorithm, compose, relative_rotation,
-)
+from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
 from reference.linalg import SingularMatrix
+from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
 
 MAX_CUTS = 8
 """Halvings of a load step before the run stops (smallest step 1/256 of the nominal)."""
+
+
+@dataclass
+class StaticRun:
+    """The static algorithm's run state (:meth:`Static.start`), advanced only by :meth:`Static.advance`.
+
+    ``system`` the model's Newton system; ``lam`` (m,) the multipliers of the last equilibrium;
+    ``P`` (N, 6) its joint forces ``Bᵀλ`` and ``U`` its strain energy (for the work increments and
+    records); ``started`` whether the equilibrium at the starting load level is solved;
+    ``stopped_at`` the load factor where a failed step stopped; ``history`` the residual norms of
+    the Newton iterations of the last load level solved (or tried).
+    """
+
+    system: NewtonSystem
+    lam: np.ndarray
+    L: float
+    P: np.ndarray | None = None
+    U: float = 0.0
+    started: bool = False
+    stopped_at: float | None = None
+    history: list = field(default_factory=list)
 
 
 class Static(ImplicitAlgorithm):
@@ -60,33 +82,35 @@ class Static(ImplicitAlgorithm):
     def __init__(self, dt: float, tolerance: float = 1e-10, max_iterations: int = 25):
         super().__init__(dt, tolerance, max_iterations)
         self.cut_note = f"even with the load step halved {MAX_CUTS} times"
-        self._lam = None
-        self._run = None
 
     @classmethod
     def from_settings(cls, settings, dt=None):
         step = dt if dt is not None else settings.t_end / settings.load_steps
         return cls(step, settings.tolerance or 1e-10, settings.max_iterations or 25)
 
-    def _equilibrium(self, model, x, q, lam, t, L):
+    def start(self, model, state, critical_step=None, guard=True) -> StaticRun:
+        """A run from ``state`` (its load level ``state.t``): the Newton system and zero multipliers."""
+        return StaticRun(self.newton_system(model), np.zeros(model.n_constraints), self.length_scale(state.x))
+
+    def _equilibrium(self, run, x, q, lam, t):
         """Newton at load level t from (x, q, λ), in place; returns a status code."""
-        hist = []
-        self.history.append(hist)
+        system, L = run.system, run.L
+        hist = run.history = []
         q_new = np.empty_like(q)
         tmp = np.empty(4)
         for it in range(self.max_iterations + 1):
-            U = self.evaluate(model, x, q, x, x, x, lam, t, False)
-            hist.append(self.residual_norm(1.0, lam))
+            U = system.evaluate(x, q, x, x, x, lam, t, False)
+            hist.append(system.residual_norm(1.0, lam))
             if not np.isfinite(hist[-1]):
                 return DIVERGED
-            if self.balanced(model, lam, L) or (it > 0 and self.converged(delta, L)):
-                self._U = U
+            if self.balanced(system, lam, L) or (it > 0 and self.converged(delta, L)):
+                run.U = U
                 return OK
             if it == self.max_iterations:
                 break
             try:
-                lu = self.factor(model, x, q, x, t, lam, 0.0, 0.0, 1.0)
-                delta, mu = self.newton_correction(lu, model, 1.0, lam)
+                lu = system.factor(x, q, x, t, lam, 0.0, 0.0, 1.0)
+                delta, mu = system.newton_correction(lu, 1.0, lam)
             except SingularMatrix:
                 return SINGULAR
             x += delta[:, :3]
@@ -95,84 +119,84 @@ class Static(ImplicitAlgorithm):
             lam += mu
         return NO_CONVERGENCE
 
-    def balanced(self, model, lam, L) -> bool:
+    def balanced(self, system, lam, L) -> bool:
         """Equilibrium reached: every residual force below ``tolerance`` times the largest
         internal, external or joint force, and ``|Φ − ελ|`` below ``tolerance × L``."""
-        wk = self.work
-        r = np.abs(wk.r[self.free])
+        wk = system.work
+        r = np.abs(wk.r[system.free])
         scale = max(float(np.max(np.abs(wk.S), initial=0.0)), float(np.max(np.abs(wk.F), initial=0.0)), 1e-300)
         if lam.size:
-            scale = max(scale, float(np.max(np.abs(self._row_forces(model, lam)))))
-        phi = np.abs(wk.PHI - model.row_eps * lam)
+            scale = max(scale, float(np.max(np.abs(_row_forces(system, lam)))))
+        phi = np.abs(wk.PHI - system.model.row_eps * lam)
         return float(np.max(r, initial=0.0)) <= self.tolerance * scale and \
             float(np.max(phi, initial=0.0)) <= self.tolerance * L
 
-    def _work_increment(self, model, x0, q0, F0, P0, x, q, lam):
-        """Trapezoidal work of the loads and drives from (x0, q0) to (x, q)."""
-        dth = np.empty_like(x)
-        relative_rotation(q0, q, dth, np.empty(4))
-        d = np.concatenate([x - x0, dth], axis=1)
-        F1 = self.work.F
-        work = 0.5 * float(np.sum((F0 + F1) * d))
-        P1 = self._row_forces(model, lam)
-        return work - 0.5 * float(np.sum((P0 + P1) * d)), P1
-
-    def _row_forces(self, model, lam):
-        """Bᵀλ per node (N,6) from the last evaluation."""
-        out = np.zeros((model.mass.shape[0], 6))
-        Bl = self.work.Bl
-        for k in range(model.jt_i.shape[0]):
-            r0, neq = int(model.jt_row0[k]), int(model.jt_neq[k])
-            i, j = int(model.jt_i[k]), int(model.jt_j[k])
-            out[i] += Bl[r0:r0 + neq, :6].T @ lam[r0:r0 + neq]
-            if j >= 0:
-                out[j] += Bl[r0:r0 + neq, 6:].T @ lam[r0:r0 + neq]
-        return out
-
-    def advance(self, model, state, n_steps, record, scratch) -> int:
-        self.prepare(model)
+    def advance(self, model, state, run, n_steps, record) -> int:
         x, q, v, w, f_prev, clock = state[:6]
-        L = self.length_scale(x)
-        if self._run is not state or self._lam is None:
+        system, lam = run.system, run.lam
+        if not run.started:
             # equilibrium at the starting load level (gravity or loads at t = 0, drives)
-            self._run = state
-            self._lam = np.zeros(model.n_constraints)
             v[:] = 0.0
             w[:] = 0.0
-            self.work.angle[:] = state.angle  # the force elements' continuous angles
-            self.stopped_at = None
-            code = self._equilibrium(model, x, q, self._lam, clock[0], L)
+            system.work.angle[:] = state.angle  # the force elements' continuous angles
+            run.stopped_at = None
+            code = self._equilibrium(run, x, q, lam, clock[0])
             if code != OK:
-                self.stopped_at = clock[0]
+                run.stopped_at = clock[0]
                 return code
-            self._P = self._row_forces(model, self._lam)
-            f_prev[:] = self.work.F
-        lam = self._lam
+            run.P = _row_forces(system, lam)
+            f_prev[:] = system.work.F
+            run.started = True
         if record is not None:
-            U = self._U = float(self.evaluate(model, x, q, x, x, x, lam, clock[0], False))
-            self.write_record(record, model, x, q, v, w, U, clock, lam)
+            U = run.U = float(system.evaluate(x, q, x, x, x, lam, clock[0], False))
+            system.write_record(record, x, q, v, w, U, clock, lam)
         for _ in range(n_steps):
             t0, target = clock[0], clock[0] + self.dt
             sub, t = self.dt, t0
             while t < target - 1e-12 * self.dt:
                 t_try = min(t + sub, target)
                 saved = (x.copy(), q.copy(), lam.copy())
-                code = self._equilibrium(model, x, q, lam, t_try, L)
+                code = self._equilibrium(run, x, q, lam, t_try)
                 if code == OK:
-                    dW, self._P = self._work_increment(model, saved[0], saved[1], f_prev, self._P, x, q, lam)
+                    dW, run.P = _work_increment(system, saved[0], saved[1], f_prev, run.P, x, q, lam)
                     clock[2] += dW
-                    f_prev[:] = self.work.F
+                    f_prev[:] = system.work.F
                     t = t_try
                     sub = min(2.0 * sub, self.dt)
                     continue
                 x[:], q[:], lam[:] = saved
                 sub *= 0.5
                 if sub < self.dt / 2**MAX_CUTS:
-                    state.angle[:] = self.work.angle
-                    self.stopped_at = t
+                    state.angle[:] = system.work.angle
+                    run.stopped_at = t
                     clock[0] = t
                     return code
-            state.angle[:] = self.work.angle
+            state.angle[:] = system.work.angle
             clock[1] += 1
             clock[0] = clock[1] * self.dt
         return OK
+
+
+def _work_increment(system, x0, q0, F0, P0, x, q, lam):
+    """Trapezoidal work of the loads and drives from (x0, q0) to (x, q) (the last evaluation at (x, q))."""
+    dth = np.empty_like(x)
+    relative_rotation(q0, q, dth, np.empty(4))
+    d = np.concatenate([x - x0, dth], axis=1)
+    F1 = system.work.F
+    work = 0.5 * float(np.sum((F0 + F1) * d))
+    P1 = _row_forces(system, lam)
+    return work - 0.5 * float(np.sum((P0 + P1) * d)), P1
+
+
+def _row_forces(system, lam):
+    """Bᵀλ per node (N,6) from the last evaluation."""
+    model = system.model
+    out = np.zeros((model.mass.shape[0], 6))
+    Bl = system.work.Bl
+    for k in range(model.jt_i.shape[0]):
+        r0, neq = int(model.jt_row0[k]), int(model.jt_neq[k])
+        i, j = int(model.jt_i[k]), int(model.jt_j[k])
+        out[i] += Bl[r0:r0 + neq, :6].T @ lam[r0:r0 + neq]
+        if j >= 0:
+            out[j] += Bl[r0:r0 + neq, 6:].T @ lam[r0:r0 + neq]
+    return out

@@ -37,8 +37,8 @@ import numpy as np
 from reference.generated import joints as generated
 from reference.interactions import tf_derivative, tf_integral, tf_value
 from reference.jit import inlined
+from reference.status import OK, SINGULAR
 
-OK, SINGULAR = 0, 2
 GROUND_X = np.zeros(3)
 GROUND_Q = np.array([1.0, 0.0, 0.0, 0.0])
 """The ground's position and Euler parameters (read-only constants)."""

@@ -4,7 +4,7 @@ Each formulation is a strategy the Domain hands its joints to: it validates them
 and lays out their part of the :class:`~reference.state.Model`
 (:meth:`JointFormulation.model_fields`); the algorithms then treat each part with
 its own stage (multiplier rows: ``reference/joints/assembly.py``; eliminated
-coordinates: ``reference/joints/master_slave.py``).  :data:`FORMULATIONS` lists
+coordinates: ``reference/joints/master_slave.py``).  :data:`REGISTRY` lists
 them in the order their fields are laid out; a penalty or augmented-Lagrangian
 formulation would be one more class there.
 """
@@ -148,5 +148,5 @@ class MasterSlave(JointFormulation):
                 "ms_par": np.array([master_slave_parameters(j) for j in joints]).reshape(len(joints), 9)}
 
 
-FORMULATIONS = (Jacobian, MasterSlave)
+REGISTRY = (Jacobian, MasterSlave)
 """The joint formulations, in the order their Model fields are laid out."""

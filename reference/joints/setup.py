@@ -28,7 +28,7 @@ from reference.joints.assembly import (
     apply_inverse_mass, assemble_constraints, assemble_w, jacobian_times, sparse_cholesky, sparse_solve,
     subtract_transpose,
 )
-from reference.joints.formulation import FORMULATIONS
+from reference.joints.formulation import REGISTRY
 from reference.joints.joint import ROWS, Joint
 from reference.state import Model, State
 
@@ -48,7 +48,7 @@ def multiplier_joints(joints: list[Joint]) -> list[Joint]:
 def constraint_fields(joints: list[Joint], n_nodes: int, tf_index: Callable, beam_nodes: set, fixed: set) -> dict:
     """The :class:`~reference.state.Model` fields of the constraints: each formulation's own
     (:meth:`~reference.joints.formulation.JointFormulation.model_fields` of every class of
-    :data:`~reference.joints.formulation.FORMULATIONS`, with its joints in the Domain's order) and
+    :data:`~reference.joints.formulation.REGISTRY`, with its joints in the Domain's order) and
     ``node_constrained``, ``constrained_nodes`` (the nodes of any joint).
 
     Parameters
@@ -62,12 +62,12 @@ def constraint_fields(joints: list[Joint], n_nodes: int, tf_index: Callable, bea
     beam_nodes, fixed : set of int
         Ids of the nodes of elements, and of the nodes with fixed coordinates.
     """
-    unknown = [j for j in joints if type(j.formulation) not in FORMULATIONS]
+    unknown = [j for j in joints if type(j.formulation) not in REGISTRY]
     if unknown:
         raise ValueError(f"joint {unknown[0].label!r}: formulation {type(unknown[0].formulation).__name__} is not one "
-                         f"of {', '.join(f.__name__ for f in FORMULATIONS)}")
+                         f"of {', '.join(f.__name__ for f in REGISTRY)}")
     fields: dict = {}
-    for formulation in FORMULATIONS:
+    for formulation in REGISTRY:
         own = [j for j in joints if type(j.formulation) is formulation]
         fields.update(formulation.model_fields(own, n_nodes, tf_index, beam_nodes, fixed))
     node_constrained = np.zeros(n_nodes, dtype=np.int64)
