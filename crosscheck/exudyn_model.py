@@ -327,8 +327,8 @@ def _build(domain, progress, t_end):
         c = domain.solver.damping
         for n in domain.nodes:
             d = np.zeros((6, 6))
-            d[:3, :3] = c * model.mass[n.id] * np.eye(3)
-            d[3:, 3:] = c * model.inertia[n.id]
+            d[:3, :3] = c * model.nodes.mass[n.id] * np.eye(3)
+            d[3:, 3:] = c * model.nodes.inertia[n.id]
             # the node as marker 0 (in the node frame): the connector damps the relative angular velocity
             # in marker 0's frame, i.e. the body frame, as the reference's −c J ω (full J at a kinked node;
             # translations: isotropic c m)
@@ -576,14 +576,14 @@ def measured(domain, times, pos, rot, vel, omg, wall, dt):
     phid = np.zeros(n)
     kinetic, strain, work = np.zeros(n), np.zeros(n), np.zeros(n)
     S, F, A, ework = np.zeros((N, 6)), np.zeros((N, 6)), np.zeros(9), element_work(model)
-    G, angle, prim_phi, prim_B = np.zeros((N, 6)), np.zeros(model.fe_kind.shape[0]), np.zeros(10), np.zeros(120)
+    G, angle, prim_phi, prim_B = np.zeros((N, 6)), np.zeros(model.force_elements.kind.shape[0]), np.zeros(10), np.zeros(120)
     power = np.zeros(n)
     for i in range(n):
         if model.n_constraints:
             PHI, PHIt, Bg, _ = domain.constraint_matrices(model, pos[i], rot[i], times[i])
             V = np.concatenate([vel[i], omg[i]], axis=1).reshape(-1)
             phi[i], phid[i] = np.linalg.norm(PHI), np.linalg.norm(Bg @ V + PHIt)
-        kinetic[i] = 0.5 * np.sum(model.mass[:, None] * vel[i] ** 2) + 0.5 * np.einsum("ni,nij,nj->", omg[i], model.inertia, omg[i])
+        kinetic[i] = 0.5 * np.sum(model.nodes.mass[:, None] * vel[i] ** 2) + 0.5 * np.einsum("ni,nij,nj->", omg[i], model.nodes.inertia, omg[i])
         # the elements' and springs' energy is strain energy, the actuators external loads
         strain[i] = generalized_forces(model, ework, pos[i], rot[i], vel[i], omg[i], times[i], S, F, G, angle, A,
                                        prim_phi, prim_B)[0]

@@ -198,7 +198,7 @@ beam_theory = 1e-3 * (2 / (3 * fs.EI2) + 1 / fs.GJ + 2 / fs.GA3)
 print(f"tip deflection {w:.6e}, beam theory {beam_theory:.6e}, relative {w / beam_theory - 1:+.2e}")
 corner = frame.node("leg1:8").id
 h = 1.0 / 8 / 2
-print("corner inertia\n", frame.model.inertia[corner])
+print("corner inertia\n", frame.model.nodes.inertia[corner])
 # leg 1 contributes diag(ρJ1, ρJ2, ρJ3) h about (x, y, z), leg 2 (along y) diag(ρJ2, ρJ1, ρJ3) h
-assert np.allclose(frame.model.inertia[corner], np.diag([0.1 + 0.05, 0.05 + 0.1, 0.05 + 0.05]) * h, atol=1e-15)
+assert np.allclose(frame.model.nodes.inertia[corner], np.diag([0.1 + 0.05, 0.05 + 0.1, 0.05 + 0.05]) * h, atol=1e-15)
 assert abs(w / beam_theory - 1) < 5e-3   # 8 elements per leg: discretisation error about 0.15 %

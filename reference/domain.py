@@ -28,10 +28,11 @@ from reference.algorithms import ALGORITHMS, Algorithm, SolverSettings
 from reference.elements import Element, Section
 from reference.elements.families import DEFAULT_FAMILY, ELEMENT_FAMILIES
 from reference.elements.formulation import PlacedElement
-from reference.forces import ForceElement
+from reference.forces import ForceElement, pack_force_elements
 from reference.generated import rotation_maps as rm
 from reference.interactions import (
-    Constant, FixedCoordinates, Gravity, Interaction, LineLoad, NodalLoad, TimeFunction,
+    Constant, FixedCoordinates, Gravity, Interaction, LineLoad, NodalLoad, TimeFunction, TimeFunctionTable,
+    pack_loads,
 )
 from reference.io.results import Results
 from reference.joints import Jacobian, Joint, joint_frame, setup
@@ -39,7 +40,7 @@ from reference.mesh import arc_geometry, beam_triad, section_frames, straight_li
 from reference.nodes import Node
 from reference.rotation import EulerParameters
 from reference.solution import SolverDiverged, run
-from reference.state import Model, State
+from reference.state import Model, Nodes, State
 from reference.status import OK
 
 
@@ -321,10 +322,8 @@ class Domain:
         a, b = (self.nodes[i].position for i in element.nodes)
         return float(np.linalg.norm(b - a))
 
-    def initialization(self) -> Model:
-        """Assemble the plain-data model: lumped masses, references, loads (paper: Initialization)."""
-        N = len(self.nodes)
-        mass, inertia, placed = self._lumped()
+    def _element_families(self, placed) -> tuple:
+        """Each element family's plain data (:attr:`reference.state.Model.elements`), in registry order."""
         by_family: dict[str, list] = {}
         for item in placed:
             by_family.setdefault(item.element.formulation.family, []).append(item)
@@ -332,7 +331,19 @@ class Domain:
         if unknown:
             raise ValueError(f"element family {unknown[0]!r} is not registered; known: {', '.join(ELEMENT_FAMILIES)} "
                              "(reference.elements.families.register)")
-        elements = tuple(ELEMENT_FAMILIES[name].pack(by_family[name]) for name in ELEMENT_FAMILIES if name in by_family)
+        return tuple(ELEMENT_FAMILIES[name].pack(by_family[name]) for name in ELEMENT_FAMILIES if name in by_family)
+
+    def initialization(self) -> Model:
+        """Assemble the plain-data model: lumped masses, references, loads (paper: Initialization).
+
+        Each group of the :class:`~reference.state.Model` is packed by the classes of its objects:
+        the element families, the loads (:func:`reference.interactions.pack_loads`), the joint
+        formulations (:func:`reference.joints.setup.constraint_fields`) and the force elements
+        (:func:`reference.forces.pack_force_elements`).
+        """
+        N = len(self.nodes)
+        mass, inertia, placed = self._lumped()
+        elements = self._element_families(placed)
         massless = [n.label for n, m in zip(self.nodes, mass) if not m > 0.0]
         if massless:
             raise ValueError(f"nodes without mass (attach them to an element or give them a mass): {massless[:5]}")
@@ -343,56 +354,21 @@ class Domain:
         for bc in self.boundary_conditions:
             free[self.node(bc.node).id, list(bc.dofs)] = 0.0
         gravity = np.zeros(3)
-        loads = [ld for ld in self.loading if isinstance(ld, NodalLoad)]
-        loads += [nl for ld in self.loading if isinstance(ld, LineLoad) for nl in ld.nodal_loads()]
         for g in self.loading:
             if isinstance(g, Gravity):
                 gravity += np.asarray(g.g, dtype=float)
-        tfs: list[TimeFunction] = []
-
-        def tf_index(tf):
-            for k, known in enumerate(tfs):
-                if known is tf:
-                    return k
-            tfs.append(tf)
-            return len(tfs) - 1
-
-        load_tf = np.array([tf_index(ld.time_function) for ld in loads], dtype=np.int64)
-        lagrange = setup.multiplier_joints(self.joints)
-        constraints = setup.constraint_fields(self.joints, N, tf_index, {i for e in self.elements for i in e.nodes},
-                                              {self.node(bc.node).id for bc in self.boundary_conditions})
-        fes = self.force_elements
-        fe = {"fe_kind": np.array([f.kind for f in fes], dtype=np.int64),
-              "fe_i": np.array([f.body_i.id for f in fes], dtype=np.int64),
-              "fe_j": np.array([-1 if f.body_j is None else f.body_j.id for f in fes], dtype=np.int64),
-              "fe_par": np.array([f.body_fixed() for f in fes]).reshape(len(fes), 24),
-              "fe_k": np.array([f.stiffness_damping()[0] for f in fes]).reshape(len(fes), 6),
-              "fe_c": np.array([f.stiffness_damping()[1] for f in fes]).reshape(len(fes), 6),
-              "fe_rest": np.array([f.rest() for f in fes], dtype=float),
-              "fe_tf": np.array([-1 if getattr(f, "force_function", None) is None else tf_index(f.force_function)
-                                 for f in fes], dtype=np.int64)}
-        load_arm = np.zeros((len(loads), 3))
-        for k, ld in enumerate(loads):
-            if ld.point is not None and not ld.moment:
-                node = self.node(ld.node)
-                load_arm[k] = EulerParameters(node.rotation).matrix().T @ (np.asarray(ld.point, float) - node.position)
-        pars = [tf.parameters() for tf in tfs]
-        width = max([len(p) for p in pars] + [1])
-        tf_par = np.zeros((max(len(tfs), 1), width))
-        for j, p in enumerate(pars):
-            tf_par[j, : len(p)] = p
-        self._model = Model(
-            mass=mass, inertia=inertia, inertia_inv=free_block_inverse(inertia, free[:, 3:]), free=free,
-            elements=elements,
-            load_node=np.array([self.node(ld.node).id for ld in loads], dtype=np.int64),
-            load_code=np.array([ld.code for ld in loads], dtype=np.int64),
-            load_vec=np.array([np.asarray(ld.vector, dtype=float) for ld in loads]).reshape(len(loads), 3),
-            load_tf=load_tf,
-            tf_kind=np.array([tf.kind for tf in tfs] or [0], dtype=np.int64),
-            tf_par=tf_par, gravity=gravity, damping=float(self.solver.damping),
-            load_arm=load_arm, **constraints, **fe,
-        )
-        setup.check_redundancy(self._model, lagrange, *self._configuration())
+        tfs = TimeFunctionTable()
+        loads = pack_loads(self.loading, self.node, tfs.index)
+        constraints, constrained = setup.constraint_fields(
+            self.joints, N, tfs.index, {i for e in self.elements for i in e.nodes},
+            {self.node(bc.node).id for bc in self.boundary_conditions})
+        force_elements = pack_force_elements(self.force_elements, tfs.index)
+        nodes = Nodes(mass, inertia, free_block_inverse(inertia, free[:, 3:]), free, constrained,
+                      np.flatnonzero(constrained).astype(np.int64))
+        self._model = Model(nodes=nodes, elements=elements, loads=loads, gravity=gravity,
+                            damping=float(self.solver.damping), time_functions=tfs.pack(),
+                            force_elements=force_elements, **constraints)
+        setup.check_redundancy(self._model, setup.multiplier_joints(self.joints), *self._configuration())
         return self._model
 
     def _configuration(self, x=None, q=None):

@@ -42,245 +42,28 @@ The continuous angle of a rotational spring is carried in the state
 difference to the new one, which is exact while the relative rotation changes
 by less than π per evaluation.
 
-All compiled work is in :func:`force_element_forces`, which every algorithm
-calls, and :func:`force_element_tangent` (stiffness and damping matrices of
-one element, for implicit algorithms); an actuator force along a
-point-to-point line is an external load (its work counts as external work).
+The compiled evaluation is in :mod:`reference.evaluation.force_elements`
+(forces and energy, which every algorithm calls through the generalised forces,
+the dampers' dissipation, and the stiffness and damping matrices of one element
+for the implicit algorithms); an actuator force along a point-to-point line is
+an external load (its work counts as external work).  :func:`pack_force_elements`
+lays the elements out in the Model.
 """
 
 from __future__ import annotations
 
-import math
 from abc import ABC
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from reference.generated import forces as generated
-from reference.interactions import TimeFunction, tf_value
-from reference.jit import inlined, kernel
-from reference.joints.assembly import GROUND_Q, GROUND_X
+from reference.interactions import TimeFunction
 from reference.joints.joint import joint_frame
 from reference.rotation import EulerParameters
+from reference.state import ForceElements
 
 POINT_TO_POINT, ROTATIONAL, BUSHING = 0, 1, 2
 KINDS = {"point_to_point": POINT_TO_POINT, "rotational": ROTATIONAL, "bushing": BUSHING}
-
-
-@inlined
-def _measures(model, x, q, k, e, B):
-    """Measures ``e`` and Jacobian ``B`` (row-major, 12 columns) of element k; returns their number.
-
-    A point-to-point element's generated d becomes ℓ = |d|, a rotational
-    element's raw pair (r sin φ, r cos φ) the wrapped angle φ = atan2, with their
-    Jacobians by the chain rule; the ground's columns are zeroed.
-    """
-    i, j = model.fe_i[k], model.fe_j[k]
-    par = model.fe_par[k]
-    kind = model.fe_kind[k]
-    xj, qj = GROUND_X, GROUND_Q
-    if j >= 0:
-        xj, qj = x[j], q[j]
-    m = 6
-    if kind == POINT_TO_POINT:
-        # generated: d and its Jacobian; here ℓ = |d| and B_ℓ = (d/ℓ)ᵀ B_d
-        generated.point_to_point_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
-        length = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-        for col in range(12):
-            B[col] = (e[0] * B[col] + e[1] * B[12 + col] + e[2] * B[24 + col]) / length if length > 0.0 else 0.0
-        e[0] = length
-        m = 1
-    elif kind == ROTATIONAL:
-        generated.rotational_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
-        sn, cs = e[0], e[1]
-        r2 = sn * sn + cs * cs
-        e[0] = math.atan2(sn, cs)
-        for col in range(12):
-            B[col] = (cs * B[col] - sn * B[12 + col]) / r2
-        m = 1
-    else:
-        generated.bushing_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
-    if j < 0:
-        for r in range(m):
-            for col in range(6, 12):
-                B[12 * r + col] = 0.0
-    return m
-
-
-@inlined
-def _rate(B, r, v, w, i, j):
-    """``(B V)_r`` with V = [v_i, ω_i, v_j, ω_j]."""
-    acc = 0.0
-    for a in range(3):
-        acc += B[12 * r + a] * v[i, a] + B[12 * r + 3 + a] * w[i, a]
-        if j >= 0:
-            acc += B[12 * r + 6 + a] * v[j, a] + B[12 * r + 9 + a] * w[j, a]
-    return acc
-
-
-@inlined
-def _spread(B, r, f, i, j, F):
-    """``F −= B_rᵀ f`` on nodes i and j (inertial force, body moment)."""
-    for a in range(6):
-        F[i, a] -= f * B[12 * r + a]
-        if j >= 0:
-            F[j, a] -= f * B[12 * r + 6 + a]
-
-
-@inlined
-def _continuous(angle, k, raw):
-    """The last angle plus the wrapped difference to ``raw``."""
-    d = raw - angle[k]
-    d -= 2.0 * math.pi * math.floor(d / (2.0 * math.pi) + 0.5)
-    return angle[k] + d
-
-
-@inlined
-def force_element_forces(model, x, q, v, w, t, angle, F, F_ext, e, B):
-    """Forces of all force elements at one configuration; returns ``(energy, dissipation rate)``.
-
-    Parameters
-    ----------
-    model : Model
-        ``fe_*`` fields (see :class:`reference.state.Model`).
-    x, q, v, w : arrays (N,3), (N,4), (N,3), (N,3)
-        Positions, Euler parameters, inertial and body-frame velocities.
-    t : float
-        Time [s] (actuator force functions).
-    angle : array (F,)
-        Continuous angles of the rotational springs, updated in place.
-    F : array (N,6)
-        The spring and damper forces are **added** (inertial force, body moment).
-    F_ext : array (N,6)
-        The actuator forces are added here (external loads; may be ``F`` itself).
-    e, B : arrays (≥ 6,), (≥ 72,)
-        Work arrays.
-
-    Returns
-    -------
-    energy : float
-        ``Σ ½ k (e − e_0)²`` [J].
-    dissipation : float
-        ``Σ c (B_e V)²`` [W], ≥ 0 (an explicit step books
-        :func:`force_element_dissipation` instead).
-    """
-    energy = 0.0
-    dissipation = 0.0
-    for k in range(model.fe_kind.shape[0]):
-        i, j = model.fe_i[k], model.fe_j[k]
-        kind = model.fe_kind[k]
-        m = _measures(model, x, q, k, e, B)
-        if kind == ROTATIONAL:
-            e[0] = _continuous(angle, k, e[0])
-            angle[k] = e[0]
-        elif kind == POINT_TO_POINT and e[0] <= 0.0:
-            continue  # coincident points: no direction (the deck refuses a zero rest length)
-        for r in range(m):
-            stretch = e[r] - (model.fe_rest[k] if m == 1 else 0.0)
-            rate = _rate(B, r, v, w, i, j)
-            energy += 0.5 * model.fe_k[k, r] * stretch * stretch
-            dissipation += model.fe_c[k, r] * rate * rate
-            _spread(B, r, model.fe_k[k, r] * stretch + model.fe_c[k, r] * rate, i, j, F)
-        tf = model.fe_tf[k]
-        if tf >= 0:
-            _spread(B, 0, tf_value(model.tf_kind[tf], model.tf_par[tf], t), i, j, F_ext)
-    return energy, dissipation
-
-
-@inlined
-def force_element_dissipation(model, x, q, v, w, v_new, w_new, e, B):
-    """Work rate of the dampers over a kick: ``Σ c (B_e V⁻)·(B_e V̄)``, ``V̄ = ½(V⁻ + V⁺)`` [W].
-
-    The damper force of an explicit step is evaluated at the old velocity V⁻;
-    the kinetic energy changes by the kick length times the force times the
-    mean velocity V̄, so this is the energy the dampers remove in that step
-    (exact for the scheme).
-    """
-    total = 0.0
-    for k in range(model.fe_kind.shape[0]):
-        damped = False
-        for r in range(6):
-            damped = damped or model.fe_c[k, r] != 0.0
-        if not damped:
-            continue
-        i, j = model.fe_i[k], model.fe_j[k]
-        m = _measures(model, x, q, k, e, B)
-        for r in range(m):
-            old = _rate(B, r, v, w, i, j)
-            new = _rate(B, r, v_new, w_new, i, j)
-            total += model.fe_c[k, r] * old * 0.5 * (old + new)
-    return total
-
-
-@kernel
-def force_element_tangent(model, x, q, v, w, angle, k, K, C, e, B, G):
-    """Tangent stiffness and damping matrices of force element k (for implicit algorithms).
-
-    ``K`` (12,12) ``= −∂f/∂δ`` and ``C`` (12,12) ``= −∂f/∂V`` of the element's
-    generalised force ``f = −Bᵀ s``, ``s = k (e − e0) + c B V``, with respect to
-    body-frame increments ``δ = [δx_i, δθ_i, δx_j, δθ_j]`` and velocities
-    ``V = [v_i, ω_i, v_j, ω_j]``: ``K = Bᵀ diag(k) B + Bᵀ diag(c) (G·V) + Σ_r s_r G_r``,
-    ``C = Bᵀ diag(c) B`` (``G`` the derived tangent of B, derivations/forces.py).
-    The ground's rows and columns are zero.  ``e``, ``B``, ``G`` are work arrays
-    (≥ 6, ≥ 72, ≥ 864); ``angle`` is read, not updated.
-    """
-    i, j = model.fe_i[k], model.fe_j[k]
-    par = model.fe_par[k]
-    kind = model.fe_kind[k]
-    xj, qj = GROUND_X, GROUND_Q
-    if j >= 0:
-        xj, qj = x[j], q[j]
-    if kind == POINT_TO_POINT:
-        # chain rule through ℓ = |d|: G_ℓ = (Σ d_k G_k + Σ B_k ⊗ B_k)/ℓ − B_ℓ ⊗ B_ℓ/ℓ
-        generated.point_to_point_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
-        generated.point_to_point_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
-        length = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-        for a in range(12):
-            bl_a = (e[0] * B[a] + e[1] * B[12 + a] + e[2] * B[24 + a]) / length
-            for c in range(12):
-                bl_c = (e[0] * B[c] + e[1] * B[12 + c] + e[2] * B[24 + c]) / length
-                g = 0.0
-                for kk in range(3):
-                    g += e[kk] * G[144 * kk + 12 * a + c] + B[12 * kk + a] * B[12 * kk + c]
-                G[12 * a + c] = (g - bl_a * bl_c) / length
-    elif kind == ROTATIONAL:
-        # chain rule through φ = atan2(s, c): G_φ from the tangents of s and c
-        generated.rotational_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
-        generated.rotational_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
-        sn, cs = e[0], e[1]
-        r2 = sn * sn + cs * cs
-        for a in range(12):
-            bphi = (cs * B[a] - sn * B[12 + a]) / r2
-            for c in range(12):
-                g = (B[12 + c] * B[a] + cs * G[12 * a + c] - B[c] * B[12 + a] - sn * G[144 + 12 * a + c]) / r2
-                G[12 * a + c] = g - bphi * 2.0 * (sn * B[c] + cs * B[12 + c]) / r2
-    else:
-        generated.bushing_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
-    m = _measures(model, x, q, k, e, B)
-    if kind == ROTATIONAL:
-        e[0] = _continuous(angle, k, e[0])
-    K[:, :] = 0.0
-    C[:, :] = 0.0
-    for r in range(m):
-        stretch = e[r] - (model.fe_rest[k] if m == 1 else 0.0)
-        sr = model.fe_k[k, r] * stretch + model.fe_c[k, r] * _rate(B, r, v, w, i, j)
-        for c in range(12):
-            # ∂(B V)_r/∂δ_c = Σ_a G[r, a, c] V_a: the damper force changes with the configuration too
-            gv = 0.0
-            for a in range(3):
-                gv += G[144 * r + 12 * a + c] * v[i, a] + G[144 * r + 12 * (3 + a) + c] * w[i, a]
-                if j >= 0:
-                    gv += G[144 * r + 12 * (6 + a) + c] * v[j, a] + G[144 * r + 12 * (9 + a) + c] * w[j, a]
-            for a in range(12):
-                K[a, c] += B[12 * r + a] * (model.fe_k[k, r] * B[12 * r + c] + model.fe_c[k, r] * gv) \
-                    + sr * G[144 * r + 12 * a + c]
-                C[a, c] += model.fe_c[k, r] * B[12 * r + a] * B[12 * r + c]
-    if j < 0:
-        for a in range(6, 12):
-            for c in range(12):
-                K[a, c] = 0.0
-                K[c, a] = 0.0
-    return m
 
 
 def _matrix(q) -> np.ndarray:
@@ -532,3 +315,18 @@ class Bushing(ForceElement):
             rate += max(self.stiffness[3 + a] * self._inverse_mass(mass_of, body, axis=self._frame[:, a])
                         for a in range(3))
         return rate
+
+
+def pack_force_elements(elements: list, tf_index) -> ForceElements:
+    """The Model's :class:`~reference.state.ForceElements` from the Domain's force elements, in order;
+    ``tf_index(tf) → int`` gives an actuator's time function row (−1: no actuator)."""
+    n = len(elements)
+    return ForceElements(
+        np.array([f.kind for f in elements], dtype=np.int64), np.array([f.body_i.id for f in elements], dtype=np.int64),
+        np.array([-1 if f.body_j is None else f.body_j.id for f in elements], dtype=np.int64),
+        np.array([f.body_fixed() for f in elements]).reshape(n, 24),
+        np.array([f.stiffness_damping()[0] for f in elements]).reshape(n, 6),
+        np.array([f.stiffness_damping()[1] for f in elements]).reshape(n, 6),
+        np.array([f.rest() for f in elements], dtype=float),
+        np.array([-1 if getattr(f, "force_function", None) is None else tf_index(f.force_function)
+                  for f in elements], dtype=np.int64))

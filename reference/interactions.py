@@ -25,6 +25,8 @@ import numpy as np
 
 from reference.expressions import expression_parameters, expression_value
 from reference.jit import kernel
+from reference.rotation import EulerParameters
+from reference.state import Loads, TimeFunctions
 
 CONSTANT, RAMP, STEP, PIECEWISE_LINEAR, SINE, SMOOTH_STEP, EXPRESSION = range(7)
 
@@ -397,3 +399,48 @@ class Gravity(Interaction):
     """Uniform gravitational acceleration [m/s²] acting on every nodal mass."""
 
     g: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+
+
+class TimeFunctionTable:
+    """The Model's table of time functions, built while the groups that use them are packed:
+    :meth:`index` gives a function's row (adding it the first time it is seen, by identity),
+    :meth:`pack` the :class:`~reference.state.TimeFunctions` (one constant row if empty)."""
+
+    def __init__(self):
+        self.functions: list[TimeFunction] = []
+
+    def index(self, tf: TimeFunction) -> int:
+        for k, known in enumerate(self.functions):
+            if known is tf:
+                return k
+        self.functions.append(tf)
+        return len(self.functions) - 1
+
+    def pack(self) -> TimeFunctions:
+        pars = [tf.parameters() for tf in self.functions]
+        width = max([len(p) for p in pars] + [1])
+        par = np.zeros((max(len(pars), 1), width))
+        for j, p in enumerate(pars):
+            par[j, : len(p)] = p
+        return TimeFunctions(np.array([tf.kind for tf in self.functions] or [0], dtype=np.int64), par)
+
+
+def pack_loads(loading: list, node_of, tf_index) -> Loads:
+    """The Model's :class:`~reference.state.Loads` from the Domain's loading list: its nodal loads and
+    its line loads lumped onto their nodes (:meth:`LineLoad.nodal_loads`), gravity excepted.
+
+    ``node_of(key) → Node`` finds a load's node; ``tf_index(tf) → int`` a time function's row.
+    A force applied at a point gets its body-fixed arm from the node (at t = 0).
+    """
+    loads = [ld for ld in loading if isinstance(ld, NodalLoad)]
+    loads += [nl for ld in loading if isinstance(ld, LineLoad) for nl in ld.nodal_loads()]
+    tf = np.array([tf_index(ld.time_function) for ld in loads], dtype=np.int64)
+    arm = np.zeros((len(loads), 3))
+    for k, ld in enumerate(loads):
+        if ld.point is not None and not ld.moment:
+            node = node_of(ld.node)
+            A = EulerParameters(node.rotation).matrix()
+            arm[k] = A.T @ (np.asarray(ld.point, float) - node.position)
+    return Loads(np.array([node_of(ld.node).id for ld in loads], dtype=np.int64),
+                 np.array([ld.code for ld in loads], dtype=np.int64),
+                 np.array([np.asarray(ld.vector, dtype=float) for ld in loads]).reshape(len(loads), 3), tf, arm)

@@ -7,7 +7,7 @@ through in a debugger.  numba reads that variable itself.
 
 numba counts references to arrays with atomic updates: passing an array
 view (``x[i]``, ``w[0:12]``) or the Model (a tuple of some seventy arrays) to a
-compiled function, or reading ``model.free`` inside a loop, costs two atomic
+compiled function, or reading ``model.nodes.free`` inside a loop, costs two atomic
 updates per array and call or iteration — measured with ``perf``, more than
 the Beam2 element's arithmetic and most of a joint's step.  So the step's
 helpers are :func:`inlined` (the same Python function compiled to be inlined

@@ -35,23 +35,14 @@ class SolverDiverged(RuntimeError):
 
 
 class OutputArrays(NamedTuple):
-    """The arrays of the :class:`~reference.state.Model` that the derived outputs read.
+    """The groups of the :class:`~reference.state.Model` that the derived outputs read.
 
     :func:`derived_outputs` takes these in place of the Model (its kernels read the same
-    fields by name): a compiled call unboxes every array it is given, ~0.1 µs each, and the
-    Model has some seventy.
+    fields by name): a compiled call unboxes every array it is given, ~0.1 µs each.
     """
 
-    jt_i: np.ndarray
-    jt_j: np.ndarray
-    jt_par: np.ndarray
-    jt_rows: np.ndarray
-    jt_neq: np.ndarray
-    jt_row0: np.ndarray
-    jt_drive: np.ndarray
-    jt_tf: np.ndarray
-    tf_kind: np.ndarray
-    tf_par: np.ndarray
+    joints: tuple
+    time_functions: tuple
     elements: tuple
 
 
@@ -77,7 +68,7 @@ class Outputs:
     def __init__(self, model: Model, joints: list, rec: Record):
         rows = [k for k, j in enumerate(joints) if j.formulation.multipliers]
         self.model, self.rec = model, rec
-        self.arrays = OutputArrays(*(getattr(model, name) for name in OutputArrays._fields))
+        self.arrays = OutputArrays(model.joints, model.time_functions, model.elements)
         self.slot = np.array(rows, dtype=np.int64)
         J, E = len(joints), model.n_elements
         # rows of master/slave joints are never written: NaN once

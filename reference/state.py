@@ -15,108 +15,125 @@ import numpy as np
 from reference.elements.families import family_of
 
 
-class Model(NamedTuple):
-    """Everything about the system that does not change during a run.
-
-    Nodes (N): ``mass`` (N,) [kg], ``inertia`` (N,3,3) body frame [kg m²]
-    (a full tensor where beams meet at an angle), ``inertia_inv`` (N,3,3) the
-    inverse of its block of free rotations, zero-padded, ``free`` (N,6) 1.0 for a free and 0.0 for a fixed
-    coordinate (translations inertial, rotations body frame).
-    Elements: ``elements``, a tuple with one entry per element family present
-    (:mod:`reference.elements.families`, in registry order), each the family's
-    plain data (e.g. :class:`reference.elements.beam2.Beam2Data`), whose first
-    fields are ``conn`` (E_f, n) and ``index`` (E_f,) the elements' numbers in
-    the Domain.  **Offsets**: a family with section frames keeps per element
-    end the constant Euler parameters ``o_a`` of the rotation from the frame
-    of its node to the element's own section frame there, ``Λ_a = A(q_a) A(o_a)``,
-    i.e. section quaternion ``p_a = q_a ⊗ o_a``; fixed at t = 0 as
-    ``o_a = q_a⁰* ⊗ p_a⁰``; the identity ``(1, 0, 0, 0)`` where the node frame is
-    the section frame (a straight beam's own nodes).  Body-frame quantities of
-    an end transform as ``δθ_section = A(o_a)ᵀ δθ_node``, forces as
-    ``S_θ,node = A(o_a) S_θ,section`` (see
-    :func:`reference.elements.formulation.section_quaternion` and
-    :func:`~reference.elements.formulation.to_node_frame`).
-    Loads (L): ``load_node`` (L,), ``load_code`` (L,) 0 dead force,
-    1 follower force, 2 dead moment, 3 follower moment; ``load_vec`` (L,3);
-    ``load_tf`` (L,) index of the time function.
-    Time functions (T): ``tf_kind`` (T,), ``tf_par`` (T,P) parameters
-    (see :func:`reference.interactions.tf_value`).
-    ``gravity`` (3,) [m/s²]; ``damping`` mass-proportional coefficient c
-    [1/s] (force −c m v, moment −c J ω).
-    Joints (J) with m constraint rows in all: ``jt_i``, ``jt_j`` (J,) node
-    indices (−1 the ground), ``jt_par`` (J,24) body-fixed point and frames,
-    ``jt_rows`` (J,6) primitive rows (−1 padded), ``jt_neq`` (J,) equations,
-    ``jt_row0`` (J,) first global row, ``jt_drive`` (J,) drive code,
-    ``jt_tf`` (J,) time function; ``row_eps`` (m,) the ε of each row.
-    Sparsity of ``B M⁻¹ Bᵀ`` (fixed at assembly,
-    :class:`reference.joints.sparse.ConstraintPattern`): ``row_iperm`` (m,)
-    each row's elimination position; the Cholesky factor's pattern
-    ``L_colptr`` (m+1,), ``L_rowidx`` (nnz,), its row view ``L_rowptr``
-    (m+1,), ``L_rowcol``, ``L_rowpos`` (nnz−m,); the block products
-    ``wc_joints`` (T,4) and their slots ``wc_pos`` (T,6,6).
-    ``node_constrained`` (N,) 1 for a node of a joint (either formulation),
-    else 0; ``constrained_nodes`` (C,) those nodes.
-    Master/slave joints (K): ``ms_master``, ``ms_slave`` (K,) node indices,
-    ``ms_kind`` (K,) 0 spherical 1 revolute, ``ms_par`` (K,9) the master's
-    body-fixed offset and axis and the slave's body-fixed axis.
-    ``load_arm`` (L,3) body-fixed point of application of a force load
-    (zero: at the node; the moment ``arm × force`` follows).
-    Force elements (F, :mod:`reference.forces`): ``fe_kind`` (F,),
-    ``fe_i``, ``fe_j`` (F,) node indices (−1 the ground), ``fe_par`` (F,24)
-    body-fixed points and frames (the joint layout), ``fe_k``, ``fe_c`` (F,6)
-    stiffnesses and dampings per measure, ``fe_rest`` (F,) rest length or
-    angle, ``fe_tf`` (F,) actuator time function (−1 none).
-    """
+class Nodes(NamedTuple):
+    """The N nodes: ``mass`` (N,) [kg], ``inertia`` (N,3,3) body frame [kg m²] (a full tensor where
+    beams meet at an angle), ``inertia_inv`` (N,3,3) the inverse of its block of free rotations,
+    zero-padded, ``free`` (N,6) 1.0 for a free and 0.0 for a fixed coordinate (translations
+    inertial, rotations body frame), ``constrained`` (N,) 1 for a node of a joint (either
+    formulation), else 0, and ``constrained_ids`` (C,) those nodes."""
 
     mass: np.ndarray
     inertia: np.ndarray
     inertia_inv: np.ndarray
     free: np.ndarray
+    constrained: np.ndarray
+    constrained_ids: np.ndarray
+
+
+class Loads(NamedTuple):
+    """The L nodal loads (line loads lumped onto their nodes): ``node`` (L,), ``code`` (L,) 0 dead
+    force, 1 follower force, 2 dead moment, 3 follower moment; ``vec`` (L,3) [N or N m]; ``tf`` (L,)
+    the row of the time function; ``arm`` (L,3) the body-fixed point of application of a force
+    (zero: at the node; the moment ``arm × force`` follows)."""
+
+    node: np.ndarray
+    code: np.ndarray
+    vec: np.ndarray
+    tf: np.ndarray
+    arm: np.ndarray
+
+
+class TimeFunctions(NamedTuple):
+    """The T time functions of loads, drives and actuators: ``kind`` (T,), ``par`` (T,P) parameters
+    (:func:`reference.interactions.tf_value`)."""
+
+    kind: np.ndarray
+    par: np.ndarray
+
+
+class Joints(NamedTuple):
+    """The J joints with Lagrange multipliers (:class:`reference.joints.Jacobian`), m rows in all:
+    ``i``, ``j`` (J,) node indices (−1 the ground), ``par`` (J,24) body-fixed point and frames,
+    ``rows`` (J,6) primitive rows (−1 padded), ``neq`` (J,) equations, ``row0`` (J,) first global
+    row, ``drive`` (J,) drive code, ``tf`` (J,) time function; ``eps`` (m,) the ε of each row;
+    ``pattern`` the fixed sparsity of ``B M⁻¹ Bᵀ``
+    (:class:`reference.joints.sparse.ConstraintPattern`)."""
+
+    i: np.ndarray
+    j: np.ndarray
+    par: np.ndarray
+    rows: np.ndarray
+    neq: np.ndarray
+    row0: np.ndarray
+    drive: np.ndarray
+    tf: np.ndarray
+    eps: np.ndarray
+    pattern: tuple
+
+
+class MasterSlaveJoints(NamedTuple):
+    """The K master/slave joints (:class:`reference.joints.MasterSlave`): ``master``, ``slave`` (K,)
+    node indices, ``kind`` (K,) 0 spherical 1 revolute, ``par`` (K,9) the master's body-fixed
+    offset and axis and the slave's body-fixed axis."""
+
+    master: np.ndarray
+    slave: np.ndarray
+    kind: np.ndarray
+    par: np.ndarray
+
+
+class ForceElements(NamedTuple):
+    """The F force elements (:mod:`reference.forces`): ``kind`` (F,), ``i``, ``j`` (F,) node indices
+    (−1 the ground), ``par`` (F,24) body-fixed points and frames (the joints' layout), ``k``, ``c``
+    (F,6) stiffnesses and dampings per measure, ``rest`` (F,) rest length or angle, ``tf`` (F,)
+    actuator time function (−1 none)."""
+
+    kind: np.ndarray
+    i: np.ndarray
+    j: np.ndarray
+    par: np.ndarray
+    k: np.ndarray
+    c: np.ndarray
+    rest: np.ndarray
+    tf: np.ndarray
+
+
+class Model(NamedTuple):
+    """Everything about the system that does not change during a run, in named groups, each packed
+    by the classes of its objects.
+
+    ``nodes`` (:class:`Nodes`); ``elements``, a tuple with one entry per element family present
+    (:mod:`reference.elements.families`, in registry order), each the family's plain data (e.g.
+    :class:`reference.elements.beam2.Beam2Data`), whose first fields are ``conn`` (E_f, n) and
+    ``index`` (E_f,) the elements' numbers in the Domain; ``loads`` (:class:`Loads`); ``gravity``
+    (3,) [m/s²]; ``damping`` the mass-proportional coefficient c [1/s] (force −c m v, moment
+    −c J ω); ``time_functions`` (:class:`TimeFunctions`); ``joints`` (:class:`Joints`, packed by
+    :meth:`reference.joints.Jacobian.model_fields`); ``master_slave`` (:class:`MasterSlaveJoints`);
+    ``force_elements`` (:class:`ForceElements`, packed by :func:`reference.forces.pack_force_elements`).
+
+    **Offsets**: a family with section frames keeps per element end the constant Euler
+    parameters ``o_a`` of the rotation from the frame of its node to the element's own section
+    frame there, ``Λ_a = A(q_a) A(o_a)``, i.e. section quaternion ``p_a = q_a ⊗ o_a``; fixed at
+    t = 0 as ``o_a = q_a⁰* ⊗ p_a⁰``; the identity ``(1, 0, 0, 0)`` where the node frame is the
+    section frame (a straight beam's own nodes).  Body-frame quantities of an end transform as
+    ``δθ_section = A(o_a)ᵀ δθ_node``, forces as ``S_θ,node = A(o_a) S_θ,section`` (see
+    :func:`reference.elements.formulation.section_quaternion` and
+    :func:`~reference.elements.formulation.to_node_frame`).
+    """
+
+    nodes: Nodes
     elements: tuple
-    load_node: np.ndarray
-    load_code: np.ndarray
-    load_vec: np.ndarray
-    load_tf: np.ndarray
-    tf_kind: np.ndarray
-    tf_par: np.ndarray
+    loads: Loads
     gravity: np.ndarray
     damping: float
-    jt_i: np.ndarray
-    jt_j: np.ndarray
-    jt_par: np.ndarray
-    jt_rows: np.ndarray
-    jt_neq: np.ndarray
-    jt_row0: np.ndarray
-    jt_drive: np.ndarray
-    jt_tf: np.ndarray
-    row_eps: np.ndarray
-    row_iperm: np.ndarray
-    L_colptr: np.ndarray
-    L_rowidx: np.ndarray
-    L_rowptr: np.ndarray
-    L_rowcol: np.ndarray
-    L_rowpos: np.ndarray
-    wc_joints: np.ndarray
-    wc_pos: np.ndarray
-    node_constrained: np.ndarray
-    constrained_nodes: np.ndarray
-    ms_master: np.ndarray
-    ms_slave: np.ndarray
-    ms_kind: np.ndarray
-    ms_par: np.ndarray
-    load_arm: np.ndarray
-    fe_kind: np.ndarray
-    fe_i: np.ndarray
-    fe_j: np.ndarray
-    fe_par: np.ndarray
-    fe_k: np.ndarray
-    fe_c: np.ndarray
-    fe_rest: np.ndarray
-    fe_tf: np.ndarray
+    time_functions: TimeFunctions
+    joints: Joints
+    master_slave: MasterSlaveJoints
+    force_elements: ForceElements
 
     @property
     def n_constraints(self) -> int:
-        return int(self.row_eps.shape[0])
+        return int(self.joints.eps.shape[0])
 
     @property
     def n_elements(self) -> int:
@@ -219,9 +236,9 @@ class Scratch(NamedTuple):
 
     @classmethod
     def for_model(cls, model: Model) -> "Scratch":
-        N, m, J = model.mass.shape[0], model.n_constraints, model.jt_i.shape[0]
+        N, m, J = model.nodes.mass.shape[0], model.n_constraints, model.joints.i.shape[0]
         return cls(np.zeros((N, 6)), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 3)),
                    np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12)),
-                   np.zeros(model.L_rowidx.shape[0]), np.zeros(m), np.zeros(m), np.zeros(10),
+                   np.zeros(model.joints.pattern.L_rowidx.shape[0]), np.zeros(m), np.zeros(m), np.zeros(10),
                    np.zeros(120), np.zeros((12, 9)), np.zeros(9), np.zeros(9), np.zeros((12, 9)), np.zeros((9, 9)),
                    np.zeros(9), np.zeros(4), np.zeros(5), element_work(model), np.zeros((N, 6)))

@@ -221,7 +221,6 @@ def test_a_registered_toy_family_runs_in_every_algorithm(runs):
 def test_the_compiled_dispatch_reaches_both_families():
     """The compiled calls over a tuple of two families (Beam2 and the truss) give the numbers of the
     plain-Python loop over the same tuple, bit for bit (forces, energy, tangent values)."""
-    from reference import Domain
     from reference.elements import Section
     from reference.state import element_work
 

@@ -13,7 +13,8 @@ import pytest
 
 from reference.domain import Domain, SolverSettings
 from reference.elements import Section
-from reference.forces import Bushing, PointToPoint, Rotational, force_element_forces
+from reference.evaluation.force_elements import force_element_forces
+from reference.forces import Bushing, PointToPoint, Rotational
 from reference.interactions import Expression, FixedCoordinates, LineLoad, NodalLoad, Ramp, SmoothStep
 from reference.io.deck import DeckError, load_deck
 
@@ -492,7 +493,7 @@ stiffness = 1e8
 
 def _tangent_check(kind):
     """Max differences |K − K_fd|/max|K| and |C − C_fd|/max|C| of one element kind."""
-    from reference.forces import force_element_tangent
+    from reference.evaluation.force_elements import force_element_tangent
     from reference.generated import rotation_maps as rm
 
     d = Domain()

@@ -157,7 +157,7 @@ def test_elbow_inertia_is_the_sum_of_both_legs():
     model = d.initialization()
     elbow = leg1[-1].id
     h = L / n / 2
-    assert np.allclose(model.inertia[elbow], np.diag([3 * a * h, 3 * a * h, 2 * a * h]), rtol=0, atol=1e-15)
+    assert np.allclose(model.nodes.inertia[elbow], np.diag([3 * a * h, 3 * a * h, 2 * a * h]), rtol=0, atol=1e-15)
     # the same with the elbow frame turned arbitrarily: the tensor turns with it, trace unchanged
     d2 = Domain()
     r = quat([1.0, 2.0, 3.0], 0.8)
@@ -166,7 +166,7 @@ def test_elbow_inertia_is_the_sum_of_both_legs():
     d2.add_beam("leg2", [L, 0, 0], [L, L, 0], n, sec, axis2=(-1.0, 0, 0), start_node=elbow_node)
     model2 = d2.initialization()
     R = EulerParameters(r).matrix()
-    assert np.allclose(R @ model2.inertia[elbow_node.id] @ R.T, model.inertia[elbow], atol=1e-15)
+    assert np.allclose(R @ model2.inertia[elbow_node.id] @ R.T, model.nodes.inertia[elbow], atol=1e-15)
     assert np.allclose(d2.nodes[elbow_node.id].rotation, r)  # the node keeps its given frame
     # the critical-step estimate of force elements sees the same node-frame tensor (it summed the
     # legs' section-frame diagonals unrotated: diag(4a, 2a, 2a)·h at the turned elbow)
@@ -186,7 +186,7 @@ def linear_static(d, t):
     N = len(d.nodes)
     x0 = np.array([n.position for n in d.nodes])
     q0 = np.array([n.rotation for n in d.nodes])
-    free = np.flatnonzero(model.free.reshape(-1) > 0)
+    free = np.flatnonzero(model.nodes.free.reshape(-1) > 0)
 
     def forces(k, h):
         x, q = x0.copy(), q0.copy()
@@ -345,7 +345,7 @@ def test_critical_step_estimate_holds_at_a_spatial_junction():
     N = len(d.nodes)
     x0 = np.array([n.position for n in d.nodes])
     q0 = np.array([n.rotation for n in d.nodes])
-    free = np.flatnonzero(model.free.reshape(-1) > 0)
+    free = np.flatnonzero(model.nodes.free.reshape(-1) > 0)
 
     def forces(k, h):
         x, q = x0.copy(), q0.copy()
@@ -359,8 +359,8 @@ def test_critical_step_estimate_holds_at_a_spatial_junction():
     K = np.array([(forces(k, 1e-7) - forces(k, -1e-7)) / 2e-7 for k in free]).T[free]
     M = np.zeros((6 * N, 6 * N))
     for n in range(N):
-        M[6 * n:6 * n + 3, 6 * n:6 * n + 3] = model.mass[n] * np.eye(3)
-        M[6 * n + 3:6 * n + 6, 6 * n + 3:6 * n + 6] = model.inertia[n]
+        M[6 * n:6 * n + 3, 6 * n:6 * n + 3] = model.nodes.mass[n] * np.eye(3)
+        M[6 * n + 3:6 * n + 6, 6 * n + 3:6 * n + 6] = model.nodes.inertia[n]
     w2 = eigh(0.5 * (K + K.T), M[np.ix_(free, free)], eigvals_only=True)
     limit = 2.0 / math.sqrt(w2.max())
     print(d.critical_time_step() / limit)

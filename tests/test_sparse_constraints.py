@@ -49,7 +49,7 @@ def dense_impulse(domain, model, x, q, t, v, w, h, hk):
     """The constraint stage, dense (numpy): corrected velocities and λ."""
     PHI, PHIt, Bg, BM = domain.constraint_matrices(model, x, q, t)
     V = np.concatenate([v, w], axis=1).reshape(-1)
-    W = BM @ Bg.T + np.diag(model.row_eps / (h * hk))
+    W = BM @ Bg.T + np.diag(model.joints.eps / (h * hk))
     Lam = np.linalg.solve(W, Bg @ V + PHIt + PHI / h)
     Vn = (V - BM.T @ Lam).reshape(-1, 6)
     return Vn[:, :3], Vn[:, 3:], Lam / hk
@@ -78,8 +78,8 @@ def test_sparse_stage_equals_the_dense_solve(name):
         x, q = r.positions[n], r.rotations[n]
         v = r.velocities[n] + 0.1 * rng.standard_normal(r.velocities[n].shape)  # a predictor V* off the manifold
         w = r.angular_velocities[n] + 0.1 * rng.standard_normal(r.velocities[n].shape)
-        w[model.free[:, 3:] == 0.0] = 0.0
-        v[model.free[:, :3] == 0.0] = 0.0
+        w[model.nodes.free[:, 3:] == 0.0] = 0.0
+        v[model.nodes.free[:, :3] == 0.0] = 0.0
         for hk in (h, 0.5 * h):
             assemble_constraints(model, x, q, r.time[n], scratch.PHI, scratch.PHIt, scratch.Bj, scratch.prim_phi,
                                  scratch.prim_B)
@@ -104,10 +104,10 @@ def test_factor_grows_linearly_for_chains_and_trees():
         # W's lower triangle: 6 per diagonal block + 9 per neighbouring pair
         assert p.nnz == 6 * K + 9 * (K - 1)
     tree = binary_tree(5).model  # 63 links, 63 joints: node 0 carries the ground joint and two children
-    J = tree.jt_i.shape[0]
-    pairs = sum(1 for a in range(J) for b in range(a) if {tree.jt_i[a], tree.jt_j[a]} - {-1}
-                & {tree.jt_i[b], tree.jt_j[b]} - {-1})
-    assert tree.L_rowidx.shape[0] == 6 * J + 9 * pairs
+    J = tree.joints.i.shape[0]
+    pairs = sum(1 for a in range(J) for b in range(a) if {tree.joints.i[a], tree.joints.j[a]} - {-1}
+                & {tree.joints.i[b], tree.joints.j[b]} - {-1})
+    assert tree.joints.pattern.L_rowidx.shape[0] == 6 * J + 9 * pairs
     # a ring of K links (closed loop): fill along the loop, still linear in K
     for K in (100, 200):
         jt_i, jt_j = np.arange(K), (np.arange(K) - 1) % K
@@ -125,7 +125,7 @@ def test_jacobian_csr_structure_gives_the_dense_B():
     q = np.array([n.rotation for n in d.nodes])
     _, _, Bg, _ = d.constraint_matrices(model, x, q, 0.3)
     _, _, Bj, _ = constraint_blocks(model, x, q, 0.3)
-    indptr, indices, source = jacobian_csr_structure(model.jt_i, model.jt_j, model.jt_neq, len(d.nodes))
+    indptr, indices, source = jacobian_csr_structure(model.joints.i, model.joints.j, model.joints.neq, len(d.nodes))
     B = scipy.sparse.csr_matrix((Bj.reshape(-1)[source], indices, indptr), shape=Bg.shape)
     assert np.array_equal(B.toarray(), Bg)
 

@@ -236,7 +236,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
 def _power(model, Bl, lam, v, w):
     """``−λᵀ B V`` (power of the constraint forces) from the local rows ``Bl``."""
     P = 0.0
-    jt_i, jt_j, jt_row0, jt_neq = model.jt_i, model.jt_j, model.jt_row0, model.jt_neq
+    jt_i, jt_j, jt_row0, jt_neq = model.joints.i, model.joints.j, model.joints.row0, model.joints.neq
     for k in range(jt_i.shape[0]):
         i, j = jt_i[k], jt_j[k]
         for r in range(jt_row0[k], jt_row0[k] + jt_neq[k]):
@@ -255,7 +255,7 @@ def _dissipation(model, v, w):
     from the evaluation)."""
     c = model.damping
     D = 0.0
-    J, mass = model.inertia, model.mass
+    J, mass = model.nodes.inertia, model.nodes.mass
     for i in range(v.shape[0]):
         for a in range(3):
             D += mass[i] * v[i, a] * v[i, a]
@@ -270,6 +270,56 @@ _power_inlined = inlined(_power)
 _dissipation_inlined = inlined(_dissipation)
 """The model-taking kernels that :func:`steps` calls every iteration, inlined: a compiled call
 with the Model costs an atomic reference-count update per array of it, twice."""
+
+
+@inlined
+def _predict(v, w, vd, a, lam, an, vdn, dq, Vn, lamn, h, am, gamma, beta):
+    """The step's predictor from the converged state: algorithmic accelerations ``a_{n+1}`` at
+    ``V̇_{n+1} = V̇_n``, the increment ``Δq`` and velocities ``V_{n+1}`` of the scheme, ``λ_{n+1} = λ_n``."""
+    for i in range(v.shape[0]):
+        for k in range(6):
+            Vk = v[i, k] if k < 3 else w[i, k - 3]
+            an[i, k] = (vd[i, k] - am * a[i, k]) / (1.0 - am)
+            vdn[i, k] = vd[i, k]
+            dq[i, k] = Vk + h * (0.5 - beta) * a[i, k] + h * beta * an[i, k]
+            Vn[i, k] = Vk + h * (1.0 - gamma) * a[i, k] + h * gamma * an[i, k]
+    for k in range(lam.shape[0]):
+        lamn[k] = lam[k]
+
+
+@inlined
+def _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe_out, h, am, af):
+    """The converged step: the energy bookkeeping with its last evaluation (within the Newton
+    tolerance of the step's end) and the new state ``x, q, V, V̇, a, λ`` from the iterate in ``arr``."""
+    dq, Vn, vdn, an, _, _, _, lamn, _, _, _, _, x1, q1, tmp, psi = arr
+    N = x.shape[0]
+    for i in range(N):
+        for k in range(3):
+            x1[i, k] = x[i, k] + h * dq[i, k]
+            psi[i, k] = h * dq[i, 3 + k]
+    compose(q, psi, q1, tmp)
+    P1 = _power_inlined(model, Bl, lamn, Vn[:, :3], Vn[:, 3:])
+    D1 = _dissipation_inlined(model, Vn[:, :3], Vn[:, 3:]) + fe_out[0]
+    dW = 0.0
+    for i in range(N):
+        for k in range(6):
+            dW += 0.5 * (f_prev[i, k] + F[i, k]) * h * dq[i, k]
+            f_prev[i, k] = F[i, k]
+    clock[2] += dW + 0.5 * h * (energy[0] + P1)
+    clock[3] += 0.5 * h * (energy[1] + D1)
+    energy[0], energy[1] = P1, D1
+    for i in range(N):
+        for k in range(6):
+            a[i, k] = an[i, k] + (1.0 - af) / (1.0 - am) * (vdn[i, k] - vd[i, k])
+            vd[i, k] = vdn[i, k]
+        for k in range(3):
+            x[i, k] = x1[i, k]
+            v[i, k] = Vn[i, k]
+            w[i, k] = Vn[i, 3 + k]
+        for k in range(4):
+            q[i, k] = q1[i, k]
+    for k in range(lam.shape[0]):
+        lam[k] = lamn[k]
 
 
 @kernel
@@ -289,7 +339,6 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     """
     dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, psi = arr
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = wt
-    fe_out = fe[8]
     h, am, af, gamma, beta, tol, L, contraction = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
     max_it = int(par[8])
     bp = (1.0 - am) / (h * h * beta * (1.0 - af))
@@ -298,7 +347,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     N = x.shape[0]
     m = lam.shape[0]
     n_free = rhs.shape[0] - m
-    row_eps = model.row_eps
+    row_eps = model.joints.eps
     if par[14] == 1.0:
         par[14] = 0.0
         _write_record(model, x, q, v, w, par[11], clock, lam, PHI, PHIt, Bl, rec)
@@ -307,15 +356,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
         if not (step == 0 and par[12] == 1.0):
             # predictor (unless resuming the iterate of an interrupted step with a new factor)
             par[13] = 0.0
-            for i in range(N):
-                for k in range(6):
-                    Vk = v[i, k] if k < 3 else w[i, k - 3]
-                    an[i, k] = (vd[i, k] - am * a[i, k]) / (1.0 - am)
-                    vdn[i, k] = vd[i, k]
-                    dq[i, k] = Vk + h * (0.5 - beta) * a[i, k] + h * beta * an[i, k]
-                    Vn[i, k] = Vk + h * (1.0 - gamma) * a[i, k] + h * gamma * an[i, k]
-            for k in range(m):
-                lamn[k] = lam[k]
+            _predict(v, w, vd, a, lam, an, vdn, dq, Vn, lamn, h, am, gamma, beta)
         par[12] = 1.0  # an interruption from here on keeps the iterate
         previous = -1.0
         converged = False
@@ -368,34 +409,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
             return NO_CONVERGENCE, step
         par[9] = 0.0
         par[12] = 0.0
-        for i in range(N):
-            for k in range(3):
-                x1[i, k] = x[i, k] + h * dq[i, k]
-                psi[i, k] = h * dq[i, 3 + k]
-        compose(q, psi, q1, tmp)
-        # energy bookkeeping with the last evaluation (within the Newton tolerance of the step's end)
-        P1 = _power_inlined(model, Bl, lamn, Vn[:, :3], Vn[:, 3:])
-        D1 = _dissipation_inlined(model, Vn[:, :3], Vn[:, 3:]) + fe_out[0]
-        dW = 0.0
-        for i in range(N):
-            for k in range(6):
-                dW += 0.5 * (f_prev[i, k] + F[i, k]) * h * dq[i, k]
-                f_prev[i, k] = F[i, k]
-        clock[2] += dW + 0.5 * h * (energy[0] + P1)
-        clock[3] += 0.5 * h * (energy[1] + D1)
-        energy[0], energy[1] = P1, D1
-        for i in range(N):
-            for k in range(6):
-                a[i, k] = an[i, k] + (1.0 - af) / (1.0 - am) * (vdn[i, k] - vd[i, k])
-                vd[i, k] = vdn[i, k]
-            for k in range(3):
-                x[i, k] = x1[i, k]
-                v[i, k] = Vn[i, k]
-                w[i, k] = Vn[i, 3 + k]
-            for k in range(4):
-                q[i, k] = q1[i, k]
-        for k in range(m):
-            lam[k] = lamn[k]
+        _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe[8], h, am, af)
         clock[1] += 1
         clock[0] = clock[1] * h
     return OK, n_steps

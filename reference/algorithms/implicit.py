@@ -29,7 +29,7 @@ generalized-α: 1, γ'/β', 1/β')::
 geometric), the joints' λ-weighted constraint Hessian ``∂(Bᵀλ)/∂δ``, the
 follower-load tangents and the force elements' stiffness — all sympy-derived
 kernels (``reference/generated/tangents.py``, ``reference/joints/hessian.py``,
-``reference/generated/forces.py`` through :func:`reference.forces.force_element_tangent`;
+``reference/generated/forces.py`` through :func:`reference.evaluation.force_elements.force_element_tangent`;
 docs/tangents.md), exact derivatives under the update above, so that Newton
 converges quadratically.
 
@@ -67,7 +67,7 @@ class Work:
     """Work arrays of the implicit algorithms for one model (allocated once)."""
 
     def __init__(self, model):
-        N, m, J = model.mass.shape[0], model.n_constraints, model.jt_i.shape[0]
+        N, m, J = model.nodes.mass.shape[0], model.n_constraints, model.joints.i.shape[0]
         self.S = np.zeros((N, 6))
         self.F = np.zeros((N, 6))
         self.r = np.zeros((N, 6))
@@ -82,7 +82,7 @@ class Work:
         self.K12 = np.zeros((12, 12))
         sizes = [6 * family_of(data).n_nodes for data in model.elements]
         self.Kel = np.zeros(max(sizes + [12]) ** 2)  # one element's tangent block (flat)
-        nF = model.fe_kind.shape[0]
+        nF = model.force_elements.kind.shape[0]
         blocks = sum(size * size * data.conn.shape[0] for size, data in zip(sizes, model.elements))
         self.values = np.zeros(36 * N + blocks + 144 * J + 24 * m + m + 144 * nF)
         # force elements: their spring/damper forces G, continuous angles, work arrays of
@@ -110,7 +110,7 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = w_
     G, angle, fe_e, fe_B, fe_G, C12, fv, fw, fe_out = fe
     N = x.shape[0]
-    if model.fe_kind.shape[0] > 0:
+    if model.force_elements.kind.shape[0] > 0:
         # the force elements' dampers see the velocities (none in a static evaluation)
         for i in range(N):
             for k in range(3):
@@ -121,9 +121,9 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
     # the model's arrays are taken out once: each access of a Model field in a loop costs two
     # atomic reference-count updates
     c = model.damping
-    mass, J = model.mass, model.inertia
-    jt_i, jt_j, jt_neq, jt_row0, jt_tf = model.jt_i, model.jt_j, model.jt_neq, model.jt_row0, model.jt_tf
-    jt_par, jt_rows, jt_drive, tf_kind, tf_par = model.jt_par, model.jt_rows, model.jt_drive, model.tf_kind, model.tf_par
+    mass, J = model.nodes.mass, model.nodes.inertia
+    jt_i, jt_j, jt_neq, jt_row0, jt_tf = model.joints.i, model.joints.j, model.joints.neq, model.joints.row0, model.joints.tf
+    jt_par, jt_rows, jt_drive, tf_kind, tf_par = model.joints.par, model.joints.rows, model.joints.drive, model.time_functions.kind, model.time_functions.par
     for i in range(N):
         for k in range(6):
             r[i, k] = S[i, k] - F[i, k]
@@ -188,7 +188,7 @@ class NewtonSystem:
         self.n_free = int(self.free.sum())
         self.work = Work(model)
         self.wt = work_tuple(self.work)
-        self.zero_psi = np.zeros((model.mass.shape[0], 3))
+        self.zero_psi = np.zeros((model.nodes.mass.shape[0], 3))
         self.slu = SparseLU(self.pattern.n)
 
     def evaluate(self, x, q, v, w, vd, lam, t, dynamic) -> float:
@@ -198,7 +198,7 @@ class NewtonSystem:
     def residual_norm(self, ck: float, lam) -> float:
         """‖[c_k r; Φ − ελ]‖ of the last :meth:`evaluate` (free coordinates only)."""
         r = self.work.r[self.free]
-        phi = self.work.PHI - self.model.row_eps * lam
+        phi = self.work.PHI - self.model.joints.eps * lam
         return float(math.sqrt(ck * ck * r @ r + phi @ phi))
 
     def factor(self, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
@@ -228,7 +228,7 @@ class NewtonSystem:
 
     def newton_correction(self, lu, ck, lam):
         """Correction from the last :meth:`evaluate`: right-hand side ``−[c_k r; Φ − ελ]``."""
-        return self.solve(lu, -ck * self.work.r, -(self.work.PHI - self.model.row_eps * lam))
+        return self.solve(lu, -ck * self.work.r, -(self.work.PHI - self.model.joints.eps * lam))
 
     def write_record(self, rec, x, q, v, w, U, energy_clock, lam) -> None:
         """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B)."""
@@ -239,9 +239,9 @@ class NewtonSystem:
         model, Bl = self.model, self.work.Bl
         out = np.zeros(Bl.shape[0])
         V = np.concatenate([v, w], axis=1)
-        for k in range(model.jt_i.shape[0]):
-            r0, neq = int(model.jt_row0[k]), int(model.jt_neq[k])
-            i, j = int(model.jt_i[k]), int(model.jt_j[k])
+        for k in range(model.joints.i.shape[0]):
+            r0, neq = int(model.joints.row0[k]), int(model.joints.neq[k])
+            i, j = int(model.joints.i[k]), int(model.joints.j[k])
             out[r0:r0 + neq] = Bl[r0:r0 + neq, :6] @ V[i]
             if j >= 0:
                 out[r0:r0 + neq] += Bl[r0:r0 + neq, 6:] @ V[j]
@@ -279,7 +279,7 @@ class ImplicitAlgorithm(Algorithm):
     @staticmethod
     def refusal(model) -> str | None:
         """Why this algorithm cannot run ``model`` (None if it can)."""
-        if model.ms_master.shape[0] > 0:
+        if model.master_slave.master.shape[0] > 0:
             return ("master/slave joints are not available with the implicit algorithms; use "
                     "formulation = \"jacobian\" (Lagrange multipliers) for those joints")
         return None
@@ -345,7 +345,7 @@ def relative_rotation(q0, q1, out, tmp):
 def write_record(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
     """Record: configuration, velocities, energies [T, U, W, D], ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
     T = 0.0
-    J, mass = model.inertia, model.mass
+    J, mass = model.nodes.inertia, model.nodes.mass
     rx, rq, rv, rw = rec.x, rec.q, rec.v, rec.w
     for i in range(x.shape[0]):
         for a in range(3):
@@ -363,7 +363,7 @@ def write_record(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
     rec.energy[3] = clock[3]
     c0 = 0.0
     c1 = 0.0
-    jt_i, jt_j, jt_row0, jt_neq, rlam = model.jt_i, model.jt_j, model.jt_row0, model.jt_neq, rec.lam
+    jt_i, jt_j, jt_row0, jt_neq, rlam = model.joints.i, model.joints.j, model.joints.row0, model.joints.neq, rec.lam
     for k in range(jt_i.shape[0]):
         i, j = jt_i[k], jt_j[k]
         for r in range(jt_row0[k], jt_row0[k] + jt_neq[k]):

@@ -36,7 +36,7 @@ from typing import NamedTuple
 
 from reference.algorithms.base import Algorithm
 from reference.evaluation.forces import generalized_forces
-from reference.forces import force_element_dissipation
+from reference.evaluation.force_elements import force_element_dissipation
 from reference.generated import rotation_maps as rm
 from reference.jit import inlined, kernel, use_threads
 from reference.joints.assembly import (
@@ -70,12 +70,12 @@ def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sw
     starting from ``w`` or, if ``from_guess``, from the current ``w_new`` (the
     constrained velocities of the previous pass, see :func:`advance`); nodes of
     no joint get ``extra_free_sweeps`` more.  ``only_constrained``: visit only
-    the nodes of joints (``model.constrained_nodes``).
+    the nodes of joints (``model.nodes.constrained_ids``).
     """
     # the model's arrays bound once: a field read inside the loop costs two atomic reference-count
     # updates per iteration (numba), and a row view (J[i]) as many
-    c, J, Jinv, free, mass = model.damping, model.inertia, model.inertia_inv, model.free, model.mass
-    constrained_nodes, node_constrained = model.constrained_nodes, model.node_constrained
+    c, J, Jinv, free, mass = model.damping, model.nodes.inertia, model.nodes.inertia_inv, model.nodes.free, model.nodes.mass
+    constrained_nodes, node_constrained = model.nodes.constrained_ids, model.nodes.constrained
     count = constrained_nodes.shape[0] if only_constrained else v.shape[0]
     for p in range(count):
         i = constrained_nodes[p] if only_constrained else p
@@ -127,7 +127,7 @@ def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sw
 @inlined
 def _kinetic(model, v, w):
     T = 0.0
-    mass, J = model.mass, model.inertia
+    mass, J = model.nodes.mass, model.nodes.inertia
     for i in range(v.shape[0]):
         T += 0.5 * mass[i] * (v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2)
         for a in range(3):
@@ -150,7 +150,7 @@ def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
     ``guard`` = [E₀, S, tolerance, residual, E]."""
     c = 0.5 if mean else 1.0
     d = 0.5 if mean else 0.0
-    mass, J = model.mass, model.inertia
+    mass, J = model.nodes.mass, model.nodes.inertia
     T = 0.0
     P_old = 0.0
     P_new = 0.0
@@ -176,72 +176,144 @@ def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
     return r > guard[2] * guard[1] + h * (abs(P_old) + abs(P_new) + abs(P_drive)) and E - guard[0] > guard[2] * guard[1]
 
 
+@inlined
+def _work_and_damping(model, v, w, f_prev, F, h, clock):
+    """Bookkeeping of the step into ``t_n``: the trapezoidal work of the external forces over the last
+    increment ``h V^{n−½}`` into ``clock[2]``, the energy dissipated by the damping forces evaluated
+    at ``V^{n−½}`` into ``clock[3]``."""
+    N = v.shape[0]
+    dW = 0.0
+    for i in range(N):
+        for a in range(3):
+            dW += 0.5 * (f_prev[i, a] + F[i, a]) * v[i, a] + 0.5 * (f_prev[i, 3 + a] + F[i, 3 + a]) * w[i, a]
+    clock[2] += h * dW
+    c = model.damping
+    if c != 0.0:
+        dD = 0.0
+        mass, J, free = model.nodes.mass, model.nodes.inertia, model.nodes.free
+        for i in range(N):
+            for a in range(3):
+                dD += mass[i] * v[i, a] * v[i, a] * free[i, a]
+                for b in range(3):
+                    dD += w[i, a] * J[i, a, b] * w[i, b] * free[i, 3 + a]
+        clock[3] += h * c * dD
+
+
+@inlined
+def _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows, n_ms):
+    """Stage 2b, the constraint forces: the multipliers of the joints at ``t_n`` and the master/slave
+    projection, alternated with the kick's gyroscopic sweeps; returns ``SINGULAR`` if the constraint
+    matrix lost rank, else ``OK``."""
+    if n_rows > 0:
+        assemble_constraints(model, x, q, t, scratch.PHI, scratch.PHIt, scratch.Bj, scratch.prim_phi, scratch.prim_B)
+        if factor_constraints(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, h, hk) != OK:
+            return SINGULAR
+    # The constraint stage changes ω^{n+½}: redo the predictor with the midpoint
+    # gyroscopic term at the constrained velocity and constrain again (same factor),
+    # so that the pair (kick, constraint) is solved together (otherwise the gyroscopic
+    # term of a constrained spinning body is only first-order accurate).  With both
+    # multiplier and master/slave joints the passes also alternate the two projections.
+    for sweep in range(1 + CONSTRAINED_SWEEPS):
+        if sweep > 0:
+            _kick(model, v, w, S, F, hk, v_new, w_new, 1, True, 0, True)
+        if n_rows > 0:
+            constraint_impulse(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, scratch.PHI, scratch.PHIt,
+                               v_new, w_new, h, hk, scratch.lam)
+        if n_ms > 0:
+            master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
+                                 scratch.TMT, scratch.rhs)
+    return OK
+
+
+@inlined
+def _record(model, scratch, rec, x, q, v, w, v_new, w_new, first, U, dD_fe, clock, n_rows):
+    """The output record at ``t_n``: integer-step velocities (the mean of the two half-step ones, the
+    initial ones at the first step), energies and constraint residuals, multipliers."""
+    N = x.shape[0]
+    for i in range(N):
+        for a in range(3):
+            rec.x[i, a] = x[i, a]
+            rec.v[i, a] = v[i, a] if first else 0.5 * (v[i, a] + v_new[i, a])
+            rec.w[i, a] = w[i, a] if first else 0.5 * (w[i, a] + w_new[i, a])
+        for a in range(4):
+            rec.q[i, a] = q[i, a]
+    rec.energy[0] = _kinetic(model, rec.v, rec.w)
+    rec.energy[1] = U
+    rec.energy[2] = clock[2]
+    rec.energy[3] = clock[3] + (0.0 if first else 0.5 * dD_fe)
+    rec.constraint[0] = 0.0
+    rec.constraint[1] = 0.0
+    PHI, PHIt, lam, work = scratch.PHI, scratch.PHIt, scratch.lam, scratch.work
+    if n_rows > 0:
+        jacobian_times(model, scratch.Bj, rec.v, rec.w, work)
+    for r in range(n_rows):
+        res = PHIt[r] + work[r]
+        rec.constraint[0] += PHI[r] ** 2
+        rec.constraint[1] += res**2
+        rec.lam[r] = lam[r]
+    rec.constraint[0] = math.sqrt(rec.constraint[0])
+    rec.constraint[1] = math.sqrt(rec.constraint[1])
+
+
+@inlined
+def _drift(model, scratch, x, q, v, w, v_new, w_new, f_prev, F, h, n_ms):
+    """Stage 3: ``x^{n+1} = x^n + h v^{n+½}``, ``q^{n+1} = q^n ⊗ p(h ω^{n+½})`` (Cayley, normalised),
+    the half-step velocities and the forces kept for the next step's work; the master/slave
+    positions.  Returns False (and changes nothing) if a velocity is not finite."""
+    N = x.shape[0]
+    total = 0.0  # non-finite if any velocity is (or overflows: diverged too)
+    for i in range(N):
+        for a in range(3):
+            total += v_new[i, a] + w_new[i, a]
+    if not math.isfinite(total):
+        return False
+    q_tmp = scratch.q_tmp
+    for i in range(N):
+        for a in range(3):
+            v[i, a] = v_new[i, a]
+            w[i, a] = w_new[i, a]
+            x[i, a] += h * v_new[i, a]
+        _cayley_update(q[i], w_new[i], h, q_tmp)
+        nrm = math.sqrt(q_tmp[0] ** 2 + q_tmp[1] ** 2 + q_tmp[2] ** 2 + q_tmp[3] ** 2)
+        for a in range(4):
+            q[i, a] = q_tmp[a] / nrm
+        for a in range(6):
+            f_prev[i, a] = F[i, a]
+    if n_ms > 0:
+        master_slave_positions(model, x, q, scratch.A_m, scratch.A_s, q_tmp, scratch.r4)
+    return True
+
+
 @kernel
 def advance(model, state, h, n_steps, record, rec, scratch):
-    """Advance ``state`` in place by ``n_steps`` steps of size ``h``.
+    """Advance ``state`` in place by ``n_steps`` steps of size ``h``: forces, kick, constrain, drift.
 
     If ``record`` is true, the output record at the starting time ``t_n`` is
     written into ``rec`` (its integer-step velocities need the first kick).
     ``n_steps = 0`` with ``record`` only writes the record.  Returns ``OK``,
-    ``DIVERGED`` (non-finite state: the state is left at the last finite step)
-    or ``SINGULAR`` (the constraint matrix lost rank).
+    ``DIVERGED`` (non-finite state: the state is left at the last finite step),
+    ``SINGULAR`` (the constraint matrix lost rank) or ``BLOWUP`` (the energy guard).
     """
     x, q, v, w, f_prev, clock = state.x, state.q, state.v, state.w, state.f_prev, state.clock
-    S, F, v_new, w_new = scratch.S, scratch.F, scratch.v_new, scratch.w_new
-    G = scratch.G
-    n_fe = model.fe_kind.shape[0]
-    q_tmp, A = scratch.q_tmp, scratch.A
-    PHI, PHIt, Bj, BMj, Lx, lam = scratch.PHI, scratch.PHIt, scratch.Bj, scratch.BMj, scratch.Lx, scratch.lam
-    work = scratch.work
-    N = x.shape[0]
-    n_rows = PHI.shape[0]
-    n_ms = model.ms_master.shape[0]
-    c = model.damping
+    S, F, v_new, w_new, G = scratch.S, scratch.F, scratch.v_new, scratch.w_new, scratch.G
+    n_fe = model.force_elements.kind.shape[0]
+    n_rows = scratch.PHI.shape[0]
+    n_ms = model.master_slave.master.shape[0]
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
         # dampers of the force elements at V^{n−½}
-        U, _ = generalized_forces(model, scratch.elements, x, q, v, w, t, S, F, G, state.angle, A, scratch.prim_phi,
-                                  scratch.prim_B)
+        U, _ = generalized_forces(model, scratch.elements, x, q, v, w, t, S, F, G, state.angle, scratch.A,
+                                  scratch.prim_phi, scratch.prim_B)
         if n > 0:
-            # trapezoidal work of the external forces over the last increment h V^{n-1/2},
-            # and the energy dissipated by the damping forces evaluated at V^{n-1/2}
-            dW = 0.0
-            for i in range(N):
-                for a in range(3):
-                    dW += 0.5 * (f_prev[i, a] + F[i, a]) * v[i, a] + 0.5 * (f_prev[i, 3 + a] + F[i, 3 + a]) * w[i, a]
-            clock[2] += h * dW
-            if c != 0.0:
-                dD = 0.0
-                mass, J, free = model.mass, model.inertia, model.free
-                for i in range(N):
-                    for a in range(3):
-                        dD += mass[i] * v[i, a] * v[i, a] * free[i, a]
-                        for b in range(3):
-                            dD += w[i, a] * J[i, a, b] * w[i, b] * free[i, 3 + a]
-                clock[3] += h * c * dD
+            _work_and_damping(model, v, w, f_prev, F, h, clock)
         hk = h if n > 0 else 0.5 * h
         # a node outside every joint keeps its predicted velocity through the constrained passes
         # below, which would only add gyroscopic sweeps to it: it gets all of them at once
         _kick(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, False,
               CONSTRAINED_SWEEPS if n_rows > 0 or n_ms > 0 else 0, False)
-        if n_rows > 0:
-            assemble_constraints(model, x, q, t, PHI, PHIt, Bj, scratch.prim_phi, scratch.prim_B)
-            if factor_constraints(model, Bj, BMj, Lx, work, h, hk) != OK:
-                return SINGULAR
-        if n_rows > 0 or n_ms > 0:
-            # The constraint stage changes ω^{n+½}: redo the predictor with the midpoint
-            # gyroscopic term at the constrained velocity and constrain again (same factor),
-            # so that the pair (kick, constraint) is solved together (otherwise the gyroscopic
-            # term of a constrained spinning body is only first-order accurate).  With both
-            # multiplier and master/slave joints the passes also alternate the two projections.
-            for sweep in range(1 + CONSTRAINED_SWEEPS):
-                if sweep > 0:
-                    _kick(model, v, w, S, F, hk, v_new, w_new, 1, True, 0, True)
-                if n_rows > 0:
-                    constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v_new, w_new, h, hk, lam)
-                if n_ms > 0:
-                    master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
-                                         scratch.TMT, scratch.rhs)
+        if (n_rows > 0 or n_ms > 0) and _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows,
+                                                    n_ms) != OK:
+            return SINGULAR
         dD_fe = 0.0
         if n_fe > 0:
             # energy removed by the force elements' dampers in this kick: force at V^{n−½} times the
@@ -249,59 +321,21 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             dD_fe = hk * force_element_dissipation(model, x, q, v, w, v_new, w_new, scratch.prim_phi,
                                                    scratch.prim_B)
         if record and k == 0:
-            for i in range(N):
-                for a in range(3):
-                    rec.x[i, a] = x[i, a]
-                    rec.v[i, a] = 0.5 * (v[i, a] + v_new[i, a]) if n > 0 else v[i, a]
-                    rec.w[i, a] = 0.5 * (w[i, a] + w_new[i, a]) if n > 0 else w[i, a]
-                for a in range(4):
-                    rec.q[i, a] = q[i, a]
-            rec.energy[0] = _kinetic(model, rec.v, rec.w)
-            rec.energy[1] = U
-            rec.energy[2] = clock[2]
-            rec.energy[3] = clock[3] + (0.5 * dD_fe if n > 0 else 0.0)
-            rec.constraint[0] = 0.0
-            rec.constraint[1] = 0.0
-            if n_rows > 0:
-                jacobian_times(model, Bj, rec.v, rec.w, work)
-            for r in range(n_rows):
-                res = PHIt[r] + work[r]
-                rec.constraint[0] += PHI[r] ** 2
-                rec.constraint[1] += res**2
-                rec.lam[r] = lam[r]
-            rec.constraint[0] = math.sqrt(rec.constraint[0])
-            rec.constraint[1] = math.sqrt(rec.constraint[1])
+            _record(model, scratch, rec, x, q, v, w, v_new, w_new, n == 0, U, dD_fe, clock, n_rows)
         if n_steps == 0:
             break
         P_drive = 0.0
         if n_rows > 0:
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
-            P_drive = constraint_power(model, Bj, lam, v, w, v_new, w_new)
+            P_drive = constraint_power(model, scratch.Bj, scratch.lam, v, w, v_new, w_new)
             clock[2] += hk * P_drive
         if n_fe > 0:
             clock[3] += dD_fe
         if scratch.guard[2] > 0.0 and _balance(model, v, w, v_new, w_new, F, h, P_drive, n > 0, U, clock,
                                                scratch.guard):
             return BLOWUP
-        total = 0.0  # non-finite if any velocity is (or overflows: diverged too)
-        for i in range(N):
-            for a in range(3):
-                total += v_new[i, a] + w_new[i, a]
-        if not math.isfinite(total):
+        if not _drift(model, scratch, x, q, v, w, v_new, w_new, f_prev, F, h, n_ms):
             return DIVERGED
-        for i in range(N):
-            for a in range(3):
-                v[i, a] = v_new[i, a]
-                w[i, a] = w_new[i, a]
-                x[i, a] += h * v_new[i, a]
-            _cayley_update(q[i], w_new[i], h, q_tmp)
-            nrm = math.sqrt(q_tmp[0] ** 2 + q_tmp[1] ** 2 + q_tmp[2] ** 2 + q_tmp[3] ** 2)
-            for a in range(4):
-                q[i, a] = q_tmp[a] / nrm
-            for a in range(6):
-                f_prev[i, a] = F[i, a]
-        if n_ms > 0:
-            master_slave_positions(model, x, q, scratch.A_m, scratch.A_s, q_tmp, scratch.r4)
         clock[1] = n + 1
         clock[0] = (n + 1) * h
     return OK

@@ -127,7 +127,7 @@ class Static(ImplicitAlgorithm):
         scale = max(float(np.max(np.abs(wk.S), initial=0.0)), float(np.max(np.abs(wk.F), initial=0.0)), 1e-300)
         if lam.size:
             scale = max(scale, float(np.max(np.abs(_row_forces(system, lam)))))
-        phi = np.abs(wk.PHI - system.model.row_eps * lam)
+        phi = np.abs(wk.PHI - system.model.joints.eps * lam)
         return float(np.max(r, initial=0.0)) <= self.tolerance * scale and \
             float(np.max(phi, initial=0.0)) <= self.tolerance * L
 
@@ -191,11 +191,11 @@ def _work_increment(system, x0, q0, F0, P0, x, q, lam):
 def _row_forces(system, lam):
     """Bᵀλ per node (N,6) from the last evaluation."""
     model = system.model
-    out = np.zeros((model.mass.shape[0], 6))
+    out = np.zeros((model.nodes.mass.shape[0], 6))
     Bl = system.work.Bl
-    for k in range(model.jt_i.shape[0]):
-        r0, neq = int(model.jt_row0[k]), int(model.jt_neq[k])
-        i, j = int(model.jt_i[k]), int(model.jt_j[k])
+    for k in range(model.joints.i.shape[0]):
+        r0, neq = int(model.joints.row0[k]), int(model.joints.neq[k])
+        i, j = int(model.joints.i[k]), int(model.joints.j[k])
         out[i] += Bl[r0:r0 + neq, :6].T @ lam[r0:r0 + neq]
         if j >= 0:
             out[j] += Bl[r0:r0 + neq, 6:].T @ lam[r0:r0 + neq]

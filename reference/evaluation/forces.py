@@ -11,7 +11,7 @@ time functions), gravity and the force elements' actuators (their work is extern
 from __future__ import annotations
 
 from reference.elements.families import assemble_forces
-from reference.forces import force_element_forces
+from reference.evaluation.force_elements import force_element_forces
 from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
 from reference.jit import inlined
@@ -21,20 +21,20 @@ from reference.jit import inlined
 def external_forces(model, x, q, t, F, A):
     """External generalised forces at time t into ``F`` (N,6): inertial force, body moment.
 
-    A force applied at a body-fixed point (``model.load_arm`` ≠ 0) adds its
+    A force applied at a body-fixed point (``model.loads.arm`` ≠ 0) adds its
     moment ``arm × force`` (body frame) about the node.
     """
     g0, g1, g2 = model.gravity[0], model.gravity[1], model.gravity[2]
-    mass = model.mass
+    mass = model.nodes.mass
     for i in range(F.shape[0]):
         F[i, 0], F[i, 1], F[i, 2] = mass[i] * g0, mass[i] * g1, mass[i] * g2
         F[i, 3], F[i, 4], F[i, 5] = 0.0, 0.0, 0.0
-    for l in range(model.load_node.shape[0]):
-        i = model.load_node[l]
-        j = model.load_tf[l]
-        f = tf_value(model.tf_kind[j], model.tf_par[j], t)
-        code = model.load_code[l]
-        vec = model.load_vec[l]
+    for l in range(model.loads.node.shape[0]):
+        i = model.loads.node[l]
+        j = model.loads.tf[l]
+        f = tf_value(model.time_functions.kind[j], model.time_functions.par[j], t)
+        code = model.loads.code[l]
+        vec = model.loads.vec[l]
         if code == 0:
             for k in range(3):
                 F[i, k] += f * vec[k]
@@ -49,7 +49,7 @@ def external_forces(model, x, q, t, F, A):
             else:  # dead moment: body = A^T M
                 for k in range(3):
                     F[i, 3 + k] += f * (A[k] * vec[0] + A[3 + k] * vec[1] + A[6 + k] * vec[2])
-        arm = model.load_arm[l]
+        arm = model.loads.arm[l]
         if code <= 1 and (arm[0] != 0.0 or arm[1] != 0.0 or arm[2] != 0.0):
             if code == 0:  # body components of the dead force
                 rm.rotation_matrix(q[i], A)
@@ -81,7 +81,7 @@ def generalized_forces(model, element_work, x, q, v, w, t, S, F, G, angle, A, fe
     U = assemble_forces(model.elements, element_work, x, q, S)
     external_forces(model, x, q, t, F, A)
     D = 0.0
-    if model.fe_kind.shape[0] > 0:
+    if model.force_elements.kind.shape[0] > 0:
         # springs and dampers act like internal forces (S −= their force; energy in U), their
         # actuators like external loads (into F)
         for i in range(N):

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from reference.elements.families import tangent_values as element_tangent_values
-from reference.forces import force_element_tangent
+from reference.evaluation.force_elements import force_element_tangent
 from reference.generated import tangents as generated_tangents
 from reference.interactions import tf_value
 from reference.jit import inlined, kernel
@@ -41,19 +41,19 @@ from reference.newton_blocks import times_right_jacobian
 def load_tangent(model, q, t, i, K6, T9):
     """Add ``−∂F/∂δ`` of the configuration-dependent loads on node i into the 6×6 block ``K6``:
     follower forces (generated ``follower_force_tangent``) and dead moments (``dead_moment_tangent``)."""
-    for l in range(model.load_node.shape[0]):
-        if model.load_node[l] != i:
+    for l in range(model.loads.node.shape[0]):
+        if model.loads.node[l] != i:
             continue
-        code = model.load_code[l]
+        code = model.loads.code[l]
         if code != 1 and code != 2:
             continue
-        tf = model.load_tf[l]
-        f = tf_value(model.tf_kind[tf], model.tf_par[tf], t)
+        tf = model.loads.tf[l]
+        f = tf_value(model.time_functions.kind[tf], model.time_functions.par[tf], t)
         if code == 1:
-            generated_tangents.follower_force_tangent(q[i], model.load_vec[l], T9)
+            generated_tangents.follower_force_tangent(q[i], model.loads.vec[l], T9)
             r0 = 0
         else:
-            generated_tangents.dead_moment_tangent(q[i], model.load_vec[l], T9)
+            generated_tangents.dead_moment_tangent(q[i], model.loads.vec[l], T9)
             r0 = 3
         for a in range(3):
             for b in range(3):
@@ -63,44 +63,24 @@ def load_tangent(model, q, t, i, K6, T9):
 _load_tangent = inlined(load_tangent)
 
 
-@kernel
-def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, small, K12, Kel):
-    """Block values of the Newton matrix (order of :func:`newton_pattern`) into ``values``.
-
-    ``c_e`` multiplies the −ε diagonal (``1/c_k`` in Newton); with ``c_k = 0`` the
-    stiffness blocks are zero and not computed (the mass matrix of the initial accelerations).
-    ``psi`` (N,3): when the unknown rotation δ enters as ``q = q_n ⊗ exp(ψ + δ)`` (generalized-α),
-    the configuration-dependent blocks are multiplied on the right by the tangent operator
-    ``J_r(ψ)`` of each node (``exp(ψ + δ) = exp(ψ) exp(J_r(ψ) δ) + O(δ²)``); zeros for the
-    static update ``q ⊗ exp(δ)``.  The force elements' blocks ``c_k K T + c_c C`` come last, at
-    the velocities and angles of the last :func:`reference.algorithms.implicit.evaluate` (K with the
-    actuator forces' tangent).  ``w_`` the implicit algorithms' work tuple
-    (:func:`reference.algorithms.implicit.work_tuple`); ``small`` (8, 12), ``K12`` (12, 12) and ``Kel``
-    (flat, the element families' largest block) scratch.
-    """
-    Jr = small[7, :9]
-    J9 = small[6, :9]
-    wts = small[5, :10]
-    N = x.shape[0]
-    NJ = model.jt_i.shape[0]
-    m = lam.shape[0]
-    S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, element_work = w_
-    G, angle, fe_e, fe_B, fe_G, C12, fv, fw, fe_out = fe
+@inlined
+def _node_blocks(model, q, w, psi, t, cm, cc, ck, values, p, K12, Jr, J9, A):
+    """Each node's 6×6 block: ``c_k`` times the load tangents (times ``J_r(ψ)``), the mass and damping
+    ``(c_m + c_c c) M`` and ``c_c`` times the gyroscopic tangent; returns the position after them."""
     c = model.damping
-    p = 0
-    for i in range(N):
+    J, mass = model.nodes.inertia, model.nodes.mass
+    for i in range(q.shape[0]):
         blk = K12[:6, :6]
         for a in range(6):
             for b in range(6):
                 blk[a, b] = 0.0
         _load_tangent(model, q, t, i, blk, A)
-        J = model.inertia
         for a in range(6):
             for b in range(6):
                 blk[a, b] *= ck
         times_right_jacobian(blk, 3, psi[i], Jr)
         for a in range(3):
-            blk[a, a] += model.mass[i] * (cm + cc * c)
+            blk[a, a] += mass[i] * (cm + cc * c)
         for a in range(3):
             for b in range(3):
                 blk[3 + a, 3 + b] += (cm + cc * c) * J[i, a, b]
@@ -116,32 +96,43 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, smal
             for b in range(6):
                 values[p] = blk[a, b]
                 p += 1
-    p = element_tangent_values(model.elements, element_work, x, q, psi, ck, values, p, Jr, Kel)
+    return p
+
+
+@inlined
+def _joint_blocks(model, x, q, psi, t, lam, ck, ce, values, p, w_, small, K12, Jr):
+    """The joints' λ-weighted constraint Hessians ``c_k ∂(Bᵀλ)/∂δ`` (12×12 each), B's rows (times
+    ``J_r(ψ)``) and columns, and the −ε diagonal times ``c_e``; returns the position after them."""
+    S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, element_work = w_
+    wts = small[5, :10]
+    joints, tfs = model.joints, model.time_functions
+    NJ = joints.i.shape[0]
+    m = lam.shape[0]
     for k in range(NJ):
         if ck != 0.0:
-            neq = model.jt_neq[k]
-            r0 = model.jt_row0[k]
-            tf = model.jt_tf[k]
-            joint_rows_hessian(x, q, model.jt_i[k], model.jt_j[k], model.jt_par[k], model.jt_rows[k],
-                               model.jt_drive[k], model.tf_kind[tf], model.tf_par[tf], t, lam[r0:r0 + neq],
-                               jphi[:neq], jB[:neq], jphit[:neq], K12, prim_phi, prim_B, wts)
+            neq = joints.neq[k]
+            r0 = joints.row0[k]
+            tf = joints.tf[k]
+            joint_rows_hessian(x, q, joints.i[k], joints.j[k], joints.par[k], joints.rows[k], joints.drive[k],
+                               tfs.kind[tf], tfs.par[tf], t, lam[r0:r0 + neq], jphi[:neq], jB[:neq], jphit[:neq],
+                               K12, prim_phi, prim_B, wts)
         else:
             K12[:, :] = 0.0
-        times_right_jacobian(K12, 3, psi[model.jt_i[k]], Jr)
-        if model.jt_j[k] >= 0:
-            times_right_jacobian(K12, 9, psi[model.jt_j[k]], Jr)
+        times_right_jacobian(K12, 3, psi[joints.i[k]], Jr)
+        if joints.j[k] >= 0:
+            times_right_jacobian(K12, 9, psi[joints.j[k]], Jr)
         for a in range(12):
             for b in range(12):
                 values[p] = ck * K12[a, b]
                 p += 1
     Bs = small[5:7, :]
     for k in range(NJ):
-        for rr in range(model.jt_row0[k], model.jt_row0[k] + model.jt_neq[k]):
+        for rr in range(joints.row0[k], joints.row0[k] + joints.neq[k]):
             for b in range(12):
                 Bs[0, b] = Bl[rr, b]
-            times_right_jacobian(Bs[:1], 3, psi[model.jt_i[k]], Jr)
-            if model.jt_j[k] >= 0:
-                times_right_jacobian(Bs[:1], 9, psi[model.jt_j[k]], Jr)
+            times_right_jacobian(Bs[:1], 3, psi[joints.i[k]], Jr)
+            if joints.j[k] >= 0:
+                times_right_jacobian(Bs[:1], 9, psi[joints.j[k]], Jr)
             for b in range(12):
                 values[p] = Bs[0, b]
                 p += 1
@@ -150,28 +141,61 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, smal
             values[p] = Bl[rr, b]
             p += 1
     for rr in range(m):
-        values[p] = -model.row_eps[rr] * ce
+        values[p] = -joints.eps[rr] * ce
         p += 1
-    for k in range(model.fe_kind.shape[0]):
+    return p
+
+
+@inlined
+def _force_element_blocks(model, x, q, psi, t, cc, ck, values, p, w_, K12, Jr):
+    """The force elements' blocks ``c_k K T + c_c C`` at the velocities and angles of the last
+    evaluation, K with the actuator forces' tangent; returns the position after them."""
+    S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, element_work = w_
+    G, angle, fe_e, fe_B, fe_G, C12, fv, fw, fe_out = fe
+    elements, tfs = model.force_elements, model.time_functions
+    for k in range(elements.kind.shape[0]):
         force_element_tangent(model, x, q, fv, fw, angle, k, K12, C12, fe_e, fe_B, fe_G)
-        tf = model.fe_tf[k]
+        tf = elements.tf[k]
         if tf >= 0:
             # a point-to-point actuator force f_a(t) (an external load −B_ℓᵀ f_a turning with the line):
             # its tangent f_a G_ℓ, G_ℓ the tangent of the length's Jacobian row that
             # force_element_tangent leaves in the first 144 entries of its work array
-            fa = tf_value(model.tf_kind[tf], model.tf_par[tf], t)
-            nc = 12 if model.fe_j[k] >= 0 else 6
+            fa = tf_value(tfs.kind[tf], tfs.par[tf], t)
+            nc = 12 if elements.j[k] >= 0 else 6
             for a in range(nc):
                 for b in range(nc):
                     K12[a, b] += fa * fe_G[12 * a + b]
-        times_right_jacobian(K12, 3, psi[model.fe_i[k]], Jr)
-        if model.fe_j[k] >= 0:
-            times_right_jacobian(K12, 9, psi[model.fe_j[k]], Jr)
+        times_right_jacobian(K12, 3, psi[elements.i[k]], Jr)
+        if elements.j[k] >= 0:
+            times_right_jacobian(K12, 9, psi[elements.j[k]], Jr)
         for a in range(12):
             for b in range(12):
                 values[p] = ck * K12[a, b] + cc * C12[a, b]
                 p += 1
     return p
+
+
+@kernel
+def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, small, K12, Kel):
+    """Block values of the Newton matrix (order of :func:`newton_pattern`) into ``values``; returns
+    how many were written.
+
+    ``c_e`` multiplies the −ε diagonal (``1/c_k`` in Newton); with ``c_k = 0`` the
+    stiffness blocks are zero and not computed (the mass matrix of the initial accelerations).
+    ``psi`` (N,3): when the unknown rotation δ enters as ``q = q_n ⊗ exp(ψ + δ)`` (generalized-α),
+    the configuration-dependent blocks are multiplied on the right by the tangent operator
+    ``J_r(ψ)`` of each node (``exp(ψ + δ) = exp(ψ) exp(J_r(ψ) δ) + O(δ²)``); zeros for the
+    static update ``q ⊗ exp(δ)``.  The force elements' blocks come last, at the velocities and
+    angles of the last :func:`reference.algorithms.implicit.evaluate`.  ``w_`` the implicit
+    algorithms' work tuple (:func:`reference.algorithms.implicit.work_tuple`); ``small`` (8, 12),
+    ``K12`` (12, 12) and ``Kel`` (flat, the element families' largest block) scratch.
+    """
+    Jr = small[7, :9]
+    A = w_[6]
+    p = _node_blocks(model, q, w, psi, t, cm, cc, ck, values, 0, K12, Jr, small[6, :9], A)
+    p = element_tangent_values(model.elements, w_[13], x, q, psi, ck, values, p, Jr, Kel)
+    p = _joint_blocks(model, x, q, psi, t, lam, ck, ce, values, p, w_, small, K12, Jr)
+    return _force_element_blocks(model, x, q, psi, t, cc, ck, values, p, w_, K12, Jr)
 
 
 def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
@@ -180,8 +204,8 @@ def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
     Returns the :class:`~reference.linalg.BlockPattern` and ``dof`` (N,6): the
     unknown of each coordinate, −1 if fixed; the multipliers follow the free coordinates.
     """
-    N, m = model.mass.shape[0], model.n_constraints
-    free = model.free.reshape(-1) > 0.5
+    N, m = model.nodes.mass.shape[0], model.n_constraints
+    free = model.nodes.free.reshape(-1) > 0.5
     dof = np.full(6 * N, -1, dtype=np.int64)
     dof[free] = np.arange(int(free.sum()))
     n_free = int(free.sum())
@@ -199,10 +223,10 @@ def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
     for data in model.elements:
         for e in range(data.conn.shape[0]):
             block(list(data.conn[e]), list(data.conn[e]))
-    for k in range(model.jt_i.shape[0]):
-        nodes = [model.jt_i[k], model.jt_j[k]]
+    for k in range(model.joints.i.shape[0]):
+        nodes = [model.joints.i[k], model.joints.j[k]]
         block(nodes, nodes)
-    row_dofs = jacobian_row_columns(model.jt_i, model.jt_j, model.jt_neq, dof6)
+    row_dofs = jacobian_row_columns(model.joints.i, model.joints.j, model.joints.neq, dof6)
     for rr, idx in enumerate(row_dofs):
         rows.append(np.full(12, n_free + rr))
         cols.append(idx)
@@ -211,8 +235,8 @@ def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
         cols.append(np.full(12, n_free + rr))
     rows.append(n_free + np.arange(m))
     cols.append(n_free + np.arange(m))
-    for k in range(model.fe_kind.shape[0]):
-        nodes = [model.fe_i[k], model.fe_j[k]]
+    for k in range(model.force_elements.kind.shape[0]):
+        nodes = [model.force_elements.i[k], model.force_elements.j[k]]
         block(nodes, nodes)
     rows = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
     cols = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)

@@ -92,8 +92,8 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
 @inlined
 def assemble_constraints(model, x, q, t, PHI, PHIt, Bj, prim_phi, prim_B):
     """Φ (m,), Φ_t (m,) and every joint's block of B, ``Bj[k, :m_k]`` (J, 6, 12), at time t."""
-    jt_i, jt_j, jt_neq, jt_row0, jt_tf = model.jt_i, model.jt_j, model.jt_neq, model.jt_row0, model.jt_tf
-    jt_par, jt_rows, jt_drive, tf_kind, tf_par = model.jt_par, model.jt_rows, model.jt_drive, model.tf_kind, model.tf_par
+    jt_i, jt_j, jt_neq, jt_row0, jt_tf = model.joints.i, model.joints.j, model.joints.neq, model.joints.row0, model.joints.tf
+    jt_par, jt_rows, jt_drive, tf_kind, tf_par = model.joints.par, model.joints.rows, model.joints.drive, model.time_functions.kind, model.time_functions.par
     for k in range(jt_i.shape[0]):
         m = jt_neq[k]
         r0 = jt_row0[k]
@@ -105,8 +105,8 @@ def assemble_constraints(model, x, q, t, PHI, PHIt, Bj, prim_phi, prim_B):
 @inlined
 def apply_inverse_mass(model, Bj, BMj):
     """Per-joint blocks of ``B M⁻¹`` with the lumped, block-diagonal M (fixed coordinates have M⁻¹ = 0)."""
-    jt_i, jt_j, jt_neq = model.jt_i, model.jt_j, model.jt_neq
-    free, mass, Jinv = model.free, model.mass, model.inertia_inv
+    jt_i, jt_j, jt_neq = model.joints.i, model.joints.j, model.joints.neq
+    free, mass, Jinv = model.nodes.free, model.nodes.mass, model.nodes.inertia_inv
     for k in range(Bj.shape[0]):
         for side in range(2):
             n = jt_i[k] if side == 0 else jt_j[k]
@@ -129,7 +129,7 @@ def apply_inverse_mass(model, Bj, BMj):
 def assemble_w(model, Bj, BMj, Lx):
     """The lower triangle of ``W = B M⁻¹ Bᵀ`` into L's slots (fill slots zero), elimination order."""
     Lx[:] = 0.0
-    wc_joints, wc_pos, jt_neq = model.wc_joints, model.wc_pos, model.jt_neq
+    wc_joints, wc_pos, jt_neq = model.joints.pattern.wc_joints, model.joints.pattern.wc_pos, model.joints.neq
     for t in range(wc_joints.shape[0]):
         a, b = wc_joints[t, 0], wc_joints[t, 1]
         ca, cb = 6 * wc_joints[t, 2], 6 * wc_joints[t, 3]
@@ -156,7 +156,7 @@ def sparse_cholesky(model, Lx, work, scale_tol, own_tol, dependent):
     column j is zeroed (the row is dropped, as Gram–Schmidt drops it) and the
     factorisation goes on.  Returns ``OK`` or ``SINGULAR``.
     """
-    colptr, rowidx, rowptr, rowcol, rowpos = model.L_colptr, model.L_rowidx, model.L_rowptr, model.L_rowcol, model.L_rowpos
+    colptr, rowidx, rowptr, rowcol, rowpos = model.joints.pattern.L_colptr, model.joints.pattern.L_rowidx, model.joints.pattern.L_rowptr, model.joints.pattern.L_rowcol, model.joints.pattern.L_rowpos
     m = colptr.shape[0] - 1
     scale = 0.0
     for j in range(m):
@@ -191,7 +191,7 @@ def sparse_cholesky(model, Lx, work, scale_tol, own_tol, dependent):
 @inlined
 def sparse_solve(model, Lx, y):
     """Solve ``L Lᵀ y = rhs`` in place (elimination order); a dropped row (zero pivot) gets y = 0."""
-    colptr, rowidx = model.L_colptr, model.L_rowidx
+    colptr, rowidx = model.joints.pattern.L_colptr, model.joints.pattern.L_rowidx
     m = colptr.shape[0] - 1
     for j in range(m):
         d = Lx[colptr[j]]
@@ -221,16 +221,16 @@ def factor_constraints(model, Bj, BMj, Lx, work, h, hk):
     apply_inverse_mass(model, Bj, BMj)
     assemble_w(model, Bj, BMj, Lx)
     m = work.shape[0]
-    colptr, iperm, eps = model.L_colptr, model.row_iperm, model.row_eps
+    colptr, iperm, eps = model.joints.pattern.L_colptr, model.joints.pattern.row_iperm, model.joints.eps
     for r in range(m):
         Lx[colptr[iperm[r]]] += eps[r] / (h * hk)
-    return sparse_cholesky(model, Lx, work, 1e-13, 0.0, model.row_iperm[:0])
+    return sparse_cholesky(model, Lx, work, 1e-13, 0.0, model.joints.pattern.row_iperm[:0])
 
 
 @inlined
 def jacobian_times(model, Bj, v, w, out):
     """``out = B V`` (m,) from the joint blocks, ``V = [v | ω]`` per node."""
-    jt_i, jt_j, jt_neq, jt_row0 = model.jt_i, model.jt_j, model.jt_neq, model.jt_row0
+    jt_i, jt_j, jt_neq, jt_row0 = model.joints.i, model.joints.j, model.joints.neq, model.joints.row0
     for k in range(Bj.shape[0]):
         r0 = jt_row0[k]
         for r in range(jt_neq[k]):
@@ -247,7 +247,7 @@ def jacobian_times(model, Bj, v, w, out):
 @inlined
 def subtract_transpose(model, Cj, lam, v, w):
     """``V −= Cᵀ λ`` for a block matrix ``C`` (``B`` or ``B M⁻¹``) given by its joint blocks ``Cj``."""
-    jt_i, jt_j, jt_neq, jt_row0 = model.jt_i, model.jt_j, model.jt_neq, model.jt_row0
+    jt_i, jt_j, jt_neq, jt_row0 = model.joints.i, model.joints.j, model.joints.neq, model.joints.row0
     for k in range(Cj.shape[0]):
         r0 = jt_row0[k]
         for side in range(2):
@@ -268,7 +268,7 @@ def constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
     ``lam`` receives λ = Λ/h_k.
     """
     m = PHI.shape[0]
-    iperm = model.row_iperm
+    iperm = model.joints.pattern.row_iperm
     jacobian_times(model, Bj, v, w, lam)
     for r in range(m):
         work[iperm[r]] = lam[r] + PHIt[r] + PHI[r] / h
@@ -284,7 +284,7 @@ def constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
 def constraint_power(model, Bj, lam, v_old, w_old, v_new, w_new):
     """``−λᵀ B V̄`` with ``V̄ = ½(V_old + V_new)``: the power of the constraint forces."""
     P = 0.0
-    jt_i, jt_j, jt_neq, jt_row0 = model.jt_i, model.jt_j, model.jt_neq, model.jt_row0
+    jt_i, jt_j, jt_neq, jt_row0 = model.joints.i, model.joints.j, model.joints.neq, model.joints.row0
     for k in range(Bj.shape[0]):
         r0 = jt_row0[k]
         for r in range(jt_neq[k]):

@@ -20,6 +20,7 @@ import numpy as np
 from reference.joints.joint import ROWS
 from reference.joints.master_slave import master_slave_parameters
 from reference.joints.sparse import constraint_pattern
+from reference.state import Joints, MasterSlaveJoints
 
 
 class JointFormulation(ABC):
@@ -76,31 +77,27 @@ class Jacobian(JointFormulation):
 
     @classmethod
     def model_fields(cls, joints, n_nodes, tf_index, beam_nodes, fixed) -> dict:
-        """The joint tables ``jt_*`` (rows in the joints' order), each row's ``row_eps`` and the
-        fixed sparsity of ``B M⁻¹ Bᵀ`` (:func:`reference.joints.sparse.constraint_pattern`)."""
+        """``joints``: the joint tables (:class:`~reference.state.Joints`, rows in the joints' order),
+        each row's ε and the fixed sparsity of ``B M⁻¹ Bᵀ`` (:func:`reference.joints.sparse.constraint_pattern`)."""
         J = len(joints)
-        jt = {"jt_i": np.zeros(J, dtype=np.int64), "jt_j": np.zeros(J, dtype=np.int64), "jt_par": np.zeros((J, 24)),
-              "jt_rows": np.full((J, 6), -1, dtype=np.int64), "jt_neq": np.zeros(J, dtype=np.int64),
-              "jt_row0": np.zeros(J, dtype=np.int64), "jt_drive": np.zeros(J, dtype=np.int64),
-              "jt_tf": np.zeros(J, dtype=np.int64)}
+        jt = Joints(np.zeros(J, dtype=np.int64), np.zeros(J, dtype=np.int64), np.zeros((J, 24)),
+                    np.full((J, 6), -1, dtype=np.int64), np.zeros(J, dtype=np.int64), np.zeros(J, dtype=np.int64),
+                    np.zeros(J, dtype=np.int64), np.zeros(J, dtype=np.int64), None, None)
         row_eps, row0 = [], 0
         for k, joint in enumerate(joints):
-            jt["jt_i"][k] = joint.body_i.id
-            jt["jt_j"][k] = -1 if joint.body_j is None else joint.body_j.id
-            jt["jt_par"][k] = joint.body_fixed()
-            jt["jt_rows"][k, : len(ROWS[joint.kind])] = ROWS[joint.kind]
-            jt["jt_neq"][k] = joint.n_equations
-            jt["jt_row0"][k] = row0
-            jt["jt_drive"][k] = joint.drive_code
-            jt["jt_tf"][k] = tf_index(joint.time_function)
+            jt.i[k] = joint.body_i.id
+            jt.j[k] = -1 if joint.body_j is None else joint.body_j.id
+            jt.par[k] = joint.body_fixed()
+            jt.rows[k, : len(ROWS[joint.kind])] = ROWS[joint.kind]
+            jt.neq[k] = joint.n_equations
+            jt.row0[k] = row0
+            jt.drive[k] = joint.drive_code
+            jt.tf[k] = tf_index(joint.time_function)
             row0 += joint.n_equations
             row_eps += [joint.formulation.epsilon] * joint.n_equations
-        pattern = constraint_pattern(jt["jt_i"], jt["jt_j"], jt["jt_neq"],
+        pattern = constraint_pattern(jt.i, jt.j, jt.neq,
                                      np.array([joint.formulation.epsilon > 0.0 for joint in joints], dtype=np.int64))
-        return {**jt, "row_eps": np.array(row_eps, dtype=float),
-                "row_iperm": pattern.row_iperm, "L_colptr": pattern.L_colptr, "L_rowidx": pattern.L_rowidx,
-                "L_rowptr": pattern.L_rowptr, "L_rowcol": pattern.L_rowcol, "L_rowpos": pattern.L_rowpos,
-                "wc_joints": pattern.wc_joints, "wc_pos": pattern.wc_pos}
+        return {"joints": jt._replace(eps=np.array(row_eps, dtype=float), pattern=pattern)}
 
 
 @dataclass
@@ -119,7 +116,7 @@ class MasterSlave(JointFormulation):
 
     @classmethod
     def model_fields(cls, joints, n_nodes, tf_index, beam_nodes, fixed) -> dict:
-        """``ms_master``, ``ms_slave``, ``ms_kind`` (0 spherical, 1 revolute) and ``ms_par``, after the rules:
+        """``master_slave`` (:class:`~reference.state.MasterSlaveJoints`), after the rules:
         only spherical and revolute joints; the slave (``body_i``) a beam node at the joint point, slave of
         no other joint and master of none; the master (``body_j``) a body, not the ground; neither with
         fixed coordinates."""
@@ -142,10 +139,10 @@ class MasterSlave(JointFormulation):
                 problem = "master and slave of a master/slave joint may not have fixed coordinates"
             if problem:
                 raise ValueError(f"joint {j.label!r}: {problem}")
-        return {"ms_master": np.array([j.body_j.id for j in joints], dtype=np.int64),
-                "ms_slave": np.array([j.body_i.id for j in joints], dtype=np.int64),
-                "ms_kind": np.array([0 if j.kind == "spherical" else 1 for j in joints], dtype=np.int64),
-                "ms_par": np.array([master_slave_parameters(j) for j in joints]).reshape(len(joints), 9)}
+        return {"master_slave": MasterSlaveJoints(
+            np.array([j.body_j.id for j in joints], dtype=np.int64), np.array([j.body_i.id for j in joints], dtype=np.int64),
+            np.array([0 if j.kind == "spherical" else 1 for j in joints], dtype=np.int64),
+            np.array([master_slave_parameters(j) for j in joints]).reshape(len(joints), 9))}
 
 
 REGISTRY = (Jacobian, MasterSlave)

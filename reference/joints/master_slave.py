@@ -41,8 +41,8 @@ SPHERICAL, REVOLUTE = 0, 1
 @inlined
 def _pair_matrices(model, k, q, T, A_m, A_s):
     """Fill ``T`` (12 × d) for pair k at Euler parameters ``q``; return d."""
-    m, s = model.ms_master[k], model.ms_slave[k]
-    par = model.ms_par[k]
+    m, s = model.master_slave.master[k], model.master_slave.slave[k]
+    par = model.master_slave.par[k]
     rm.rotation_matrix(q[m], A_m)
     rm.rotation_matrix(q[s], A_s)
     T[:, :] = 0.0
@@ -58,7 +58,7 @@ def _pair_matrices(model, k, q, T, A_m, A_s):
         T[6 + r, 3] = -(a1 * p2 - a2 * p1)
         T[6 + r, 4] = -(-a0 * p2 + a2 * p0)
         T[6 + r, 5] = -(a0 * p1 - a1 * p0)
-    if model.ms_kind[k] == SPHERICAL:
+    if model.master_slave.kind[k] == SPHERICAL:
         for a in range(3):
             T[9 + a, 6 + a] = 1.0
         return 9
@@ -76,20 +76,20 @@ def _pair_matrices(model, k, q, T, A_m, A_s):
 @inlined
 def master_slave_project(model, q, v, w, T, A_m, A_s, MT, TMT, rhs):
     """Replace each pair's velocities by ``T u``, ``(TᵀMT) u = TᵀM V`` (in place)."""
-    for k in range(model.ms_master.shape[0]):
-        m, s = model.ms_master[k], model.ms_slave[k]
+    for k in range(model.master_slave.master.shape[0]):
+        m, s = model.master_slave.master[k], model.master_slave.slave[k]
         d = _pair_matrices(model, k, q, T, A_m, A_s)
         # MT = M T (12 × d); M = diag(m_m I, J_m, m_s I, J_s)
         for c in range(d):
             for a in range(3):
-                MT[a, c] = model.mass[m] * T[a, c]
-                MT[6 + a, c] = model.mass[s] * T[6 + a, c]
+                MT[a, c] = model.nodes.mass[m] * T[a, c]
+                MT[6 + a, c] = model.nodes.mass[s] * T[6 + a, c]
             for a in range(3):
                 acc_m = 0.0
                 acc_s = 0.0
                 for b in range(3):
-                    acc_m += model.inertia[m, a, b] * T[3 + b, c]
-                    acc_s += model.inertia[s, a, b] * T[9 + b, c]
+                    acc_m += model.nodes.inertia[m, a, b] * T[3 + b, c]
+                    acc_s += model.nodes.inertia[s, a, b] * T[9 + b, c]
                 MT[3 + a, c] = acc_m
                 MT[9 + a, c] = acc_s
         for r in range(d):
@@ -131,13 +131,13 @@ def master_slave_project(model, q, v, w, T, A_m, A_s, MT, TMT, rhs):
 @inlined
 def master_slave_positions(model, x, q, A_m, A_s, q_tmp, r):
     """Set each slave's dependent coordinates from its master (after the drift)."""
-    for k in range(model.ms_master.shape[0]):
-        m, s = model.ms_master[k], model.ms_slave[k]
-        par = model.ms_par[k]
+    for k in range(model.master_slave.master.shape[0]):
+        m, s = model.master_slave.master[k], model.master_slave.slave[k]
+        par = model.master_slave.par[k]
         rm.rotation_matrix(q[m], A_m)
         for a in range(3):
             x[s, a] = x[m, a] + A_m[3 * a] * par[0] + A_m[3 * a + 1] * par[1] + A_m[3 * a + 2] * par[2]
-        if model.ms_kind[k] != REVOLUTE:
+        if model.master_slave.kind[k] != REVOLUTE:
             continue
         rm.rotation_matrix(q[s], A_s)
         c0 = A_s[0] * par[6] + A_s[1] * par[7] + A_s[2] * par[8]

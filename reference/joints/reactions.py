@@ -49,18 +49,18 @@ def joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, p
     t : float
         Time (drives' rows depend on it).
     slot : int array (J,)
-        Row of ``force``/``moment`` that receives multiplier joint k (``model.jt_*`` order).
+        Row of ``force``/``moment`` that receives multiplier joint k (``model.joints`` order).
     force, moment : arrays (≥ J, 3), written at the rows ``slot`` [N], [N m].
     jphi, jB, jphit, prim_phi, prim_B, A : scratch
         (6,), (6, 12), (6,), (10,), (120,), (9,).
     """
-    for k in range(model.jt_i.shape[0]):
-        m = model.jt_neq[k]
-        r0 = model.jt_row0[k]
-        i, j = model.jt_i[k], model.jt_j[k]
-        tf = model.jt_tf[k]
-        par = model.jt_par[k]
-        joint_rows(x, q, i, j, par, model.jt_rows[k], model.jt_drive[k], model.tf_kind[tf], model.tf_par[tf], t,
+    for k in range(model.joints.i.shape[0]):
+        m = model.joints.neq[k]
+        r0 = model.joints.row0[k]
+        i, j = model.joints.i[k], model.joints.j[k]
+        tf = model.joints.tf[k]
+        par = model.joints.par[k]
+        joint_rows(x, q, i, j, par, model.joints.rows[k], model.joints.drive[k], model.time_functions.kind[tf], model.time_functions.par[tf], t,
                    jphi[:m], jB[:m], jphit[:m], prim_phi, prim_B)
         F0 = F1 = F2 = 0.0
         M0 = M1 = M2 = 0.0
@@ -90,7 +90,7 @@ def scratch() -> tuple:
 
 def reactions(model, x, q, lam, t: float):
     """Plain-Python face of :func:`joint_reactions`: ``(force, moment)`` arrays (J, 3)."""
-    J = model.jt_i.shape[0]
+    J = model.joints.i.shape[0]
     force, moment = np.zeros((J, 3)), np.zeros((J, 3))
     joint_reactions(model, np.asarray(x, dtype=float), np.asarray(q, dtype=float), np.asarray(lam, dtype=float),
                     float(t), np.arange(J), force, moment, *scratch())

@@ -29,7 +29,7 @@ from reference.joints.assembly import (
     subtract_transpose,
 )
 from reference.joints.formulation import REGISTRY
-from reference.joints.joint import ROWS, Joint
+from reference.joints.joint import Joint
 from reference.state import Model, State
 
 DEPENDENT_PIVOT = 1e-10
@@ -45,11 +45,12 @@ def multiplier_joints(joints: list[Joint]) -> list[Joint]:
     return [j for j in joints if j.formulation.multipliers]
 
 
-def constraint_fields(joints: list[Joint], n_nodes: int, tf_index: Callable, beam_nodes: set, fixed: set) -> dict:
-    """The :class:`~reference.state.Model` fields of the constraints: each formulation's own
+def constraint_fields(joints: list[Joint], n_nodes: int, tf_index: Callable, beam_nodes: set,
+                      fixed: set) -> tuple[dict, np.ndarray]:
+    """The :class:`~reference.state.Model` fields of the constraints — each formulation's own
     (:meth:`~reference.joints.formulation.JointFormulation.model_fields` of every class of
-    :data:`~reference.joints.formulation.REGISTRY`, with its joints in the Domain's order) and
-    ``node_constrained``, ``constrained_nodes`` (the nodes of any joint).
+    :data:`~reference.joints.formulation.REGISTRY`, with its joints in the Domain's order) — and
+    per node (N,) 1 for a node of any joint, else 0.
 
     Parameters
     ----------
@@ -75,9 +76,7 @@ def constraint_fields(joints: list[Joint], n_nodes: int, tf_index: Callable, bea
         for body in (joint.body_i, joint.body_j):
             if body is not None:
                 node_constrained[body.id] = 1
-    fields["node_constrained"] = node_constrained
-    fields["constrained_nodes"] = np.flatnonzero(node_constrained).astype(np.int64)
-    return fields
+    return fields, node_constrained
 
 
 def constraint_blocks(model: Model, x, q, t: float):
@@ -86,7 +85,7 @@ def constraint_blocks(model: Model, x, q, t: float):
     Evaluated by the step's compiled kernels
     (:func:`reference.joints.assembly.assemble_constraints`, ``apply_inverse_mass``).
     """
-    m, J = model.n_constraints, model.jt_i.shape[0]
+    m, J = model.n_constraints, model.joints.i.shape[0]
     PHI, PHIt, Bj, BMj = np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12))
     assemble_constraints(model, x, q, float(t), PHI, PHIt, Bj, np.zeros(10), np.zeros(120))
     apply_inverse_mass(model, Bj, BMj)
@@ -103,8 +102,8 @@ def constraint_matrices(model: Model, x, q, t: float = 0.0):
     N, m = x.shape[0], model.n_constraints
     Bg, BM = np.zeros((m, 6 * N)), np.zeros((m, 6 * N))
     for k in range(Bj.shape[0]):
-        r0, mk = model.jt_row0[k], model.jt_neq[k]
-        for side, n in enumerate((model.jt_i[k], model.jt_j[k])):
+        r0, mk = model.joints.row0[k], model.joints.neq[k]
+        for side, n in enumerate((model.joints.i[k], model.joints.j[k])):
             if n >= 0:
                 Bg[r0:r0 + mk, 6 * n:6 * n + 6] += Bj[k, :mk, 6 * side:6 * side + 6]
                 BM[r0:r0 + mk, 6 * n:6 * n + 6] += BMj[k, :mk, 6 * side:6 * side + 6]
@@ -118,7 +117,7 @@ def dependent_rows(model: Model, Bj, BMj):
     it after the rows eliminated before it are projected out, as in
     Gram–Schmidt — is below :data:`DEPENDENT_PIVOT` of its own squared norm.
     """
-    Lx, dependent = np.zeros(model.L_rowidx.shape[0]), np.zeros(model.n_constraints, dtype=np.int64)
+    Lx, dependent = np.zeros(model.joints.pattern.L_rowidx.shape[0]), np.zeros(model.n_constraints, dtype=np.int64)
     assemble_w(model, Bj, BMj, Lx)
     sparse_cholesky(model, Lx, np.zeros(model.n_constraints), 0.0, DEPENDENT_PIVOT, dependent)
     return Lx, dependent
@@ -137,12 +136,12 @@ def dependency_rows(model: Model, Lx, dependent, positions) -> list[int]:
     import scipy.sparse.linalg
 
     m = model.n_constraints
-    ncol = np.diff(model.L_colptr)
+    ncol = np.diff(model.joints.pattern.L_colptr)
     cols = np.repeat(np.arange(m), ncol)
     values = Lx.copy()
-    values[model.L_colptr[:-1][dependent == 1]] = 1.0  # dropped rows: unit pivot, zero column
-    L = scipy.sparse.csr_matrix((values, (model.L_rowidx, cols)), shape=(m, m))
-    row_perm = np.argsort(model.row_iperm)
+    values[model.joints.pattern.L_colptr[:-1][dependent == 1]] = 1.0  # dropped rows: unit pivot, zero column
+    L = scipy.sparse.csr_matrix((values, (model.joints.pattern.L_rowidx, cols)), shape=(m, m))
+    row_perm = np.argsort(model.joints.pattern.row_iperm)
     rows: set[int] = set()
     for p in positions:
         rhs = np.zeros(m)
@@ -183,10 +182,10 @@ def check_redundancy(model: Model, lagrange: list[Joint], x, q) -> None:
         return
     _, _, Bj, BMj = constraint_blocks(model, x, q, 0.0)
     Lx, dependent = dependent_rows(model, Bj, BMj)
-    redundant = np.flatnonzero(dependent[model.row_iperm])
+    redundant = np.flatnonzero(dependent[model.joints.pattern.row_iperm])
     owner = [joint for joint in lagrange for _ in range(joint.n_equations)]
     unregularised = [r for r in redundant if owner[r].formulation.epsilon == 0.0]
-    involved = dependency_rows(model, Lx, dependent, model.row_iperm[unregularised])
+    involved = dependency_rows(model, Lx, dependent, model.joints.pattern.row_iperm[unregularised])
     labels = {owner[r].label for r in involved}
     loop = [j for j in lagrange if j.label in labels]
     stiff = [j.label for j in loop if j.formulation.epsilon == 0.0]
@@ -215,6 +214,6 @@ def project_initial_velocities(model: Model, state: State) -> None:
     rhs = np.zeros(model.n_constraints)
     jacobian_times(model, Bj, state.v, state.w, rhs)
     y = np.zeros_like(rhs)
-    y[model.row_iperm] = rhs + PHIt
+    y[model.joints.pattern.row_iperm] = rhs + PHIt
     sparse_solve(model, Lx, y)
-    subtract_transpose(model, BMj, y[model.row_iperm], state.v, state.w)
+    subtract_transpose(model, BMj, y[model.joints.pattern.row_iperm], state.v, state.w)

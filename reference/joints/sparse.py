@@ -34,7 +34,7 @@ sparsity.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -124,9 +124,9 @@ def elimination_order(adjacency: list[set[int]], weight: np.ndarray, group=None)
     return order
 
 
-@dataclass
-class ConstraintPattern:
-    """Fixed sparsity of the constraint stage (all arrays int64, rows m, nonzeros of L nnz).
+class ConstraintPattern(NamedTuple):
+    """Fixed sparsity of the constraint stage (all arrays int64, rows m, nonzeros of L nnz); the
+    :class:`~reference.state.Model`'s ``joints.pattern``.
 
     Attributes
     ----------
@@ -161,6 +161,55 @@ class ConstraintPattern:
     @property
     def nnz(self) -> int:
         return int(self.L_rowidx.shape[0])
+
+
+def _row_view(L_colptr, L_rowidx, m):
+    """The row view of L's strictly lower part: ``L_rowptr`` (m+1,), and per row its columns
+    ``L_rowcol`` (ascending) and their positions ``L_rowpos`` in ``L_rowidx``."""
+    counts = np.zeros(m + 1, dtype=np.int64)
+    for c in range(m):
+        for s in range(L_colptr[c] + 1, L_colptr[c + 1]):
+            counts[L_rowidx[s] + 1] += 1
+    L_rowptr = np.cumsum(counts)
+    fill = L_rowptr[:-1].copy()
+    L_rowcol = np.zeros(L_rowptr[-1], dtype=np.int64)
+    L_rowpos = np.zeros(L_rowptr[-1], dtype=np.int64)
+    for c in range(m):  # ascending columns → each row's columns ascending
+        for s in range(L_colptr[c] + 1, L_colptr[c + 1]):
+            r = L_rowidx[s]
+            L_rowcol[fill[r]] = c
+            L_rowpos[fill[r]] = s
+            fill[r] += 1
+    return L_rowptr, L_rowcol, L_rowpos
+
+
+def _block_products(jt_i, jt_j, jt_neq, adjacency, row0, row_iperm, L_colptr, L_rowidx, m):
+    """The products of joint blocks meeting at a node (``[a, b, side in a, side in b]``, a ≥ b) and
+    the slots of their entries in L's values (−1: not stored)."""
+    J = len(jt_i)
+    slot = {}
+    for c in range(m):
+        for s in range(L_colptr[c], L_colptr[c + 1]):
+            slot[(int(L_rowidx[s]), c)] = s
+    pairs, positions = [], []
+    nodes = np.stack([jt_i, jt_j], axis=1) if J else np.zeros((0, 2), np.int64)
+    for a in range(J):
+        for b in [a] + sorted(b for b in adjacency[a] if b < a):
+            for sa in range(2):
+                for sb in range(2):
+                    n = nodes[a, sa]
+                    if n < 0 or n != nodes[b, sb]:
+                        continue
+                    pos = np.full((6, 6), -1, dtype=np.int64)
+                    for r in range(jt_neq[a]):
+                        for s in range(jt_neq[b]):
+                            pr, ps = row_iperm[row0[a] + r], row_iperm[row0[b] + s]
+                            if a == b and pr < ps:
+                                continue
+                            pos[r, s] = slot[(int(max(pr, ps)), int(min(pr, ps)))]
+                    pairs.append((a, b, sa, sb))
+                    positions.append(pos)
+    return pairs, positions
 
 
 def constraint_pattern(jt_i: np.ndarray, jt_j: np.ndarray, jt_neq: np.ndarray, group=None,
@@ -211,44 +260,8 @@ def constraint_pattern(jt_i: np.ndarray, jt_j: np.ndarray, jt_neq: np.ndarray, g
             colptr.append(len(rowidx))
     L_colptr = np.array(colptr, dtype=np.int64)
     L_rowidx = np.array(rowidx, dtype=np.int64)
-    # row view of the strictly lower part
-    counts = np.zeros(m + 1, dtype=np.int64)
-    for c in range(m):
-        for s in range(L_colptr[c] + 1, L_colptr[c + 1]):
-            counts[L_rowidx[s] + 1] += 1
-    L_rowptr = np.cumsum(counts)
-    fill = L_rowptr[:-1].copy()
-    L_rowcol = np.zeros(L_rowptr[-1], dtype=np.int64)
-    L_rowpos = np.zeros(L_rowptr[-1], dtype=np.int64)
-    for c in range(m):  # ascending columns → each row's columns ascending
-        for s in range(L_colptr[c] + 1, L_colptr[c + 1]):
-            r = L_rowidx[s]
-            L_rowcol[fill[r]] = c
-            L_rowpos[fill[r]] = s
-            fill[r] += 1
-    slot = {}
-    for c in range(m):
-        for s in range(L_colptr[c], L_colptr[c + 1]):
-            slot[(int(L_rowidx[s]), c)] = s
-    # the products of blocks meeting at a node, and where their entries go
-    pairs, positions = [], []
-    nodes = np.stack([jt_i, jt_j], axis=1) if J else np.zeros((0, 2), np.int64)
-    for a in range(J):
-        for b in [a] + sorted(b for b in adjacency[a] if b < a):
-            for sa in range(2):
-                for sb in range(2):
-                    n = nodes[a, sa]
-                    if n < 0 or n != nodes[b, sb]:
-                        continue
-                    pos = np.full((6, 6), -1, dtype=np.int64)
-                    for r in range(jt_neq[a]):
-                        for s in range(jt_neq[b]):
-                            pr, ps = row_iperm[row0[a] + r], row_iperm[row0[b] + s]
-                            if a == b and pr < ps:
-                                continue
-                            pos[r, s] = slot[(int(max(pr, ps)), int(min(pr, ps)))]
-                    pairs.append((a, b, sa, sb))
-                    positions.append(pos)
+    L_rowptr, L_rowcol, L_rowpos = _row_view(L_colptr, L_rowidx, m)
+    pairs, positions = _block_products(jt_i, jt_j, jt_neq, adjacency, row0, row_iperm, L_colptr, L_rowidx, m)
     return ConstraintPattern(
         row_perm=row_perm, row_iperm=row_iperm, L_colptr=L_colptr, L_rowidx=L_rowidx, L_rowptr=L_rowptr,
         L_rowcol=L_rowcol, L_rowpos=L_rowpos,
