@@ -418,7 +418,7 @@ def check(path: Path, overrides: dict) -> str:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             try:
-                domain = load_deck(path, overrides=overrides)
+                domain = load_deck(path, overrides=overrides).domain
             except DeckError as exc:
                 message = str(exc)
                 assert "\n" not in message, f"multi-line message: {message[:400]!r}"
@@ -449,7 +449,7 @@ def warm_up() -> None:
 
     deck = ROOT / "models" / "three_bar.toml"
     for name in ALGORITHMS:
-        domain = load_deck(deck, overrides={"t_end": 0.02})
+        domain = load_deck(deck, overrides={"t_end": 0.02}).domain
         domain.solver.algorithm, domain.solver.dt, domain.solver.t_end, domain.solver.load_steps = name, 2e-4, 1e-3, 5
         domain.solve()
 
