@@ -31,12 +31,9 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     Returns the comparison dict (:func:`crosscheck.compare.compare`) with ``default``
     (no ``[crosscheck]`` table), ``markdown`` (the report's lines), ``figure``, the two
     results (``reference``, ``exudyn``) and ``exudyn_wall``.  The parameters are those
-    of :func:`run_engines`; ``figures`` is the figure's folder (default ``out``).
-
-    Raises
-    ------
-    NoCheckAtRefine
-        The deck has ``[crosscheck]`` tables but none with ``refine`` = ``refine`` (before any solve).
+    of :func:`run_engines`; ``figures`` is the figure's folder (default ``out``).  At a
+    refinement no table names the verdicts are empty (a convergence study reads the
+    comparison's other numbers); the command refuses it first (:func:`check_refine`).
     """
     runs = run_engines(deck, out, refine, exudyn_dt, t_end, progress, exudyn_progress)
     cmp = compare_runs(runs)
@@ -44,6 +41,19 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     cmp.update(default=runs["default"], markdown=lines, figure=figure, reference=runs["reference"],
                exudyn=runs["exudyn"], exudyn_wall=runs["exudyn_run"]["wall_time"])
     return cmp
+
+
+def check_refine(deck, refine: int) -> None:
+    """Raise :class:`NoCheckAtRefine`, listing the deck's refinements, when its ``[crosscheck]`` tables judge
+    no run at ``refine`` (a deck without tables gets the default comparison at any)."""
+    from reference.io.deck import load_deck
+
+    tables = load_deck(deck).crosscheck
+    refines = sorted({int(spec.get("refine", 1)) for spec in tables.values()})
+    if tables and refine not in refines:
+        raise NoCheckAtRefine(f"no [crosscheck] table has refine = {refine}: the deck's tables judge the runs at "
+                              f"refine {', '.join(map(str, refines))}; use --refine {refines[0]}"
+                              + ("" if len(refines) == 1 else f" … {refines[-1]}"))
 
 
 def run_engines(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float | None = None,
@@ -64,11 +74,6 @@ def run_engines(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_en
     overrides = {"refine": refine, **({"t_end": t_end} if t_end else {})}
     read = load_deck(deck, overrides=overrides)
     checks = {name: spec for name, spec in read.crosscheck.items() if int(spec.get("refine", 1)) == refine}
-    if read.crosscheck and not checks:
-        refines = sorted({int(spec.get("refine", 1)) for spec in read.crosscheck.values()})
-        raise NoCheckAtRefine(f"no [crosscheck] table has refine = {refine}: the deck's tables judge the runs at "
-                              f"refine {', '.join(map(str, refines))}; use --refine {refines[0]}"
-                              + ("" if len(refines) == 1 else f" … {refines[-1]}"))
     ex_domain = load_deck(deck, overrides=overrides).domain
     preflight(ex_domain)  # refuse (one line) before running anything: untranslatable or refused by Exudyn
     out.mkdir(parents=True, exist_ok=True)
@@ -78,7 +83,8 @@ def run_engines(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_en
     # the deck's step: the explicit scheme's was divided by refine, an implicit one was kept
     dt_ex = exudyn_dt or read.domain.solver.dt * (refine if algo.explicit else 1)
     ex = solve_exudyn(ex_domain, dt=dt_ex, results_path=out / "results_exudyn.h5", progress=exudyn_progress, deck=read)
-    return {"deck": read, "checks": checks or default_crosscheck(), "default": not read.crosscheck, "refine": refine,
+    return {"deck": read, "checks": checks if read.crosscheck else default_crosscheck(),
+            "default": not read.crosscheck, "refine": refine,
             "reference": ref, "exudyn": ex["results"], "exudyn_run": ex, "dt_exudyn": dt_ex, "algorithm": algo}
 
 

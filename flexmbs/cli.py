@@ -159,6 +159,7 @@ def cmd_crosscheck(args) -> int:
     default = Path(args.deck).stem + "_crosscheck" + (f"_refine{refine}" if refine != 1 else "")
     out = Path(args.out) if args.out else Path("out") / default
     try:
+        harness.check_refine(args.deck, refine)  # before anything runs
         cmp = harness.run(args.deck, out, refine=refine, exudyn_dt=args.exudyn_dt, t_end=args.t_end,
                           progress=ProgressBar("reference"), exudyn_progress=ProgressBar("Exudyn   "))
     except exudyn_model.Unsupported as exc:
