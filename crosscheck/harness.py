@@ -52,8 +52,8 @@ def check_refine(deck, refine: int) -> None:
     refines = sorted({int(spec.get("refine", 1)) for spec in tables.values()})
     if tables and refine not in refines:
         raise NoCheckAtRefine(f"no [crosscheck] table has refine = {refine}: the deck's tables judge the runs at "
-                              f"refine {', '.join(map(str, refines))}; use --refine {refines[0]}"
-                              + ("" if len(refines) == 1 else f" … {refines[-1]}"))
+                              f"refine {', '.join(map(str, refines))}; use "
+                              + " or ".join(f"--refine {r}" for r in refines))
 
 
 def run_engines(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float | None = None,

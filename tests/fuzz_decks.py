@@ -225,7 +225,7 @@ VOCABULARY = {
                "allow_unsafe_dt": [True, False], "load_steps": [1, 3], "rho_inf": [0.0, 0.8, 1.0],
                "tolerance": [1e-8, 1e-14], "max_iterations": [1, 10]},
     "checks.*": {"observable": ["position:b:end"], "tolerance": [0.1], "reason": ["r"], "at": [[0.1]]},
-    "crosscheck.*": {"observable": ["position:b:end", "rocker_angle"], "tolerance": [0.1, -1.0],
+    "crosscheck.*": {"observable": ["position:b:end", "angle.z:rocker"], "tolerance": [0.1, -1.0],
                      "relative_to": ["length", "peak", "absolute", "L"], "refine": [1, 2], "reason": ["r"]},
 }
 """Table → key → sample values.  ``[]``: an array of tables; ``.*``: a table of named entries."""

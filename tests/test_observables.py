@@ -77,7 +77,8 @@ output_every = 10
 def three_bar_with(tmp_path, observable, table="crosscheck.rocker"):
     text = (MODELS / "three_bar.toml").read_text()
     if table == "crosscheck.rocker":
-        text = text.replace('observable = "rocker_angle"', f"observable = {observable!r}")
+        assert text.count('observable = "angle.z:rocker"') == 1
+        text = text.replace('observable = "angle.z:rocker"', f"observable = {observable!r}")
     else:
         text += f'\n[{table}]\nobservable = {observable!r}\ntolerance = 1.0\nreason = "test"\n'
     path = tmp_path / "deck.toml"
