@@ -1,4 +1,12 @@
-"""``flexmbs crosscheck``: one deck in both engines, compared, with a Markdown report and figures."""
+"""``flexmbs crosscheck``: one deck in both engines, compared, with a Markdown report and figures.
+
+:func:`run` is the three steps: :func:`run_engines` (the reference, warm, and Exudyn on
+the same deck), :func:`compare_runs` (the deck's ``[crosscheck]`` tables at this
+refinement, or the default comparison) and :func:`render` (``crosscheck.md`` and the
+figure).  The reference's printed solve time is warm: a two-step solve of the deck
+(:func:`reference.io.deck.warm_up`) loads or compiles its kernels first; Exudyn's is
+its solve call alone.
+"""
 
 from __future__ import annotations
 
@@ -12,45 +20,90 @@ from crosscheck.exudyn_model import solve as solve_exudyn
 from reference.observables import default_crosscheck, parse, wrap
 
 
+class NoCheckAtRefine(ValueError):
+    """The deck's ``[crosscheck]`` tables judge no run at the refinement asked for."""
+
+
 def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float | None = None,
         progress=None, figures=None, exudyn_progress=None) -> dict:
     """Run ``deck`` with the reference and with Exudyn, compare, write ``out/crosscheck.md``.
 
+    Returns the comparison dict (:func:`crosscheck.compare.compare`) with ``default``
+    (no ``[crosscheck]`` table), ``markdown`` (the report's lines), ``figure``, the two
+    results (``reference``, ``exudyn``) and ``exudyn_wall``.  The parameters are those
+    of :func:`run_engines`; ``figures`` is the figure's folder (default ``out``).  At a
+    refinement no table names the verdicts are empty (a convergence study reads the
+    comparison's other numbers); the command refuses it first (:func:`check_refine`).
+    """
+    runs = run_engines(deck, out, refine, exudyn_dt, t_end, progress, exudyn_progress)
+    cmp = compare_runs(runs)
+    lines, figure = render(runs, cmp, out, figures)
+    cmp.update(default=runs["default"], markdown=lines, figure=figure, reference=runs["reference"],
+               exudyn=runs["exudyn"], exudyn_wall=runs["exudyn_run"]["wall_time"])
+    return cmp
+
+
+def check_refine(deck, refine: int) -> None:
+    """Raise :class:`NoCheckAtRefine`, listing the deck's refinements, when its ``[crosscheck]`` tables judge
+    no run at ``refine`` (a deck without tables gets the default comparison at any)."""
+    from reference.io.deck import load_deck
+
+    tables = load_deck(deck).crosscheck
+    refines = sorted({int(spec.get("refine", 1)) for spec in tables.values()})
+    if tables and refine not in refines:
+        raise NoCheckAtRefine(f"no [crosscheck] table has refine = {refine}: the deck's tables judge the runs at "
+                              f"refine {', '.join(map(str, refines))}; use "
+                              + " or ".join(f"--refine {r}" for r in refines))
+
+
+def run_engines(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float | None = None,
+                progress=None, exudyn_progress=None) -> dict:
+    """Both engines on ``deck``: the results files ``out/results_reference.h5`` and ``results_exudyn.h5``.
+
     The explicit reference needs the step divided by ``refine`` (its critical step
     shrinks with the elements); Exudyn (and the implicit algorithms) keep the deck's
-    step unless ``exudyn_dt`` is given.  The deck's algorithm is translated (static →
-    Exudyn's static solver, generalized-α → Exudyn's at the same ρ∞).  Returns the comparison dict with ``markdown``
-    (the report's lines) and the two results.
+    step unless ``exudyn_dt`` is given.  The deck's algorithm is translated
+    (:func:`crosscheck.exudyn_model.solver_settings`).  Returns a dict: ``deck`` (the
+    reference's :class:`~reference.io.deck.Deck`), ``checks`` (the tables judged),
+    ``default``, ``refine``, ``reference`` and ``exudyn`` (the results), ``exudyn_run``
+    (:func:`crosscheck.exudyn_model.solve`'s dict), ``dt_exudyn``.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from reference.domain import Domain
+    from reference.io.deck import load_deck, warm_up
 
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     overrides = {"refine": refine, **({"t_end": t_end} if t_end else {})}
-    ex_domain = Domain.from_deck(deck, overrides=overrides)
+    read = load_deck(deck, overrides=overrides)
+    checks = {name: spec for name, spec in read.crosscheck.items() if int(spec.get("refine", 1)) == refine}
+    ex_domain = load_deck(deck, overrides=overrides).domain
     preflight(ex_domain)  # refuse (one line) before running anything: untranslatable or refused by Exudyn
-    ref_domain = Domain.from_deck(deck, overrides=overrides)
-    ref = ref_domain.solve(results_path=out / "results_reference.h5", progress=progress)
-    algo = ref_domain.algorithm()
+    out.mkdir(parents=True, exist_ok=True)
+    warm_up(deck, read.domain.solver.dt)
+    ref = read.solve(results_path=out / "results_reference.h5", progress=progress)
+    algo = read.domain.algorithm()
     # the deck's step: the explicit scheme's was divided by refine, an implicit one was kept
-    dt_ex = exudyn_dt or ref_domain.solver.dt * (refine if algo.explicit else 1)
-    ex = solve_exudyn(ex_domain, dt=dt_ex, results_path=out / "results_exudyn.h5", progress=exudyn_progress)
-    exr = ex["results"]
-    checks = {name: spec for name, spec in ref_domain.crosscheck.items() if int(spec.get("refine", 1)) == refine}
-    default = not ref_domain.crosscheck
-    if default:
-        checks = default_crosscheck()
-    cmp = compare(ref, exr, checks)
-    name = ref_domain.name + (f"_refine{refine}" if refine != 1 else "")
-    lines = [f"### Cross-check: `{Path(deck).name}`" + (f", flexible beams refined ×{refine}" if refine != 1 else ""), "",
-             f"Reference: {algo.name.replace('_', ' ')}, h = {ref_domain.solver.dt:g}, solve {ref.wall_time:.2f} s. "
-             f"Exudyn {ex['exudyn_version']}: {ex['algorithm']}, h = {dt_ex:g}, {ex['steps']} steps, solve "
-             f"{ex['wall_time']:.2f} s. {cmp['nodes']} common nodes; characteristic length {cmp['length']:.3g}.", "",
+    dt_ex = exudyn_dt or read.domain.solver.dt * (refine if algo.explicit else 1)
+    ex = solve_exudyn(ex_domain, dt=dt_ex, results_path=out / "results_exudyn.h5", progress=exudyn_progress, deck=read)
+    return {"deck": read, "checks": checks if read.crosscheck else default_crosscheck(),
+            "default": not read.crosscheck, "refine": refine,
+            "reference": ref, "exudyn": ex["results"], "exudyn_run": ex, "dt_exudyn": dt_ex, "algorithm": algo}
+
+
+def compare_runs(runs: dict) -> dict:
+    """The verdicts of the tables judged (:func:`crosscheck.compare.compare`) on the two results."""
+    return compare(runs["reference"], runs["exudyn"], runs["checks"])
+
+
+def render(runs: dict, cmp: dict, out, figures=None) -> tuple[list, Path]:
+    """``out/crosscheck.md`` and the figure ``crosscheck_<name>[_refine<R>].png`` (in ``figures``, default
+    ``out``); returns the Markdown lines and the figure's path."""
+    read, ref, ex, refine = runs["deck"], runs["reference"], runs["exudyn_run"], runs["refine"]
+    out, domain = Path(out), read.domain
+    name = domain.name + (f"_refine{refine}" if refine != 1 else "")
+    lines = [f"### Cross-check: `{Path(read.path).name}`" + (f", flexible beams refined ×{refine}" if refine != 1 else ""),
+             "", f"Reference: {runs['algorithm'].name.replace('_', ' ')}, h = {domain.solver.dt:g}, solve "
+             f"{ref.wall_time:.2f} s. Exudyn {ex['exudyn_version']}: {ex['algorithm']}, h = {runs['dt_exudyn']:g}, "
+             f"{ex['steps']} steps, solve {ex['wall_time']:.2f} s. {cmp['nodes']} common nodes; characteristic "
+             f"length {cmp['length']:.3g}.", "",
              f"Node trajectories: max position difference {cmp['position_max']:.3e} ({cmp['position_max_relative']:.2e} "
              f"of the length), RMS {cmp['position_rms']:.3e}; max rotation difference {cmp['rotation_max']:.3e} rad.", "",
              "| constraint drift | reference | Exudyn |", "|---|---|---|",
@@ -58,14 +111,27 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
              f"| max ‖B V + Φ_t‖ | {cmp['drift']['a']['velocity_violation_max']:.2e} | "
              f"{cmp['drift']['b']['velocity_violation_max']:.2e} |", "",
              *([f"The deck has no `[crosscheck]` table: default comparison of every node's position "
-                f"(tolerance {checks['all_nodes']['tolerance']:g} of the length).", ""] if default else []),
+                f"(tolerance {runs['checks']['all_nodes']['tolerance']:g} of the length).", ""] if runs["default"] else []),
              "| observable | max difference | RMS | relative to | measure | tolerance | result | reason |",
              "|---|---|---|---|---|---|---|---|"]
     for v in cmp["verdicts"]:
         lines.append(f"| {v.observable} | {v.max_difference:.3e} | {v.rms_difference:.3e} | {v.relative_to} "
                      f"({v.scale:.3g}) | {v.measure:.3e} | {v.tolerance:g} | {'pass' if v.passed else '**FAIL**'} | {v.reason} |")
+    figure = Path(figures or out) / f"crosscheck_{name}.png"
+    _figure(cmp, ref, runs["exudyn"], bool(domain.model.n_constraints), name, figure)
+    lines += ["", f"![cross-check]({'figures/' if figures else ''}{figure.name})", ""]
+    (out / "crosscheck.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return lines, figure
+
+
+def _figure(cmp: dict, ref, exr, joints: bool, name: str, figure: Path) -> None:
+    """One panel per observable judged (both engines and their difference), the energies, and the drift."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     specs = list(dict.fromkeys(v.observable for v in cmp["verdicts"]))
-    joints = bool(ref_domain.model.n_constraints)
     rows = len(specs) + 1 + joints
     fig, axes = plt.subplots(rows, 1, figsize=(6.4, 2.3 * rows + 0.5), sharex=True, squeeze=False)
     for ax, spec in zip(axes[:, 0], specs):
@@ -104,10 +170,5 @@ def run(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_end: float
     axes[-1, 0].set_xlabel("time t [s]")
     axes[0, 0].set_title(f"Cross-check {name}: reference engine and Exudyn", fontsize=10)
     fig.tight_layout()
-    figure = Path(figures or out) / f"crosscheck_{name}.png"
     fig.savefig(figure, dpi=120)
     plt.close(fig)
-    lines += ["", f"![cross-check]({'figures/' if figures else ''}{figure.name})", ""]
-    (out / "crosscheck.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    cmp.update(default=default, markdown=lines, figure=figure, reference=ref, exudyn=exr, exudyn_wall=ex["wall_time"])
-    return cmp

@@ -91,7 +91,7 @@ def _deflection_runner(deck: Path, t_end: float, every: float, algorithm: str, d
     """A warmed-up solver of ``deck`` to ``t_end`` with one engine/algorithm at step dt: a callable
     returning (solve time [s], output times every ``every`` seconds (or every step if longer),
     coupler mid-span deflection)."""
-    from reference import observables as ob
+    from flexmbs.verification import observables as ob
     from reference.domain import Domain
 
     def domain():
@@ -249,7 +249,7 @@ def static_rollup() -> list[str]:
     solver, same process (median of 5 interleaved solves after a warm-up), and the tip against
     the discrete polygon."""
     from crosscheck.exudyn_model import solve
-    from reference.analytic import polygon_tip
+    from flexmbs.verification.analytic import polygon_tip
     from reference.domain import Domain, SolverSettings
 
     def domain():

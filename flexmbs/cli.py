@@ -1,9 +1,34 @@
-"""The ``flexmbs`` command: run, crosscheck, report, derive, bench, sweep."""
+"""The ``flexmbs`` command: run, crosscheck, report, derive, bench, sweep.
+
+Every failure is one line on stderr, ``flexmbs: error: …``, and its exit status is
+chosen by the exception's class (:func:`exit_status`; the first row that matches):
+
+=====================================================  ======  =================================
+exception                                              status  meaning
+=====================================================  ======  =================================
+:class:`RunFailed`                                     1       a run failed (an error inside it)
+:class:`reference.solution.SolverDiverged` (and        1       a run diverged or its solver gave
+``crosscheck.exudyn_model.ExudynFailed``)                      up (the reference's or Exudyn's)
+:class:`reference.io.deck_reader.DeckError`            2       a bad deck or override
+:class:`reference.observables.ObservableError`         2       a bad observable text
+:class:`CommandError`                                  2       any other user error (an option,
+                                                               an untranslatable deck …)
+``OSError``                                            2       a missing file, an unwritable folder
+``KeyError``                                           2       an unknown label (``flexmbs plot``)
+:class:`Stopped`, ``KeyboardInterrupt``                128+n   stopped by signal n (SIGINT 130,
+                                                               SIGHUP 129, SIGTERM 143)
+=====================================================  ======  =================================
+
+A command that completes returns 0, or 1 when what it judged failed (a check of
+the report, a cross-check verdict, stale generated code).  Any other exception
+is a bug and keeps its traceback.
+"""
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import math
 import os
 import signal
 import sys
@@ -16,7 +41,11 @@ SIGNAL_NAMES = {signal.SIGINT: "SIGINT", signal.SIGTERM: "SIGTERM", signal.SIGHU
 
 
 class CommandError(Exception):
-    """An error to report in one line, without a traceback."""
+    """A user error to report in one line, without a traceback (exit status 2)."""
+
+
+class RunFailed(Exception):
+    """A run that failed, reported in one line (exit status 1); ``FLEXMBS_TRACEBACK=1`` shows its cause."""
 
 
 def _module(name: str, command: str):
@@ -54,20 +83,22 @@ def install_signal_handlers() -> None:
 
 def cmd_run(args) -> int:
     from flexmbs.progress import ProgressBar
-    from reference.domain import Domain, SolverDiverged
+    from reference.io.deck import load_deck
     from reference.io.vtk import write_vtk
+    from reference.solution import SolverDiverged
 
     overrides = {k: v for k, v in (("t_end", args.t_end), ("dt", args.dt), ("refine", args.refine)) if v is not None}
-    domain = Domain.from_deck(args.deck, overrides=overrides)
+    deck = load_deck(args.deck, overrides=overrides)
+    domain = deck.domain
     out = Path(args.out) if args.out else Path("out") / Path(args.deck).stem
     out.mkdir(parents=True, exist_ok=True)
     results_path = out / "results.h5"
     t0 = time.perf_counter()
     bar = ProgressBar(domain.name)
     try:
-        result = domain.solve(results_path=results_path, progress=bar)
+        result = deck.solve(results_path=results_path, progress=bar)
     except SolverDiverged as exc:
-        raise CommandError(f"{args.deck}: {exc} (results file: {results_path})") from None
+        raise RunFailed(f"{args.deck}: {exc} (results file: {results_path})") from None
     except (Stopped, KeyboardInterrupt) as exc:
         run = getattr(domain, "last_run", {}) or {}
         where = (f"; results up to t = {run['t']:.6g} are kept in {run['path']} (status "
@@ -76,7 +107,7 @@ def cmd_run(args) -> int:
     except Exception as exc:
         run = getattr(domain, "last_run", {}) or {}
         where = f"; results up to t = {run['t']:.6g} are kept in {run['path']}" if run.get("path") else ""
-        raise CommandError(f"{args.deck}: the run failed at t = {run.get('t', 0.0):.6g}: "
+        raise RunFailed(f"{args.deck}: the run failed at t = {run.get('t', 0.0):.6g}: "
                            f"{type(exc).__name__}: {exc}{where} (status 'failed')") from exc
     finally:
         bar.close()
@@ -105,31 +136,46 @@ def cmd_derive(args) -> int:
     return 0
 
 
+def _crosscheck_options(args) -> None:
+    """``--refine`` a whole number ≥ 1, ``--exudyn-dt`` and ``--t-end`` finite and > 0: else one line."""
+    if args.refine is not None and args.refine < 1:
+        raise CommandError(f"--refine {args.refine}: the element counts' multiplier must be a whole number ≥ 1, "
+                           "e.g. --refine 2")
+    for option, value in (("--exudyn-dt", args.exudyn_dt), ("--t-end", args.t_end)):
+        if value is not None and not (math.isfinite(value) and value > 0.0):
+            raise CommandError(f"{option} {value!r}: must be a finite number > 0, e.g. {option} "
+                               f"{'0.001' if option == '--exudyn-dt' else '1.0'}")
+
+
 def cmd_crosscheck(args) -> int:
-    Unsupported = _module("crosscheck.exudyn_model", "crosscheck").Unsupported
-    run = _module("crosscheck.harness", "crosscheck").run
+    exudyn_model = _module("crosscheck.exudyn_model", "crosscheck")
+    harness = _module("crosscheck.harness", "crosscheck")
     from reference.observables import ObservableError
     from flexmbs.progress import ProgressBar
 
+    _crosscheck_options(args)
     refine = args.refine or 1
     # a refined run has its own folder (and figure name): it never overwrites the unrefined run's files
     default = Path(args.deck).stem + "_crosscheck" + (f"_refine{refine}" if refine != 1 else "")
     out = Path(args.out) if args.out else Path("out") / default
     try:
-        cmp = run(args.deck, out, refine=refine, exudyn_dt=args.exudyn_dt, t_end=args.t_end,
-                  progress=ProgressBar("reference"), exudyn_progress=ProgressBar("Exudyn   "))
-    except Unsupported as exc:
+        harness.check_refine(args.deck, refine)  # before anything runs
+        cmp = harness.run(args.deck, out, refine=refine, exudyn_dt=args.exudyn_dt, t_end=args.t_end,
+                          progress=ProgressBar("reference"), exudyn_progress=ProgressBar("Exudyn   "))
+    except exudyn_model.Unsupported as exc:
         raise CommandError(f"{args.deck}: cannot be cross-checked in Exudyn: {exc}") from None
-    except ObservableError as exc:
+    except (ObservableError, harness.NoCheckAtRefine) as exc:
         raise CommandError(f"{args.deck}: {exc}") from None
+    except exudyn_model.ExudynFailed as exc:
+        raise RunFailed(f"{args.deck}: {exc}") from None
     if cmp.get("default"):
         print("the deck has no [crosscheck] table: compared every node's position (default, 1 % of the length)")
     failed = [v for v in cmp["verdicts"] if not v.passed]
     for v in cmp["verdicts"]:
         print(f"{'pass' if v.passed else 'FAIL'}  {v.observable}: {v.measure:.3e} (tolerance {v.tolerance:g}, "
               f"relative to {v.relative_to})")
-    print(f"solve times: reference {cmp['reference'].wall_time:.2f} s (numba compilation included on a first run), "
-          f"Exudyn {cmp['exudyn_wall']:.2f} s → {out / 'crosscheck.md'}, {cmp['figure']}")
+    print(f"solve times: reference {cmp['reference'].wall_time:.3g} s (warm: after a two-step solve that loads its "
+          f"kernels), Exudyn {cmp['exudyn_wall']:.3g} s → {out / 'crosscheck.md'}, {cmp['figure']}")
     return 1 if failed else 0
 
 
@@ -220,15 +266,31 @@ MESSAGE_CHARS = 1000
 """Longest error line; anything longer is cut (the deck reader keeps its own to ~300)."""
 
 
+def exit_status(exc: BaseException) -> int | None:
+    """The exit status of a failure by its exception's class (the module docstring's table);
+    ``None`` for an exception that is not an expected failure (a bug: its traceback is kept)."""
+    from reference.io.deck_reader import DeckError
+    from reference.observables import ObservableError
+    from reference.solution import SolverDiverged
+
+    table = ((RunFailed, 1), (SolverDiverged, 1), (DeckError, 2), (ObservableError, 2), (CommandError, 2),
+             (OSError, 2), (KeyError, 2))
+    return next((status for cls, status in table if isinstance(exc, cls)), None)
+
+
+def one_line(exc: BaseException) -> str:
+    """The failure's message on one line of at most :data:`MESSAGE_CHARS` characters."""
+    message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+    message = " ".join(str(message).split())
+    return message if len(message) <= MESSAGE_CHARS else message[: MESSAGE_CHARS - 1] + "…"
+
+
 def main(argv=None) -> int:
-    """The command; every failure is one line on stderr: exit 2 for a user error, 1 for an internal
-    one, 128 + the signal number when stopped by SIGINT (130), SIGHUP (129) or SIGTERM (143)."""
+    """The command; every failure is one line on stderr with the exit status of the module docstring's
+    table (2 a user error, 1 a failed run, 128 + the signal number when stopped)."""
     install_signal_handlers()
     try:
         args = parser().parse_args(argv)
-        from reference.domain import SolverDiverged
-        from reference.io.deck import DeckError
-
         try:
             from reference.jit import threads
 
@@ -237,17 +299,14 @@ def main(argv=None) -> int:
             except ValueError as exc:
                 raise CommandError(f"{exc}; unset it or give e.g. FLEXMBS_THREADS=2") from None
             return args.func(args)
-        except (DeckError, SolverDiverged, CommandError, OSError, KeyError) as exc:
-            # one line: the deck reader's messages name file, entry and fix; OSError covers a missing
-            # deck or an unwritable output folder; KeyError is an unknown node label (flexmbs plot)
-            message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
-            message = " ".join(str(message).split())
-            if len(message) > MESSAGE_CHARS:
-                message = message[: MESSAGE_CHARS - 1] + "…"
-            print(f"flexmbs: error: {message}", file=sys.stderr)
-            if os.environ.get("FLEXMBS_TRACEBACK") and isinstance(exc, CommandError) and exc.__cause__:
+        except Exception as exc:
+            status = exit_status(exc)
+            if status is None:
                 raise
-            return 2 if not (isinstance(exc, CommandError) and "the run failed" in str(exc)) else 1
+            print(f"flexmbs: error: {one_line(exc)}", file=sys.stderr)
+            if os.environ.get("FLEXMBS_TRACEBACK") and isinstance(exc, RunFailed) and exc.__cause__:
+                raise
+            return status
     except (Stopped, KeyboardInterrupt) as exc:
         signum = getattr(exc, "signum", signal.SIGINT)
         where = str(exc.__cause__) if isinstance(exc.__cause__, CommandError) else ""

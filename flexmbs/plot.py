@@ -141,7 +141,7 @@ def domain_of(results):
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / Path(str(results.attrs.get("deck_path") or "deck.toml")).name
         path.write_text(str(text), encoding="utf-8")
-        return load_deck(path)
+        return load_deck(path).domain
 
 
 def _load(path):

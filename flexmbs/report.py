@@ -74,7 +74,7 @@ class Context:
         """Solve warm with a progress bar; the solve time is recorded for the timing table."""
         from flexmbs.progress import ProgressBar
 
-        warm_up(domain)
+        warm_up(self.deck, domain)
         label = f"{self.deck.stem}{' ' + what if what else ''}"
         bar = ProgressBar(f"  {label}")
         path = self.out / self.deck.stem / f"{what.replace(' ', '_') or 'results'}.h5" if results_file else None
@@ -107,21 +107,19 @@ class Context:
 _WARM: set = set()
 
 
-def warm_up(domain) -> float:
-    """Run a copy of the model for two steps once per deck, so that compilation is not solve time.
+def warm_up(path, domain) -> float:
+    """Run the deck at ``path`` for two steps of ``domain``'s once per deck, so that compilation is not
+    solve time (:func:`reference.io.deck.warm_up`).
 
     Returns the time spent (0 if this deck was already warmed up).
     """
-    from reference.domain import Domain
+    from reference.io.deck import warm_up as solve_two_steps
 
-    key = (domain.deck_path, len(domain.nodes), len(domain.joints))
-    if not domain.deck_path or key in _WARM:
+    key = (str(path), len(domain.nodes), len(domain.joints))
+    if key in _WARM:
         return 0.0
     _WARM.add(key)
-    t0 = time.perf_counter()
-    dt = domain.solver.dt
-    Domain.from_deck(domain.deck_path, overrides={"t_end": 2 * dt, "dt": dt}).solve()
-    return time.perf_counter() - t0
+    return solve_two_steps(path, domain.solver.dt)
 
 
 def provenance_header(quick: bool) -> list[str]:
@@ -164,9 +162,9 @@ def _cpus() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
-def deck_data(domain) -> list[str]:
-    """Provenance and data of a deck, for the report."""
-    meta = domain.metadata
+def deck_data(deck) -> list[str]:
+    """Provenance and data of a deck (:class:`reference.io.deck.Deck`), for the report."""
+    domain, meta = deck.domain, deck.metadata
     prov = meta.get("provenance", {})
     prov = prov if isinstance(prov, dict) else {"source": prov}
     lines = ["**Provenance:** " + "; ".join(f"{k}: {v}" for k, v in prov.items()), ""]
@@ -275,9 +273,10 @@ def reaction_lines(cmp, figure: Path) -> list[str]:
     return head + reaction_comparison(cmp["reference"], cmp["exudyn"], scalar, path=figure)["markdown"] + [""]
 
 
-def crosscheck_lines(ctx: Context, domain) -> tuple[list[str], list[Check]]:
+def crosscheck_lines(ctx: Context, deck) -> tuple[list[str], list[Check]]:
     """The deck in Exudyn at every refinement its ``[crosscheck]`` tables name (only the first in --quick)."""
-    if not domain.crosscheck:
+    domain = deck.domain
+    if not deck.crosscheck:
         return [], []
     try:
         from crosscheck.exudyn_model import Unsupported
@@ -286,7 +285,7 @@ def crosscheck_lines(ctx: Context, domain) -> tuple[list[str], list[Check]]:
         return [f"Exudyn cross-check skipped: {exc}.", ""], []
     from flexmbs.progress import ProgressBar
 
-    refines = sorted({int(spec.get("refine", 1)) for spec in domain.crosscheck.values()})
+    refines = sorted({int(spec.get("refine", 1)) for spec in deck.crosscheck.values()})
     lines, checks = [], []
     for refine in refines[:1] if ctx.quick else refines:
         t_end = None
@@ -318,28 +317,30 @@ def deck_section(number: int, deck: Path, out: Path, figures: Path, quick: bool,
     """One deck's section: data, sketch, its check module's checks, the Exudyn cross-check."""
     from flexmbs.deckchecks import module_for
     from reference.domain import Domain
+    from reference.io.deck import load_deck
 
-    domain = Domain.from_deck(deck)
-    ctx = Context(deck, out, figures, quick, timings, domain.checks)
+    read = load_deck(deck)
+    domain = read.domain
+    ctx = Context(deck, out, figures, quick, timings, read.checks)
     t0 = time.perf_counter()
-    compile_time = warm_up(domain)
+    compile_time = warm_up(deck, domain)
     print(f"[{number}] {deck.name}: warm-up (compilation and set-up) {compile_time:.1f} s", file=sys.stderr)
-    title = domain.metadata.get("title") or domain.name.replace("_", " ")
+    title = read.metadata.get("title") or domain.name.replace("_", " ")
     lines = [f"## {number}. {title[0].upper() + title[1:]}", "",
-             f"Deck: `models/{deck.name}` — {domain.description}", "", *deck_data(domain)]
+             f"Deck: `models/{deck.name}` — {domain.description}", "", *deck_data(read)]
     lines += [f"![sketch of {domain.name}](figures/{sketch(domain, figures / f'{domain.name}_sketch.png').name})", ""]
     module = module_for(domain.name)
     if module is None:
         checks = []
         r = ctx.solve(Domain.from_deck(deck))
         lines += [f"No check module (`flexmbs/deckchecks/{domain.name}.py`) evaluates this deck's `[checks]`: "
-                  + (", ".join(f"`{k}`" for k in domain.checks) + " are **not evaluated** here." if domain.checks
+                  + (", ".join(f"`{k}`" for k in read.checks) + " are **not evaluated** here." if read.checks
                      else "it has none."), "",
                   f"Ran to t = {r.time[-1]:g} s: max ‖Φ‖ {np.nanmax(r.constraint_violation):.2e}.", ""]
     else:
         more, checks = module.evaluate(ctx)
         lines += more
-    xlines, xchecks = crosscheck_lines(ctx, domain)
+    xlines, xchecks = crosscheck_lines(ctx, read)
     lines += xlines
     checks += xchecks
     lines += ["", f"**Checks of this deck** ({sum(c.passed for c in checks)} of {len(checks)} pass; section built in "

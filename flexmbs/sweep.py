@@ -130,12 +130,12 @@ def deck_overrides(case: dict) -> dict:
     return {(f"solver.{k}" if k in SOLVER_KEYS else k): v for k, v in case.items()}
 
 
-def case_values(domain, results) -> dict:
+def case_values(deck, results) -> dict:
     """The numbers recorded for a case in ``summary.csv``.
 
     The final time, the final energies (kinetic, strain, external work,
     dissipated), the largest constraint violation ‖Φ‖, and for each of the
-    deck's ``[checks.NAME]`` with an ``observable`` (``docs/observables.md``)
+    deck's (:class:`reference.io.deck.Deck`) ``[checks.NAME]`` with an ``observable`` (``docs/observables.md``)
     its value at the final time: ``NAME`` for a scalar, ``NAME.x`` … for the
     components of a vector.  A check with a ``node`` but no observable gives
     that node's final position.
@@ -148,7 +148,7 @@ def case_values(domain, results) -> dict:
     for key, series in results.energy.items():
         out[f"{key}_final"] = float(series[-1])
     out["max_violation"] = float(results.constraint_violation.max()) if len(results.constraint_violation) else 0.0
-    for name, spec in domain.checks.items():
+    for name, spec in deck.checks.items():
         if not isinstance(spec, dict):
             continue
         text = spec.get("observable")
@@ -157,7 +157,7 @@ def case_values(domain, results) -> dict:
         if not isinstance(text, str):
             continue
         try:
-            observable = parse(text, domain)
+            observable = parse(text, deck.domain)
             value = np.asarray(observable.evaluate(results), dtype=float)[-1]
         except (ValueError, KeyError, IndexError, AttributeError):  # not computable from these results
             continue
@@ -183,12 +183,12 @@ def run_case(deck, case: dict, out_dir) -> dict:
     row = {**case, "status": "completed", "wall_time": math.nan, "results": ""}
     t0 = time.perf_counter()
     try:
-        domain = load_deck(deck, overrides=deck_overrides(case))
+        read = load_deck(deck, overrides=deck_overrides(case))
         out_dir.mkdir(parents=True, exist_ok=True)
         results_path = out_dir / "results.h5"
-        results = domain.solve(results_path=results_path)
+        results = read.solve(results_path=results_path)
         row["results"] = str(results_path)
-        row.update(case_values(domain, results))
+        row.update(case_values(read, results))
     except (DeckError, SolverDiverged, ValueError, OSError, FloatingPointError) as exc:
         row["status"] = "failed: " + " ".join(str(exc).split())
     except Exception as exc:  # a bug still must not lose the study: record it

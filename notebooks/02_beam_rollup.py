@@ -29,7 +29,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import reference
-from reference.analytic import elastica_tip, polygon_tip
+from flexmbs.verification.analytic import elastica_tip, polygon_tip
 from reference.domain import Domain
 from reference.elements import Beam2Formulation, Section
 from reference.rotation import EulerParameters, RotationVector

@@ -128,7 +128,7 @@ assert 1.5 < h10 / h20 <= 2.0
 # the ratio of the differences is $(1 - 1/16)/(1/4 - 1/16) = 5$. Check it on the first second.
 
 # %%
-from reference.observables import midspan_deflection
+from flexmbs.verification.observables import midspan_deflection
 
 runs = {h: Domain.from_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 1.0, "dt": h}).solve()
         for h in (2e-4, 1e-4, 5e-5)}

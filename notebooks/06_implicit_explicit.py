@@ -41,7 +41,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import reference
-from reference import observables as ob
+from flexmbs.verification import observables as ob
 from reference.algorithms.generalized_alpha import parameters
 from reference.domain import Domain, SolverDiverged, SolverSettings
 from reference.elements import Section

@@ -42,6 +42,7 @@ from reference.domain import Domain
 from reference.elements import Beam2Formulation, Section
 from reference.elements.beam2 import beam2_assemble
 from reference.interactions import Clamp, NodalLoad, SmoothStep
+from reference.io.deck import load_deck
 from reference.rotation import EulerParameters, RotationVector, right_jacobian_inverse
 
 QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
@@ -136,7 +137,7 @@ plt.show()
 # exact). Published tip positions of Simo & Vu-Quoc (1986) are marked.
 
 # %%
-deck = Domain.from_deck(MODELS / "curved_cantilever.toml")
+deck = load_deck(MODELS / "curved_cantilever.toml")  # the Domain (deck.domain) and the deck's checks
 res = deck.solve()
 tip = res.position("arc2:8")
 fig = plt.figure(figsize=(5.5, 4))

@@ -75,21 +75,19 @@ class Domain:
         self.loading: list[Interaction] = []
         self.force_elements: list[ForceElement] = []
         self.solver = SolverSettings()
-        self.metadata: dict = {}
-        self.checks: dict = {}
-        self.crosscheck: dict = {}
-        self.deck_text: str = ""
-        self.deck_path: str = ""
         self._labels: dict[str, Node] = {}
         self._model: Model | None = None
         self.state: State | None = None
 
     @classmethod
     def from_deck(cls, path, overrides=None) -> "Domain":
-        """Read a TOML model deck (see ``docs/deck.md``)."""
+        """Read a TOML model deck (see ``docs/deck.md``): the Domain of :func:`reference.io.deck.load_deck`.
+
+        The deck reader imports this module, not the reverse: the import is made when called.
+        """
         from reference.io.deck import load_deck
 
-        return load_deck(path, overrides=overrides)
+        return load_deck(path, overrides=overrides).domain
 
     def add_node(self, position, rotation=None, label=None, velocity=(0.0, 0.0, 0.0),
                  angular_velocity=(0.0, 0.0, 0.0)) -> Node:
@@ -415,7 +413,7 @@ class Domain:
         return state
 
     def solve(self, t_end: float | None = None, dt: float | None = None, results_path=None,
-              progress=None, monitor: bool = True) -> Results:
+              progress=None, monitor: bool = True, deck=None) -> Results:
         """Run from t = 0 to ``t_end`` (paper: Solve, Fig. 9) and return the time histories.
 
         Records stream to the results file and are not kept in memory; the returned
@@ -438,6 +436,9 @@ class Domain:
             Stop a run that blows up while finite (:mod:`reference.monitor`): the algorithm
             checks the energy balance every step (``Scratch.guard``), the solution loop
             (:func:`reference.solution.run`) the energy balance and the deformation at every output.
+        deck : optional
+            The deck this Domain was read from (:class:`reference.io.deck.Deck`): the results
+            file records its ``path`` and ``text``.
 
         Raises
         ------
@@ -454,4 +455,4 @@ class Domain:
         self.last_run = {"path": None, "status": "not started", "t": 0.0}
         model = self.initialization()
         state = self.initial_conditions()
-        return run(self, algo, model, state, n_total, results_path, progress, monitor)
+        return run(self, algo, model, state, n_total, results_path, progress, monitor, deck)

@@ -32,8 +32,10 @@ text                          meaning                          shape       compo
 
 NODE is a node label (``crank``, ``coupler:2``) or ``BEAM:start`` / ``BEAM:end``;
 ELEMENT an element label ``BEAM/i`` (i from 0) or ``BEAM/end``; JOINT a joint's
-label.  Two shorthands are kept: ``rocker_angle`` (= ``angle.z:rocker``) and
-``midspan_deflection:BEAM`` (= ``deflection:BEAM:<middle>,BEAM:start,BEAM:end``).
+label.  One shorthand: ``midspan_deflection:BEAM`` (=
+``deflection:BEAM:<middle>,BEAM:start,BEAM:end``, the beam's middle node from its chord).
+Observables written for one deck (the three-bar's rocker and crank angles) are the
+verification's: :mod:`flexmbs.verification.observables`.
 
 The relative angle is the twist of the relative rotation
 ``R = A_B0 A_Bᵀ A_A A_A0ᵀ`` about the axis u (swing–twist decomposition of its
@@ -86,7 +88,7 @@ KINDS = {
     "energy": ("which", (), "J", "{0} energy"),
 }
 ENERGIES = ("kinetic", "strain", "external_work", "dissipated", "total")
-SHORTHANDS = ("rocker_angle", "midspan_deflection:BEAM")
+SHORTHANDS = ("midspan_deflection:BEAM",)
 
 
 class _Names:
@@ -257,11 +259,10 @@ def parse(text, domain) -> Observable:
     names = _Names(domain)
     head, colon, rest = text.partition(":")
     kind, _, component = head.partition(".")
-    if kind == "rocker_angle" and not colon:
-        names.body("rocker")
-        return Observable(text, "angle", "z", ("rocker",))
     if kind == "midspan_deflection":
-        beam = rest or "coupler"
+        beam = rest.strip()
+        if not beam:
+            raise ObservableError("'midspan_deflection' needs its beam: write 'midspan_deflection:BEAM'")
         if beam not in names.beams:
             raise ObservableError(f"no beam {beam!r}" + _hint(beam, list(names.beams), "meshed beams:"))
         n = max(names.beams[beam])
@@ -310,37 +311,6 @@ def default_crosscheck() -> dict:
     return {"all_nodes": {"observable": "position:*", "tolerance": 0.01, "relative_to": "length",
                           "reason": "default comparison (the deck has no [crosscheck] table): every node's "
                                     "position within 1 % of the model's length"}}
-
-
-def rocker_angle(results, rocker="rocker", pivot=(4.0, 0.0)) -> np.ndarray:
-    """Angle [rad] of the line pivot → rocker centre from the x axis: its initial value plus the
-    rocker's rotation about z since (``angle.z:rocker``)."""
-    c0 = results.position(rocker)[0]
-    return np.arctan2(c0[1] - pivot[1], c0[0] - pivot[0]) + relative_angle(results, rocker, None, 2)
-
-
-def crank_angle(results, crank="crank") -> np.ndarray:
-    """Angle [rad] of the crank (O1 = origin → its centre of mass) from the x axis, unwrapped."""
-    c = results.position(crank)
-    return np.unwrap(np.arctan2(c[:, 1], c[:, 0]))
-
-
-def midspan_deflection(results, beam="coupler", normal=(0.0, 0.0, 1.0)) -> np.ndarray:
-    """Signed transverse deflection [m] of a beam's middle node from the chord of its end nodes.
-
-    The deflection vector (``midspan_deflection:BEAM``) projected on ``normal × chord``: for the
-    default normal z, positive towards the left of the chord in the x–y plane.  The beam needs an
-    even number of elements; a chord along ``normal`` has no such direction (an error).
-    """
-    obs = parse(f"midspan_deflection:{beam}", results)
-    d = obs.evaluate(results)
-    a, b = results.position(f"{beam}:start"), results.position(f"{beam}:end")
-    side = np.cross(np.asarray(normal, dtype=float), b - a)
-    size = np.linalg.norm(side, axis=1)
-    if np.any(size <= 1e-12 * np.linalg.norm(b - a, axis=1)):
-        raise ValueError(f"the chord of {beam!r} is along the normal {tuple(normal)}: give another normal, "
-                         "or use the deflection vector (observable 'midspan_deflection:BEAM')")
-    return np.sum(d * side, axis=1) / size
 
 
 def wrap(angle) -> np.ndarray:

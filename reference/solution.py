@@ -111,7 +111,7 @@ def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, sec
 
 
 def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, results_path=None, progress=None,
-        monitor: bool = True) -> Results:
+        monitor: bool = True, deck=None) -> Results:
     """Advance ``state`` by ``n_total`` steps of ``algo``, recording every ``domain.solver.output_every`` steps.
 
     The parameters, the statuses and the errors are those of
@@ -126,7 +126,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     if results_path is not None:
         from reference.io.results import ResultsWriter
 
-        sink = ResultsWriter(results_path, domain, algo, template=outputs.entry)
+        sink = ResultsWriter(results_path, domain, algo, template=outputs.entry, deck=deck)
         domain.last_run["path"] = str(results_path)
     else:
         sink = MemoryRecorder(n_total // every + 2, [n.label for n in domain.nodes], [j.label for j in domain.joints],

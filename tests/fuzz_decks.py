@@ -225,7 +225,7 @@ VOCABULARY = {
                "allow_unsafe_dt": [True, False], "load_steps": [1, 3], "rho_inf": [0.0, 0.8, 1.0],
                "tolerance": [1e-8, 1e-14], "max_iterations": [1, 10]},
     "checks.*": {"observable": ["position:b:end"], "tolerance": [0.1], "reason": ["r"], "at": [[0.1]]},
-    "crosscheck.*": {"observable": ["position:b:end", "rocker_angle"], "tolerance": [0.1, -1.0],
+    "crosscheck.*": {"observable": ["position:b:end", "angle.z:rocker"], "tolerance": [0.1, -1.0],
                      "relative_to": ["length", "peak", "absolute", "L"], "refine": [1, 2], "reason": ["r"]},
 }
 """Table → key → sample values.  ``[]``: an array of tables; ``.*``: a table of named entries."""
@@ -418,7 +418,7 @@ def check(path: Path, overrides: dict) -> str:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             try:
-                domain = load_deck(path, overrides=overrides)
+                domain = load_deck(path, overrides=overrides).domain
             except DeckError as exc:
                 message = str(exc)
                 assert "\n" not in message, f"multi-line message: {message[:400]!r}"
@@ -449,7 +449,7 @@ def warm_up() -> None:
 
     deck = ROOT / "models" / "three_bar.toml"
     for name in ALGORITHMS:
-        domain = load_deck(deck, overrides={"t_end": 0.02})
+        domain = load_deck(deck, overrides={"t_end": 0.02}).domain
         domain.solver.algorithm, domain.solver.dt, domain.solver.t_end, domain.solver.load_steps = name, 2e-4, 1e-3, 5
         domain.solve()
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from reference.elements.beam2 import beam2_assemble, beam2_assemble_parallel
+from reference.elements.formulation import beam2_assemble, beam2_assemble_parallel
 from reference.io.deck import load_deck
 from reference.jit import threads, use_threads
 
@@ -16,7 +16,7 @@ def test_parallel_element_loop_equals_the_serial_kernel_bit_for_bit(monkeypatch)
     """Roll-up mesh refined 4× (48 elements) at a randomly perturbed configuration: the forces
     and the energy of the parallel loop on 1 and 2 threads equal the serial kernel's exactly
     (each element writes its own row; the sums are taken in element order on one thread)."""
-    d = load_deck(ROOT / "models" / "embedded_beam.toml", overrides={"refine": 4})
+    d = load_deck(ROOT / "models" / "embedded_beam.toml", overrides={"refine": 4}).domain
     m = d.model.elements[0]  # the Beam2 family's data
     rng = np.random.default_rng(3)
     x = np.array([n.position for n in d.nodes]) + 1e-2 * rng.standard_normal((len(d.nodes), 3))

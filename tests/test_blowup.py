@@ -22,7 +22,7 @@ MODELS = Path(__file__).resolve().parent.parent / "models"
 
 
 def test_dt_just_above_the_critical_estimate_is_stopped_naming_the_time_step(tmp_path):
-    d = load_deck(MODELS / "embedded_beam.toml")
+    d = load_deck(MODELS / "embedded_beam.toml").domain
     dt = 1.01 * d.critical_time_step()
     d.solver.dt, d.solver.t_end, d.solver.output_every = dt, 5000 * dt, 50
     with pytest.raises(SolverDiverged) as info:
@@ -45,7 +45,7 @@ def test_a_huge_follower_load_is_stopped_naming_the_load(tmp_path):
     path = tmp_path / "follower.toml"
     path.write_text(EXAMPLE.replace("force = [0.0, 0.0, 1e-3]", "force = [0.0, 0.0, 2e6]")
                     .replace('frame = "inertial"', 'frame = "body"').replace("t_end = 0.02 ", "t_end = 2.0 "))
-    d = load_deck(path)
+    d = load_deck(path).domain
     with pytest.raises(SolverDiverged) as info:
         d.solve(results_path=tmp_path / "r.h5")
     message = str(info.value)
@@ -67,7 +67,7 @@ def test_stretch_check_names_the_most_deformed_element():
     not a number) is named; the worst by |log(ratio)| when several are; a sound mesh passes."""
     from reference.monitor import MAX_STRETCH, BlowUpMonitor
 
-    d = load_deck(MODELS / "embedded_beam.toml")
+    d = load_deck(MODELS / "embedded_beam.toml").domain
     d.initialization()
     watch = BlowUpMonitor(d, d.solver.dt)
     x = np.array([n.position for n in d.nodes], dtype=float)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from reference.analytic import cantilever_first_frequency, cantilever_tip_deflection
+from flexmbs.verification.analytic import cantilever_first_frequency, cantilever_tip_deflection
 from reference.domain import SolverSettings
 from reference.elements import Section
 from reference.interactions import NodalLoad, SmoothStep

@@ -74,7 +74,7 @@ def test_divergence_is_one_line_naming_the_results_file(tmp_path, capsys, monkey
 
     monkeypatch.setattr(Domain, "solve", blow_up)
     deck = write(tmp_path, GOOD)
-    assert main(["run", str(deck), "--out", str(tmp_path / "out")]) == 2
+    assert main(["run", str(deck), "--out", str(tmp_path / "out")]) == 1  # a failed run, not a user error
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "non-finite after t = 0.01" in err[0] and "results.h5" in err[0]
 

@@ -97,8 +97,9 @@ def test_refined_crosscheck_writes_its_own_files(monkeypatch, tmp_path):
 
     monkeypatch.setattr(crosscheck.harness, "run", fake_run)
     monkeypatch.chdir(tmp_path)
-    assert main(["crosscheck", "models/three_bar.toml"]) == 0
-    assert main(["crosscheck", "models/three_bar.toml", "--refine", "8"]) == 0
+    deck = str(ROOT / "models" / "three_bar.toml")  # the command reads its [crosscheck] tables first
+    assert main(["crosscheck", deck]) == 0
+    assert main(["crosscheck", deck, "--refine", "8"]) == 0
     (plain, r1), (refined, r8) = outs
     assert (r1, r8) == (1, 8) and plain != refined and plain.name == "three_bar_crosscheck"
     assert refined.name == "three_bar_crosscheck_refine8"

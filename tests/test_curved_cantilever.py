@@ -12,6 +12,7 @@ from crosscheck.exudyn_model import Unsupported, preflight
 from crosscheck.harness import run
 from flexmbs.cli import main
 from reference.domain import Domain
+from reference.io.deck import load_deck
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 BEND = MODELS / "curved_cantilever.toml"
@@ -20,17 +21,17 @@ RADIUS = 100.0
 
 @pytest.fixture(scope="module")
 def bend():
-    domain = Domain.from_deck(BEND)
-    return domain, domain.solve()
+    deck = load_deck(BEND)
+    return deck, deck.solve()
 
 
 def test_bend_matches_published_tip_positions(bend):
     """Tip at P = 300, 450, 600 within the deck's tolerance (0.5 % of R; published and computed
     values spread by up to 0.45 %) of Simo & Vu-Quoc (1986); measured 0.12 %, 0.14 %, 0.13 % of R."""
-    domain, res = bend
+    deck, res = bend
     tip = res.position("arc2:8")
     for name in ("tip_300", "tip_450", "tip_600"):
-        spec = domain.checks[name]
+        spec = deck.checks[name]
         k = int(np.argmin(np.abs(res.time - spec["at"])))
         assert abs(res.time[k] - spec["at"]) < 1e-9
         error = np.linalg.norm(tip[k] - spec["value"]) / RADIUS
@@ -41,8 +42,8 @@ def test_bend_matches_published_tip_positions(bend):
 def test_joined_arcs_equal_one_arc(bend, tmp_path):
     """The shared node 'mid' keeps its identity frame (22.5° off the tangent); the offsets make the
     joint exact: one 16-element arc gives the same motion to round-off (measured 2e-13)."""
-    domain, res = bend
-    mid = domain.node("mid")
+    read, res = bend
+    mid = read.domain.node("mid")
     assert np.array_equal(mid.rotation, [1.0, 0.0, 0.0, 0.0])
     text = BEND.read_text()
     i, j = text.index("\n[[nodes]]\n"), text.index("\n[[clamps]]\n")

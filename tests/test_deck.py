@@ -69,7 +69,7 @@ def test_embedded_beam_deck_has_the_paper_data():
 
 
 def test_refine_override_multiplies_elements_and_divides_the_step(tmp_path):
-    d = load_deck(write(tmp_path, GOOD), overrides={"refine": 3})
+    d = load_deck(write(tmp_path, GOOD), overrides={"refine": 3}).domain
     assert len(d.elements) == 12 and d.solver.dt == pytest.approx(1e-3 / 3) and d.solver.output_every == 15
 
 
@@ -160,10 +160,10 @@ def test_dt_above_critical_gives_both_numbers_and_a_dt_that_works(tmp_path):
     with pytest.raises(DeckError) as info:
         load_deck(path)
     message = str(info.value)
-    crit = load_deck(write(tmp_path, GOOD, "ok.toml")).critical_time_step()
+    crit = load_deck(write(tmp_path, GOOD, "ok.toml")).domain.critical_time_step()
     assert "dt = 0.05" in message and f"{crit:.4g}" in message
     suggested = float(message.split("e.g. dt = ")[1].split()[0])
-    d = load_deck(path, overrides={"dt": suggested})  # the suggestion is stable and divides t_end
+    d = load_deck(path, overrides={"dt": suggested}).domain  # the suggestion is stable and divides t_end
     assert d.solver.dt == suggested < crit
 
 
@@ -177,23 +177,35 @@ def test_overrides_are_validated_and_named(tmp_path):
         load_deck(path, overrides={"t_end": -1.0})
     with pytest.raises(DeckError, match="unknown override 'dtt'"):
         load_deck(path, overrides={"dtt": 1e-3})
-    d = load_deck(path, overrides={"t_end": 0.01, "dt": 5e-4})
+    d = load_deck(path, overrides={"t_end": 0.01, "dt": 5e-4}).domain
     assert (d.solver.t_end, d.solver.dt, d.solver.output_every) == (0.01, 5e-4, 10)  # output times kept
 
 
-def test_deck_text_and_path_are_kept_for_the_results_file(tmp_path):
+def test_deck_holds_the_domain_and_what_the_verification_reads_beside_it(tmp_path):
+    """load_deck returns a Deck: the ready Domain (what Domain.from_deck returns) and, outside it, the
+    deck's text and path (written into results files), [meta], [checks] and [crosscheck]."""
     path = write(tmp_path, GOOD)
     d = load_deck(path)
-    assert d.deck_text == GOOD and d.deck_path == str(path) and d.metadata["name"] == "tiny"
+    assert isinstance(d.domain, Domain) and d.domain.name == "tiny" and d.domain.model is not None
+    assert d.text == GOOD and d.path == str(path) and d.metadata["name"] == "tiny"
+    assert d.checks == {} and d.crosscheck == {}
+    for field in ("metadata", "checks", "crosscheck", "deck_text", "deck_path"):
+        assert not hasattr(d.domain, field), field
+    assert [n.label for n in Domain.from_deck(path).nodes] == [n.label for n in d.domain.nodes]
+    r = d.solve(results_path=tmp_path / "results.h5")
+    assert r.attrs["deck"] == GOOD and r.attrs["deck_path"] == str(path)
+    bare = Domain.from_deck(path).solve(results_path=tmp_path / "bare.h5")  # no deck: still a valid file
+    assert bare.attrs["deck"] == "" and bare.attrs["status"] == "completed" and len(bare.time) == len(r.time)
 
 
 def test_embedded_beam_states_its_checks_with_tolerances_and_reasons():
-    d = load_deck(MODELS / "embedded_beam.toml")
-    tip = d.checks["tip_vs_elastica"]
+    deck = load_deck(MODELS / "embedded_beam.toml")
+    d = deck.domain
+    tip = deck.checks["tip_vs_elastica"]
     assert tip["tolerance"] == 0.005 and tip["relative_to"] == "L" and tip["at"] == [0.25 * k for k in range(1, 9)]
-    assert d.checks["out_of_plane"]["tolerance"] == 0.0
-    assert all(spec.get("reason") for spec in d.checks.values())
-    prov = d.metadata["provenance"]
+    assert deck.checks["out_of_plane"]["tolerance"] == 0.0
+    assert all(spec.get("reason") for spec in deck.checks.values())
+    prov = deck.metadata["provenance"]
     assert "Kromer" in prov["paper"] and prov["section"] == "5.1" and "docs/benchmarks.md" in prov["data"]
     assert d.elements[0].formulation.section.rhoJ1 == 1.6e-5 and d.solver.output_every == 50
     assert [n.label for n in d.nodes][:: 12] == ["beam:0", "beam:12"]
@@ -202,7 +214,7 @@ def test_embedded_beam_states_its_checks_with_tolerances_and_reasons():
 def test_the_documented_example_deck_loads_and_runs(tmp_path):
     doc = (MODELS.parent / "docs" / "deck.md").read_text()
     example = doc.split("## A small example")[1].split("```toml\n")[1].split("```")[0]
-    d = load_deck(write(tmp_path, example))
+    d = load_deck(write(tmp_path, example)).domain
     assert len(d.nodes) == 5 and d.solve().time[-1] == pytest.approx(0.02)
 
 

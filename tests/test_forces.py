@@ -601,8 +601,8 @@ def test_torsion_double_pendulum_model_meets_its_checks(algorithm):
     period error (ω1 h)²/12 ≈ 2e-5), torsion springs inside revolute joints."""
     import scipy.linalg
 
-    domain = load_deck(MODELS / "torsion_double_pendulum.toml")
-    checks = domain.checks
+    deck = load_deck(MODELS / "torsion_double_pendulum.toml")
+    domain, checks = deck.domain, deck.checks
     m, l, g, k1, k2 = 1.0, 0.5, 9.81, 5.0, 2.0
     M = np.array([[4 / 3 * m * l**2, m * l**2 / 2], [m * l**2 / 2, m * l**2 / 3]])
     K = np.array([[1.5 * m * g * l + k1 + k2, -k2], [-k2, 0.5 * m * g * l + k2]])

@@ -294,7 +294,7 @@ def test_deck_arc_refines_along_the_circle(tmp_path):
 
     deck = tmp_path / "arc.toml"
     deck.write_text(ARC_DECK.format(end="[0.0, 1.0, 0.0]"))
-    d = load_deck(deck, overrides={"refine": 2})
+    d = load_deck(deck, overrides={"refine": 2}).domain
     x = np.array([n.position for n in d.nodes])
     assert len(d.elements) == 8 and np.allclose(np.linalg.norm(x, axis=1), 1.0, atol=1e-15)
     # node frames on the tangent, axis 2 out of the plane

@@ -10,11 +10,12 @@ import pytest
 
 from crosscheck.harness import run
 from flexmbs.cli import main
+from flexmbs.verification.observables import rocker_angle
 from reference.domain import Domain
 from reference.interactions import NodalLoad
 from reference.io.deck import DeckError
 from reference.elements import Section
-from reference.observables import ObservableError, parse, relative_angle, rocker_angle
+from reference.observables import ObservableError, parse, relative_angle
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 G = 9.81
@@ -76,7 +77,8 @@ output_every = 10
 def three_bar_with(tmp_path, observable, table="crosscheck.rocker"):
     text = (MODELS / "three_bar.toml").read_text()
     if table == "crosscheck.rocker":
-        text = text.replace('observable = "rocker_angle"', f"observable = {observable!r}")
+        assert text.count('observable = "angle.z:rocker"') == 1
+        text = text.replace('observable = "angle.z:rocker"', f"observable = {observable!r}")
     else:
         text += f'\n[{table}]\nobservable = {observable!r}\ntolerance = 1.0\nreason = "test"\n'
     path = tmp_path / "deck.toml"
@@ -151,14 +153,14 @@ def test_evaluation_shapes_aliases_and_descriptions():
 
 
 def test_rocker_angle_is_the_relative_rotation_and_matches_the_old_definition():
-    """`rocker_angle` = `angle.z:rocker`; the old hard-wired angle of the line pivot (4, 0) → rocker centre
+    """`rocker_angle` (flexmbs.verification) from `angle.z:rocker`; the old hard-wired angle of the line pivot (4, 0) → rocker centre
     equals its initial value plus that rotation, to the joint drift (≤ 1e-5 rad; measured 1.4e-13)."""
     d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 3.0})
     r = d.solve()
     c = r.position("rocker")
     old = np.unwrap(np.arctan2(c[:, 1], c[:, 0] - 4.0))
     assert np.max(np.abs(rocker_angle(r) - old)) <= 1e-5
-    assert np.array_equal(parse("rocker_angle", r).evaluate(r), relative_angle(r, "rocker"))
+    assert np.array_equal(parse("angle.z:rocker", r).evaluate(r), relative_angle(r, "rocker"))
     assert np.max(np.abs(relative_angle(r, "rocker") - (old - old[0]))) <= 1e-5
 
 

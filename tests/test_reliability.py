@@ -104,7 +104,7 @@ def test_refine_override_of_a_billion_is_refused(tmp_path):
 def test_max_steps_raises_the_step_limit(tmp_path):
     path = tmp_path / "deck.toml"
     path.write_text(changed("t_end = 0.02 ", "t_end = 2000.0 ").replace("damping = 0.0", "max_steps = 3000000"))
-    assert load_deck(path).solver.t_end == 2000.0
+    assert load_deck(path).domain.solver.t_end == 2000.0
     path.write_text(changed("t_end = 0.02 ", "t_end = 2000.0 "))
     with pytest.raises(DeckError, match="2e\\+09 steps, above the limit of 1e\\+09"):
         load_deck(path, overrides={"dt": 1e-6})

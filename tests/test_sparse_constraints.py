@@ -56,7 +56,7 @@ def dense_impulse(domain, model, x, q, t, v, w, h, hk):
 
 
 CASES = {
-    "three-bar": lambda: load_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 0.2}),
+    "three-bar": lambda: load_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 0.2}).domain,
     "chain": lambda: spherical_chain(12, steps=200),
     "tree": lambda: binary_tree(3),
     "closed loop (regularised)": lambda: four_bar(1e-9),
@@ -119,7 +119,7 @@ def test_jacobian_csr_structure_gives_the_dense_B():
     """The scipy.sparse face of B (for the implicit algorithms) is the dense B of constraint_matrices."""
     import scipy.sparse
 
-    d = load_deck(ROOT / "models" / "three_bar.toml")
+    d = load_deck(ROOT / "models" / "three_bar.toml").domain
     model = d.model
     x = np.array([n.position for n in d.nodes]) + 0.01
     q = np.array([n.rotation for n in d.nodes])

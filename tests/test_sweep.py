@@ -151,7 +151,7 @@ def test_dotted_overrides_reach_the_model():
     from reference.io.deck import load_deck
 
     deck = ROOT / "models" / "embedded_beam.toml"
-    d = load_deck(deck, overrides={"sections.rollup.EI2": 120.0, "beams.0.elements": 6, "solver.damping": 20.0})
+    d = load_deck(deck, overrides={"sections.rollup.EI2": 120.0, "beams.0.elements": 6, "solver.damping": 20.0}).domain
     assert d.elements[0].formulation.section.EI2 == 120.0
     assert len(d.elements) == 6 and d.solver.damping == 20.0
 

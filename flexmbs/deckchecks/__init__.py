@@ -15,7 +15,8 @@ a check row with the tolerance and reason of the deck's ``[checks.NAME]``,
 Markdown lines (text, tables, figures) and its checks.  The report adds the
 deck's data, a sketch of the model and the Exudyn cross-check itself.
 
-Closed forms the checks compare with belong in :mod:`reference.analytic`.
+Closed forms the checks compare with belong in :mod:`flexmbs.verification.analytic`, observables
+written for one deck in :mod:`flexmbs.verification.observables`.
 """
 
 from __future__ import annotations

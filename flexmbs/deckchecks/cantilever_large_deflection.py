@@ -17,7 +17,7 @@ def evaluate(ctx):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from reference.analytic import cantilever_large_deflection
+    from flexmbs.verification.analytic import cantilever_large_deflection
 
     domain = ctx.domain()
     sec = domain.elements[0].formulation.section

@@ -13,7 +13,7 @@ def evaluate(ctx):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from reference.analytic import cantilever_first_frequency
+    from flexmbs.verification.analytic import cantilever_first_frequency
 
     domain = ctx.domain()
     sec = domain.elements[0].formulation.section

@@ -40,7 +40,7 @@ def evaluate(ctx):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from reference.analytic import double_pendulum_frequencies
+    from flexmbs.verification.analytic import double_pendulum_frequencies
     from reference.io.deck import load_deck
 
     domain = ctx.domain()
@@ -52,7 +52,7 @@ def evaluate(ctx):
     runs = []
     for k in range(2):
         shape = modes[:, k] / np.max(np.abs(modes[:, k]))
-        d = load_deck(hanging_deck(ctx.deck, ctx.out / f"double_pendulum_mode{k + 1}.toml", 1e-3 * omegas[k] * shape))
+        d = load_deck(hanging_deck(ctx.deck, ctx.out / f"double_pendulum_mode{k + 1}.toml", 1e-3 * omegas[k] * shape)).domain
         rm = ctx.solve(d, f"mode {k + 1}")
         c = rm.position("upper")
         theta1 = np.arctan2(-c[:, 0], -c[:, 2])

@@ -19,7 +19,7 @@ def evaluate(ctx):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from reference.analytic import elastica_tip, polygon_tip
+    from flexmbs.verification.analytic import elastica_tip, polygon_tip
 
     domain = ctx.domain()
     L = float(np.linalg.norm(domain.nodes[-1].position - domain.nodes[0].position))

@@ -6,7 +6,7 @@ import numpy as np
 
 
 def evaluate(ctx):
-    from reference.analytic import elastica_tip, polygon_tip
+    from flexmbs.verification.analytic import elastica_tip, polygon_tip
 
     domain = ctx.domain()
     L = float(np.linalg.norm(domain.nodes[-1].position - domain.nodes[0].position))

@@ -13,7 +13,7 @@ def evaluate(ctx):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from reference.analytic import steady_precession_rate
+    from flexmbs.verification.analytic import steady_precession_rate
     from reference.rotation import EulerParameters
 
     domain = ctx.domain()

@@ -13,7 +13,7 @@ def evaluate(ctx):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from reference.analytic import pendulum_period
+    from flexmbs.verification.analytic import pendulum_period
 
     domain = ctx.domain()
     bar = domain.node("bar")

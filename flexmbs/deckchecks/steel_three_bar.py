@@ -15,7 +15,7 @@ def evaluate(ctx):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from reference import observables as ob
+    from flexmbs.verification import observables as ob
 
     t_end = 0.25 if ctx.quick else 2.0
     runs = {}

@@ -13,7 +13,7 @@ def evaluate(ctx):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from reference.analytic import torque_free_flip_period
+    from flexmbs.verification.analytic import torque_free_flip_period
     from reference.rotation import EulerParameters
 
     domain = ctx.domain()

@@ -14,7 +14,7 @@ def evaluate(ctx):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from reference.analytic import torsion_double_pendulum_modes
+    from flexmbs.verification.analytic import torsion_double_pendulum_modes
 
     domain = ctx.domain()
     k1, k2 = (fe.stiffness for fe in domain.force_elements)

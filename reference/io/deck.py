@@ -12,12 +12,17 @@ applies the overrides, then reads the model's tables into a
 :class:`~reference.domain.Domain`, one function per table, and the solution's
 (``[solver]``, ``[checks]``, ``[crosscheck]``: :mod:`reference.io.deck_solution`);
 the checks and messages are those of :class:`reference.io.deck_reader.Reader`.
+It returns a :class:`Deck`: the Domain, which is all the engine needs, and
+beside it what only the verification reads (``[meta]``, ``[checks]``,
+``[crosscheck]``, the deck's text and path).
 """
 
 from __future__ import annotations
 
 import difflib
 import math
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -61,8 +66,38 @@ MAX_ELEMENTS = 100_000
 """Most Beam2 elements in one model, after ``refine`` (about 1 GB of model and scratch memory)."""
 
 
-def load_deck(path, overrides: dict | None = None) -> Domain:
-    """Read and validate a deck; return a ready-to-solve :class:`~reference.domain.Domain`.
+@dataclass
+class Deck:
+    """A deck as read: the model to solve and the tables the verification reads beside it.
+
+    Attributes
+    ----------
+    domain : Domain
+        The ready-to-solve model (what :meth:`reference.domain.Domain.from_deck` returns).
+    path : str
+        The deck file.
+    text : str
+        Its text, as read (written into the results files).
+    metadata : dict
+        ``[meta]`` (``name``, ``description``, ``provenance`` …).
+    checks, crosscheck : dict
+        ``[checks.NAME]`` and ``[crosscheck.NAME]`` by name, their observables checked against the model.
+    """
+
+    domain: Domain
+    path: str
+    text: str
+    metadata: dict = field(default_factory=dict)
+    checks: dict = field(default_factory=dict)
+    crosscheck: dict = field(default_factory=dict)
+
+    def solve(self, **kwargs):
+        """:meth:`Domain.solve <reference.domain.Domain.solve>` with a results file that records this deck."""
+        return self.domain.solve(deck=self, **kwargs)
+
+
+def load_deck(path, overrides: dict | None = None) -> Deck:
+    """Read and validate a deck; return it as a :class:`Deck` holding a ready-to-solve Domain.
 
     Parameters
     ----------
@@ -95,8 +130,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
                         fix=f"a model has at most {MAX_ELEMENTS} elements")
     rd.keys(deck, "deck", optional=sorted(TOP_LEVEL))
 
-    domain = _meta(rd, deck)
-    domain.deck_text, domain.deck_path = text, str(path)
+    domain, metadata = _meta(rd, deck)
     sections = _sections(rd, deck)
     refs = _References(rd, domain, _time_functions(rd, deck))
     _nodes(rd, deck, domain)
@@ -108,7 +142,7 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     _springs(rd, deck, domain, refs)
     _initial_velocities(rd, deck, refs)
     algorithm, algo_cls = read_solver(rd, deck, domain, overrides, refine)
-    read_checks(rd, deck, domain)
+    checks, crosscheck = read_checks(rd, deck, domain)
     try:
         model = domain.initialization()
     except ValueError as exc:
@@ -116,7 +150,18 @@ def load_deck(path, overrides: dict | None = None) -> Domain:
     problem = algo_cls.refusal(model)
     if problem:
         raise rd.fail("solver.algorithm", f"{algorithm!r} cannot run this model: {problem}")
-    return domain
+    return Deck(domain, str(path), text, metadata, checks, crosscheck)
+
+
+def warm_up(path, dt: float) -> float:
+    """Solve the deck at ``path`` for two steps of ``dt``; return the seconds it took.
+
+    A process's first solve loads (or compiles) the engine's numba kernels: a solve
+    timed after this one measures the solve alone.
+    """
+    t0 = time.perf_counter()
+    load_deck(path, overrides={"t_end": 2 * dt, "dt": dt}).domain.solve()
+    return time.perf_counter() - t0
 
 
 class _References:
@@ -170,8 +215,8 @@ class _References:
         return tfs[name]
 
 
-def _meta(rd: Reader, deck: dict) -> Domain:
-    """``[meta]``: the Domain, named."""
+def _meta(rd: Reader, deck: dict) -> tuple[Domain, dict]:
+    """``[meta]``: the Domain, named, and the table."""
     meta = deck.get("meta", {})
     rd.keys(meta, "meta", required=["name"], optional=["description", "units", "provenance", "notes"])
     for key in ("description", "units", "notes"):
@@ -180,9 +225,7 @@ def _meta(rd: Reader, deck: dict) -> Domain:
     if "provenance" in meta and not isinstance(meta["provenance"], (str, dict)):
         raise rd.fail("meta.provenance", f"expected a string or a table, got {show(meta['provenance'])}",
                       'e.g. provenance = { paper = "...", figures = "...", data = "..." }')
-    domain = Domain(rd.label(meta["name"], "meta.name"), meta.get("description", ""))
-    domain.metadata = dict(meta)
-    return domain
+    return Domain(rd.label(meta["name"], "meta.name"), meta.get("description", "")), dict(meta)
 
 
 def _sections(rd: Reader, deck: dict) -> dict:

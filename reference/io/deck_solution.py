@@ -111,15 +111,15 @@ def _suggest_dt(t_end: float, limit: float) -> str:
     return f"dt = {t_end / n!r} ({n} steps to t_end = {t_end:g})"
 
 
-def read_checks(rd: Reader, deck: dict, domain: Domain) -> None:
-    """``[checks.NAME]`` and ``[crosscheck.NAME]``: their observables checked against the model."""
+def read_checks(rd: Reader, deck: dict, domain: Domain) -> tuple[dict, dict]:
+    """``[checks.NAME]`` and ``[crosscheck.NAME]``, their observables checked against the model;
+    returns both tables by name."""
     checks = rd.tables(deck, "checks")
     for name, spec in checks.items():
         if not isinstance(spec, dict):
             raise rd.fail(f"checks.{name}", f"expected a table, got {show(spec)}", f"write it as [checks.{name}]")
         if "observable" in spec:
             _observable(rd, spec["observable"], f"checks.{name}.observable", domain)
-    domain.checks = checks
     crosscheck = rd.tables(deck, "crosscheck")
     for name, spec in crosscheck.items():
         entry = f"crosscheck.{name}"
@@ -130,7 +130,7 @@ def read_checks(rd: Reader, deck: dict, domain: Domain) -> None:
         if spec.get("relative_to", "absolute") not in ("length", "peak", "absolute"):
             raise rd.fail(f"{entry}.relative_to", f"unknown scale {show(spec['relative_to'])}", "'length', 'peak' or 'absolute'")
         rd.integer(spec.get("refine", 1), f"{entry}.refine")
-    domain.crosscheck = crosscheck
+    return checks, crosscheck
 
 
 def _observable(rd: Reader, text, entry: str, domain: Domain):

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+import importlib.metadata
 import os
 import time
 from pathlib import Path
@@ -71,13 +72,19 @@ def dataset_path(key: str) -> str:
     return DATASETS.get(key, key)
 
 
-def _version() -> str:
+def version() -> str:
+    """The installed flexmbs version (package metadata; ``"unknown"`` when run from a tree not installed)."""
     try:
-        from flexmbs import __version__
-
-        return __version__
-    except ImportError:  # the engine does not need the application package
+        return importlib.metadata.version("flexmbs")
+    except importlib.metadata.PackageNotFoundError:
         return "unknown"
+
+
+def deck_attrs(deck) -> dict:
+    """The results file's attributes naming the deck (anything with ``path`` and ``text``; None: no deck)."""
+    text = "" if deck is None else deck.text
+    return {"deck": text, "deck_sha256": hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest(),
+            "deck_path": "" if deck is None else str(deck.path)}
 
 
 class ResultsWriter:
@@ -88,7 +95,10 @@ class ResultsWriter:
     path : path-like
         File to create (parent folders are created; an older file of that name is replaced).
     domain, algorithm : optional
-        Give the labels, ids and attributes (engine, algorithm, dt, deck …).
+        Give the labels, ids and attributes (engine, algorithm, dt).
+    deck : optional
+        With a domain: the deck it was read from (:class:`reference.io.deck.Deck`), recorded
+        in the attributes ``deck``, ``deck_sha256``, ``deck_path``.
     labels, ids : sequences
         Node labels and stable ids (without a domain).
     items : dict, optional
@@ -103,20 +113,15 @@ class ResultsWriter:
     """
 
     def __init__(self, path, domain=None, algorithm=None, *, labels=None, ids=None, attrs=None, items=None,
-                 template=None):
+                 template=None, deck=None):
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         if domain is not None:
             labels = [n.label for n in domain.nodes]
             items = {"joints": [j.label for j in domain.joints], "elements": [e.label for e in domain.elements]}
             ids = [n.id for n in domain.nodes]
-            deck = domain.deck_text or ""
-            attrs = {
-                "engine": "flexmbs-reference", "engine_version": _version(), "deck": deck,
-                "deck_sha256": hashlib.sha256(deck.encode("utf-8", "surrogatepass")).hexdigest(),
-                "deck_path": str(domain.deck_path or ""), "algorithm": algorithm.name, "dt": algorithm.dt,
-                **(attrs or {}),
-            }
+            attrs = {"engine": "flexmbs-reference", "engine_version": version(), **deck_attrs(deck),
+                     "algorithm": algorithm.name, "dt": algorithm.dt, **(attrs or {})}
         self.path = path
         self.n_nodes = len(labels)
         if template is None:
@@ -130,7 +135,7 @@ class ResultsWriter:
         self.f = h5py.File(partial, "w")
         self.f.attrs.update({k: v for k, v in (attrs or {}).items()})
         self.f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
-        self.f.attrs["flexmbs_version"] = _version()
+        self.f.attrs["flexmbs_version"] = version()
         self.f.attrs["status"] = "running"
         self.f.create_dataset("nodes/id", data=np.asarray(ids, dtype=np.int64))
         self.f.create_dataset("nodes/label", data=np.array(labels, dtype=h5py.string_dtype()))

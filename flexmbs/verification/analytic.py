@@ -1,4 +1,5 @@
-"""Closed-form solutions that the verification measures the engine against."""
+"""Closed-form solutions that the verification measures the engine against (the report's checks,
+the tests, the lessons); the engine never imports them."""
 
 from __future__ import annotations
 

@@ -1,7 +1,0 @@
-"""``python -m reference`` is the ``flexmbs`` command."""
-
-import sys
-
-from flexmbs.cli import main
-
-sys.exit(main())
