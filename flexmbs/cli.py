@@ -117,6 +117,7 @@ def install_signal_handlers() -> None:
 def check_signals() -> None:
     """A safe point: raise the stop again if a signal came whose exception never reached the command."""
     if STOP.signum is not None and not STOP.deferred:
+        STOP.lost = False  # raised now: a signal sent again meanwhile must not interrupt the clean-up
         raise STOP.exception()
 
 

@@ -39,9 +39,12 @@ def deck(tmp: Path) -> Path:
 
 
 def start(deck_path: Path, out: Path) -> subprocess.Popen:
+    """``flexmbs run`` of the deck, with SIGINT's default action as at a terminal (a harness started in
+    the background of a shell inherits SIGINT ignored, and would pass that on)."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.Popen([sys.executable, "-m", "flexmbs", "run", str(deck_path), "--out", str(out), "--no-vtk"],
-                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def open_results(path: Path):
