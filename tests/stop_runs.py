@@ -107,13 +107,15 @@ def early_interrupt_trial(tmp: Path, k: int, delay: float) -> str:
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     lines = err.strip().splitlines()
+    path = out / "results.h5"
+    if proc.returncode == 1 and "init_import_site" in err and not path.exists():
+        return EARLY_OUTCOMES[3]  # Python's own start-up, which no program can guard
     # before Python has installed its handler the default action ends the process silently (-2)
     assert proc.returncode in (130, -signal.SIGINT), (proc.returncode, err[-2000:])
     assert "Traceback" not in err and "Exception ignored" not in err, err[-2000:]
     assert len(lines) <= 1 and all(line.startswith("flexmbs: interrupted") for line in lines), err[-2000:]
-    path = out / "results.h5"
-    if proc.returncode < 0:
-        assert not path.exists()
+    if proc.returncode < 0:  # the command never ran its handler: no line (it had returned 130 if it printed one)
+        assert not path.exists() and not lines, err[-2000:]
         return EARLY_OUTCOMES[0]
     if not path.exists():
         return EARLY_OUTCOMES[1]
@@ -125,7 +127,9 @@ def early_interrupt_trial(tmp: Path, k: int, delay: float) -> str:
 
 EARLY_OUTCOMES = ("ended by the default action before Python's handler (exit -2)",
                   "interrupted before the results file existed (exit 130)",
-                  "interrupted with the results file kept, status 'interrupted at t = …' (exit 130)")
+                  "interrupted with the results file kept, status 'interrupted at t = …' (exit 130)",
+                  "ended in Python's own start-up, importing its site module before any flexmbs code "
+                  "(exit 1, 'Fatal Python error: init_import_site' and a traceback)")
 """What an early Ctrl-C may leave (:func:`early_interrupt_trial`)."""
 
 

@@ -214,3 +214,16 @@ def test_ctrl_c_midway_keeps_the_finished_rows_in_one_line(tmp_path):
     rows = read_summary(summary)
     assert 1 <= len(rows) < 40 and all(r["status"] == "completed" for r in rows)
     assert f"{len(rows)} of 40" in lines[0] and not (tmp_path / "out" / "summary.csv.part").exists()
+
+
+def test_a_scheduler_address_without_port_is_one_line(study, tmp_path, capsys):
+    """The issue's `--scheduler 127.0.0.1` ended in a 51-line traceback: the command refuses it in one
+    line, and so does the Python face (a DeckError naming the address)."""
+    from reference.io.deck import DeckError
+
+    with pytest.raises(SystemExit) as exit_:
+        cli(["sweep", str(study.path), "--scheduler", "127.0.0.1"])
+    err = capsys.readouterr().err.strip()
+    assert exit_.value.code == 2 and "\n" not in err and "tcp://127.0.0.1:8786" in err
+    with pytest.raises(DeckError, match=r"cannot reach the Dask scheduler at 127\.0\.0\.1: missing port"):
+        run_study(study, tmp_path, scheduler="127.0.0.1", progress=lambda line: None)
