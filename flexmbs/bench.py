@@ -312,7 +312,8 @@ def static_rollup(targets: list | None = None) -> list[str]:
     return ["**Static roll-up** (12 Beam2, 20 load steps to k = 2), median of 5 interleaved solves:", "",
             "| engine | solve [s] |", "|---|---|", f"| flexmbs static | {t_o:.4f} |",
             f"| Exudyn static solver | {t_e:.4f} |", "",
-            f"ratio flexmbs / Exudyn = {t_o / t_e:.3f} (target ≤ 0.3) {target.mark}; flexmbs tip at k = 1 against the "
+            f"ratio flexmbs / Exudyn = {t_o / t_e:.3f} (target ≤ 0.3) {target.mark}; flexmbs tip at k = 1 "
+            "against the "
             f"discrete 12-chord polygon: {err:.1e} L", ""]
 
 
@@ -386,7 +387,8 @@ def _per_step(domain, repeat: int) -> float:
     return statistics.median(times) / steps
 
 
-def chain_scaling(repeat: int = 3, sizes=(50, 100, 200, 400), targets: list | None = None) -> list[tuple[int, float]]:
+def chain_scaling(repeat: int = 3, sizes=(50, 100, 200, 400),
+                  targets: list | None = None) -> list[tuple[int, float]]:
     """Per-step cost of :func:`spherical_chain` for each K [s]; printed with the ratio to the smallest K
     (target: the largest K costs at most 1.5 × linear, appended to ``targets``)."""
     rows = [(K, _per_step(spherical_chain(K), repeat)) for K in sizes]
@@ -397,8 +399,8 @@ def chain_scaling(repeat: int = 3, sizes=(50, 100, 200, 400), targets: list | No
     target = Target(f"spherical chain, cost of K = {sizes[-1]} / K = {sizes[0]}", rows[-1][1] / rows[0][1],
                     1.5 * sizes[-1] / sizes[0], "{:.2f}")
     (targets if targets is not None else []).append(target)
-    print(f"target: K = {sizes[-1]} costs ≤ {target.limit:g}× K = {sizes[0]} (linear: {sizes[-1] / sizes[0]:.0f}×): "
-          f"{target.value:.2f}× {target.mark}")
+    print(f"target: K = {sizes[-1]} costs ≤ {target.limit:g}× K = {sizes[0]} (linear: "
+          f"{sizes[-1] / sizes[0]:.0f}×): {target.value:.2f}× {target.mark}")
     return rows
 
 
@@ -416,7 +418,8 @@ def welded_vs_shared(repeat: int = 3, targets: list | None = None) -> tuple[floa
     (targets if targets is not None else []).append(target)
     print("two beams (2 × 32 Beam2, gravity, 1000 steps): per-step cost")
     print(f"  sharing the node {t_s * 1e6:9.2f} µs   tip z {z_s:.9f} m")
-    print(f"  welded (fixed)   {t_w * 1e6:9.2f} µs   tip z {z_w:.9f} m   ratio {t_w / t_s:.2f} (target ≤ 2) {target.mark}")
+    print(f"  welded (fixed)   {t_w * 1e6:9.2f} µs   tip z {z_w:.9f} m   ratio {t_w / t_s:.2f} (target ≤ 2) "
+          f"{target.mark}")
     return t_s, t_w
 
 

@@ -11,6 +11,7 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from flexmbs import __version__
@@ -55,12 +56,14 @@ class Interrupted(KeyboardInterrupt):
 class StopRequest:
     """The first stopping signal (SIGINT, SIGTERM, SIGHUP) of a command.
 
-    The handler raises ``KeyboardInterrupt`` (SIGINT) or :class:`Stopped` where the
+    The handler raises :class:`Interrupted` (SIGINT) or :class:`Stopped` where the
     signal lands.  Python runs a handler between any two bytecodes, also inside an
     object's ``__del__`` (numba and llvmlite release objects while the cached kernels
-    load), and an exception raised there is printed and dropped: the stop would be lost.
-    So the request is recorded first and raised again at the command's safe points
-    (:func:`check_signals`); a dropped one is not printed and lets the next signal raise.
+    load), and an exception raised there is printed and dropped: the stop would be lost
+    (3 of 109 early Ctrl-Cs were).  So the request is recorded first; a dropped one is
+    not printed, the signal is sent again (:func:`_unraisable`), and the command raises a
+    recorded stop at its safe points (:func:`check_signals`: before the deck is read, at
+    every output of the run, after it).
 
     Attributes
     ----------
@@ -109,6 +112,7 @@ def _unraisable(info) -> None:
 
 
 def _send_again(signum: int, delay: float = 0.005) -> None:
+    """Send ``signum`` to this process after ``delay`` s if the stop is still lost (:func:`_unraisable`)."""
     time.sleep(delay)
     if STOP.lost:
         os.kill(os.getpid(), signum)
@@ -264,7 +268,8 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {' '.join(message.split())}; see {self.prog} --help\n")
 
 
-def number(kind: type = float, low: float = 0.0, *, low_ok: bool = False, high=None, example: str = "") -> callable:
+def number(kind: type = float, low: float = 0.0, *, low_ok: bool = False, high=None,
+           example: str = "") -> Callable[[str], float]:
     """An argparse ``type=`` for a numeric option: an ``int`` or ``float`` (ASCII digits), finite, above
     ``low`` (or equal to it with ``low_ok``) and at most ``high`` (a number, or a callable giving
     ``(bound, why)``); anything else is an ``ArgumentTypeError`` naming the value, the range and ``example``."""
@@ -272,7 +277,7 @@ def number(kind: type = float, low: float = 0.0, *, low_ok: bool = False, high=N
 
     def read(text: str):
         bound, why = high() if callable(high) else (high, "")
-        wanted = f"{noun} {'≥' if low_ok else '>'} {low:g}" + (f" and ≤ {bound:g}{why}" if bound is not None else "")
+        wanted = f"{noun} {'≥' if low_ok else '>'} {low:g}" + ("" if bound is None else f" and ≤ {bound:g}{why}")
         try:
             if not text.strip().isascii():
                 raise ValueError(text)
@@ -313,7 +318,7 @@ def scheduler_address(text: str) -> str:
 
 def parser() -> argparse.ArgumentParser:
     p = Parser(prog="flexmbs", description="Flexible multibody dynamics: reference engine, "
-                                "Exudyn cross-check, verification report.")
+               "Exudyn cross-check, verification report.")
     p.add_argument("--version", action="version", version=f"flexmbs {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a model deck with the reference engine")
@@ -325,8 +330,8 @@ def parser() -> argparse.ArgumentParser:
                      help="multiply every beam's element count (the step shrinks with it)")
     run.add_argument("--no-vtk", dest="vtk_every", action="store_const", const=0, default=1,
                      help="skip the ParaView output")
-    run.add_argument("--vtk-every", type=number(int, 0, low_ok=True, example="--vtk-every 10"), default=1, metavar="N",
-                     help="ParaView output of every N-th output record (default 1; 0: none)")
+    run.add_argument("--vtk-every", type=number(int, 0, low_ok=True, example="--vtk-every 10"), default=1,
+                     metavar="N", help="ParaView output of every N-th output record (default 1; 0: none)")
     run.set_defaults(func=cmd_run)
     cc = sub.add_parser("crosscheck", help="run a deck in the reference and in Exudyn and compare")
     cc.add_argument("deck")
@@ -368,7 +373,8 @@ def parser() -> argparse.ArgumentParser:
     where = sw.add_mutually_exclusive_group()
     where.add_argument("--workers", type=number(int, 1, low_ok=True, high=_workers_bound, example="--workers 2"),
                        help="processes of the local Dask cluster (default 2)")
-    where.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address, help="address of a running Dask scheduler, e.g. "
+    where.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
+                       help="address of a running Dask scheduler, e.g. "
                        "tcp://127.0.0.1:8786")
     sw.set_defaults(func=cmd_sweep)
     return p

@@ -246,8 +246,9 @@ def run_study(study: Study, out, workers: int | None = None, scheduler: str | No
     progress : callable(str), optional
         Called with one line per finished case (default: print to stderr).
     stop : callable() -> bool, optional
-        Polled while the cases run (a few times a second); when it returns true the cases not
-        finished are cancelled and the study ends with the rows it has (the command's Ctrl-C).
+        Polled while the cases run (every 50 ms); when it returns true the cases not finished
+        are dropped (the cluster is closed) and the study ends with the rows it has (the
+        command's Ctrl-C).
 
     Whatever ends the study (also an exception, e.g. ``KeyboardInterrupt`` in a notebook), the
     summary holds every case finished by then.
@@ -272,7 +273,7 @@ def run_study(study: Study, out, workers: int | None = None, scheduler: str | No
             futures[f] = k
         progress(f"flexmbs sweep: {len(todo)} cases of {study.deck.name} on "
                  f"{scheduler or f'a local cluster of {workers or 2} workers'}")
-        done, pending = 0, as_completed(futures)
+        done, pending, unwritten = 0, as_completed(futures), False
         while not pending.is_empty() and not stop():
             finished = pending.next_batch(block=False)
             if not finished:
@@ -284,12 +285,12 @@ def run_study(study: Study, out, workers: int | None = None, scheduler: str | No
                 except Exception as exc:  # the worker died, or the task could not run
                     row = {**todo[k], "status": f"failed: {type(exc).__name__}: {exc}", "wall_time": math.nan,
                            "results": ""}
-                rows[k], done = row, done + 1
+                rows[k], done, unwritten = row, done + 1, True
                 label = ", ".join(f"{n} = {v}" for n, v in todo[k].items())
                 progress(f"[{done}/{len(todo)}] case {k} ({label}): {row['status']} in {row['wall_time']:.2f} s")
-            if finished and time.monotonic() - written > SUMMARY_EVERY:
+            if unwritten and time.monotonic() - written > SUMMARY_EVERY:
                 write_summary(summary, study, rows)
-                written = time.monotonic()
+                written, unwritten = time.monotonic(), False
     finally:
         write_summary(summary, study, rows)
         client.close()
@@ -319,7 +320,7 @@ def write_summary(path, study: Study, rows: list) -> None:
 
 def main(args) -> int:
     """The ``flexmbs sweep`` command; a Ctrl-C or SIGTERM ends it in order: the cases not finished are
-    cancelled, the summary keeps the finished ones, and one line says how many."""
+    dropped, the summary keeps the finished ones, and one line says how many."""
     from flexmbs.cli import CommandError, Stopped, deferred_signals
 
     study = load_study(args.study)

@@ -16,7 +16,8 @@ def test_a_value_over_its_target_is_missed_and_fails_the_bench():
     assert vtk.describe() == "VTK output, share of the run: 23.8% (target ≤ 20.0%)"
     lines, status = target_summary([welded, vtk])
     assert status == 1
-    assert lines == ["targets: 1 of 2 met, 1 MISSED:", "  MISSED  VTK output, share of the run: 23.8% (target ≤ 20.0%)"]
+    assert lines == ["targets: 1 of 2 met, 1 MISSED:",
+                     "  MISSED  VTK output, share of the run: 23.8% (target ≤ 20.0%)"]
 
 
 def test_all_targets_met_exit_0_and_the_boundary_and_nan():

@@ -102,4 +102,3 @@ def test_a_ctrl_c_landing_in_a_del_is_not_lost(capsys):
         sys.unraisablehook = hook
     err = capsys.readouterr().err
     assert "Exception ignored" not in err and "Traceback" not in err, err
-
