@@ -220,7 +220,8 @@ def _client(workers: int | None, scheduler: str | None):
                             "e.g. tcp://127.0.0.1:8786, or drop --scheduler") from None
     # the worker processes ignore SIGINT, as the process starting them does while the cluster starts (they
     # inherit it): a Ctrl-C at the terminal, which reaches the whole process group, stops the study here
-    # only, which closes the cluster in order (a Ctrl-C in that second is ignored; SIGTERM never is).
+    # only, which closes the cluster in order.  A Ctrl-C while the cluster starts (a second or two) is
+    # ignored; SIGTERM never is.  (Blocking SIGINT meanwhile does not keep it: native threads take it.)
     # Their log (a task cancelled, a busy worker killed, a heartbeat cut when a stopped study closes them) is
     # not shown: a case that fails is its row's status.
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
