@@ -22,18 +22,57 @@ mid-span deflection against a converged-in-time reference of the same mesh and
 engine against the solve time; a figure, and the time of each at matched
 accuracy (0.1 % of the peak deflection) with the ratios.  ``FLEXMBS_QUICK=1``
 (or ``--quick``) runs fewer steps.
+
+Every line with a target ends in ``MET`` or ``MISSED`` (:class:`Target`); the last lines list the
+missed targets (:func:`target_summary`), and the command exits with status 1 when one is missed.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import statistics
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+@dataclass
+class Target:
+    """A benchmark's target: the measured ``value`` of ``what`` meets it when ``value ≤ limit``
+    (a NaN never does); ``fmt`` formats both numbers."""
+
+    what: str
+    value: float
+    limit: float
+    fmt: str = "{:.3g}"
+
+    @property
+    def met(self) -> bool:
+        return bool(self.value <= self.limit)
+
+    @property
+    def mark(self) -> str:
+        """``MET`` or ``MISSED``, the word that ends the benchmark's line."""
+        return "MET" if self.met else "MISSED"
+
+    def describe(self) -> str:
+        """``what: value (target ≤ limit)``."""
+        return f"{self.what}: {self.fmt.format(self.value)} (target ≤ {self.fmt.format(self.limit)})"
+
+
+def target_summary(targets: list[Target]) -> tuple[list[str], int]:
+    """The closing lines of ``flexmbs bench`` — how many targets were met, then every missed one — and
+    the exit status (1 when a target was missed)."""
+    missed = [t for t in targets if not t.met]
+    if not missed:
+        return [f"targets: all {len(targets)} met"], 0
+    return ([f"targets: {len(targets) - len(missed)} of {len(targets)} met, {len(missed)} MISSED:"]
+            + [f"  MISSED  {t.describe()}" for t in missed]), 1
 
 
 def time_reference(deck: Path, repeat: int) -> tuple[float, int]:
@@ -244,7 +283,7 @@ def work_precision_figure(data: dict, path: Path) -> Path:
     return path
 
 
-def static_rollup() -> list[str]:
+def static_rollup(targets: list | None = None) -> list[str]:
     """The roll-up with ``algorithm = "static"``, 20 load steps: flexmbs against Exudyn's static
     solver, same process (median of 5 interleaved solves after a warm-up), and the tip against
     the discrete polygon."""
@@ -268,10 +307,13 @@ def static_rollup() -> list[str]:
         theirs.append(solve(domain())["wall_time"])
     err = np.linalg.norm(r.position("beam:12")[10] - polygon_tip(10.0, 12, 1.0)) / 10.0
     t_o, t_e = statistics.median(ours), statistics.median(theirs)
+    target = Target("static roll-up, flexmbs / Exudyn", t_o / t_e, 0.3, "{:.3f}")
+    (targets if targets is not None else []).append(target)
     return ["**Static roll-up** (12 Beam2, 20 load steps to k = 2), median of 5 interleaved solves:", "",
             "| engine | solve [s] |", "|---|---|", f"| flexmbs static | {t_o:.4f} |",
             f"| Exudyn static solver | {t_e:.4f} |", "",
-            f"ratio flexmbs / Exudyn = {t_o / t_e:.3f} (target ≤ 0.3); flexmbs tip at k = 1 against the "
+            f"ratio flexmbs / Exudyn = {t_o / t_e:.3f} (target ≤ 0.3) {target.mark}; flexmbs tip at k = 1 "
+            "against the "
             f"discrete 12-chord polygon: {err:.1e} L", ""]
 
 
@@ -344,18 +386,24 @@ def _per_step(domain, repeat: int) -> float:
     return statistics.median(times) / steps
 
 
-def chain_scaling(repeat: int = 3, sizes=(50, 100, 200, 400)) -> list[tuple[int, float]]:
-    """Per-step cost of :func:`spherical_chain` for each K [s]; printed with the ratio to the smallest K."""
+def chain_scaling(repeat: int = 3, sizes=(50, 100, 200, 400),
+                  targets: list | None = None) -> list[tuple[int, float]]:
+    """Per-step cost of :func:`spherical_chain` for each K [s]; printed with the ratio to the smallest K
+    (target: the largest K costs at most 1.5 × linear, appended to ``targets``)."""
     rows = [(K, _per_step(spherical_chain(K), repeat)) for K in sizes]
     print(f"spherical chain (rigid links, dt = 1e-4, 1000 steps): per-step cost, median of {repeat}")
     print(f"{'K':>5}  {'per step [µs]':>13}  {'ratio to K = ' + str(sizes[0]):>16}  {'K ratio':>7}")
     for K, t in rows:
         print(f"{K:5d}  {t * 1e6:13.2f}  {t / rows[0][1]:16.2f}  {K / sizes[0]:7.1f}")
-    print(f"target: K = {sizes[-1]} costs ≤ 12× K = {sizes[0]} (linear: {sizes[-1] / sizes[0]:.0f}×)")
+    target = Target(f"spherical chain, cost of K = {sizes[-1]} / K = {sizes[0]}", rows[-1][1] / rows[0][1],
+                    1.5 * sizes[-1] / sizes[0], "{:.2f}")
+    (targets if targets is not None else []).append(target)
+    print(f"target: K = {sizes[-1]} costs ≤ {target.limit:g}× K = {sizes[0]} (linear: "
+          f"{sizes[-1] / sizes[0]:.0f}×): {target.value:.2f}× {target.mark}")
     return rows
 
 
-def welded_vs_shared(repeat: int = 3) -> tuple[float, float]:
+def welded_vs_shared(repeat: int = 3, targets: list | None = None) -> tuple[float, float]:
     """Per-step cost of :func:`two_beams` welded by a ``fixed`` joint and sharing the node [s], and
     the tip deflection of both (the weld must not change the answer)."""
     out = []
@@ -365,9 +413,12 @@ def welded_vs_shared(repeat: int = 3) -> tuple[float, float]:
         tip = d.solve().position("b:32")[-1, 2]
         out.append((t, tip))
     (t_s, z_s), (t_w, z_w) = out
+    target = Target("two beams, welded / sharing the node", t_w / t_s, 2.0, "{:.2f}")
+    (targets if targets is not None else []).append(target)
     print("two beams (2 × 32 Beam2, gravity, 1000 steps): per-step cost")
     print(f"  sharing the node {t_s * 1e6:9.2f} µs   tip z {z_s:.9f} m")
-    print(f"  welded (fixed)   {t_w * 1e6:9.2f} µs   tip z {z_w:.9f} m   ratio {t_w / t_s:.2f} (target ≤ 2)")
+    print(f"  welded (fixed)   {t_w * 1e6:9.2f} µs   tip z {z_w:.9f} m   ratio {t_w / t_s:.2f} (target ≤ 2) "
+          f"{target.mark}")
     return t_s, t_w
 
 
@@ -464,7 +515,7 @@ def _flexmbs_runner():
     return run
 
 
-def beam_throughput(repeat: int = 3) -> tuple[float, float | None]:
+def beam_throughput(repeat: int = 3, targets: list | None = None) -> tuple[float, float | None]:
     """Per element-step cost of the explicit step with Beam2 elements (768 elements) and of PyElastica
     on the same cantilever [s]: runs alternate between the two codes (median of ``repeat`` each,
     after a warm-up), so that both see the same machine; PyElastica is skipped (None) when not
@@ -488,16 +539,22 @@ def beam_throughput(repeat: int = 3) -> tuple[float, float | None]:
     per = {name: statistics.median(t) for name, t in times.items()}
     print(f"beam throughput: clamped rod, end torque, {c['elements']} elements, dt = {c['dt']:g}, {c['steps']} steps, "
           f"runs alternating (FLEXMBS_THREADS = {threads()})")
+    targets = targets if targets is not None else []
+    cost = Target("beam throughput, flexmbs µs per element-step", per["flexmbs"] * 1e6, 0.15, "{:.3f}")
+    targets.append(cost)
     for name in runners:
-        print(f"  {name:<10} {per[name] * 1e6:7.3f} µs per element-step   tip z {tips[name]:.6e} m")
+        print(f"  {name:<10} {per[name] * 1e6:7.3f} µs per element-step   tip z {tips[name]:.6e} m"
+              + (f"   (target ≤ 0.15 µs) {cost.mark}" if name == "flexmbs" else ""))
     if "PyElastica" not in per:
         print("  PyElastica not installed (pip install -e '.[bench]'): comparison skipped")
         return per["flexmbs"], None
-    print(f"  ratio flexmbs / PyElastica {per['flexmbs'] / per['PyElastica']:.2f} (target ≤ 1.0, and ≤ 0.15 µs)")
+    ratio = Target("beam throughput, flexmbs / PyElastica", per["flexmbs"] / per["PyElastica"], 1.0, "{:.2f}")
+    targets.append(ratio)
+    print(f"  ratio flexmbs / PyElastica {ratio.value:.2f} (target ≤ 1.0) {ratio.mark}")
     return per["flexmbs"], per["PyElastica"]
 
 
-def vtk_cost(elements: int = 2000, outputs: int = 1000, every: int = 5) -> float:
+def vtk_cost(elements: int = 2000, outputs: int = 1000, every: int = 5, targets: list | None = None) -> float:
     """Share of ``flexmbs run`` spent writing ParaView output: a 2,000-element cantilever with 1,000 outputs.
 
     The same cantilever as the throughput case, meshed finer, with a results file;
@@ -521,35 +578,40 @@ def vtk_cost(elements: int = 2000, outputs: int = 1000, every: int = 5) -> float
         t2 = time.perf_counter()
         size = path.stat().st_size
     share = (t2 - t1) / (t2 - t0)
+    target = Target("VTK output, share of the run", share, 0.20, "{:.1%}")
+    (targets if targets is not None else []).append(target)
     print(f"VTK output: {elements} elements, {len(r.time)} outputs ({outputs * every} steps): solve {t1 - t0:.2f} s, "
-          f"VTKHDF {t2 - t1:.2f} s ({size / 2**20:.0f} MiB) = {share:.1%} of the run (target ≤ 20 %)")
+          f"VTKHDF {t2 - t1:.2f} s ({size / 2**20:.0f} MiB) = {share:.1%} of the run (target ≤ 20 %) {target.mark}")
     return share
 
 
 def main(args=None) -> int:
     repeat = getattr(args, "repeat", 3) or 3
-    rows = []
+    rows, targets = [], []
     print(f"flexmbs bench: median of {repeat} timed solves after one warm-up, same process, same data")
     for name, deck in CASES.items():
         t_ref, n_ref = time_reference(deck, repeat)
         t_exu, n_exu = time_exudyn(deck, repeat)
         rows.append((name, t_ref, n_ref, t_exu, n_exu))
     width = max(len(r[0]) for r in rows)
-    print(f"{'case':<{width}}  {'reference [s]':>13}  {'Exudyn [s]':>10}  {'ratio':>6}  steps (ref/Exudyn)")
+    print(f"{'case':<{width}}  {'reference [s]':>13}  {'Exudyn [s]':>10}  {'ratio':>6}  steps (ref/Exudyn)  target")
     for name, t_ref, n_ref, t_exu, n_exu in rows:
-        print(f"{name:<{width}}  {t_ref:13.4f}  {t_exu:10.4f}  {t_ref / t_exu:6.3f}  {n_ref}/{n_exu}")
+        target = Target(f"{name}, reference / Exudyn", t_ref / t_exu if t_exu > 0 else math.nan, 0.3, "{:.3f}")
+        targets.append(target)
+        print(f"{name:<{width}}  {t_ref:13.4f}  {t_exu:10.4f}  {t_ref / t_exu:6.3f}  {f'{n_ref}/{n_exu}':<18}  "
+              f"{target.mark}")
     print("ratio = reference time / Exudyn time (target ≤ 0.3)")
     print()
-    chain_scaling(repeat)
+    chain_scaling(repeat, targets=targets)
     print()
-    welded_vs_shared(repeat)
+    welded_vs_shared(repeat, targets=targets)
     print()
-    beam_throughput(repeat)
+    beam_throughput(repeat, targets=targets)
     print()
-    vtk_cost()
+    vtk_cost(targets=targets)
     quick = bool(getattr(args, "quick", False)) or os.environ.get("FLEXMBS_QUICK") == "1"
     print()
-    lines = static_rollup()
+    lines = static_rollup(targets)
     print("\n".join(lines))
     data = work_precision(quick)
     table = work_precision_table(data)
@@ -559,4 +621,7 @@ def main(args=None) -> int:
     (out / "work_precision.md").write_text("\n".join(lines + table + [f"![work-precision]({figure.name})", ""]),
                                            encoding="utf-8")
     print(f"figure and tables: {figure}, {out / 'work_precision.md'}")
-    return 0
+    print()
+    closing, status = target_summary(targets)
+    print("\n".join(closing))
+    return status

@@ -27,12 +27,15 @@ is a bug and keeps its traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import math
 import os
 import signal
 import sys
+import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from flexmbs import __version__
@@ -66,19 +69,110 @@ class Stopped(BaseException):
         self.signum = signum
 
 
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C (SIGINT), raised by the command's handler.
+
+    A subclass, so that every ``except KeyboardInterrupt`` catches it, but not the class itself:
+    with a bare ``KeyboardInterrupt``, 2 of 25 Ctrl-Cs 0.25–0.45 s after the start (numba loading)
+    ended the process by SIGINT (status -2) after the command had printed its line and returned
+    130; with the subclass none of 75 did.  CPython treats an exception of exactly that class
+    specially (its "unhandled KeyboardInterrupt" exit re-raises SIGINT), the likely path, which a
+    small reproducer did not show.
+    """
+
+
+class StopRequest:
+    """The first stopping signal (SIGINT, SIGTERM, SIGHUP) of a command.
+
+    The handler raises :class:`Interrupted` (SIGINT) or :class:`Stopped` where the
+    signal lands.  Python runs a handler between any two bytecodes, also inside an
+    object's ``__del__`` (numba and llvmlite release objects while the cached kernels
+    load), and an exception raised there is printed and dropped: the stop would be lost
+    (3 of 109 early Ctrl-Cs were).  So the request is recorded first; a dropped one is
+    not printed, the signal is sent again (:func:`_unraisable`), and the command raises a
+    recorded stop at its safe points (:func:`check_signals`: before the deck is read, at
+    every output of the run, after it).
+
+    Attributes
+    ----------
+    signum : int or None
+        The first signal received; None before one.
+    lost : bool
+        Its exception was dropped in a ``__del__`` (seen by the unraisable hook).
+    deferred : bool
+        Signals are only recorded, never raised (:func:`deferred_signals`); the command
+        polls :attr:`signum` (``flexmbs sweep``, whose waits run inside Dask).
+    """
+
+    def __init__(self):
+        self.signum, self.lost, self.deferred = None, False, False
+
+    def exception(self) -> BaseException:
+        """The exception that stops the command."""
+        return Interrupted() if self.signum == signal.SIGINT else Stopped(self.signum)
+
+
+STOP = StopRequest()
+"""The stop request of the running command (reset by :func:`install_signal_handlers`)."""
+
+
 def _stop(signum, frame):
     """The first SIGINT, SIGTERM or SIGHUP stops the command (as Ctrl-C does); later ones are ignored,
-    so that the results file is closed and one message printed."""
-    for sig in SIGNAL_NAMES:
-        signal.signal(sig, signal.SIG_IGN)
-    if signum == signal.SIGINT:
-        raise KeyboardInterrupt
-    raise Stopped(signum)
+    so that the results file is closed and one message printed — unless the first was lost (then the
+    first's exception is raised again)."""
+    if STOP.signum is not None and not STOP.lost:
+        return
+    STOP.signum = STOP.signum or signum
+    STOP.lost = False
+    if not STOP.deferred:
+        raise STOP.exception()
+
+
+def _unraisable(info) -> None:
+    """Drop a stop raised inside a ``__del__`` quietly, mark it lost and send the signal again a moment
+    later (from a thread: the handler then runs in the main thread's next bytecodes, most likely
+    outside any ``__del__``); anything else goes to the hook that was installed before."""
+    if isinstance(info.exc_value, (KeyboardInterrupt, Stopped)):
+        STOP.lost = True
+        threading.Thread(target=_send_again, args=(STOP.signum,), daemon=True).start()
+        return
+    _unraisable.previous(info)
+
+
+def _send_again(signum: int, delay: float = 0.005) -> None:
+    """Send ``signum`` to this process after ``delay`` s if the stop is still lost (:func:`_unraisable`)."""
+    time.sleep(delay)
+    if STOP.lost:
+        os.kill(os.getpid(), signum)
+
+
+_unraisable.previous = sys.unraisablehook
 
 
 def install_signal_handlers() -> None:
+    """Handle SIGINT, SIGTERM and SIGHUP from now on (:class:`StopRequest`); a new command starts unstopped."""
+    STOP.__init__()
+    if sys.unraisablehook is not _unraisable:
+        _unraisable.previous, sys.unraisablehook = sys.unraisablehook, _unraisable
     for sig in SIGNAL_NAMES:
         signal.signal(sig, _stop)
+
+
+def check_signals() -> None:
+    """A safe point: raise the stop again if a signal came whose exception never reached the command."""
+    if STOP.signum is not None and not STOP.deferred:
+        STOP.lost = False  # raised now: a signal sent again meanwhile must not interrupt the clean-up
+        raise STOP.exception()
+
+
+@contextlib.contextmanager
+def deferred_signals():
+    """Within the block signals are recorded in :data:`STOP` and not raised (the block polls ``STOP.signum``)."""
+    STOP.deferred = True
+    try:
+        yield STOP
+    finally:
+        STOP.deferred = False
 
 
 def cmd_run(args) -> int:
@@ -88,6 +182,7 @@ def cmd_run(args) -> int:
     from reference.solution import SolverDiverged
 
     overrides = {k: v for k, v in (("t_end", args.t_end), ("dt", args.dt), ("refine", args.refine)) if v is not None}
+    check_signals()  # a stop that came while the engine's modules loaded
     deck = load_deck(args.deck, overrides=overrides)
     domain = deck.domain
     out = Path(args.out) if args.out else Path("out") / Path(args.deck).stem
@@ -95,8 +190,14 @@ def cmd_run(args) -> int:
     results_path = out / "results.h5"
     t0 = time.perf_counter()
     bar = ProgressBar(domain.name)
+
+    def progress(fraction: float, t: float) -> None:
+        check_signals()  # every output: a stop lost while the kernels loaded ends the run here
+        bar(fraction, t)
+
     try:
-        result = deck.solve(results_path=results_path, progress=bar)
+        check_signals()
+        result = deck.solve(results_path=results_path, progress=progress)
     except SolverDiverged as exc:
         raise RunFailed(f"{args.deck}: {exc} (results file: {results_path})") from None
     except (Stopped, KeyboardInterrupt) as exc:
@@ -112,6 +213,7 @@ def cmd_run(args) -> int:
     finally:
         bar.close()
     wall = time.perf_counter() - t0
+    check_signals()
     pvd = None
     if args.vtk_every > 0:
         pvd = write_vtk(domain, result, out / "vtk", domain.name, every=args.vtk_every)
@@ -203,28 +305,85 @@ def cmd_sweep(args) -> int:
     return _module("flexmbs.sweep", "sweep").main(args)
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse with every error in one line, ``flexmbs run: error: argument --dt: …; see flexmbs run --help``
+    (exit 2), in place of the usage block."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}; see {self.prog} --help\n")
+
+
+def number(kind: type = float, low: float = 0.0, *, low_ok: bool = False, high=None,
+           example: str = "") -> Callable[[str], float]:
+    """An argparse ``type=`` for a numeric option: an ``int`` or ``float`` (ASCII digits), finite, above
+    ``low`` (or equal to it with ``low_ok``) and at most ``high`` (a number, or a callable giving
+    ``(bound, why)``); anything else is an ``ArgumentTypeError`` naming the value, the range and ``example``."""
+    noun = "a whole number" if kind is int else "a number"
+
+    def read(text: str):
+        bound, why = high() if callable(high) else (high, "")
+        wanted = f"{noun} {'≥' if low_ok else '>'} {low:g}" + ("" if bound is None else f" and ≤ {bound:g}{why}")
+        try:
+            if not text.strip().isascii():
+                raise ValueError(text)
+            value = kind(text)
+        except ValueError:
+            value = None
+        if value is None or not math.isfinite(value) or value < low or (value == low and not low_ok) or \
+                (bound is not None and value > bound):
+            raise argparse.ArgumentTypeError(f"{text[:40]!r} is not {wanted}; give e.g. {example}")
+        return value
+
+    read.__name__ = noun  # argparse's name of the type
+    return read
+
+
+def _workers_bound() -> tuple[int, str]:
+    cpus = os.cpu_count() or 1
+    return 4 * cpus, f" (four per CPU; this machine has {cpus})"
+
+
+def animation_name(text: str) -> str:
+    """``--animate``: a file name ending in ``.gif`` (the animation is written as a GIF), checked before any
+    frame is drawn."""
+    if Path(text).suffix.lower() != ".gif" or not Path(text).stem:
+        raise argparse.ArgumentTypeError(f"{text[:80]!r}: the animation is written as a GIF; give a name "
+                                         "ending in .gif, e.g. --animate motion.gif")
+    return text
+
+
+def scheduler_address(text: str) -> str:
+    """``--scheduler``: ``[PROTOCOL://]HOST:PORT`` of a Dask scheduler (the port is required)."""
+    host, _, port = text.rpartition("://")[2].rpartition(":")
+    if not host or not port.isascii() or not port.isdigit() or not 0 < int(port) < 65536:
+        raise argparse.ArgumentTypeError(f"{text[:80]!r} is not a scheduler address with a port; give e.g. "
+                                         "tcp://127.0.0.1:8786 (`dask scheduler` prints its address)")
+    return text
+
+
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="flexmbs", description="Flexible multibody dynamics: reference engine, "
-                                "Exudyn cross-check, verification report.")
+    p = Parser(prog="flexmbs", description="Flexible multibody dynamics: reference engine, "
+               "Exudyn cross-check, verification report.")
     p.add_argument("--version", action="version", version=f"flexmbs {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a model deck with the reference engine")
     run.add_argument("deck")
     run.add_argument("--out", help="output folder (default out/<deck name>)")
-    run.add_argument("--t-end", type=float, help="end time, overriding the deck's")
-    run.add_argument("--dt", type=float, help="time step, overriding the deck's")
-    run.add_argument("--refine", type=int, help="multiply every beam's element count (the step shrinks with it)")
+    run.add_argument("--t-end", type=number(example="--t-end 0.5"), help="end time, overriding the deck's")
+    run.add_argument("--dt", type=number(example="--dt 1e-4"), help="time step, overriding the deck's")
+    run.add_argument("--refine", type=number(int, 1, low_ok=True, example="--refine 2"),
+                     help="multiply every beam's element count (the step shrinks with it)")
     run.add_argument("--no-vtk", dest="vtk_every", action="store_const", const=0, default=1,
                      help="skip the ParaView output")
-    run.add_argument("--vtk-every", type=int, default=1, metavar="N",
-                     help="ParaView output of every N-th output record (default 1; 0: none)")
+    run.add_argument("--vtk-every", type=number(int, 0, low_ok=True, example="--vtk-every 10"), default=1,
+                     metavar="N", help="ParaView output of every N-th output record (default 1; 0: none)")
     run.set_defaults(func=cmd_run)
     cc = sub.add_parser("crosscheck", help="run a deck in the reference and in Exudyn and compare")
     cc.add_argument("deck")
     cc.add_argument("--out", help="output folder (default out/<deck name>_crosscheck)")
     cc.add_argument("--refine", type=int, help="multiply every flexible beam's element count")
     cc.add_argument("--exudyn-dt", type=float, help="Exudyn's step (default: the deck's)")
-    cc.add_argument("--t-end", type=float, help="end time, overriding the deck's")
+    cc.add_argument("--t-end", type=number(example="--t-end 0.5"), help="end time, overriding the deck's")
     cc.set_defaults(func=cmd_crosscheck)
     pl = sub.add_parser("plot", help="time histories, drift, energies and an animation from a results file")
     pl.add_argument("results")
@@ -233,9 +392,10 @@ def parser() -> argparse.ArgumentParser:
                     help="any observable, e.g. 'reaction_moment.z:crank drive' (repeatable; docs/observables.md)")
     pl.add_argument("--drift", action="store_true", help="constraint violation history")
     pl.add_argument("--energy", action="store_true", help="energy histories")
-    pl.add_argument("--animate", metavar="NAME.gif", help="animation of the motion")
-    pl.add_argument("--every", type=int, default=1, help="animate every n-th output")
-    pl.add_argument("--magnify", type=float, default=1.0,
+    pl.add_argument("--animate", metavar="NAME.gif", type=animation_name, help="animation of the motion")
+    pl.add_argument("--every", type=number(int, 1, low_ok=True, example="--every 5"), default=1,
+                    help="animate every n-th output")
+    pl.add_argument("--magnify", type=number(example="--magnify 50"), default=1.0,
                     help="animation: multiply the beams' deflection from their chord (e.g. 50, as the paper's Fig. 14)")
     pl.add_argument("--out", help="folder for the figures (default: next to the results file)")
     pl.set_defaults(func=cmd_plot)
@@ -247,7 +407,8 @@ def parser() -> argparse.ArgumentParser:
     der.add_argument("--check", action="store_true", help="fail if the committed generated code is stale")
     der.set_defaults(func=cmd_derive)
     ben = sub.add_parser("bench", help="solve times of flexmbs and Exudyn, side by side")
-    ben.add_argument("--repeat", type=int, default=3)
+    ben.add_argument("--repeat", type=number(int, 1, low_ok=True, example="--repeat 3"), default=3,
+                     help="timed rounds of each case (median; default 3)")
     ben.add_argument("--quick", action="store_true", help="fewer steps in the work-precision part")
     ben.add_argument("--out", help="folder of the work-precision figure and tables (default: out/bench/)")
     ben.set_defaults(func=cmd_bench)
@@ -255,8 +416,10 @@ def parser() -> argparse.ArgumentParser:
     sw.add_argument("study")
     sw.add_argument("--out", help="output folder: one folder per case and summary.csv (default out/<study name>)")
     where = sw.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, help="processes of the local Dask cluster (default 2)")
-    where.add_argument("--scheduler", metavar="ADDRESS", help="address of a running Dask scheduler, e.g. "
+    where.add_argument("--workers", type=number(int, 1, low_ok=True, high=_workers_bound, example="--workers 2"),
+                       help="processes of the local Dask cluster (default 2)")
+    where.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
+                       help="address of a running Dask scheduler, e.g. "
                        "tcp://127.0.0.1:8786")
     sw.set_defaults(func=cmd_sweep)
     return p

@@ -160,6 +160,9 @@ def main(args) -> int:
     if not (args.node or getattr(args, "observable", None) or args.drift or args.energy or args.animate):
         raise OSError(f"{args.results}: nothing to plot; choose one or more of {WHAT}")
     r = _load(args.results)
+    if len(r.time) == 0:
+        raise OSError(f"{args.results}: the file has no records (status {r.status!r}): its run ended before the "
+                      "first output was written; nothing to plot")
     import matplotlib
 
     matplotlib.use("Agg")

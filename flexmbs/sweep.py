@@ -16,8 +16,11 @@ so every value is validated as if written in the deck), solved, its results
 written to ``OUT/case_NNN/results.h5``.  The cases run as tasks on a Dask
 cluster — a local one of ``workers`` processes by default, or an existing
 scheduler (``scheduler = "tcp://host:8786"``).  ``OUT/summary.csv`` has one row
-per case: the grid values, the status (``completed`` or the error of a failed
-case), the wall time and the case's values (:func:`case_values`).
+per finished case: the grid values, the status (``completed`` or the error of a failed
+case), the wall time and the case's values (:func:`case_values`; a check's values
+are the columns ``check.NAME…``, so that no check can overwrite the summary's own).
+It is rewritten as cases finish (whole, under its name at once): a study that is
+interrupted or killed leaves a valid summary of the cases finished so far.
 
 Dask is imported only here (the engine, ``reference/``, never needs it); the
 pieces are usable from Python: :func:`load_study` (or :func:`make_study`), :func:`cases`,
@@ -28,7 +31,10 @@ from __future__ import annotations
 
 import csv
 import itertools
+import logging
 import math
+import os
+import signal
 import sys
 import time
 import tomllib
@@ -41,6 +47,10 @@ DECK_OVERRIDES = ("refine", "dt", "t_end")
 """Grid names passed to the deck reader as they are."""
 SOLVER_KEYS = ("algorithm", "damping", "output_every", "consistent_initial_velocities")
 """Bare grid names that mean ``solver.NAME``."""
+CHECK_PREFIX = "check."
+"""Prefix of the summary's columns of the deck's checks (a check may be called ``status``)."""
+SUMMARY_EVERY = 0.5
+"""Longest time [s] a finished case waits to be written to ``summary.csv``."""
 
 
 @dataclass
@@ -135,10 +145,10 @@ def case_values(deck, results) -> dict:
 
     The final time, the final energies (kinetic, strain, external work,
     dissipated), the largest constraint violation ‖Φ‖, and for each of the
-    deck's (:class:`reference.io.deck.Deck`) ``[checks.NAME]`` with an ``observable`` (``docs/observables.md``)
-    its value at the final time: ``NAME`` for a scalar, ``NAME.x`` … for the
-    components of a vector.  A check with a ``node`` but no observable gives
-    that node's final position.
+    deck's (:class:`reference.io.deck.Deck`) ``[checks.NAME]`` with an ``observable``
+    (``docs/observables.md``) its value at the final time: ``check.NAME`` for a scalar,
+    ``check.NAME.x`` … for the components of a vector (:data:`CHECK_PREFIX`).  A check with a
+    ``node`` but no observable gives that node's final position.
     """
     import numpy as np
 
@@ -161,12 +171,13 @@ def case_values(deck, results) -> dict:
             value = np.asarray(observable.evaluate(results), dtype=float)[-1]
         except (ValueError, KeyError, IndexError, AttributeError):  # not computable from these results
             continue
+        column = CHECK_PREFIX + str(name)
         if value.ndim == 0:
-            out[name] = float(value)
+            out[column] = float(value)
         elif value.ndim == 1:
             comps = KINDS.get(observable.kind, (None, ()))[1]
             labels = comps[: value.size] if len(comps) >= value.size else [str(i) for i in range(value.size)]
-            out.update({f"{name}.{c}": float(v) for c, v in zip(labels, value)})
+            out.update({f"{column}.{c}": float(v) for c, v in zip(labels, value)})
     return out
 
 
@@ -203,16 +214,29 @@ def _client(workers: int | None, scheduler: str | None):
     if scheduler:
         try:
             return Client(scheduler, timeout="20s"), None
-        except (OSError, TimeoutError) as exc:
-            raise DeckError(f"cannot reach the Dask scheduler at {scheduler}: {exc}; start it with "
-                            "`dask scheduler` (and `dask worker ADDRESS`) or drop --scheduler") from None
-    cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True, dashboard_address=None)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise DeckError(f"cannot reach the Dask scheduler at {scheduler}: {' '.join(str(exc).split())}; "
+                            "start it with `dask scheduler` (and `dask worker ADDRESS`) and give its address, "
+                            "e.g. tcp://127.0.0.1:8786, or drop --scheduler") from None
+    # the worker processes ignore SIGINT, as the process starting them does while the cluster starts (they
+    # inherit it): a Ctrl-C at the terminal, which reaches the whole process group, stops the study here
+    # only, which closes the cluster in order.  A Ctrl-C while the cluster starts (a second or two) is
+    # ignored; SIGTERM never is.  (Blocking SIGINT meanwhile does not keep it: native threads take it.)
+    # Their log (a task cancelled, a busy worker killed, a heartbeat cut when a stopped study closes them) is
+    # not shown: a case that fails is its row's status.
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.CRITICAL)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
 
 
 def run_study(study: Study, out, workers: int | None = None, scheduler: str | None = None,
-              progress=None) -> list[dict]:
-    """Run every case of ``study`` on Dask and write ``OUT/summary.csv``; return the rows (case order).
+              progress=None, stop=None) -> list[dict]:
+    """Run every case of ``study`` on Dask, writing ``OUT/summary.csv`` as cases finish; return the
+    rows of the finished cases (case order).
 
     Parameters
     ----------
@@ -222,15 +246,26 @@ def run_study(study: Study, out, workers: int | None = None, scheduler: str | No
         Address of a running Dask scheduler (e.g. ``tcp://127.0.0.1:8786``).
     progress : callable(str), optional
         Called with one line per finished case (default: print to stderr).
+    stop : callable() -> bool, optional
+        Polled while the cases run (every 50 ms); when it returns true the cases not finished
+        are dropped (the cluster is closed) and the study ends with the rows it has (the
+        command's Ctrl-C).
+
+    Whatever ends the study (also an exception, e.g. ``KeyboardInterrupt`` in a notebook), the
+    summary holds every case finished by then.
     """
     from dask.distributed import as_completed
 
     progress = progress or (lambda line: print(line, file=sys.stderr, flush=True))
+    stop = stop or (lambda: False)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     todo = cases(study)
-    client, cluster = _client(workers, scheduler)
+    summary = out / "summary.csv"
     rows: list[dict | None] = [None] * len(todo)
+    write_summary(summary, study, rows)  # an empty summary from the start: a previous study's never remains
+    client, cluster = _client(workers, scheduler)
+    written = time.monotonic()
     try:
         futures = {}
         for k, case in enumerate(todo):
@@ -239,41 +274,64 @@ def run_study(study: Study, out, workers: int | None = None, scheduler: str | No
             futures[f] = k
         progress(f"flexmbs sweep: {len(todo)} cases of {study.deck.name} on "
                  f"{scheduler or f'a local cluster of {workers or 2} workers'}")
-        for done, f in enumerate(as_completed(futures), start=1):
-            k = futures[f]
-            try:
-                row = f.result()
-            except Exception as exc:  # the worker died, or the task could not run
-                row = {**todo[k], "status": f"failed: {type(exc).__name__}: {exc}", "wall_time": math.nan,
-                       "results": ""}
-            rows[k] = row
-            label = ", ".join(f"{n} = {v}" for n, v in todo[k].items())
-            progress(f"[{done}/{len(todo)}] case {k} ({label}): {row['status']} in {row['wall_time']:.2f} s")
+        done, pending, unwritten = 0, as_completed(futures), False
+        while not pending.is_empty() and not stop():
+            finished = pending.next_batch(block=False)
+            if not finished:
+                time.sleep(0.05)
+            for f in finished:
+                k = futures[f]
+                try:
+                    row = f.result()
+                except Exception as exc:  # the worker died, or the task could not run
+                    row = {**todo[k], "status": f"failed: {type(exc).__name__}: {exc}", "wall_time": math.nan,
+                           "results": ""}
+                rows[k], done, unwritten = row, done + 1, True
+                label = ", ".join(f"{n} = {v}" for n, v in todo[k].items())
+                progress(f"[{done}/{len(todo)}] case {k} ({label}): {row['status']} in {row['wall_time']:.2f} s")
+            if unwritten and time.monotonic() - written > SUMMARY_EVERY:
+                write_summary(summary, study, rows)
+                written, unwritten = time.monotonic(), False
     finally:
+        write_summary(summary, study, rows)
         client.close()
         if cluster is not None:
             cluster.close()
-    write_summary(out / "summary.csv", study, rows)
-    return rows
+    return [r for r in rows if r is not None]
 
 
-def write_summary(path, study: Study, rows: list[dict]) -> None:
-    """One row per case: case number, grid values, status, wall time, results file, then the values."""
+def write_summary(path, study: Study, rows: list) -> None:
+    """One row per finished case (``None`` entries are the cases not finished): case number, grid
+    values, status, wall time, results file, then the values.
+
+    The file is written beside and renamed over ``path``, so that it is whole at every instant.
+    """
     fixed = ["case", *study.grid, "status", "wall_time", "results"]
-    extra = sorted({k for r in rows for k in r} - set(fixed))
-    with open(path, "w", newline="", encoding="utf-8") as fh:
+    extra = sorted({k for r in rows if r is not None for k in r} - set(fixed))
+    path = Path(path)
+    partial = path.with_name(path.name + ".part")
+    with open(partial, "w", newline="", encoding="utf-8") as fh:
         w = csv.DictWriter(fh, fieldnames=fixed + extra)
         w.writeheader()
         for k, row in enumerate(rows):
-            w.writerow({"case": k, **{key: (repr(v) if isinstance(v, float) else v) for key, v in row.items()}})
+            if row is not None:
+                w.writerow({"case": k, **{key: (repr(v) if isinstance(v, float) else v) for key, v in row.items()}})
+    os.replace(partial, path)
 
 
 def main(args) -> int:
-    """The ``flexmbs sweep`` command."""
-    if args.workers is not None and args.workers < 1:
-        raise DeckError(f"--workers {args.workers}: needs at least one worker")
+    """The ``flexmbs sweep`` command; a Ctrl-C or SIGTERM ends it in order: the cases not finished are
+    dropped, the summary keeps the finished ones, and one line says how many."""
+    from flexmbs.cli import CommandError, Stopped, deferred_signals
+
     study = load_study(args.study)
-    rows = run_study(study, args.out, workers=args.workers, scheduler=args.scheduler)
+    summary = Path(args.out) / "summary.csv"
+    with deferred_signals() as request:
+        rows = run_study(study, args.out, workers=args.workers, scheduler=args.scheduler,
+                         stop=lambda: request.signum is not None)
+    if request.signum is not None:
+        raise Stopped(request.signum) from CommandError(
+            f"; {len(rows)} of {len(cases(study))} cases had finished, their rows are in {summary}")
     failed = sum(1 for r in rows if r["status"] != "completed")
-    print(f"{len(rows)} cases, {len(rows) - failed} completed, {failed} failed → {Path(args.out) / 'summary.csv'}")
+    print(f"{len(rows)} cases, {len(rows) - failed} completed, {failed} failed → {summary}")
     return 1 if failed else 0

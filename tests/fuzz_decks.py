@@ -79,6 +79,9 @@ omega = 10.0
 kind = "smooth_step"
 t0 = 0.0
 t1 = 0.01
+[time_functions.ex]
+kind = "expression"
+expr = "1 - exp(-100*t)"
 
 [[nodes]]
 label = "hub"
@@ -128,6 +131,45 @@ moment = [0.0, 1e-4, 0.0]
 frame = "body"
 time_function = "ss"
 
+[[line_loads]]
+beam = "b"
+force_per_length = [0.0, 0.0, 1e-4]
+moment_per_length = [0.0, 0.0, 0.0]
+frame = "inertial"
+time_function = "ex"
+
+[[springs]]
+label = "p2p"
+kind = "point_to_point"
+body_i = "rb"
+point_i = [0.0, 2.5, 0.0]
+body_j = "ground"
+point_j = [0.0, 3.0, 0.0]
+stiffness = 1.0
+damping = 0.01
+rest_length = 0.5
+force_function = "c"
+
+[[springs]]
+kind = "rotational"
+body_i = "b:end"
+body_j = "bar"
+axis = [0.0, 0.0, 1.0]
+reference = [1.0, 0.0, 0.0]
+stiffness = 0.1
+damping = 0.0
+rest_angle = 0.0
+
+[[springs]]
+kind = "bushing"
+body_i = "rb"
+body_j = "ground"
+point = [0.0, 2.0, 0.0]
+axis = [0.0, 0.0, 1.0]
+reference = [1.0, 0.0, 0.0]
+stiffness = [1.0, 1.0, 1.0, 0.1, 0.1, 0.1]
+damping = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+
 [gravity]
 g = [0.0, 0.0, -9.81]
 
@@ -174,8 +216,12 @@ max_steps = 1000000
 allow_unsafe_dt = false
 
 [checks.tip]
+description = "the tip"
 observable = "position:b:end"
+node = "b:end"
+reference = "none"
 tolerance = 0.1
+relative_to = "length"
 reason = "made up"
 
 [crosscheck.tip]
@@ -187,12 +233,15 @@ reason = "made up"
 """
 
 VOCABULARY = {
-    "": {"meta": [{"name": "x"}], "solver": [{"dt": 1e-3, "t_end": 0.01}], "gravity": [{"g": [0.0, 0.0, -9.81]}]},
+    "": {"meta": [{"name": "x"}], "solver": [{"dt": 1e-3, "t_end": 0.01}], "gravity": [{"g": [0.0, 0.0, -9.81]}],
+         "line_loads": [[{"beam": "b", "force_per_length": [0.0, 0.0, 1.0]}]],
+         "springs": [[{"kind": "rotational", "body_i": "rb", "stiffness": 1.0}]]},
     "meta": {"name": ["m", "a b", "ü"], "description": ["d"], "units": ["SI"], "provenance": ["p", {"paper": "x"}],
              "notes": ["n"]},
     "sections.*": {k: [1.0, 1e3, 1e-3] for k in ("EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ1", "rhoJ2",
                                                   "rhoJ3")},
-    "time_functions.*": {"kind": ["constant", "ramp", "step", "piecewise_linear", "sine", "smooth_step"],
+    "time_functions.*": {"kind": ["constant", "ramp", "step", "piecewise_linear", "sine", "smooth_step", "expression"],
+                         "expr": ["sin(3*t)**2", "t", "1 - exp(-t)"],
                          "value": [1.0], "t0": [0.0, 0.01], "t1": [0.01, 0.0], "v0": [0.0], "v1": [1.0, 2.0],
                          "times": [[0.0, 1.0], [1.0, 0.0], [0.0]], "values": [[0.0, 1.0], [1.0]],
                          "amplitude": [1.0], "omega": [10.0], "phase": [0.5], "offset": [0.1]},
@@ -201,7 +250,8 @@ VOCABULARY = {
     "beams[]": {"label": ["c", "b"], "start": [[0.0, 0.0, 1.0]], "end": [[1.0, 0.0, 1.0]],
                 "start_node": ["hub", "b:end", "rb"], "end_node": ["b:2", "hub"], "elements": [1, 2, 8],
                 "section": ["s", "steel_rod", "rollup"], "axis2": [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
-                "rigid": [True, False], "center": [[0.5, 0.5, 0.0], [1.5, 0.0, 0.5], [0.0, 0.0, 0.0]]},
+                "rigid": [True, False], "center": [[0.5, 0.5, 0.0], [1.5, 0.0, 0.5], [0.0, 0.0, 0.0]],
+                "element": ["beam2", "beam3", "beam2_se3"]},
     "rigid_bodies[]": {"label": ["rb2", "rb"], "mass": [1.0, 1e-6], "inertia": [[1.0, 2.0, 3.0]],
                        "position": [[0.0, 0.0, 3.0]], "rotation": [[0.0, 0.0, 0.0, 1.0]],
                        "points": [{"p": [0.0, 0.0, 0.0]}, {}]},
@@ -215,16 +265,34 @@ VOCABULARY = {
     "clamps[]": {"node": ["hub", "b:start", "rb", "bar"]},
     "fixed[]": {"node": ["bar", "rb", "b:1"], "dofs": [["x"], ["x", "y", "z"], ["rz", "rx"]]},
     "loads[]": {"node": ["b:end", "rb", "bar"], "force": [[0.0, 0.0, 1.0]], "moment": [[0.0, 1.0, 0.0]],
-                "frame": ["inertial", "body"], "time_function": ["r", "sn", "up"]},
+                "frame": ["inertial", "body"], "time_function": ["r", "sn", "up", "ex"], "point": [[0.0, 2.5, 0.0]]},
+    "line_loads[]": {"beam": ["b", "bar", "rb"], "force_per_length": [[0.0, 0.0, 1.0]],
+                     "moment_per_length": [[0.0, 1.0, 0.0]], "frame": ["inertial", "body"],
+                     "time_function": ["r", "ex", "up"]},
+    "springs[]": {"kind": ["point_to_point", "rotational", "bushing"], "label": ["s", "p2p"],
+                  "body_i": ["rb", "b:end", "bar", "hub"], "body_j": ["ground", "rb", "b:2"],
+                  "point_i": [[0.0, 2.5, 0.0]], "point_j": [[0.0, 3.0, 0.0], [0.0, 2.5, 0.0]],
+                  "point": [[0.0, 2.0, 0.0]], "stiffness": [1.0, 0.0, [1.0, 1.0, 1.0, 0.1, 0.1, 0.1]],
+                  "damping": [0.0, 0.1, [0.1] * 6], "rest_length": [0.5, 0.0], "force_function": ["c", "ex", "up"],
+                  "axis": [[0.0, 0.0, 1.0]], "reference": [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+                  "rest_angle": [0.0, 0.5]},
     "gravity": {"g": [[0.0, 0.0, -9.81]]},
     "initial_velocities[]": {"node": ["rb", "b:end", "bar"], "velocity": [[1.0, 0.0, 0.0]],
                              "angular_velocity": [[0.0, 0.0, 1.0]]},
-    "solver": {"algorithm": ["staggered_central_difference", "static", "generalized_alpha"], "dt": [1e-3, 1e-4, 2e-4],
+    "solver": {"algorithm": ["staggered_central_difference", "static", "generalized_alpha", "modes", "buckling",
+                             "arc_length"], "dt": [1e-3, 1e-4, 2e-4],
                "t_end": [0.02, 0.01], "damping": [0.0, 1.0], "output_every": [1, 5, 7],
                "consistent_initial_velocities": [True, False], "max_steps": [10, 10**10],
                "allow_unsafe_dt": [True, False], "load_steps": [1, 3], "rho_inf": [0.0, 0.8, 1.0],
-               "tolerance": [1e-8, 1e-14], "max_iterations": [1, 10]},
-    "checks.*": {"observable": ["position:b:end"], "tolerance": [0.1], "reason": ["r"], "at": [[0.1]]},
+               "tolerance": [1e-8, 1e-14], "max_iterations": [1, 10],
+               # keys of the algorithms to come (issues 19, 20, 22): refused in one line until they land
+               "modes": [1, 6], "about": ["reference", "static"], "arc_length": [0.1, 1e-3],
+               "max_points": [10, 1000], "max_load_factor": [1.0, 10.0],
+               "stop_when": ["position.z:b:end < -0.5", "load_factor > 2"], "branch_switch": [True, False],
+               "error_tolerance": [1e-3, 1e-6], "dt_min": [1e-6, 1e-4], "dt_max": [1e-2, 1e-3]},
+    "checks.*": {"observable": ["position:b:end"], "tolerance": [0.1], "reason": ["r"], "at": [[0.1]],
+                 "description": ["d"], "node": ["b:end", "rb"], "reference": ["r"],
+                 "relative_to": ["length", "peak", "absolute"]},
     "crosscheck.*": {"observable": ["position:b:end", "angle.z:rocker"], "tolerance": [0.1, -1.0],
                      "relative_to": ["length", "peak", "absolute", "L"], "refine": [1, 2], "reason": ["r"]},
 }

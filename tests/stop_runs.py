@@ -5,10 +5,12 @@
 - SIGTERM / SIGHUP / SIGINT during the run: exit 128 + the signal, one line on stderr that names
   the file only when it exists, and a file whose status is ``"terminated at t = …"`` (or
   ``"interrupted at t = …"`` for SIGINT);
-- Ctrl-C at any moment of the start-up: exit 130, at most one line, no traceback.
+- Ctrl-C at any moment of the start-up: exit 130, at most one line, no traceback, and a results
+  file only if its status is ``"interrupted at t = …"``.
 
-``python tests/stop_runs.py --kills 20 --terms 10`` (``make signals``) runs the long version; the
-test suite runs a few trials of each (``tests/test_signals.py``).
+``python tests/stop_runs.py --kills 20 --terms 10`` (``make signals``) runs the long version,
+``--ints 100`` a hundred Ctrl-Cs in the first 2 s (numba loading its cached kernels, then the run);
+the test suite runs a few trials of each (``tests/test_signals.py``).
 """
 
 from __future__ import annotations
@@ -37,9 +39,12 @@ def deck(tmp: Path) -> Path:
 
 
 def start(deck_path: Path, out: Path) -> subprocess.Popen:
+    """``flexmbs run`` of the deck, with SIGINT's default action as at a terminal (a harness started in
+    the background of a shell inherits SIGINT ignored, and would pass that on)."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.Popen([sys.executable, "-m", "flexmbs", "run", str(deck_path), "--out", str(out), "--no-vtk"],
-                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def open_results(path: Path):
@@ -94,21 +99,57 @@ def stop_trial(tmp: Path, k: int, sig: int, delay: float) -> str:
 
 def early_interrupt_trial(tmp: Path, k: int, delay: float) -> str:
     """Ctrl-C (SIGINT) ``delay`` s after the start, often before the run: exit 130, at most one quiet
-    line, no traceback, and a file named only if it exists."""
+    line, no traceback (nor a dropped exception's report), and a results file only if it says
+    "interrupted at t = …"; returns the outcome, one of :data:`EARLY_OUTCOMES`."""
     out = tmp / f"early{k}"
     proc = start(deck(tmp), out)
     time.sleep(delay)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     lines = err.strip().splitlines()
-    # before Python has installed its handler the default action ends the process silently (-2)
-    assert proc.returncode in (130, -signal.SIGINT) and "Traceback" not in err, (proc.returncode, err[-2000:])
-    assert len(lines) <= 1 and all(line.startswith("flexmbs: interrupted") for line in lines), err[-2000:]
     path = out / "results.h5"
-    if lines and "kept in" in lines[0]:
-        assert path.exists() and open_results(path)[0].startswith("interrupted at t = "), lines[0]
-        return "interrupted, file kept"
-    return "interrupted" + (" (quietly)" if not lines else "") + (", file without claim" if path.exists() else "")
+    if proc.returncode == 1 and "init_import_site" in err and not path.exists():
+        return EARLY_OUTCOMES[3]  # Python's own start-up, which no program can guard
+    # before Python has installed its handler the default action ends the process silently (-2)
+    assert proc.returncode in (130, -signal.SIGINT), (proc.returncode, err[-2000:])
+    assert "Traceback" not in err and "Exception ignored" not in err, err[-2000:]
+    assert len(lines) <= 1 and all(line.startswith("flexmbs: interrupted") for line in lines), err[-2000:]
+    if proc.returncode < 0:  # the command never ran its handler: no line (it had returned 130 if it printed one)
+        assert not path.exists() and not lines, err[-2000:]
+        return EARLY_OUTCOMES[0]
+    if not path.exists():
+        return EARLY_OUTCOMES[1]
+    status = open_results(path)[0]
+    assert status.startswith("interrupted at t = "), status
+    assert "kept in" in lines[0] and status in lines[0], lines[0]
+    return EARLY_OUTCOMES[2]
+
+
+EARLY_OUTCOMES = ("ended by the default action before Python's handler (exit -2)",
+                  "interrupted before the results file existed (exit 130)",
+                  "interrupted with the results file kept, status 'interrupted at t = …' (exit 130)",
+                  "ended in Python's own start-up, importing its site module before any flexmbs code "
+                  "(exit 1, 'Fatal Python error: init_import_site' and a traceback)")
+"""What an early Ctrl-C may leave (:func:`early_interrupt_trial`)."""
+
+
+def early_interrupts(tmp: Path, n: int, rng: random.Random, span: float = 2.0) -> int:
+    """``n`` Ctrl-Cs at random instants of the first ``span`` s of ``flexmbs run``; prints each trial and
+    the counts of each outcome; returns the number of failures."""
+    counts = dict.fromkeys(EARLY_OUTCOMES, 0)
+    failures = 0
+    for k in range(n):
+        delay = rng.uniform(0.0, span)
+        try:
+            outcome = early_interrupt_trial(tmp, k, delay)
+            counts[outcome] += 1
+            print(f"SIGINT {delay:.3f} s after the start: {outcome}", flush=True)
+        except Exception as exc:
+            failures += 1
+            print(f"SIGINT {delay:.3f} s after the start: FAILED {type(exc).__name__}: {exc}", flush=True)
+    print(f"{n} early SIGINTs (first {span:g} s): " + "; ".join(f"{v} {k}" for k, v in counts.items())
+          + f"; {failures} failures", flush=True)
+    return failures
 
 
 def main(argv=None) -> int:
@@ -117,6 +158,8 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--kills", type=int, default=20)
     p.add_argument("--terms", type=int, default=10)
+    p.add_argument("--ints", type=int, default=0, metavar="N",
+                   help="N Ctrl-Cs (SIGINT) at random instants of the first 2 s of the run, counted by outcome")
     p.add_argument("--seed", type=int, default=12)
     args = p.parse_args(argv)
     rng = random.Random(args.seed)
@@ -132,13 +175,7 @@ def main(argv=None) -> int:
             except Exception as exc:
                 failures += 1
                 print(f"SIGKILL {when}: FAILED {type(exc).__name__}: {exc}", flush=True)
-        for k in range(args.terms // 2):
-            delay = rng.uniform(0.0, 3.0)
-            try:
-                print(f"SIGINT {delay:.2f} s after the start: {early_interrupt_trial(tmp, k, delay)}", flush=True)
-            except Exception as exc:
-                failures += 1
-                print(f"SIGINT {delay:.2f} s after the start: FAILED {type(exc).__name__}: {exc}", flush=True)
+        failures += early_interrupts(tmp, args.terms // 2, rng, span=3.0) if args.terms // 2 else 0
         for k in range(args.terms):
             sig = signal.SIGTERM if k % 5 else signal.SIGHUP
             try:
@@ -146,8 +183,9 @@ def main(argv=None) -> int:
             except Exception as exc:
                 failures += 1
                 print(f"{signal.Signals(sig).name}: FAILED {type(exc).__name__}: {exc}", flush=True)
-    print(f"{args.kills} SIGKILL, {args.terms // 2} early SIGINT and {args.terms} SIGTERM/SIGHUP trials: "
-          f"{failures} failures")
+        failures += early_interrupts(tmp, args.ints, rng) if args.ints else 0
+    print(f"{args.kills} SIGKILL, {args.terms // 2 + args.ints} early SIGINT and {args.terms} SIGTERM/SIGHUP "
+          f"trials: {failures} failures")
     return 1 if failures else 0
 
 

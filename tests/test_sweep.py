@@ -63,10 +63,10 @@ def test_local_cluster_gives_the_serial_numbers(study, serial, tmp_path, capsys)
         assert row["status"] == "completed"
         assert values(row) == values(ref)
         assert Path(row["results"]).is_file() and Path(row["results"]).parent.parent == tmp_path
-    assert {"tip_vs_elastica.x", "tip_vs_elastica.z", "strain_final", "dissipated_final"} <= set(rows[0])
+    assert {"check.tip_vs_elastica.x", "check.tip_vs_elastica.z", "strain_final", "dissipated_final"} <= set(rows[0])
     # the grid really changes the answer: damping changes the dissipation, refine the tip
     assert float(rows[0]["dissipated_final"]) != float(rows[1]["dissipated_final"])
-    assert float(rows[0]["tip_vs_elastica.z"]) != float(rows[2]["tip_vs_elastica.z"])
+    assert float(rows[0]["check.tip_vs_elastica.z"]) != float(rows[2]["check.tip_vs_elastica.z"])
     err = capsys.readouterr().err
     assert "[4/4]" in err and "refine = 2, damping = 25.0" in err
 
@@ -166,3 +166,65 @@ def test_make_study_from_python_validates_like_a_file():
     assert cases(study) == [{"refine": r, "t_end": 0.05} for r in (1, 2, 4)]
     with pytest.raises(DeckError, match=r"sections\.rollup\.EJ2: unknown key; did you mean 'EI2'\?"):
         make_study(deck, {"sections.rollup.EJ2": [1.0]})
+
+
+def test_a_check_named_status_cannot_overwrite_the_summary_s_status(tmp_path):
+    """The issue's deck check called ``status`` replaced the status column; check columns are ``check.NAME``."""
+    from flexmbs.sweep import make_study, write_summary
+
+    text = (ROOT / "models" / "embedded_beam.toml").read_text()
+    deck = tmp_path / "status_check.toml"
+    deck.write_text(text + '\n[checks.status]\ndescription = "the tip"\nobservable = "position:beam:end"\n'
+                    'tolerance = 1.0\nreason = "a name the summary also uses"\n')
+    row = run_case(deck, {"t_end": 0.01}, tmp_path / "case")
+    assert row["status"] == "completed" and {"check.status.x", "check.tip_vs_elastica.z"} <= set(row)
+    write_summary(tmp_path / "summary.csv", make_study(deck, {"t_end": [0.01]}), [row])
+    (written,) = read_summary(tmp_path / "summary.csv")
+    assert written["status"] == "completed" and float(written["check.status.x"]) == row["check.status.x"]
+
+
+def test_ctrl_c_midway_keeps_the_finished_rows_in_one_line(tmp_path):
+    """Ctrl-C at the terminal (SIGINT to the whole process group, workers included) once the summary
+    has a row: exit 130, one line besides the progress lines, and a valid summary of the finished
+    cases, written as they finished (the issue's study printed Dask tracebacks and no summary)."""
+    import signal
+
+    n = 200  # cases of ~0.05 s (with Dask's overhead): the study is stopped long before its end
+    grid = ", ".join(f"{20.0 + 0.1 * k:.1f}" for k in range(n))
+    study = tmp_path / "long_study.toml"
+    study.write_text(STUDY.split("[grid]")[0] + f"[grid]\ndamping = [{grid}]\nt_end = [0.2]\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    proc = subprocess.Popen([sys.executable, "-m", "flexmbs", "sweep", str(study), "--out", str(tmp_path / "out"),
+                             "--workers", "1"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    summary = tmp_path / "out" / "summary.csv"
+    try:
+        deadline = time.monotonic() + 120
+        while not (summary.exists() and read_summary(summary)) and proc.poll() is None:
+            assert time.monotonic() < deadline, "no case finished in 120 s"
+            time.sleep(0.05)
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(timeout=10)
+    lines = [line for line in err.splitlines() if not line.startswith(("[", "flexmbs sweep: "))]
+    assert proc.returncode == 130 and len(lines) == 1, (proc.returncode, err[-3000:])
+    assert lines[0].startswith("flexmbs: interrupted; ") and f"of {n} cases had finished" in lines[0]
+    rows = read_summary(summary)
+    assert 1 <= len(rows) < n and all(r["status"] == "completed" for r in rows)
+    assert f"{len(rows)} of {n}" in lines[0] and not (tmp_path / "out" / "summary.csv.part").exists()
+
+
+def test_a_scheduler_address_without_port_is_one_line(study, tmp_path, capsys):
+    """The issue's `--scheduler 127.0.0.1` ended in a 51-line traceback: the command refuses it in one
+    line, and so does the Python face (a DeckError naming the address)."""
+    from reference.io.deck import DeckError
+
+    with pytest.raises(SystemExit) as exit_:
+        cli(["sweep", str(study.path), "--scheduler", "127.0.0.1"])
+    err = capsys.readouterr().err.strip()
+    assert exit_.value.code == 2 and "\n" not in err and "tcp://127.0.0.1:8786" in err
+    with pytest.raises(DeckError, match=r"cannot reach the Dask scheduler at 127\.0\.0\.1: missing port"):
+        run_study(study, tmp_path, scheduler="127.0.0.1", progress=lambda line: None)
