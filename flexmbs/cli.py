@@ -238,24 +238,12 @@ def cmd_derive(args) -> int:
     return 0
 
 
-def _crosscheck_options(args) -> None:
-    """``--refine`` a whole number ≥ 1, ``--exudyn-dt`` and ``--t-end`` finite and > 0: else one line."""
-    if args.refine is not None and args.refine < 1:
-        raise CommandError(f"--refine {args.refine}: the element counts' multiplier must be a whole number ≥ 1, "
-                           "e.g. --refine 2")
-    for option, value in (("--exudyn-dt", args.exudyn_dt), ("--t-end", args.t_end)):
-        if value is not None and not (math.isfinite(value) and value > 0.0):
-            raise CommandError(f"{option} {value!r}: must be a finite number > 0, e.g. {option} "
-                               f"{'0.001' if option == '--exudyn-dt' else '1.0'}")
-
-
 def cmd_crosscheck(args) -> int:
     exudyn_model = _module("crosscheck.exudyn_model", "crosscheck")
     harness = _module("crosscheck.harness", "crosscheck")
     from reference.observables import ObservableError
     from flexmbs.progress import ProgressBar
 
-    _crosscheck_options(args)
     refine = args.refine or 1
     # a refined run has its own folder (and figure name): it never overwrites the unrefined run's files
     default = Path(args.deck).stem + "_crosscheck" + (f"_refine{refine}" if refine != 1 else "")
@@ -381,8 +369,9 @@ def parser() -> argparse.ArgumentParser:
     cc = sub.add_parser("crosscheck", help="run a deck in the reference and in Exudyn and compare")
     cc.add_argument("deck")
     cc.add_argument("--out", help="output folder (default out/<deck name>_crosscheck)")
-    cc.add_argument("--refine", type=int, help="multiply every flexible beam's element count")
-    cc.add_argument("--exudyn-dt", type=float, help="Exudyn's step (default: the deck's)")
+    cc.add_argument("--refine", type=number(int, 1, low_ok=True, example="--refine 2"),
+                    help="multiply every flexible beam's element count")
+    cc.add_argument("--exudyn-dt", type=number(example="--exudyn-dt 0.001"), help="Exudyn's step (default: the deck's)")
     cc.add_argument("--t-end", type=number(example="--t-end 0.5"), help="end time, overriding the deck's")
     cc.set_defaults(func=cmd_crosscheck)
     pl = sub.add_parser("plot", help="time histories, drift, energies and an animation from a results file")

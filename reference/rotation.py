@@ -38,6 +38,9 @@ in ``reference/generated/rotation_maps.py`` (source ``derivations/rotation_maps.
 this module is their readable, object-oriented face and the only place that
 decides the conventions above.
 
+Length: one class family of the paper (Fig. 3) with the project's conventions, kept in one
+module (about 690 lines) so that the conventions are stated, and implemented, in one place.
+
 References
 ----------
 .. [GC] M. Géradin, A. Cardona, *Flexible Multibody Dynamics: A Finite Element

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from reference.elements.formulation import beam2_assemble, beam2_assemble_parallel
+from reference.elements.beam2 import beam2_assemble, beam2_assemble_parallel
 from reference.io.deck import load_deck
 from reference.jit import threads, use_threads
 

@@ -19,6 +19,8 @@ BAD = [
     (["run", DECK, "--refine"], ["0", "-2", "1.5", "nan", "３"]),
     (["run", DECK, "--vtk-every"], ["-1", "nan", "2.5"]),
     (["crosscheck", DECK, "--t-end"], ["nan", "0", "-1"]),
+    (["crosscheck", DECK, "--exudyn-dt"], ["nan", "0", "-0.01", "inf"]),
+    (["crosscheck", DECK, "--refine"], ["0", "-2"]),
     (["plot", "r.h5", "--drift", "--magnify"], ["nan", "0", "-50", "inf"]),
     (["plot", "r.h5", "--drift", "--every"], ["0", "-1", "nan"]),
     (["plot", "r.h5", "--animate"], ["a.txt", "motion", ".gif", "a.gif.png"]),

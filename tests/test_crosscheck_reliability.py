@@ -27,21 +27,6 @@ def one_line(capsys) -> str:
     return errors[0]
 
 
-@pytest.mark.parametrize("option, value, words", [
-    ("--exudyn-dt", "nan", "--exudyn-dt nan: must be a finite number > 0"),
-    ("--exudyn-dt", "0", "--exudyn-dt 0.0: must be a finite number > 0"),
-    ("--exudyn-dt", "-0.01", "--exudyn-dt -0.01: must be a finite number > 0"),
-    ("--exudyn-dt", "inf", "--exudyn-dt inf: must be a finite number > 0"),
-    ("--t-end", "0", "--t-end 0.0: must be a finite number > 0"),
-    ("--refine", "0", "--refine 0: the element counts' multiplier must be a whole number ≥ 1"),
-    ("--refine", "-2", "--refine -2: the element counts' multiplier must be a whole number ≥ 1"),
-])
-def test_crosscheck_options_are_validated_in_one_line(tmp_path, capsys, option, value, words):
-    assert main(["crosscheck", str(MODELS / "three_bar.toml"), option, value, "--out", str(tmp_path / "cc")]) == 2
-    assert words in one_line(capsys)
-    assert not (tmp_path / "cc").exists()
-
-
 def test_refine_that_no_table_judges_lists_the_deck_refines_before_any_solve(tmp_path, capsys):
     """three_bar's [crosscheck] tables judge the runs at refine 1 and 8: --refine 7 would judge
     nothing (it used to print no verdict and exit 0)."""
