@@ -34,6 +34,7 @@ from reference.interactions import (
 )
 from reference.io.results import Results
 from reference.joints import Jacobian, Joint, joint_frame, setup
+from reference.monitor import damping_problem
 from reference.mesh import arc_geometry, beam_triad, section_frames, straight_line
 from reference.nodes import Node
 from reference.rotation import EulerParameters
@@ -478,5 +479,8 @@ class Domain:
             raise ValueError(f"t_end = {t_end} is not a whole number of steps of dt = {algo.dt}")
         self.last_run = {"path": None, "status": "not started", "t": 0.0}
         model = self.initialization()
+        problem = damping_problem(model.damping, algo.dt, self.critical_time_step()) if algo.explicit else ""
+        if problem:
+            raise ValueError(f"solver damping: {problem}")
         state = self.initial_conditions()
         return run(self, algo, model, state, n_total, results_path, progress, monitor)

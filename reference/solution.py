@@ -137,7 +137,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     scratch, rec = Scratch.for_model(model), Record.empty(len(domain.nodes), model.n_constraints)
     outputs = Outputs(model, domain.joints, rec)
     watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True)) if monitor else None
-    scratch.guard[2] = GUARD_TOLERANCE if monitor else 0.0
+    scratch.guard[1:3] = (watch.floor, GUARD_TOLERANCE) if monitor else (0.0, 0.0)
     if results_path is not None:
         from reference.io.results import ResultsWriter
 

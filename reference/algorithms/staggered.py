@@ -43,7 +43,7 @@ from reference.joints.assembly import (
     SINGULAR, assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
 )
 from reference.joints.master_slave import master_slave_positions, master_slave_project
-from reference.monitor import likely_cause
+from reference.monitor import damping_dissipation, likely_cause
 from reference.state import Model, Record, Scratch, State
 
 _cayley_update = inlined(rm.cayley_update)
@@ -215,7 +215,7 @@ def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
     E = T + U
     if not mean:  # the first step: E₀ only
         guard[0] = E
-        guard[1] = abs(E)
+        guard[1] = max(guard[1], abs(E))  # S starts at the round-off floor (monitor.energy_floor)
         return False
     guard[1] = max(guard[1], abs(guard[0]) + abs(clock[2]) + abs(clock[3]))
     r = E - guard[0] - clock[2] + clock[3]
@@ -269,15 +269,6 @@ def advance(model, state, h, n_steps, record, rec, scratch):
                 for a in range(3):
                     dW += 0.5 * (f_prev[i, a] + F[i, a]) * v[i, a] + 0.5 * (f_prev[i, 3 + a] + F[i, 3 + a]) * w[i, a]
             clock[2] += h * dW
-            if c != 0.0:
-                dD = 0.0
-                mass, J, free = model.mass, model.inertia, model.free
-                for i in range(N):
-                    for a in range(3):
-                        dD += mass[i] * v[i, a] * v[i, a] * free[i, a]
-                        for b in range(3):
-                            dD += w[i, a] * J[i, a, b] * w[i, b] * free[i, 3 + a]
-                clock[3] += h * c * dD
         hk = h if n > 0 else 0.5 * h
         # a node outside every joint keeps its predicted velocity through the constrained passes
         # below, which would only add gyroscopic sweeps to it: it gets all of them at once
@@ -301,12 +292,12 @@ def advance(model, state, h, n_steps, record, rec, scratch):
                 if n_ms > 0:
                     master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
                                          scratch.TMT, scratch.rhs)
-        dD_fe = 0.0
+        # energy removed by the damping (mass-proportional and the force elements' dampers) in this
+        # kick: force at V^{n−½} times the mean velocity; t_n (integer-step velocities) gets half
+        dD_fe = hk * c * damping_dissipation(model, v, w, v_new, w_new) if c != 0.0 else 0.0
         if n_fe > 0:
-            # energy removed by the force elements' dampers in this kick: force at V^{n−½} times the
-            # mean velocity; the record at t_n (integer-step velocities, half of this kick) gets half
-            dD_fe = hk * force_element_dissipation(model, x, q, v, w, v_new, w_new, scratch.prim_phi,
-                                                   scratch.prim_B)
+            dD_fe += hk * force_element_dissipation(model, x, q, v, w, v_new, w_new, scratch.prim_phi,
+                                                    scratch.prim_B)
         if record and k == 0:
             for i in range(N):
                 for a in range(3):
@@ -337,11 +328,11 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
             P_drive = constraint_power(model, Bj, lam, v, w, v_new, w_new)
             clock[2] += hk * P_drive
-        if n_fe > 0:
-            clock[3] += dD_fe
+        clock[3] += 0.5 * dD_fe
         if scratch.guard[2] > 0.0 and _balance(model, v, w, v_new, w_new, F, h, P_drive, n > 0, U, clock,
                                                scratch.guard):
             return BLOWUP
+        clock[3] += 0.5 * dD_fe
         total = 0.0  # non-finite if any velocity is (or overflows: diverged too)
         for i in range(N):
             for a in range(3):
@@ -402,7 +393,7 @@ class StaggeredCentralDifference(Algorithm):
         what = "the energy balance failed" if code == BLOWUP else "the solution became non-finite"
         return (f"diverged after t = {t_last:.6g}",
                 f"{what} after t = {t_last:.6g}: {likely_cause(self.dt, domain.critical_time_step())}; "
-                "results up to that time are kept")
+                "results up to then kept")
 
     def advance(self, model: Model, state: State, n_steps: int, record: Record | None, scratch: Scratch) -> int:
         rec = record if record is not None else Record.empty(state.x.shape[0], model.n_constraints)

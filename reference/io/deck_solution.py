@@ -17,7 +17,7 @@ import math
 from reference.algorithms import ALGORITHMS, SolverSettings
 from reference.domain import Domain
 from reference.io.deck_reader import Reader, show
-from reference.monitor import SAFETY
+from reference.monitor import SAFETY, damping_problem
 from reference.observables import ObservableError
 from reference.observables import parse as parse_observable
 
@@ -78,6 +78,9 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
                       if t_end / (SUGGEST * crit) <= max_steps else
                       f"a stable step needs {t_end / (SUGGEST * crit):.3g} steps, above the limit of {max_steps:.3g}: "
                       "check the units of the section data, or raise solver.max_steps")
+    damping = damping_problem(domain.solver.damping, dt, crit, SAFETY) if algo_cls.explicit and not unsafe else ""
+    if damping:
+        raise rd.fail("solver.damping", damping)
     steps = t_end / dt
     if not steps <= max_steps:
         raise rd.fail(t_entry if "t_end" in overrides else dt_entry if "dt" in overrides else "solver",
