@@ -8,6 +8,7 @@ import os
 import signal
 import sys
 import time
+import warnings
 from pathlib import Path
 
 from flexmbs import __version__
@@ -228,6 +229,9 @@ def main(argv=None) -> int:
         args = parser().parse_args(argv)
         from reference.domain import SolverDiverged
         from reference.io.deck import DeckError
+        from reference.validation import show_warning
+
+        warnings.showwarning = show_warning  # a model's warning is one line (reference/validation.py)
 
         try:
             from reference.jit import threads

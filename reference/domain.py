@@ -35,6 +35,7 @@ from reference.interactions import (
 from reference.io.results import Results
 from reference.joints import Jacobian, Joint, joint_frame, setup
 from reference.monitor import damping_problem
+from reference.validation import joint_offsets, vector
 from reference.mesh import arc_geometry, beam_triad, section_frames, straight_line
 from reference.nodes import Node
 from reference.rotation import EulerParameters
@@ -230,6 +231,8 @@ class Domain:
             if reference is None:
                 raise ValueError("a universal joint needs the pin of body j as `reference`")
             u3 = np.cross(axis, reference)
+            if not np.linalg.norm(u3) > 1e-9 * np.linalg.norm(axis) * np.linalg.norm(reference):
+                raise ValueError("the reference direction of a joint frame is parallel to its axis")
             frame = joint_frame(u3, axis)
         frame = joint_frame(axis, reference) if frame is None else np.asarray(frame, dtype=float)
         joint = Joint(kind, None if body_i is None else self.node(body_i), None if body_j is None else self.node(body_j),
@@ -478,6 +481,7 @@ class Domain:
         if n_total < 1 or abs(n_total * algo.dt - t_end) > 1e-9 * max(t_end, 1.0):
             raise ValueError(f"t_end = {t_end} is not a whole number of steps of dt = {algo.dt}")
         self.last_run = {"path": None, "status": "not started", "t": 0.0}
+        joint_offsets(self)
         model = self.initialization()
         problem = damping_problem(model.damping, algo.dt, self.critical_time_step()) if algo.explicit else ""
         if problem:

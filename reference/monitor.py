@@ -181,6 +181,35 @@ def likely_cause(dt: float, critical: float, explicit: bool = True) -> str:
             + "; check their size and units, ramp them in, or reduce dt")
 
 
+def nonfinite_load(domain, times) -> str:
+    """``"the load on node … is not finite at t = …"`` (or of a drive, or gravity) for the first of
+    ``times`` where a load's or a drive's time function, or a load vector, is not finite, else ``""``:
+    what a failed run reports instead of a singular matrix or a non-finite state (a formula such as
+    ``1/t`` or ``log(t - 1)`` outside its domain)."""
+    from reference.interactions import Gravity, LineLoad, NodalLoad
+
+    for t in times:
+        with np.errstate(all="ignore"):
+            for load in domain.loading:
+                if isinstance(load, Gravity):
+                    if not np.all(np.isfinite(load.g)):
+                        return f"the gravity is not finite ({load.g.tolist()})"
+                    continue
+                f = load.time_function(t)
+                vec = load.vector if isinstance(load, NodalLoad) else np.concatenate(
+                    [load.force_per_length, load.moment_per_length]) if isinstance(load, LineLoad) else np.zeros(1)
+                if not (math.isfinite(f) and np.all(np.isfinite(f * np.asarray(vec, dtype=float)))):
+                    node = load.node if isinstance(load, NodalLoad) else load.nodes[0]
+                    return (f"the load on {'node' if isinstance(load, NodalLoad) else 'the beam at'} {node.label!r} "
+                            f"is not finite at t = {t:.6g} (its time function gives {f:g})")
+            for joint in domain.joints:
+                if joint.kind.endswith("_drive"):
+                    f = joint.time_function(t)
+                    if not math.isfinite(f):
+                        return f"the drive {joint.label!r} is not finite at t = {t:.6g} (its time function gives {f:g})"
+    return ""
+
+
 def energy_floor(model, x: np.ndarray) -> float:
     """The round-off floor of the energy scale [J]: ε (the machine epsilon) times the model's
     characteristic energy E_c — a unit strain and curvature in every element and spring, gravity

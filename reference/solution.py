@@ -26,7 +26,7 @@ from reference.jit import inlined, kernel
 from reference.joints import MasterSlave
 from reference.joints.reactions import joint_reactions
 from reference.joints.reactions import scratch as reaction_scratch
-from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor
+from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, nonfinite_load
 from reference.state import Model, Record, Scratch, State
 
 
@@ -161,6 +161,9 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
                 raise SolverDiverged(f"{why} (stopped at t = {t_record:.6g}); results up to then are kept")
             if code != OK:
                 status, message = algo.failure(code, state.t, domain)
+                load = nonfinite_load(domain, (t_record, state.t, state.t + algo.dt))
+                if load:
+                    status, message = f"failed: {load}", f"{load}; give a load finite over the run (results up to then are kept)"
                 if watch is not None:
                     message += watch.guard_report(scratch.guard, state.clock[2])
                 raise SolverDiverged(message)

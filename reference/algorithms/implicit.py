@@ -48,6 +48,7 @@ Values are written by :func:`tangent_values` block by block in the order that
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 
@@ -405,6 +406,11 @@ OK, DIVERGED, SINGULAR, NO_CONVERGENCE = 0, 1, 2, 3
 """Status codes of the implicit algorithms' ``advance`` (OK, DIVERGED and SINGULAR as in the explicit scheme)."""
 
 
+HISTORY_STEPS = 100
+"""Newton residual histories kept (:attr:`ImplicitAlgorithm.history`, the last load steps'): a
+static run of many steps keeps a bounded ~20 kB, not ~200 B a step."""
+
+
 class ImplicitAlgorithm(Algorithm):
     """Base of the Newton-based algorithms: settings, the Newton system, records, failure messages.
 
@@ -432,7 +438,7 @@ class ImplicitAlgorithm(Algorithm):
         self.tolerance = float(tolerance)
         self.max_iterations = int(max_iterations)
         self._model = None
-        self.history: list[list[float]] = []
+        self.history: deque[list[float]] = deque(maxlen=HISTORY_STEPS)
         self.stopped_at: float | None = None
 
     @staticmethod
