@@ -35,7 +35,7 @@ from reference.interactions import (
 from reference.io.results import Results
 from reference.joints import Jacobian, Joint, joint_frame, setup
 from reference.monitor import damping_problem
-from reference.validation import joint_offsets, vector
+from reference.validation import direction, joint_offsets, vector
 from reference.mesh import arc_geometry, beam_triad, section_frames, straight_line
 from reference.nodes import Node
 from reference.rotation import EulerParameters
@@ -97,6 +97,7 @@ class Domain:
         label = label if label is not None else f"node:{node_id}"
         if label in self._labels:
             raise ValueError(f"a node labelled {label!r} already exists")
+        position = vector(position, f"node {label!r}: position")
         node = Node(node_id, label, position,
                     np.array([1.0, 0, 0, 0]) if rotation is None else rotation, velocity, angular_velocity,
                     frame_given=rotation is not None)
@@ -227,6 +228,9 @@ class Domain:
         joint ``axis`` is the pin on body i (u1) and ``reference`` the pin on body j (u2).
         Drives take a ``time_function`` (θ(t) or s(t), or their rates with ``mode="velocity"``).
         """
+        what = f"joint {label or kind!r}"
+        point, axis = vector(point, f"{what}: point"), direction(axis, f"{what}: axis")
+        reference = None if reference is None else direction(reference, f"{what}: reference")
         if frame is None and kind == "universal":
             if reference is None:
                 raise ValueError("a universal joint needs the pin of body j as `reference`")

@@ -218,3 +218,21 @@ def test_a_static_run_keeps_a_bounded_newton_history(tmp_path):
     d.algorithm = lambda dt=None: algo
     assert d.solve().status == "completed"
     assert len(algo.history) == HISTORY_STEPS == 100 and all(len(h) >= 1 for h in algo.history)
+
+
+def test_the_api_refuses_what_the_deck_refuses(tmp_path):
+    """One wording for both (reference/validation.py): a zero joint axis, a position that is no vector."""
+    from reference.domain import Domain
+    from reference.validation import ZERO_DIRECTION
+
+    d = Domain()
+    node = d.add_node([0.0, 0.0, 0.0], label="n")
+    with pytest.raises(ValueError, match=r"^joint 'pin': axis: a direction cannot be the zero vector; give a non-zero"):
+        d.add_joint("revolute", node, None, [0.0, 0.0, 0.0], axis=[0.0, 0.0, 0.0], label="pin")
+    with pytest.raises(ValueError, match=r"^node 'm': position: expected a vector of 3 finite numbers, got 1\.0$"):
+        d.add_node(1.0, label="m")
+    path = write(tmp_path, EXAMPLE.replace("[solver]", '[[joints]]\nkind = "revolute"\nbody_i = "b:end"\n'
+                                          'point = [1.0, 0.0, 0.0]\naxis = [0.0, 0.0, 0.0]\n[solver]'))
+    with pytest.raises(DeckError) as info:
+        load_deck(path)
+    assert str(info.value) == f"{path}: joints[0].axis: {ZERO_DIRECTION[0]}; {ZERO_DIRECTION[1]}"

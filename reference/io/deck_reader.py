@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from reference.validation import ZERO_DIRECTION
+
 
 class DeckError(ValueError):
     """A deck that cannot be run; the message names the file, the entry and the fix."""
@@ -149,7 +151,7 @@ class Reader:
         """A non-zero 3-vector (a joint axis, a section axis)."""
         vec = self.vector(value, entry)
         if not math.hypot(*vec) > 0.0:
-            raise self.fail(entry, "a direction cannot be the zero vector", "give a non-zero direction, e.g. [0, 0, 1]")
+            raise self.fail(entry, *ZERO_DIRECTION)
         return vec
 
     def rotation(self, value, entry: str) -> np.ndarray:
