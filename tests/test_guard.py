@@ -73,22 +73,21 @@ axis2 = [0.0, 0.0, 1.0]"""
 
 STRAIGHT = ARC.replace("end = [100.0, 100.0, 0.0]\ncenter = [0.0, 100.0, 0.0]", "end = [100.0, 0.0, 0.0]")
 
-JOINTED = """[[beams]]
+TAIL = """elements = {half}
+section = "square"
+axis2 = [0.0, 0.0, 1.0]
+"""
+
+HALF = """[[beams]]
 label = "a"
 start = [0.0, 0.0, 0.0]
 end = [50.0, 0.0, 0.0]
-elements = {half}
-section = "square"
-axis2 = [0.0, 0.0, 1.0]
-
+""" + TAIL + """
 [[beams]]
 label = "b"
-start = [50.0, 0.0, 0.0]
-end = [100.0, 0.0, 0.0]
-elements = {half}
-section = "square"
-axis2 = [0.0, 0.0, 1.0]
+"""
 
+JOINTED = HALF + "start = [50.0, 0.0, 0.0]\nend = [100.0, 0.0, 0.0]\n" + TAIL + """
 [[joints]]
 label = "weld"
 kind = "fixed"
@@ -96,21 +95,7 @@ body_i = "b:start"
 body_j = "a:end"
 point = [50.0, 0.0, 0.0]"""
 
-KINKED = """[[beams]]
-label = "a"
-start = [0.0, 0.0, 0.0]
-end = [50.0, 0.0, 0.0]
-elements = {half}
-section = "square"
-axis2 = [0.0, 0.0, 1.0]
-
-[[beams]]
-label = "b"
-start_node = "a:end"
-end = [50.0, 50.0, 0.0]
-elements = {half}
-section = "square"
-axis2 = [0.0, 0.0, 1.0]"""
+KINKED = HALF + 'start_node = "a:end"\nend = [50.0, 50.0, 0.0]\n' + TAIL
 
 EXPLICIT = {"algorithm": "staggered_central_difference", "dt": "3e-4", "t_end": "0.006"}
 IMPLICIT = {"algorithm": "generalized_alpha", "dt": "3e-3", "t_end": "0.06"}
