@@ -35,6 +35,7 @@ import signal
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 
@@ -443,6 +444,10 @@ def main(argv=None) -> int:
     install_signal_handlers()
     try:
         args = parser().parse_args(argv)
+        from reference.validation import show_warning
+
+        warnings.showwarning = show_warning  # a model's warning is one line (reference/validation.py)
+
         try:
             from reference.jit import threads
 

@@ -36,6 +36,8 @@ from reference.interactions import (
 )
 from reference.io.results import Results
 from reference.joints import Jacobian, Joint, joint_frame, setup
+from reference.monitor import damping_problem
+from reference.validation import direction, joint_offsets, vector
 from reference.mesh import arc_geometry, beam_triad, section_frames, straight_line
 from reference.nodes import Node
 from reference.rotation import EulerParameters
@@ -96,6 +98,7 @@ class Domain:
         label = label if label is not None else f"node:{node_id}"
         if label in self._labels:
             raise ValueError(f"a node labelled {label!r} already exists")
+        position = vector(position, f"node {label!r}: position")
         node = Node(node_id, label, position,
                     np.array([1.0, 0, 0, 0]) if rotation is None else rotation, velocity, angular_velocity,
                     frame_given=rotation is not None)
@@ -230,10 +233,15 @@ class Domain:
         joint ``axis`` is the pin on body i (u1) and ``reference`` the pin on body j (u2).
         Drives take a ``time_function`` (θ(t) or s(t), or their rates with ``mode="velocity"``).
         """
+        what = f"joint {label or kind!r}"
+        point, axis = vector(point, f"{what}: point"), direction(axis, f"{what}: axis")
+        reference = None if reference is None else direction(reference, f"{what}: reference")
         if frame is None and kind == "universal":
             if reference is None:
                 raise ValueError("a universal joint needs the pin of body j as `reference`")
             u3 = np.cross(axis, reference)
+            if not np.linalg.norm(u3) > 1e-9 * np.linalg.norm(axis) * np.linalg.norm(reference):
+                raise ValueError("the reference direction of a joint frame is parallel to its axis")
             frame = joint_frame(u3, axis)
         frame = joint_frame(axis, reference) if frame is None else np.asarray(frame, dtype=float)
         joint = Joint(kind, None if body_i is None else self.node(body_i), None if body_j is None else self.node(body_j),
@@ -453,6 +461,10 @@ class Domain:
         if n_total < 1 or abs(n_total * algo.dt - t_end) > 1e-9 * max(t_end, 1.0):
             raise ValueError(f"t_end = {t_end} is not a whole number of steps of dt = {algo.dt}")
         self.last_run = {"path": None, "status": "not started", "t": 0.0}
+        joint_offsets(self)
         model = self.initialization()
+        problem = damping_problem(model.damping, algo.dt, self.critical_time_step()) if algo.explicit else ""
+        if problem:
+            raise ValueError(f"solver damping: {problem}")
         state = self.initial_conditions()
         return run(self, algo, model, state, n_total, results_path, progress, monitor, deck)

@@ -7,6 +7,16 @@ the variable ``t``, the constants ``pi`` and ``E`` or a function of
 :data:`FUNCTIONS`; the parser gets no builtins and no automatic symbols; the
 result must be a real expression whose only free symbol is ``t``.
 
+**Pathological formulas** are refused before sympy evaluates anything (it would compute
+``9**9**9``, an integer of 370 million digits, for minutes): the text is parsed unevaluated
+and :func:`_bounded` walks the tree with an upper bound of log₁₀|value| for every constant
+part.  Refused: a formula over :data:`MAX_CHARS` characters or :data:`MAX_NODES` operations (a
+hand-written time function is a line); a constant exponent above :data:`MAX_EXPONENT` in
+magnitude (``t**1e9`` overflows the double range for t > 1.0000007, ``t**100`` only for
+t > 1200); a constant above 1e300 (the double range ends at 1.8e308); an exponential (``exp``,
+``sinh``, ``cosh``, a power with t in the exponent) of an exponential — ``exp(exp(t))``
+overflows for t > 6.6 and no loading history needs it.
+
 The derivative is ``sympy.diff`` and the integral ``∫_0^t f`` the antiderivative
 ``sympy.integrate`` finds, minus its value at 0 (refused when sympy finds none
 in closed form with the functions below).  Why the three are not emitted as
@@ -46,6 +56,15 @@ FUNCTIONS = ("sin", "cos", "tan", "exp", "log", "sqrt", "sinh", "cosh", "tanh", 
              "sign")
 """The functions a formula may call (``abs`` is read as sympy's ``Abs``)."""
 CONSTANTS = ("pi", "E")
+MAX_CHARS = 500
+"""Longest formula [characters]."""
+MAX_NODES = 200
+"""Most operations, numbers and names in one formula."""
+MAX_EXPONENT = 100.0
+"""Largest magnitude of a constant exponent (module docstring)."""
+MAX_MAGNITUDE = 300.0
+"""Largest log₁₀ of a constant part (the double range ends at 10^308)."""
+GROWING = ("exp", "sinh", "cosh")
 OPERATORS = {"+", "-", "*", "/", "**", "^", "(", ")", ","}
 
 
@@ -151,10 +170,27 @@ def parse(text: str):
                 raise ExpressionError(f"{text!r} is not a formula in t (unexpected {tok.string!r})")
     except (tokenize.TokenError, IndentationError, SyntaxError) as exc:
         raise ExpressionError(f"{text!r} does not parse ({exc.args[0]})") from None
+    if len(text) > MAX_CHARS:
+        raise ExpressionError(f"the formula has {len(text)} characters, above the limit of {MAX_CHARS}; "
+                              "split it into simpler time functions")
     t = _symbol()
     names = {"t": t, "pi": sp.pi, "E": sp.E, "abs": sp.Abs, "sign": sp.sign}
     names.update({f: getattr(sp, f) for f in FUNCTIONS if f not in names})
-    glob = {"__builtins__": {}, "Integer": sp.Integer, "Float": sp.Float, "Rational": sp.Rational}
+    glob = {"__builtins__": {}, "Integer": sp.Integer, "Float": sp.Float, "Rational": sp.Rational,
+            "Add": sp.Add, "Mul": sp.Mul, "Pow": sp.Pow}
+    short = text if len(text) <= 60 else text[:59] + "…"
+    try:
+        raw = parse_expr(text, local_dict=names, global_dict=glob, transformations=(auto_number, convert_xor),
+                         evaluate=False)
+    except Exception as exc:  # sympy reports malformed input with several exception types
+        raise ExpressionError(f"{short!r} does not parse ({type(exc).__name__}: {str(exc)[:80]})") from None
+    if isinstance(raw, sp.Basic):
+        if sum(1 for _ in sp.preorder_traversal(raw)) > MAX_NODES:
+            raise ExpressionError(f"{short!r} has more than {MAX_NODES} operations; split it into simpler "
+                                  "time functions")
+        problem = _bounded(raw, t)[1]
+        if problem:
+            raise ExpressionError(f"{short!r}: {problem}")
     try:
         expr = parse_expr(text, local_dict=names, global_dict=glob, transformations=(auto_number, convert_xor))
     except Exception as exc:  # sympy reports malformed input with several exception types
@@ -166,6 +202,68 @@ def parse(text: str):
     if expr.has(sp.I, sp.zoo, sp.nan, sp.oo):
         raise ExpressionError(f"{text!r} is not a finite real formula")
     return expr
+
+
+def _bounded(e, t) -> tuple[float, str]:
+    """``(bound, problem)`` of the unevaluated tree ``e``: an upper bound of log₁₀|value| if ``e``
+    is constant (``-inf`` for 0, ``inf`` if it depends on t), and why the formula is refused
+    (``""`` if it is not; rules in the module docstring)."""
+    import sympy as sp
+
+    if e.has(t):
+        growth = isinstance(e, sp.Function) and type(e).__name__ in GROWING or \
+            isinstance(e, sp.Pow) and e.args[1].has(t)
+        for arg in e.args:
+            if growth and any(isinstance(a, sp.Function) and type(a).__name__ in GROWING or
+                              isinstance(a, sp.Pow) and a.args[1].has(t) for a in sp.preorder_traversal(arg)):
+                return math.inf, "an exponential of an exponential overflows within a few units of t; simplify it"
+        for arg in e.args:
+            problem = _bounded(arg, t)[1]
+            if problem:
+                return math.inf, problem
+        if isinstance(e, sp.Pow) and not e.args[1].has(t):
+            return math.inf, _exponent(e.args[1], t)
+        return math.inf, ""
+    if isinstance(e, sp.Integer):
+        return (-math.inf if e == 0 else (abs(int(e)).bit_length() - 1) * math.log10(2.0)), ""
+    if isinstance(e, sp.Rational):
+        return (abs(e.p).bit_length() - abs(e.q).bit_length() + 1) * math.log10(2.0), ""
+    if isinstance(e, sp.Float):
+        return (-math.inf if e == 0 else float(sp.log(abs(e), 10))), ""
+    bounds = []
+    for arg in e.args:
+        bound, problem = _bounded(arg, t)
+        if problem:
+            return math.inf, problem
+        bounds.append(bound)
+    if isinstance(e, sp.Add):
+        bound = max(bounds) + math.log10(len(bounds))
+    elif isinstance(e, sp.Mul):
+        bound = sum(b for b in bounds if b > -math.inf) if all(b > -math.inf for b in bounds) else -math.inf
+    elif isinstance(e, sp.Pow):
+        problem = _exponent(e.args[1], t)
+        if problem:
+            return math.inf, problem
+        bound = abs(float(sp.N(e.args[1]))) * abs(bounds[0]) if bounds[0] > -math.inf else 0.0
+    elif isinstance(e, sp.Function) and type(e).__name__ in GROWING:
+        bound = bounds[0] if bounds[0] > 2.85 else abs(float(sp.N(e.args[0]))) / math.log(10.0)
+    else:  # pi, E, and the functions that do not grow: at most their argument (or 1)
+        bound = max([0.5] + bounds)
+    if bound > MAX_MAGNITUDE:
+        return math.inf, f"a constant part exceeds 1e{MAX_MAGNITUDE:.0f} (the double range ends at 1.8e308)"
+    return bound, ""
+
+
+def _exponent(e, t) -> str:
+    """Why the constant exponent ``e`` is refused (above :data:`MAX_EXPONENT`), or ``""``."""
+    import sympy as sp
+
+    bound, problem = _bounded(e, t)
+    if problem:
+        return problem
+    if bound > math.log10(MAX_EXPONENT) or abs(float(sp.N(e))) > MAX_EXPONENT:
+        return f"an exponent above {MAX_EXPONENT:g} overflows the double range; use a smaller power"
+    return ""
 
 
 def compile_program(expr) -> tuple[list[float], int]:

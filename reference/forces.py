@@ -191,6 +191,9 @@ class PointToPoint(ForceElement):
                 raise ValueError(f"spring {self.label!r}: the points coincide, so the rest length cannot default "
                                  "to the initial distance; give rest_length > 0")
             self.rest_length = length
+        if length <= 0.0:
+            raise ValueError(f"spring {self.label!r}: the points coincide, so the spring has no direction at "
+                             "t = 0 (its force is undefined); place point_j away from point_i")
         if not self.rest_length > 0.0:
             raise ValueError(f"spring {self.label!r}: rest_length must be positive (a zero-length spring "
                              "has no direction)")

@@ -27,6 +27,7 @@ from reference.expressions import expression_parameters, expression_value
 from reference.jit import kernel
 from reference.rotation import EulerParameters
 from reference.state import Loads, TimeFunctions
+from reference.validation import vector
 
 CONSTANT, RAMP, STEP, PIECEWISE_LINEAR, SINE, SMOOTH_STEP, EXPRESSION = range(7)
 
@@ -343,6 +344,12 @@ class NodalLoad(Interaction):
     time_function: TimeFunction = field(default_factory=Constant)
     point: np.ndarray | None = None
 
+    def __post_init__(self):
+        label = getattr(self.node, "label", self.node)
+        self.vector = vector(self.vector, f"load on {label!r}", fix="give the force or moment as [x, y, z]")
+        if self.point is not None:
+            self.point = vector(self.point, f"load on {label!r}: point")
+
     @property
     def code(self) -> int:
         """0 dead force, 1 follower force, 2 dead moment, 3 follower moment."""
@@ -378,6 +385,10 @@ class LineLoad(Interaction):
     follower: bool = False
     time_function: TimeFunction = field(default_factory=Constant)
 
+    def __post_init__(self):
+        self.force_per_length = vector(self.force_per_length, "line load force_per_length")
+        self.moment_per_length = vector(self.moment_per_length, "line load moment_per_length")
+
     def nodal_loads(self) -> list[NodalLoad]:
         """The equivalent nodal loads (half of each element's share to each of its nodes)."""
         share = [0.0] * len(self.nodes)
@@ -399,6 +410,9 @@ class Gravity(Interaction):
     """Uniform gravitational acceleration [m/s²] acting on every nodal mass."""
 
     g: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+
+    def __post_init__(self):
+        self.g = vector(self.g, "Gravity g [m/s²]", fix="give a vector, e.g. Gravity([0.0, 0.0, -9.81])")
 
 
 class TimeFunctionTable:

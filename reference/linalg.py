@@ -15,6 +15,15 @@ systems — chooses the ordering and the pivots once, the fill pattern follows
 from the structure, and later matrices are refactored in compiled code with
 the same permutations).  Compiled loops solve with the factors through
 :func:`lu_solve`.
+
+**Singularity** is judged on the equilibrated matrix (:func:`equilibrate`): with rows and
+then columns scaled to a largest entry of 1 (the scaling of LAPACK's ``dgeequ``; Higham 2002,
+*Accuracy and Stability of Numerical Algorithms*, §9.8), the pivots of the same factorisation are
+the raw pivots times their row and column scales, and the matrix is called singular when the
+smallest of those is below :data:`SINGULAR_PIVOT` of the largest.  A test on the raw pivots
+does not scale with the model: the Newton matrix of a steel mechanism holds stiffnesses of
+1e8 N/m beside constraint rows of 1, and its raw pivots spread over 1e-15 although it is
+regular (condition about 1e10 after scaling).
 """
 
 from __future__ import annotations
@@ -28,8 +37,17 @@ import scipy.sparse.linalg as spla
 from reference.jit import kernel
 
 
+SINGULAR_PIVOT = 1e-14
+"""Smallest equilibrated pivot, relative to the largest, of a matrix taken as regular.  After
+equilibration a regular matrix of condition κ has pivots down to about 1/κ of the largest; a
+pivot of 1e-14 (≈ 50 machine epsilons) means κ ≳ 1e14, where a Newton correction has no
+correct digit left, and the round-off pivot of an exactly singular matrix is of order ε."""
+SINGULAR_MESSAGE = (f"pivot below {SINGULAR_PIVOT:g} of the largest after equilibration "
+                    "(the matrix is numerically singular)")
+
+
 class SingularMatrix(ArithmeticError):
-    """The factorisation met an exactly singular matrix."""
+    """The factorisation met a singular matrix (see :data:`SINGULAR_PIVOT`)."""
 
 
 class BlockPattern:
@@ -81,13 +99,33 @@ def factorize(matrix: sps.csc_matrix):
         lu = spla.splu(matrix, permc_spec="COLAMD")
     except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
         raise SingularMatrix(str(exc)) from None
-    diag = lu.U.diagonal()
-    if not np.all(np.isfinite(diag)):
+    if not np.all(np.isfinite(lu.U.diagonal())):
         raise SingularMatrix("non-finite pivot")
-    big = np.max(np.abs(diag)) if diag.size else 0.0
-    if diag.size and np.min(np.abs(diag)) <= 1e-14 * big:
-        raise SingularMatrix("pivot below 1e-14 of the largest (the matrix is numerically singular)")
     return lu
+
+
+@kernel
+def equilibrate(Ap, Ai, Ax, perm_r, inv_perm_c, rs, cs):
+    """Row scales ``rs`` and column scales ``cs`` (n,) of the factored matrix ``Pr A Pc`` (CSC ``A``,
+    the permutations of :class:`SparseLU`), in factored order: ``rs`` makes every row's largest
+    entry 1, then ``cs`` every column's of the row-scaled matrix (an empty row or column keeps 1).
+    The pivot ``u_jj`` of ``Pr A Pc = L U`` is that of the scaled matrix divided by
+    ``rs[j] cs[j]`` (the diagonal scalings commute with the triangular factors)."""
+    n = Ap.shape[0] - 1
+    for r in range(n):
+        rs[r] = 0.0
+    for k in range(n):
+        for p in range(Ap[k], Ap[k + 1]):
+            r = perm_r[Ai[p]]
+            rs[r] = max(rs[r], abs(Ax[p]))
+    for r in range(n):
+        rs[r] = 1.0 / rs[r] if rs[r] > 0.0 else 1.0
+    for j in range(n):
+        k = inv_perm_c[j]
+        big = 0.0
+        for p in range(Ap[k], Ap[k + 1]):
+            big = max(big, abs(Ax[p]) * rs[perm_r[Ai[p]]])
+        cs[j] = 1.0 / big if big > 0.0 else 1.0
 
 
 @kernel
@@ -127,17 +165,19 @@ def lu_solve(f, b, work, x):
 
 
 @kernel
-def refactor(f, Ap, Ai, Ax, inv_perm_c, w, threshold):
+def refactor(f, Ap, Ai, Ax, inv_perm_c, w, threshold, rs, cs):
     """Numeric LU of a matrix with the pattern, row pivots and column order of the factor ``f``.
 
     Left-looking, column by column, on the fill pattern SuperLU found (the factor's L and U
     receive the result; ``w`` (n,) is zero on entry and on exit).  Returns 0; 1 when a pivot
     falls below ``threshold`` times the largest candidate of its column (the kept pivot
-    order is no longer safe: factor afresh); 2 when the smallest pivot is below 1e-14 of the
+    order is no longer safe: factor afresh); 2 when the smallest equilibrated pivot (scales
+    ``rs``, ``cs`` of :func:`equilibrate`, written here) is below :data:`SINGULAR_PIVOT` of the
     largest (singular).
     """
     Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c = f
     n = Ap.shape[0] - 1
+    equilibrate(Ap, Ai, Ax, perm_r, inv_perm_c, rs, cs)
     dmin, dmax = math.inf, 0.0
     for j in range(n):
         k = inv_perm_c[j]
@@ -168,8 +208,9 @@ def refactor(f, Ap, Ai, Ax, inv_perm_c, w, threshold):
             for r in range(n):
                 w[r] = 0.0
             return 1
-        dmin = min(dmin, abs(pivot))
-        dmax = max(dmax, abs(pivot))
+        scaled = abs(pivot) * rs[j] * cs[j]
+        dmin = min(dmin, scaled)
+        dmax = max(dmax, scaled)
         for p in range(Up[j], Up[j + 1]):
             if Ui[p] == j:
                 Ux[p] = pivot
@@ -182,7 +223,7 @@ def refactor(f, Ap, Ai, Ax, inv_perm_c, w, threshold):
                 Lx[s] = w[r] / pivot
             w[r] = 0.0
         w[j] = 0.0
-    if n > 0 and not dmin > 1e-14 * dmax:
+    if n > 0 and not dmin > SINGULAR_PIVOT * dmax:
         return 2
     return 0
 
@@ -245,6 +286,7 @@ class SparseLU:
         self.f = None
         self.w = np.zeros(n)
         self.work = np.zeros(n)
+        self.rs, self.cs = np.zeros(n), np.zeros(n)
         self.refactored = 0
         self.fresh = 0
 
@@ -252,12 +294,12 @@ class SparseLU:
         """Factor ``matrix``; raises :class:`SingularMatrix`."""
         if self.f is not None:
             code = refactor(self.f, matrix.indptr, matrix.indices, matrix.data, self.inv_perm_c, self.w,
-                            self.PIVOT_THRESHOLD)
+                            self.PIVOT_THRESHOLD, self.rs, self.cs)
             if code == 0:
                 self.refactored += 1
                 return self.f
             if code == 2:
-                raise SingularMatrix("pivot below 1e-14 of the largest (the matrix is numerically singular)")
+                raise SingularMatrix(SINGULAR_MESSAGE)
         # SuperLU chooses the ordering and the pivots on the actual values; the fill pattern for
         # those permutations is then made from the structure (entries that happen to be zero now
         # may not be later), and the factor computed on it
@@ -275,10 +317,11 @@ class SparseLU:
             cap *= 2
         self.f = (Lp, Li[:nl].copy(), np.zeros(nl), Up, Ui[:nu].copy(), np.zeros(nu), perm_r, perm_c)
         self.fresh += 1
-        code = refactor(self.f, matrix.indptr, matrix.indices, matrix.data, self.inv_perm_c, self.w, 0.0)
+        code = refactor(self.f, matrix.indptr, matrix.indices, matrix.data, self.inv_perm_c, self.w, 0.0,
+                        self.rs, self.cs)
         if code == 2:
             self.f = None
-            raise SingularMatrix("pivot below 1e-14 of the largest (the matrix is numerically singular)")
+            raise SingularMatrix(SINGULAR_MESSAGE)
         return self.f
 
     def solve(self, b: np.ndarray) -> np.ndarray:

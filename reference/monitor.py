@@ -15,8 +15,8 @@ step of central differences) while every number stays finite, and the run would
   external and driving forces and D the energy dissipated by damping (all from the
   algorithm's own bookkeeping, :class:`~reference.state.Record`),
   ``E − E₀ − W + D > TOLERANCE × S``, where the energy scale S is the largest
-  ``|E₀| + |W| + D`` seen so far (the energy that has entered the model): energy that
-  appeared from nowhere.  A stable run keeps this residual at the integration error
+  ``|E₀| + |W| + D`` seen so far (the energy that has entered the model), and never below
+  the **round-off floor** of :func:`energy_floor`: energy that appeared from nowhere.  A stable run keeps this residual at the integration error
   (|residual| below 0.05 S on the shipped models), a blow-up makes it grow
   geometrically.  The check is one-sided: energy lost (the Park–Chiou stabilisation
   of the constraints dissipates) is no blow-up.  The per-step check adds an
@@ -28,6 +28,33 @@ step of central differences) while every number stays finite, and the run would
 The message names the likely cause: the time step, when it is above
 ``SAFETY × the critical estimate`` (the deck reader keeps decks below that,
 :func:`reference.io.deck_solution.read_solver`), else the loads (the deformation they produce, or the energy they put in).
+
+**The round-off floor.**  Without a floor the scale S of a model at rest, or at the start of a
+load ramped in from zero, is itself round-off, and the ratio of two round-off numbers trips the
+guard (issue 23: an unloaded quarter arc, kinetic + strain energy 2.7e-24 against 3.5e-27 of
+work).  A model at rest is not at rest in floating point: its coordinates carry a round-off of
+ε|x| (ε = 2.2e-16), so its elements start with strains of order ε X / L_e (X the largest
+coordinate, L_e the element length) whose forces do not balance exactly, and the structure
+answers those round-off loads through its compliance — unbounded by any fixed number of ulps:
+the unloaded, undamped 16-element quarter arc of R = 100 (EA = 1e7, ten thousand steps of
+3e-4 s) grows from 1e-22 J to 2e-19 J, the 64-element one to 3e-17 J (measured).  The floor is therefore ε times a characteristic energy of the model (the energies
+it sums are of that size, so their round-off is), :func:`energy_floor`:
+``E_c = ½ Σ_e [(EA + GA₂ + GA₃) L_e + (GJ + EI₂ + EI₃) / L_e]`` (the strain energy of a unit
+strain and a unit curvature × L_e in every element) ``+ ½ Σ k X²`` (translational springs)
+``+ ½ Σ k`` (rotational, 1 rad) ``+ |g| X Σ m`` (gravity across the model): the energy of a strain
+of √ε ≈ 1.5e-8.  For the arc, ε E_c = 3.5e-7 J, ten orders above the round-off it holds and
+fifty times below the 1.7e-5 J its 0.01 tip load has put in at the end of its 10 s ramp; a blow-up, growing geometrically, passes it
+within a few dozen steps.
+
+**Mass-proportional damping** (force −c m v, moment −c J ω, at the old half-step velocity
+V^{n−½}): the kick multiplies a free velocity by 1 − c h, and with a stiffness of frequency ω
+the step's characteristic polynomial is ``λ² − (2 − c h − h²ω²) λ + (1 − c h)``, whose roots
+stay in the unit circle (Jury's test) for ``0 ≤ c h < 2 − (h ω)² / 2``; with the critical step
+``h_c = 2 / ω_max`` of the undamped scheme, ``c h < 2 (1 − (h / h_c)²)`` (:func:`damping_limit`).
+The energy the damping removes in a kick is its force times the mean of the two half-step
+velocities, ``h c m V^{n−½}·½(V^{n−½} + V^{n+½})`` (:func:`damping_dissipation`), the first
+half kick included: the product with ``V^{n−½}`` alone overcounts a kick by ``1 / (1 − c h / 2)``,
+fourfold at c h = 1.5 (a free decay at c h = 1.5 now books its loss to 1.2e-7; before, 0.26 of it).
 """
 
 from __future__ import annotations
@@ -36,7 +63,7 @@ import math
 
 import numpy as np
 
-from reference.jit import kernel
+from reference.jit import inlined, kernel
 
 TOLERANCE = 0.5
 """Energy-balance residual, as a fraction of the energy scale, that stops a run."""
@@ -77,8 +104,10 @@ class BlowUpMonitor:
         self.dt, self.explicit = dt, explicit
         self.critical = domain.critical_time_step()
         self.labels = [e.label for e in domain.elements]
+        self.floor = energy_floor(model, np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3))
+        """The round-off floor of the energy scale [J] (:func:`energy_floor`)."""
         self.E0 = None
-        self.scale = 0.0
+        self.scale = self.floor
         self.worst = 0.0
         self.peak_energy = 0.0
 
@@ -115,8 +144,7 @@ class BlowUpMonitor:
         E0, S, tol, r, E = guard
         if not (tol > 0.0 and r > tol * S):  # the guard stopped the run (its lag allowance only adds)
             return ""
-        return (f" (kinetic + strain energy {E:.3g} against {work:.3g} of work done, residual "
-                f"{r / max(S, 1e-300):.2g} × the energy put in)")
+        return f" (energy {E:.3g} J, work {work:.3g} J)"
 
     def stretch(self, x: np.ndarray) -> str | None:
         if not len(self.L0) or not _stretched(x, self.conn, self.L0, MAX_STRETCH):
@@ -149,12 +177,106 @@ def _stretched(x, conn, L0, limit):
 
 
 def likely_cause(dt: float, critical: float, explicit: bool = True) -> str:
-    """The likely cause of a blow-up, and the fix: the time step when an explicit step is above
-    ``SAFETY ×`` the critical estimate, else the loads."""
+    """The likely cause of a blow-up, and the fix (one short clause): the time step when an explicit
+    step is above ``SAFETY ×`` the critical estimate, else the loads."""
     ratio = dt / critical if critical > 0 else math.inf
     if explicit and ratio > SAFETY:
-        return (f"the run went unstable; likely cause: the time step, dt = {dt:.3g} is {ratio:.3g} × the critical "
-                f"estimate {critical:.3g}; use dt ≤ {0.8 * critical:.3g}")
-    return ("the run went unstable" + (f" with dt = {ratio:.2f} × the critical estimate" if explicit else "")
-            + "; likely cause: the loads (too large for the structure, or not ramped in); check their magnitude "
-            "and units, ramp them in (a time_function), or reduce dt if the deformed model is much stiffer")
+        return f"likely cause: the time step, dt = {ratio:.3g} × the critical {critical:.3g}; use dt ≤ {0.8 * critical:.3g}"
+    return ("likely cause: the loads" + (f" (dt = {ratio:.2f} × critical)" if explicit else "")
+            + "; check their size and units, ramp them in, or reduce dt")
+
+
+def nonfinite_load(domain, times) -> str:
+    """``"the load on node … is not finite at t = …"`` (or of a drive, or gravity) for the first of
+    ``times`` where a load's or a drive's time function, or a load vector, is not finite, else ``""``:
+    what a failed run reports instead of a singular matrix or a non-finite state (a formula such as
+    ``1/t`` or ``log(t - 1)`` outside its domain)."""
+    from reference.interactions import Gravity, LineLoad, NodalLoad
+
+    for t in times:
+        with np.errstate(all="ignore"):
+            for load in domain.loading:
+                if isinstance(load, Gravity):
+                    if not np.all(np.isfinite(load.g)):
+                        return f"the gravity is not finite ({load.g.tolist()})"
+                    continue
+                f = load.time_function(t)
+                vec = load.vector if isinstance(load, NodalLoad) else np.concatenate(
+                    [load.force_per_length, load.moment_per_length]) if isinstance(load, LineLoad) else np.zeros(1)
+                if not (math.isfinite(f) and np.all(np.isfinite(f * np.asarray(vec, dtype=float)))):
+                    node = load.node if isinstance(load, NodalLoad) else load.nodes[0]
+                    return (f"the load on {'node' if isinstance(load, NodalLoad) else 'the beam at'} {node.label!r} "
+                            f"is not finite at t = {t:.6g} (its time function gives {f:g})")
+            for joint in domain.joints:
+                if joint.kind.endswith("_drive"):
+                    f = joint.time_function(t)
+                    if not math.isfinite(f):
+                        return f"the drive {joint.label!r} is not finite at t = {t:.6g} (its time function gives {f:g})"
+    return ""
+
+
+def energy_floor(model, x: np.ndarray) -> float:
+    """The round-off floor of the energy scale [J]: ε (the machine epsilon) times the model's
+    characteristic energy E_c — a unit strain and curvature in every element and spring, gravity
+    across the model (derivation and measurements in the module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        Its element families (each family's ``characteristic_energy``: a unit strain and curvature in
+        every element), force elements, masses and gravity.
+    x : ndarray (N, 3)
+        The node positions [m]; X is their largest magnitude.
+    """
+    from reference.forces import BUSHING, POINT_TO_POINT
+
+    X = float(np.max(np.abs(x))) if x.size else 0.0
+    from reference.elements.families import family_of
+
+    energy = sum(float(family_of(data).characteristic_energy(data)) for data in model.elements)
+    kind, k = np.asarray(model.force_elements.kind), np.abs(np.asarray(model.force_elements.k, dtype=float))
+    if kind.size:
+        translational = (np.where(kind == POINT_TO_POINT, k[:, 0], 0.0)
+                         + np.where(kind == BUSHING, k[:, :3].sum(axis=1), 0.0))
+        energy += 0.5 * float(np.sum(translational)) * X * X + 0.5 * float(np.sum(k) - np.sum(translational))
+    energy += float(np.linalg.norm(model.gravity)) * X * float(np.sum(model.nodes.mass))
+    return float(np.finfo(float).eps) * energy
+
+
+def damping_limit(dt: float, critical: float) -> float:
+    """The largest stable ``c·dt`` of the explicit scheme's mass-proportional damping at the step
+    ``dt``: ``2 (1 − (dt / critical)²)`` (derivation in the module docstring; 2 for a model without
+    stiffness, ``critical = inf``)."""
+    ratio = dt / critical if critical > 0.0 else math.inf
+    return 2.0 * (1.0 - ratio * ratio)
+
+
+def damping_problem(c: float, dt: float, critical: float, margin: float = 1.0) -> str:
+    """Why the damping ``c`` [1/s] makes the explicit step ``dt`` unstable (``c·dt`` above ``margin ×``
+    :func:`damping_limit`), with the fix, or ``""`` (also for a step at or above the critical one,
+    unstable without damping: the time-step checks name that)."""
+    limit = margin * damping_limit(dt, critical)
+    ratio = dt / critical if critical > 0.0 else math.inf
+    if not c > 0.0 or c * dt <= limit or ratio >= 1.0:
+        return ""
+    # the largest dt with c dt = margin · 2 (1 − (dt/critical)²)
+    a = 2.0 * margin / critical**2 if math.isfinite(critical) else 0.0
+    h = (-c + math.sqrt(c * c + 8.0 * margin * a)) / (2.0 * a) if a > 0.0 else 2.0 * margin / c
+    lim = 2.0 * (1.0 - ratio * ratio)
+    return (f"c·dt = {c * dt:.3g} exceeds {'' if margin == 1.0 else f'{margin:g} × '}the explicit scheme's damping "
+            f"limit 2(1 − (dt/dt_crit)²) = {lim:.3g} at dt = {ratio:.2g} × critical; use dt ≤ {0.99 * h:.2g} "
+            f"or damping ≤ {0.99 * max(limit, 0.0) / dt:.3g}")
+
+
+@inlined
+def damping_dissipation(model, v, w, v_new, w_new):
+    """``Σ m V^{n−½}·½(V^{n−½} + V^{n+½}) + ω^{n−½}·J·½(ω^{n−½} + ω^{n+½})`` over the free
+    coordinates: times ``h c`` the energy the mass-proportional damping removes in one kick."""
+    mass, J, free = model.nodes.mass, model.nodes.inertia, model.nodes.free
+    total = 0.0
+    for i in range(v.shape[0]):
+        for a in range(3):
+            total += mass[i] * v[i, a] * 0.5 * (v[i, a] + v_new[i, a]) * free[i, a]
+            for b in range(3):
+                total += w[i, a] * J[i, a, b] * 0.5 * (w[i, b] + w_new[i, b]) * free[i, 3 + a]
+    return total

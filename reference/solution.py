@@ -25,7 +25,7 @@ from reference.io.results import MemoryRecorder, Results
 from reference.jit import inlined, kernel
 from reference.joints.reactions import joint_reactions
 from reference.joints.reactions import scratch as reaction_scratch
-from reference.monitor import BlowUpMonitor
+from reference.monitor import BlowUpMonitor, nonfinite_load
 from reference.state import Model, Record, State, element_work
 from reference.status import OK
 
@@ -134,7 +134,8 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     status = "failed: stopped before the first step"
     wall0 = _time.perf_counter()
     try:
-        run_state = algo.start(model, state, domain.critical_time_step() if algo.explicit else math.inf, monitor)
+        run_state = algo.start(model, state, watch.critical if watch is not None else domain.critical_time_step(),
+                               watch.floor if watch is not None else None)
         domain.last_run["solver"] = run_state
         done = 0
         while True:
@@ -148,6 +149,9 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
                 raise SolverDiverged(f"{why} (stopped at t = {t_record:.6g}); results up to then are kept")
             if code != OK:
                 status, message = algo.failure(code, state, run_state)
+                load = nonfinite_load(domain, (t_record, state.t, state.t + algo.dt))
+                if load:
+                    status, message = f"failed: {load}", f"{load}; give a load finite over the run (results up to then are kept)"
                 raise SolverDiverged(message)
             done += chunk
             if progress is not None and chunk > 0:

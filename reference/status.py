@@ -34,7 +34,7 @@ def explicit_failure(code: int, t_last: float, cause: str) -> tuple[str, str]:
                 "Regularise the joints (epsilon > 0) or remove the redundancy.")
     what = "the energy balance failed" if code == BLOWUP else "the solution became non-finite"
     return (f"diverged after t = {t_last:.6g}",
-            f"{what} after t = {t_last:.6g}: {cause}; results up to that time are kept")
+            f"{what} after t = {t_last:.6g}: {cause}; results up to then kept")
 
 
 def newton_failure(code: int, where: str, max_iterations: int, cut_note: str, fix: str) -> tuple[str, str]:

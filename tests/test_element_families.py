@@ -128,6 +128,10 @@ class Truss(ElementFormulation):
     def work(data):
         return np.zeros(1)
 
+    @staticmethod
+    def characteristic_energy(data):
+        return 0.5 * float(np.sum(data.EA * data.L0))  # a unit strain in every bar
+
 
 if "truss" not in ELEMENT_FAMILIES:
     register(Truss)

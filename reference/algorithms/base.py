@@ -16,13 +16,14 @@ class Algorithm(ABC):
     ``from_settings(settings, dt=None)`` (build from :class:`SolverSettings`, ``dt``
     an override), and:
 
-    - ``start(model, state, critical_step=inf, guard=True) → run``: the algorithm's
+    - ``start(model, state, critical_step=inf, guard=None) → run``: the algorithm's
       run state — everything it carries from one call of ``advance`` to the next
       besides the :class:`~reference.state.State` (work arrays, multipliers,
       accelerations, factors, counters); the algorithm object itself keeps only its
       settings, so a run can be continued or restarted from any (state, run) pair.
       ``critical_step`` [s] is the Domain's estimate (for an explicit scheme's
-      messages), ``guard`` whether the per-step energy guard is on;
+      messages), ``guard`` the round-off floor of the per-step energy guard's scale [J]
+      (:func:`reference.monitor.energy_floor`; None: no per-step guard);
     - ``advance(model, state, run, n_steps, record) → status``: moves the state (and
       the run) forward in place by ``n_steps`` steps and, when ``record`` is given,
       fills it with the output at the starting time; the status is a code of
@@ -45,7 +46,7 @@ class Algorithm(ABC):
     def from_settings(cls, settings, dt=None) -> "Algorithm": ...
 
     @abstractmethod
-    def start(self, model, state, critical_step: float = float("inf"), guard: bool = True): ...
+    def start(self, model, state, critical_step: float = float("inf"), guard: float | None = None): ...
 
     @abstractmethod
     def advance(self, model, state, run, n_steps: int, record) -> int: ...

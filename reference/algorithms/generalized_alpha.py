@@ -132,7 +132,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     def from_settings(cls, settings, dt=None):
         return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or 1e-10, settings.max_iterations or 15)
 
-    def start(self, model, state, critical_step=None, guard=True) -> GeneralizedAlphaRun:
+    def start(self, model, state, critical_step=None, guard=None) -> GeneralizedAlphaRun:
         """A run from ``state``: the Newton system; the initial accelerations are computed by the first
         :meth:`advance`."""
         return GeneralizedAlphaRun(self.newton_system(model), self.length_scale(state.x))

@@ -43,7 +43,7 @@ from reference.joints.assembly import (
     assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
 )
 from reference.joints.master_slave import master_slave_positions, master_slave_project
-from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, likely_cause
+from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, damping_dissipation, likely_cause
 from reference.state import Model, Record, Scratch, State
 from reference.status import BLOWUP, DIVERGED, OK, SINGULAR, explicit_failure
 
@@ -166,7 +166,7 @@ def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
     E = T + U
     if not mean:  # the first step: E₀ only
         guard[0] = E
-        guard[1] = abs(E)
+        guard[1] = max(guard[1], abs(E))  # S starts at the round-off floor (monitor.energy_floor)
         return False
     guard[1] = max(guard[1], abs(guard[0]) + abs(clock[2]) + abs(clock[3]))
     r = E - guard[0] - clock[2] + clock[3]
@@ -177,26 +177,14 @@ def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
 
 
 @inlined
-def _work_and_damping(model, v, w, f_prev, F, h, clock):
+def _external_work(v, w, f_prev, F, h, clock):
     """Bookkeeping of the step into ``t_n``: the trapezoidal work of the external forces over the last
-    increment ``h V^{n−½}`` into ``clock[2]``, the energy dissipated by the damping forces evaluated
-    at ``V^{n−½}`` into ``clock[3]``."""
-    N = v.shape[0]
+    increment ``h V^{n−½}`` into ``clock[2]``."""
     dW = 0.0
-    for i in range(N):
+    for i in range(v.shape[0]):
         for a in range(3):
             dW += 0.5 * (f_prev[i, a] + F[i, a]) * v[i, a] + 0.5 * (f_prev[i, 3 + a] + F[i, 3 + a]) * w[i, a]
     clock[2] += h * dW
-    c = model.damping
-    if c != 0.0:
-        dD = 0.0
-        mass, J, free = model.nodes.mass, model.nodes.inertia, model.nodes.free
-        for i in range(N):
-            for a in range(3):
-                dD += mass[i] * v[i, a] * v[i, a] * free[i, a]
-                for b in range(3):
-                    dD += w[i, a] * J[i, a, b] * w[i, b] * free[i, 3 + a]
-        clock[3] += h * c * dD
 
 
 @inlined
@@ -305,7 +293,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         U, _ = generalized_forces(model, scratch.elements, x, q, v, w, t, S, F, G, state.angle, scratch.A,
                                   scratch.prim_phi, scratch.prim_B)
         if n > 0:
-            _work_and_damping(model, v, w, f_prev, F, h, clock)
+            _external_work(v, w, f_prev, F, h, clock)
         hk = h if n > 0 else 0.5 * h
         # a node outside every joint keeps its predicted velocity through the constrained passes
         # below, which would only add gyroscopic sweeps to it: it gets all of them at once
@@ -314,12 +302,13 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         if (n_rows > 0 or n_ms > 0) and _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows,
                                                     n_ms) != OK:
             return SINGULAR
-        dD_fe = 0.0
+        # energy removed by the damping (mass-proportional and the force elements' dampers) in this
+        # kick: force at V^{n−½} times the mean velocity; t_n (integer-step velocities) gets half
+        c = model.damping
+        dD_fe = hk * c * damping_dissipation(model, v, w, v_new, w_new) if c != 0.0 else 0.0
         if n_fe > 0:
-            # energy removed by the force elements' dampers in this kick: force at V^{n−½} times the
-            # mean velocity; the record at t_n (integer-step velocities, half of this kick) gets half
-            dD_fe = hk * force_element_dissipation(model, x, q, v, w, v_new, w_new, scratch.prim_phi,
-                                                   scratch.prim_B)
+            dD_fe += hk * force_element_dissipation(model, x, q, v, w, v_new, w_new, scratch.prim_phi,
+                                                    scratch.prim_B)
         if record and k == 0:
             _record(model, scratch, rec, x, q, v, w, v_new, w_new, n == 0, U, dD_fe, clock, n_rows)
         if n_steps == 0:
@@ -329,11 +318,11 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
             P_drive = constraint_power(model, scratch.Bj, scratch.lam, v, w, v_new, w_new)
             clock[2] += hk * P_drive
-        if n_fe > 0:
-            clock[3] += dD_fe
+        clock[3] += 0.5 * dD_fe
         if scratch.guard[2] > 0.0 and _balance(model, v, w, v_new, w_new, F, h, P_drive, n > 0, U, clock,
                                                scratch.guard):
             return BLOWUP
+        clock[3] += 0.5 * dD_fe
         if not _drift(model, scratch, x, q, v, w, v_new, w_new, f_prev, F, h, n_ms):
             return DIVERGED
         clock[1] = n + 1
@@ -368,11 +357,12 @@ class StaggeredCentralDifference(Algorithm):
     def from_settings(cls, settings, dt=None):
         return cls(dt or settings.dt)
 
-    def start(self, model, state, critical_step=math.inf, guard=True) -> "ExplicitRun":
-        """The run state: the step's work arrays (:class:`~reference.state.Scratch`, its energy guard on
-        when ``guard``) and the critical step for the messages."""
+    def start(self, model, state, critical_step=math.inf, guard=None) -> "ExplicitRun":
+        """The run state: the step's work arrays (:class:`~reference.state.Scratch`) with the per-step
+        energy guard on when ``guard`` (the energy scale's round-off floor [J],
+        :func:`reference.monitor.energy_floor`) is given, and the critical step for the messages."""
         scratch = Scratch.for_model(model)
-        scratch.guard[2] = GUARD_TOLERANCE if guard else 0.0
+        scratch.guard[1:3] = (guard, GUARD_TOLERANCE) if guard is not None else (0.0, 0.0)
         return ExplicitRun(scratch, float(critical_step))
 
     def failure(self, code, state, run):

@@ -88,7 +88,7 @@ class Static(ImplicitAlgorithm):
         step = dt if dt is not None else settings.t_end / settings.load_steps
         return cls(step, settings.tolerance or 1e-10, settings.max_iterations or 25)
 
-    def start(self, model, state, critical_step=None, guard=True) -> StaticRun:
+    def start(self, model, state, critical_step=None, guard=None) -> StaticRun:
         """A run from ``state`` (its load level ``state.t``): the Newton system and zero multipliers."""
         return StaticRun(self.newton_system(model), np.zeros(model.n_constraints), self.length_scale(state.x))
 

@@ -265,6 +265,13 @@ class Beam2Formulation(ElementFormulation):
         return data
 
     @staticmethod
+    def characteristic_energy(data: Beam2Data) -> float:
+        """The strain energy of a unit strain and curvature in every element [J],
+        ``½ Σ ((EA + GA₂ + GA₃) L0 + (GJ + EI₂ + EI₃)/L0)`` (:func:`reference.monitor.energy_floor`)."""
+        L, stiff = data.L0, data.stiff
+        return 0.5 * float(np.sum(stiff[:, :3].sum(axis=1) * L + stiff[:, 3:].sum(axis=1) / L))
+
+    @staticmethod
     def work(data: Beam2Data) -> np.ndarray:
         """One row of 40 per element (:func:`beam2_element`)."""
         return np.zeros((data.conn.shape[0], 40))

@@ -73,6 +73,8 @@ class ElementFormulation(ABC):
       node numbers and ``index`` (E,) the elements' numbers in the Domain;
     - ``pack(placed)`` → ``Data`` from a list of :class:`PlacedElement`;
     - ``work(data)`` → the family's work array(s) for the compiled calls;
+    - ``characteristic_energy(data)`` → the strain energy of a unit strain (and curvature) in every
+      element [J], the scale of the energy guard's round-off floor (:func:`reference.monitor.energy_floor`);
     - compiled (numba, inlined; ``data, work`` first): ``assemble(data, work, x, q, S) → U``
       adds the internal forces into S (N, 6) and returns the strain energy;
       ``tangent_values(data, work, x, q, psi, ck, values, p, Jr, K) → p`` writes the

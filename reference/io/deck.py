@@ -24,6 +24,7 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -124,7 +125,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
         if "." in key:
             override_value(deck, key, overrides.pop(key), rd)
         elif key not in OVERRIDES:
-            raise DeckError(f"{path}: unknown override {key!r}; valid: {', '.join(sorted(OVERRIDES))} or the "
+            raise DeckError(f"{path}: unknown override {show(key)}; valid: {', '.join(sorted(OVERRIDES))} or the "
                             "dotted name of a deck value, e.g. solver.damping or sections.NAME.EI2")
     refine = rd.integer(overrides.get("refine", 1), "override refine (--refine)", maximum=MAX_ELEMENTS,
                         fix=f"a model has at most {MAX_ELEMENTS} elements")
@@ -193,6 +194,9 @@ class _References:
                     return nodes[int(which)]
                 raise rd.fail(entry, f"beam '{beam}' has no node {show(which)}",
                               f"use '{beam}:start', '{beam}:end' or an index 0…{len(nodes) - 1}")
+        if ref in beams and ref not in domain._labels:  # a bare beam label: which of its nodes?
+            raise rd.fail(entry, f"{show(ref)} is a beam, not a node",
+                          f"use '{ref}:start', '{ref}:end' or an index '{ref}:0'…'{ref}:{len(beams[ref]) - 1}'")
         try:
             return domain.node(ref)
         except KeyError:
@@ -228,14 +232,34 @@ def _meta(rd: Reader, deck: dict) -> tuple[Domain, dict]:
     return Domain(rd.label(meta["name"], "meta.name"), meta.get("description", "")), dict(meta)
 
 
+class RigidBarSection(NamedTuple):
+    """The mass data of a section that only rigid bars use (:meth:`Domain.add_rigid_bar`)."""
+
+    rhoA: float
+    rhoJ1: float
+    rhoJ2: float
+    rhoJ3: float
+
+
 def _sections(rd: Reader, deck: dict) -> dict:
-    """``[sections.NAME]``: name → :class:`~reference.elements.Section`."""
+    """``[sections.NAME]``: name → :class:`~reference.elements.Section`, or a :class:`RigidBarSection`
+    for a section that only ``rigid = true`` beams use (they need only its mass data)."""
+    beams = deck.get("beams", [])
+    beams = [bm for bm in beams if isinstance(bm, dict) and isinstance(bm.get("section"), str)] \
+        if isinstance(beams, list) else []
+    rigid_only = {bm["section"] for bm in beams if bm.get("rigid", False) is True} - \
+        {bm["section"] for bm in beams if bm.get("rigid", False) is not True}
     sections = {}
     for name, sec in rd.tables(deck, "sections").items():
         entry = f"sections.{name}"
-        rd.keys(sec, entry, required=SECTION_KEYS)
-        values = {k: rd.number(sec[k], f"{entry}.{k}", positive=True) for k in SECTION_KEYS}
-        sections[name] = Section(**values)
+        if name not in rigid_only or not isinstance(sec, dict) or set(SECTION_KEYS[:6]) <= set(sec):
+            rd.keys(sec, entry, required=SECTION_KEYS)
+            values = {k: rd.number(sec[k], f"{entry}.{k}", positive=True) for k in SECTION_KEYS}
+            sections[name] = Section(**values)
+        else:
+            rd.keys(sec, entry, required=RigidBarSection._fields, optional=SECTION_KEYS[:6])
+            values = {k: rd.number(sec[k], f"{entry}.{k}", positive=True) for k in SECTION_KEYS if k in sec}
+            sections[name] = RigidBarSection(*(values[k] for k in RigidBarSection._fields))
     return sections
 
 
@@ -293,13 +317,14 @@ def _beams(rd: Reader, deck: dict, domain: Domain, refs: _References, sections: 
     beams = refs.beams
     for i, bm in enumerate(rd.items(deck, "beams")):
         entry = f"beams[{i}]"
-        rd.keys(bm, entry, required=["label", "elements", "section"],
-                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center"])
+        rigid = isinstance(bm, dict) and bm.get("rigid", False) is True  # a rigid bar has no elements
+        rd.keys(bm, entry, required=["label", "section"] if rigid else ["label", "elements", "section"],
+                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center", "elements"])
         label = rd.label(bm["label"], f"{entry}.label")
         if label in beams:
             raise rd.fail(f"{entry}.label", f"duplicate beam label {show(label)}")
         rigid = rd.boolean(bm.get("rigid", False), f"{entry}.rigid")
-        n = rd.integer(bm["elements"], f"{entry}.elements") * (1 if rigid else refine)
+        n = rd.integer(bm.get("elements", 1), f"{entry}.elements") * (1 if rigid else refine)
         if len(domain.elements) + n > MAX_ELEMENTS:
             raise rd.fail(f"{entry}.elements", f"{n} elements" + (f" (× refine {refine})" if refine > 1 else "")
                           + f" would exceed the limit of {MAX_ELEMENTS} elements in a model",

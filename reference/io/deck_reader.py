@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from reference.validation import ZERO_DIRECTION
+
 
 class DeckError(ValueError):
     """A deck that cannot be run; the message names the file, the entry and the fix."""
@@ -149,7 +151,7 @@ class Reader:
         """A non-zero 3-vector (a joint axis, a section axis)."""
         vec = self.vector(value, entry)
         if not math.hypot(*vec) > 0.0:
-            raise self.fail(entry, "a direction cannot be the zero vector", "give a non-zero direction, e.g. [0, 0, 1]")
+            raise self.fail(entry, *ZERO_DIRECTION)
         return vec
 
     def rotation(self, value, entry: str) -> np.ndarray:
@@ -242,7 +244,7 @@ def override_value(deck: dict, key: str, value, rd: Reader) -> None:
     for depth, part in enumerate(parts[:-1]):
         here = ".".join(parts[: depth + 1])
         if isinstance(table, list):
-            if not part.isdigit() or int(part) >= len(table):
+            if not (part.isascii() and part.isdigit()) or int(part) >= len(table):
                 raise rd.fail(entry, f"{here}: no entry {part!r} in an array of {len(table)}",
                               f"index it 0 … {len(table) - 1}")
             table = table[int(part)]
@@ -251,7 +253,7 @@ def override_value(deck: dict, key: str, value, rd: Reader) -> None:
         else:
             options = [k for k, v in table.items() if isinstance(v, (dict, list))] if isinstance(table, dict) else []
             close = difflib.get_close_matches(part, options, n=1)
-            raise rd.fail(entry, f"the deck has no table {here!r}",
+            raise rd.fail(entry, f"the deck has no table {show(here)}",
                           f"did you mean '{close[0]}'?" if close else f"tables here: {', '.join(options) or 'none'}")
     if not isinstance(table, dict):
         raise rd.fail(entry, f"{'.'.join(parts[:-1])} is an array", "name one of its entries by index, e.g. beams.0.elements")

@@ -17,12 +17,17 @@ import math
 from reference.algorithms import ALGORITHMS, SolverSettings
 from reference.domain import Domain
 from reference.io.deck_reader import Reader, show
-from reference.monitor import SAFETY
+from reference.monitor import SAFETY, damping_problem
 from reference.observables import ObservableError
 from reference.observables import parse as parse_observable
 
 MAX_STEPS = 10**9
 """Default limit on the number of time steps; ``solver.max_steps`` raises it."""
+MAX_STEPS_LIMIT = 10**12
+"""Largest ``solver.max_steps``: 1e12 steps of the smallest model (~1 µs a step) take two weeks."""
+MAX_ITERATIONS = 1000
+"""Largest ``solver.max_iterations``: Newton converges quadratically in a few iterations or not at
+all (the implicit runs here need at most 7); a step that needs more needs a smaller step."""
 SUGGEST = 0.8
 """Fraction of the critical estimate used for the dt the messages suggest."""
 
@@ -41,7 +46,8 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
     dt_entry = "dt override (--dt)" if "dt" in overrides else "solver.dt"
     t_entry = "t_end override (--t-end)" if "t_end" in overrides else "solver.t_end"
     t_end = rd.number(overrides.get("t_end", sv["t_end"]), t_entry, positive=True)
-    load_steps = rd.integer(sv.get("load_steps", 1), "solver.load_steps")
+    load_steps = rd.integer(sv.get("load_steps", 1), "solver.load_steps", maximum=MAX_STEPS,
+                            fix="a static run of more load steps would take days; raise max_steps is no help")
     # the explicit step shrinks with the refined mesh; an implicit step does not
     mesh_factor = refine if algo_cls.explicit else 1
     deck_dt = rd.number(sv["dt"], "solver.dt", positive=True) / mesh_factor if "dt" in sv else t_end / load_steps
@@ -56,14 +62,18 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
     domain.solver = SolverSettings(
         algorithm=algorithm, dt=dt, t_end=t_end,
         damping=rd.number(sv.get("damping", 0.0), "solver.damping", nonnegative=True),
-        output_every=rd.integer(sv.get("output_every", 1), "solver.output_every") * mesh_factor * output_scale,
+        output_every=rd.integer(sv.get("output_every", 1), "solver.output_every", maximum=MAX_STEPS,
+                                fix="every output step of a run is at most max_steps") * mesh_factor * output_scale,
         consistent_initial_velocities=rd.boolean(sv.get("consistent_initial_velocities", False),
                                                  "solver.consistent_initial_velocities"),
         load_steps=load_steps, rho_inf=rho_inf,
         tolerance=rd.number(sv["tolerance"], "solver.tolerance", positive=True) if "tolerance" in sv else None,
-        max_iterations=rd.integer(sv["max_iterations"], "solver.max_iterations") if "max_iterations" in sv else None,
+        max_iterations=rd.integer(sv["max_iterations"], "solver.max_iterations", maximum=MAX_ITERATIONS,
+                                  fix="Newton converges in a few iterations or not at all; use a smaller step")
+        if "max_iterations" in sv else None,
     )
-    max_steps = rd.integer(sv.get("max_steps", MAX_STEPS), "solver.max_steps")
+    max_steps = rd.integer(sv.get("max_steps", MAX_STEPS), "solver.max_steps", maximum=MAX_STEPS_LIMIT,
+                           fix="a run of more steps would take weeks")
     unsafe = rd.boolean(sv.get("allow_unsafe_dt", False), "solver.allow_unsafe_dt")
     if not domain.elements and not domain.nodes:
         raise rd.fail("deck", "the deck defines no nodes or beams")
@@ -78,6 +88,9 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
                       if t_end / (SUGGEST * crit) <= max_steps else
                       f"a stable step needs {t_end / (SUGGEST * crit):.3g} steps, above the limit of {max_steps:.3g}: "
                       "check the units of the section data, or raise solver.max_steps")
+    damping = damping_problem(domain.solver.damping, dt, crit, SAFETY) if algo_cls.explicit and not unsafe else ""
+    if damping:
+        raise rd.fail("solver.damping", damping)
     steps = t_end / dt
     if not steps <= max_steps:
         raise rd.fail(t_entry if "t_end" in overrides else dt_entry if "dt" in overrides else "solver",
