@@ -1,10 +1,10 @@
 """Force elements: springs, dampers and bushings between bodies (the paper's loads between bodies).
 
 A force element connects body i to body j (a rigid body or a beam node) or to
-the ground.  Like a joint (:mod:`reference.joints.joint`) it is defined in the
-inertial frame at t = 0 by points and a frame stored body-fixed on both
-bodies, and it is evaluated with the same derived primitives
-with measures derived in sympy (``derivations/forces.py`` →
+the ground.  Like a joint (:mod:`reference.joints.joint`) it is a
+:class:`~reference.connector.Connector`: defined in the inertial frame at t = 0 by
+points and a frame stored body-fixed on both bodies, and evaluated with the same
+derived primitives, with measures derived in sympy (``derivations/forces.py`` →
 ``reference/generated/forces.py``) from the relative displacement
 ``d = x_j + A_j s_j − x_i − A_i s_i`` and the projections of the two bodies'
 frame vectors on each other, with their exact Jacobian ``B`` with respect to
@@ -57,20 +57,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from reference.connector import Connector, body_matrix
 from reference.interactions import TimeFunction
 from reference.joints.joint import joint_frame
-from reference.rotation import EulerParameters
 from reference.state import ForceElements
 
 POINT_TO_POINT, ROTATIONAL, BUSHING = 0, 1, 2
 KINDS = {"point_to_point": POINT_TO_POINT, "rotational": ROTATIONAL, "bushing": BUSHING}
 
 
-def _matrix(q) -> np.ndarray:
-    return EulerParameters(np.asarray(q, dtype=float)).matrix()
-
-
-class ForceElement(ABC):
+class ForceElement(Connector, ABC):
     """A spring-damper between ``body_i`` and ``body_j`` (``None``: the ground).
 
     Subclasses provide ``kind`` (a :data:`KINDS` value), :meth:`points`
@@ -104,16 +100,10 @@ class ForceElement(ABC):
     def stiffness_rate(self, mass_of) -> float:
         raise NotImplementedError
 
-    def body_fixed(self) -> np.ndarray:
-        """``[s_i, s_j, f_i (9), f_j (9)]`` (24,), the joint layout of :meth:`Joint.body_fixed`."""
-        parts = []
-        for body, p in zip((self.body_i, self.body_j), self.points()):
-            x, A = (np.zeros(3), np.eye(3)) if body is None else (body.position, _matrix(body.rotation))
-            parts.append(A.T @ (np.asarray(p, dtype=float) - x))
-        for body in (self.body_i, self.body_j):
-            A = np.eye(3) if body is None else _matrix(body.rotation)
-            parts.append((A.T @ self.frame()).reshape(9))
-        return np.concatenate(parts)
+    def attachment(self):
+        """The attachment points and the element frame (:meth:`Connector.body_fixed`)."""
+        p_i, p_j = self.points()
+        return p_i, p_j, self.frame()
 
     @staticmethod
     def _inverse_mass(mass_of, body, point=None, axis=None) -> float:
@@ -124,7 +114,7 @@ class ForceElement(ABC):
             return 0.0
         m, J = mass_of(body)
         if axis is not None:
-            u = _matrix(body.rotation).T @ np.asarray(axis, dtype=float)
+            u = body_matrix(body).T @ np.asarray(axis, dtype=float)
             return float(u @ np.linalg.solve(J, u))
         J_min = float(np.linalg.eigvalsh(0.5 * (J + J.T))[0])
         r = 0.0 if point is None else float(np.linalg.norm(np.asarray(point) - body.position))

@@ -166,13 +166,13 @@ def test_elbow_inertia_is_the_sum_of_both_legs():
     d2.add_beam("leg2", [L, 0, 0], [L, L, 0], n, sec, axis2=(-1.0, 0, 0), start_node=elbow_node)
     model2 = d2.initialization()
     R = EulerParameters(r).matrix()
-    assert np.allclose(R @ model2.inertia[elbow_node.id] @ R.T, model.nodes.inertia[elbow], atol=1e-15)
+    assert np.allclose(R @ model2.nodes.inertia[elbow_node.id] @ R.T, model.nodes.inertia[elbow], atol=1e-15)
     assert np.allclose(d2.nodes[elbow_node.id].rotation, r)  # the node keeps its given frame
     # the critical-step estimate of force elements sees the same node-frame tensor (it summed the
     # legs' section-frame diagonals unrotated: diag(4a, 2a, 2a)·h at the turned elbow)
     lumped = d2._lumped_masses()
-    assert np.array_equal(lumped[elbow_node.id][1], model2.inertia[elbow_node.id])
-    assert lumped[elbow_node.id][0] == model2.mass[elbow_node.id]
+    assert np.array_equal(lumped[elbow_node.id][1], model2.nodes.inertia[elbow_node.id])
+    assert lumped[elbow_node.id][0] == model2.nodes.mass[elbow_node.id]
 
 
 def linear_static(d, t):

@@ -32,8 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from reference.connector import Connector
 from reference.generated import joints as generated
-from reference.generated import rotation_maps as rm
 from reference.interactions import Constant, TimeFunction
 
 ROWS = {**generated.JOINT_ROWS, "rotation_drive": (5, 9), "displacement_drive": (8,)}
@@ -59,14 +59,8 @@ def joint_frame(axis, reference=None) -> np.ndarray:
     return np.column_stack([u1, np.cross(u3, u1), u3])
 
 
-def _matrix(q) -> np.ndarray:
-    out = np.empty(9)
-    rm.rotation_matrix(np.asarray(q, dtype=float), out)
-    return out.reshape(3, 3)
-
-
 @dataclass
-class Joint:
+class Joint(Connector):
     """One joint of the Domain's joint list.
 
     Parameters
@@ -124,16 +118,9 @@ class Joint:
     def drive_code(self) -> int:
         return DRIVE_CODES.get((self.kind, self.mode), 0)
 
-    def body_fixed(self) -> np.ndarray:
-        """``[s_i, s_j, f_i (9), f_j (9)]``: point and frame in each body's frame (24,)."""
-        parts = []
-        for body in (self.body_i, self.body_j):
-            x, A = (np.zeros(3), np.eye(3)) if body is None else (body.position, _matrix(body.rotation))
-            parts.append(A.T @ (self.point - x))
-        for body in (self.body_i, self.body_j):
-            A = np.eye(3) if body is None else _matrix(body.rotation)
-            parts.append((A.T @ self.frame).reshape(9))
-        return np.concatenate(parts)
+    def attachment(self):
+        """The joint point on both bodies and the joint frame (:meth:`Connector.body_fixed`)."""
+        return self.point, self.point, self.frame
 
     def evaluate(self, x, q, t: float = 0.0):
         """Φ (m,), B (m, 12) and Φ_t (m,) at positions ``x`` (N,3) and Euler parameters ``q`` (N,4).

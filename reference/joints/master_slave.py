@@ -32,6 +32,7 @@ import math
 
 import numpy as np
 
+from reference.connector import body_matrix
 from reference.generated import rotation_maps as rm
 from reference.jit import inlined
 
@@ -162,12 +163,6 @@ def master_slave_positions(model, x, q, A_m, A_s, q_tmp, r):
 def master_slave_parameters(joint) -> np.ndarray:
     """``[p'_m (3), a'_m (3), a'_s (3)]`` of a master/slave joint (master = body_j)."""
     master, slave = joint.body_j, joint.body_i
-
-    def matrix(q):
-        out = np.empty(9)
-        rm.rotation_matrix(np.asarray(q, dtype=float), out)
-        return out.reshape(3, 3)
-
-    Am, As = matrix(master.rotation), matrix(slave.rotation)
+    Am, As = body_matrix(master), body_matrix(slave)
     axis = joint.frame[:, 2]
     return np.concatenate([Am.T @ (joint.point - master.position), Am.T @ axis, As.T @ axis])
