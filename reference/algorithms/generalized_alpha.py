@@ -322,6 +322,31 @@ def _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe
         lam[k] = lamn[k]
 
 
+@inlined
+def _correction(r, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta, L):
+    """One Newton correction with the kept factor: the right-hand side ``−[c_k r; Φ − ελ]`` of the last
+    evaluation, the solution ``sol`` and the node part ``delta`` (N, 6); returns its size
+    (translations over the model size L, rotations in rad), NaN if the residual is not finite."""
+    m = lamn.shape[0]
+    n_free = rhs.shape[0] - m
+    for i in range(r.shape[0]):
+        for k in range(6):
+            if not math.isfinite(r[i, k]):
+                return math.nan
+            if dof[i, k] >= 0:
+                rhs[dof[i, k]] = -ck * r[i, k]
+    for k in range(m):
+        rhs[n_free + k] = -(PHI[k] - row_eps[k] * lamn[k])
+    lu_solve(factors, rhs, lwork, sol)
+    size = 0.0
+    for i in range(r.shape[0]):
+        for k in range(6):
+            d = sol[dof[i, k]] if dof[i, k] >= 0 else 0.0
+            delta[i, k] = d
+            size = max(size, abs(d) / L if k < 3 else abs(d))
+    return size
+
+
 @kernel
 def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr, rec):
     """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton).
@@ -369,21 +394,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
             par[11] = _evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
             if par[9] < 0.0:
                 return REFACTOR, step
-            for i in range(N):
-                for k in range(6):
-                    if not math.isfinite(r[i, k]):
-                        return DIVERGED, step
-                    if dof[i, k] >= 0:
-                        rhs[dof[i, k]] = -ck * r[i, k]
-            for k in range(m):
-                rhs[n_free + k] = -(PHI[k] - row_eps[k] * lamn[k])
-            lu_solve(factors, rhs, lwork, sol)
-            size = 0.0
-            for i in range(N):
-                for k in range(6):
-                    d = sol[dof[i, k]] if dof[i, k] >= 0 else 0.0
-                    delta[i, k] = d
-                    size = max(size, abs(d) / L if k < 3 else abs(d))
+            size = _correction(r, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta, L)
             if not math.isfinite(size):
                 return DIVERGED, step
             if previous >= 0.0 and size > contraction * previous:

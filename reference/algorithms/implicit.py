@@ -12,8 +12,8 @@ Residual (per node, the paper's eq. (5) written as ``M a + Bᵀλ = Q``)::
     r_θ = J ω̇ + ω × J ω + c J ω + S_θ − F_θ + (Bᵀλ)_θ      (body frame)
     Φ(x, q, t) − ε λ = 0
 
-with ``S`` the Beam2 internal forces (generated kernel), ``F`` the external
-forces (:func:`reference.algorithms.staggered.external_forces`), B the joint
+with ``S`` the internal forces of every element family and ``F`` the external
+forces (:func:`reference.evaluation.forces.generalized_forces`), B the joint
 Jacobian (:func:`reference.joints.assembly.joint_rows`) and ε the joint's
 regularisation (``ε λ = Φ``, the explicit scheme's meaning).  The Static
 algorithm uses ``v = v̇ = 0``.
@@ -25,7 +25,7 @@ generalized-α: 1, γ'/β', 1/β')::
     [ B                      −ε/c_k] [μ]  = − [Φ − ελ]      λ ← λ + μ / c_k
 
 ``C = ∂r/∂V`` (damping, the gyroscopic tangent and the force elements' dampers),
-``K = ∂r/∂δ`` at fixed velocities: the Beam2 tangent stiffness (material +
+``K = ∂r/∂δ`` at fixed velocities: the element families' tangent stiffness (material +
 geometric), the joints' λ-weighted constraint Hessian ``∂(Bᵀλ)/∂δ``, the
 follower-load tangents and the force elements' stiffness — all sympy-derived
 kernels (``reference/generated/tangents.py``, ``reference/joints/hessian.py``,
@@ -41,8 +41,9 @@ continuous angles of rotational springs live in the work arrays during a run
 (copied from and back to ``State.angle`` by the algorithms); every evaluation
 continues them from the last one, as the explicit scheme does.
 
-Values are written by :func:`tangent_values` block by block in the order that
-:func:`newton_pattern` lays out once per model (:class:`reference.linalg.BlockPattern`).
+The matrix is :mod:`reference.evaluation.tangent`'s: its values are written by
+``tangent_values`` block by block in the order that ``newton_pattern`` lays out once per
+model (:class:`reference.linalg.BlockPattern`).
 """
 
 from __future__ import annotations

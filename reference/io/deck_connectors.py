@@ -1,0 +1,135 @@
+"""Model decks: the connector tables, ``[[joints]]`` and ``[[springs]]``.
+
+Joints and force elements both connect two bodies (:class:`reference.connector.Connector`); their
+tables are read here for :func:`reference.io.deck.load_deck`, with its :class:`~reference.io.deck_reader.Reader`
+(the checks and one-line messages) and its references (``refs``: node labels, named points, time
+functions).  Every key is documented in ``docs/deck.md``.
+"""
+
+from __future__ import annotations
+
+import difflib
+
+import numpy as np
+
+from reference.domain import Domain
+from reference.expressions import ExpressionError
+from reference.forces import KINDS as SPRING_KINDS
+from reference.forces import Bushing, PointToPoint, Rotational
+from reference.interactions import Expression
+from reference.io.deck_reader import Reader, show
+from reference.joints import Jacobian, MasterSlave
+from reference.joints.joint import ROWS as JOINT_KINDS
+
+SPRING_KEYS = {
+    "point_to_point": (["body_i", "point_i", "stiffness"],
+                       ["body_j", "point_j", "damping", "rest_length", "force_function"]),
+    "rotational": (["body_i", "stiffness"], ["body_j", "axis", "reference", "damping", "rest_angle"]),
+    "bushing": (["body_i", "point", "stiffness"], ["body_j", "axis", "reference", "damping"]),
+}
+
+
+def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
+    """``[[joints]]`` (a drive's expression gets its integral here when its mode is ``velocity``)."""
+    tfs = refs.tfs
+    for i, jt in enumerate(rd.items(deck, "joints")):
+        entry = f"joints[{i}]"
+        rd.keys(jt, entry, required=["kind", "body_i", "point"],
+                optional=["label", "body_j", "axis", "reference", "epsilon", "formulation", "time_function", "mode"])
+        kind = rd.string(jt["kind"], f"{entry}.kind")
+        if kind not in JOINT_KINDS:
+            close = difflib.get_close_matches(kind, list(JOINT_KINDS), n=1)
+            raise rd.fail(f"{entry}.kind", f"unknown joint kind {show(kind)}",
+                          f"did you mean '{close[0]}'?" if close else f"one of: {', '.join(JOINT_KINDS)}")
+        formulation = jt.get("formulation", "jacobian")
+        if formulation not in ("jacobian", "master_slave"):
+            raise rd.fail(f"{entry}.formulation", f"unknown joint formulation {show(formulation)}",
+                          "'jacobian' (Lagrange multipliers, stabilised) or 'master_slave' (elimination; "
+                          "spherical and revolute joints, slave = body_i a beam node)")
+        body_i = refs.node(jt["body_i"], f"{entry}.body_i")
+        body_j = None
+        if jt.get("body_j", "ground") != "ground":
+            body_j = refs.node(jt["body_j"], f"{entry}.body_j")
+        if body_j is body_i:
+            raise rd.fail(entry, "body_i and body_j are the same body")
+        drive = kind.endswith("_drive")
+        if drive and "time_function" not in jt:
+            raise rd.fail(entry, f"a {kind} needs a time_function (the prescribed motion or its rate)")
+        if not drive and ("time_function" in jt or "mode" in jt):
+            raise rd.fail(entry, "time_function and mode apply to rotation_drive and displacement_drive only")
+        tf = None
+        if drive:
+            name = rd.string(jt["time_function"], f"{entry}.time_function")
+            if name not in tfs:
+                raise rd.fail(f"{entry}.time_function", f"no time function {show(name)}", f"defined: {', '.join(tfs) or 'none'}")
+            tf = tfs[name]
+        mode = jt.get("mode", "position")
+        if mode not in ("position", "velocity"):
+            raise rd.fail(f"{entry}.mode", f"unknown mode {show(mode)}",
+                          "'position' (the time function is the angle/displacement) or 'velocity' (its rate)")
+        if tf is not None and mode == "velocity" and isinstance(tf, Expression) and not tf.with_integral:
+            try:
+                tf = tfs[jt["time_function"]] = Expression(tf.expr, with_integral=True)
+            except ExpressionError as exc:
+                raise rd.fail(f"time_functions.{jt['time_function']}.expr", str(exc)) from None
+        eps = rd.number(jt.get("epsilon", 0.0), f"{entry}.epsilon", nonnegative=True)
+        reference = rd.vector(jt["reference"], f"{entry}.reference") if "reference" in jt else None
+        label = rd.label(jt.get("label", f"{kind}:{i}"), f"{entry}.label")
+        point = rd.vector(jt["point"], f"{entry}.point")
+        axis = rd.direction(jt.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis")
+        if reference is not None:
+            reference = rd.direction(jt["reference"], f"{entry}.reference")
+        try:
+            domain.add_joint(kind, body_i, body_j, point, axis, reference,
+                             formulation=Jacobian(eps) if formulation == "jacobian" else MasterSlave(),
+                             time_function=tf, mode=mode, label=label)
+        except ValueError as exc:
+            raise rd.fail(entry, str(exc)) from None
+
+
+def read_springs(rd: Reader, deck: dict, domain: Domain, refs) -> None:
+    """``[[springs]]``: force elements (:mod:`reference.forces`)."""
+    for i, sp in enumerate(rd.items(deck, "springs")):
+        entry = f"springs[{i}]"
+        if not isinstance(sp, dict) or "kind" not in sp:
+            raise rd.fail(entry, "missing required key 'kind'", f"one of: {', '.join(SPRING_KINDS)}")
+        kind = rd.choice(sp["kind"], f"{entry}.kind", SPRING_KINDS, "spring kind")
+        required, optional = SPRING_KEYS[kind]
+        rd.keys(sp, entry, required=["kind"] + required, optional=["label"] + optional)
+        label = rd.string(sp.get("label", f"{kind}:{i}"), f"{entry}.label")
+        body_i = refs.node(sp["body_i"], f"{entry}.body_i")
+        body_j = None if sp.get("body_j", "ground") == "ground" else refs.node(sp["body_j"], f"{entry}.body_j")
+        if body_j is body_i:
+            raise rd.fail(entry, "body_i and body_j are the same body", "connect two bodies, or a body and \"ground\"")
+        if kind == "bushing":
+            stiffness = rd.vector(sp["stiffness"], f"{entry}.stiffness", 6)
+            damping = rd.vector(sp.get("damping", [0.0] * 6), f"{entry}.damping", 6)
+            for name, values in (("stiffness", stiffness), ("damping", damping)):
+                if np.any(values < 0.0):
+                    raise rd.fail(f"{entry}.{name}", f"must not be negative, got {values.tolist()}",
+                                  "give six values ≥ 0 (three translational, three rotational)")
+        else:
+            stiffness = rd.number(sp["stiffness"], f"{entry}.stiffness", nonnegative=True)
+            damping = rd.number(sp.get("damping", 0.0), f"{entry}.damping", nonnegative=True)
+        try:
+            if kind == "point_to_point":
+                rest = sp.get("rest_length")
+                element = PointToPoint(
+                    body_i, rd.vector(sp["point_i"], f"{entry}.point_i"), body_j,
+                    rd.vector(sp.get("point_j", [0.0, 0.0, 0.0]), f"{entry}.point_j"), stiffness, damping,
+                    None if rest is None else rd.number(rest, f"{entry}.rest_length", positive=True),
+                    refs.time_function(sp, entry), label)
+            elif kind == "rotational":
+                element = Rotational(
+                    body_i, body_j, rd.vector(sp.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis"), stiffness, damping,
+                    rd.number(sp.get("rest_angle", 0.0), f"{entry}.rest_angle"),
+                    rd.vector(sp["reference"], f"{entry}.reference") if "reference" in sp else None, label)
+            else:
+                element = Bushing(
+                    body_i, body_j, rd.vector(sp["point"], f"{entry}.point"),
+                    rd.vector(sp.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis"),
+                    rd.vector(sp["reference"], f"{entry}.reference") if "reference" in sp else None,
+                    stiffness, damping, label)
+        except ValueError as exc:
+            raise rd.fail(entry, str(exc)) from None
+        domain.add_force_element(element)
