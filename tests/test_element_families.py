@@ -222,23 +222,45 @@ def test_a_registered_toy_family_runs_in_every_algorithm(runs):
         <= 1e-2 * swing
 
 
+class CableData(NamedTuple):
+    conn: np.ndarray
+    index: np.ndarray
+    L0: np.ndarray
+    EA: np.ndarray
+
+
+class Cable(Truss):
+    """A second toy family (the truss's kernels on its own data type): a model holding both has a
+    tuple of two different family types, what the compiled dispatch must resolve."""
+
+    family = "cable"
+    Data = CableData
+
+    @classmethod
+    def pack(cls, placed):
+        return CableData(*Truss.pack(placed))
+
+
+if "cable" not in ELEMENT_FAMILIES:
+    register(Cable)
+
+
 def test_the_compiled_dispatch_reaches_both_families():
-    """The compiled calls over a tuple of two families (Beam2 and the truss) give the numbers of the
-    plain-Python loop over the same tuple, bit for bit (forces, energy, tangent values)."""
-    from reference.elements import Section
+    """The compiled calls over a tuple of two families (truss and cable) give the numbers of the
+    plain-Python loop over the same tuple, bit for bit (forces, energy, tangent values).  (Beam2's
+    compiled path is every other test's; a model of it and a toy family compiles for ~25 s.)"""
     from reference.state import element_work
 
     d = truss_domain("static", t_end=1.0, load_steps=1)
-    d.add_beam("beam", [0.0, HEIGHT, 0.0], [0.0, HEIGHT, 1.0], 3, Section(1e3, 1e3, 1e3, 1.0, 1.0, 1.0, rhoA=1.0, rhoJ1=1e-3, rhoJ2=1e-3, rhoJ3=1e-3),
-               start_node=d.node("apex"))
+    top = d.add_node([0.0, 2.0 * HEIGHT, 0.3], label="top")
+    d.add_element(Cable(EA, RHO_A), (d.node("apex"), top), label="cable")
     model = d.initialization()
-    assert [type(data).__name__ for data in model.elements] == ["Beam2Data", "TrussData"]
+    assert [type(data).__name__ for data in model.elements] == ["TrussData", "CableData"]
     rng = np.random.default_rng(7)
     x = np.array([n.position for n in d.nodes]) + 1e-3 * rng.standard_normal((len(d.nodes), 3))
-    q = np.array([n.rotation for n in d.nodes]) + 1e-3 * rng.standard_normal((len(d.nodes), 4))
-    q /= np.linalg.norm(q, axis=1)[:, None]
+    q = np.array([n.rotation for n in d.nodes])
     psi = 1e-2 * rng.standard_normal((len(d.nodes), 3))
-    size = 2 * 144 + 3 * 144
+    size = 3 * 144
 
     @numba.njit(cache=False)
     def compiled(elements, works, x, q, S, psi, values, Jr, K):
@@ -253,6 +275,7 @@ def test_the_compiled_dispatch_reaches_both_families():
     assert out[0][1] == out[1][1] == size
     assert out[0][0] == out[1][0] and np.array_equal(out[0][2], out[1][2]) and np.array_equal(out[0][3], out[1][3])
     assert np.abs(out[0][3]).max() > 0.0 and out[0][0] > 0.0
+    assert np.abs(out[0][2][d.node("top").id]).max() > 0.0  # the cable's force reached its node
 
 
 if __name__ == "__main__":

@@ -21,11 +21,11 @@ def test_every_key_and_kind_the_reader_knows_is_in_the_vocabulary():
 
     from reference.algorithms import ALGORITHMS
     from reference.forces import KINDS as SPRING_KINDS
-    from reference.io import deck, deck_solution
+    from reference.io import deck, deck_connectors, deck_solution
     from reference.joints.joint import ROWS as JOINT_KINDS
 
     keys = set(deck.TOP_LEVEL) | set(deck.SECTION_KEYS)
-    for module in (deck, deck_solution):
+    for module in (deck, deck_connectors, deck_solution):
         for node in ast.walk(ast.parse(inspect.getsource(module))):
             if isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "keys":
                 for kw in node.keywords:
@@ -34,7 +34,7 @@ def test_every_key_and_kind_the_reader_knows_is_in_the_vocabulary():
                                  if isinstance(c, ast.Constant) and isinstance(c.value, str)}
     for _, required, optional in deck.TIME_FUNCTIONS.values():
         keys |= set(required) | set(optional)
-    for required, optional in deck.SPRING_KEYS.values():
+    for required, optional in deck_connectors.SPRING_KEYS.values():
         keys |= set(required) | set(optional)
     for algorithm in ALGORITHMS.values():
         keys |= set(algorithm.deck_required) | set(algorithm.deck_optional)
