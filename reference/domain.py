@@ -26,7 +26,7 @@ import numpy as np
 
 from reference.algorithms import ALGORITHMS, Algorithm, SolverSettings
 from reference.elements import Element, Section
-from reference.elements.families import DEFAULT_FAMILY, ELEMENT_FAMILIES
+from reference.elements.families import ALWAYS_PACKED, DEFAULT_FAMILY, ELEMENT_FAMILIES
 from reference.elements.formulation import PlacedElement
 from reference.forces import ForceElement, pack_force_elements
 from reference.generated import rotation_maps as rm
@@ -329,7 +329,8 @@ class Domain:
         return float(np.linalg.norm(b - a))
 
     def _element_families(self, placed) -> tuple:
-        """Each element family's plain data (:attr:`reference.state.Model.elements`), in registry order."""
+        """Each element family's plain data (:attr:`reference.state.Model.elements`), in registry order: the
+        families the model uses and the engine's own (:data:`~reference.elements.families.ALWAYS_PACKED`)."""
         by_family: dict[str, list] = {}
         for item in placed:
             by_family.setdefault(item.element.formulation.family, []).append(item)
@@ -337,7 +338,8 @@ class Domain:
         if unknown:
             raise ValueError(f"element family {unknown[0]!r} is not registered; known: {', '.join(ELEMENT_FAMILIES)} "
                              "(reference.elements.families.register)")
-        return tuple(ELEMENT_FAMILIES[name].pack(by_family[name]) for name in ELEMENT_FAMILIES if name in by_family)
+        return tuple(ELEMENT_FAMILIES[name].pack(by_family.get(name, [])) for name in ELEMENT_FAMILIES
+                     if name in by_family or name in ALWAYS_PACKED)
 
     def initialization(self) -> Model:
         """Assemble the plain-data model: lumped masses, references, loads (paper: Initialization).

@@ -103,7 +103,7 @@ class Model(NamedTuple):
     by the classes of its objects.
 
     ``nodes`` (:class:`Nodes`); ``elements``, a tuple with one entry per element family present
-    (:mod:`reference.elements.families`, in registry order), each the family's plain data (e.g.
+    and per engine family (:mod:`reference.elements.families`, in registry order), each the family's plain data (e.g.
     :class:`reference.elements.beam2.Beam2Data`), whose first fields are ``conn`` (E_f, n) and
     ``index`` (E_f,) the elements' numbers in the Domain; ``loads`` (:class:`Loads`); ``gravity``
     (3,) [m/s²]; ``damping`` the mass-proportional coefficient c [1/s] (force −c m v, moment

@@ -3,9 +3,10 @@
 A *family* is an :class:`~reference.elements.formulation.ElementFormulation`
 subclass registered here by its deck name (``[[beams]] element = "beam2"``): the
 paper's promise (§2, §4.2.2, Fig. 4) that a new element is a new class.  The
-Domain packs the elements of each family present in a model into that family's
-plain data (``family.pack``), and :class:`reference.state.Model` carries them as the
-tuple ``Model.elements``, one entry per family, in registry order.
+Domain packs the elements of each family present in a model (and of the engine's own
+families, :data:`ALWAYS_PACKED`, present or not) into that family's plain data
+(``family.pack``), and :class:`reference.state.Model` carries them as the tuple
+``Model.elements``, one entry per family, in registry order.
 
 The algorithms never name a family.  They call the three functions below, which
 numba resolves at compile time, for the model's tuple of family data, into a
@@ -28,17 +29,27 @@ from reference.elements.beam2 import Beam2Formulation
 ELEMENT_FAMILIES: dict[str, type] = {}
 """Element formulation classes by deck name (``ElementFormulation.family``)."""
 
+ALWAYS_PACKED: set[str] = set()
+"""The families every Model carries, empty where a model has none of their elements: the engine's own.
+The compiled kernels are specialised to the type of ``Model.elements``; with these always present every
+model of the engine's families has one type, so each kernel compiles once (not once per combination of
+families, e.g. again for a model of rigid bodies only).  A family registered from outside is packed only
+where a model uses it."""
+
 _BY_DATA: dict[type, type] = {}
 
 
-def register(formulation: type) -> type:
-    """Add an element formulation class to :data:`ELEMENT_FAMILIES` (usable as a class decorator)."""
+def register(formulation: type, always: bool = False) -> type:
+    """Add an element formulation class to :data:`ELEMENT_FAMILIES` (usable as a class decorator);
+    ``always``: carried by every Model (:data:`ALWAYS_PACKED`, for the engine's own families)."""
     name = formulation.family
     known = ELEMENT_FAMILIES.get(name)
     if known is not None and known is not formulation:
         raise ValueError(f"an element family named {name!r} is already registered ({known.__name__})")
     ELEMENT_FAMILIES[name] = formulation
     _BY_DATA[formulation.Data] = formulation
+    if always:
+        ALWAYS_PACKED.add(name)
     return formulation
 
 
@@ -103,6 +114,6 @@ resultants = _calls("resultants", "x, q, N, M")
 DEFAULT_FAMILY = "beam2"
 """The family of a beam that names none (``[[beams]] element``)."""
 
-register(Beam2Formulation)
+register(Beam2Formulation, always=True)
 
-__all__ = ["DEFAULT_FAMILY", "ELEMENT_FAMILIES", "assemble_forces", "family_of", "register", "resultants", "tangent_values"]
+__all__ = ["ALWAYS_PACKED", "DEFAULT_FAMILY", "ELEMENT_FAMILIES", "assemble_forces", "family_of", "register", "resultants", "tangent_values"]
