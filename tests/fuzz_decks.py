@@ -19,6 +19,7 @@ and, for a new table, an entry using it to :data:`EVERY_TABLE`.  Every ``models/
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import math
 import random
@@ -301,10 +302,7 @@ VOCABULARY = {
 EXPRESSIONS = ["sin(3*t)**2", "t**1e9", "1/t", "log(t-1)", "exp(exp(t))", "9**9**9", "2**(2**30)", "exp(800)",
                "(10**300)**100", "+".join(["sin(t)"] * 100), "*".join(["(1+t)"] * 90)]
 """Formulas at the edge (issue 23): power towers, huge exponents, non-finite at t = 0, very long."""
-EVERY_TABLE += '\n[time_functions.ex]\nkind = "expression"\nexpr = "sin(3*t)**2"\n'
-VOCABULARY["time_functions.*"]["kind"] = VOCABULARY["time_functions.*"]["kind"] + ["expression"]
-VOCABULARY["time_functions.*"]["expr"] = EXPRESSIONS
-VOCABULARY["loads[]"]["time_function"] = VOCABULARY["loads[]"]["time_function"] + ["ex"]
+VOCABULARY["time_functions.*"]["expr"] = VOCABULARY["time_functions.*"]["expr"] + EXPRESSIONS
 
 NASTY = [
     0, -1, 1, 2**63 - 1, -(2**63), 1e308, -1e308, 5e-324, 2e-14, 1e-300, math.inf, -math.inf, math.nan,
@@ -405,7 +403,7 @@ def mutate_structure(rng: random.Random, deck: dict) -> None:
         table.pop(rng.choice(list(table)))
     elif op < 0.45 and vocab:
         key = rng.choice(list(vocab))
-        table[key] = rng.choice(vocab[key])
+        table[key] = copy.deepcopy(rng.choice(vocab[key]))  # a copy: later mutations must not reach the vocabulary
     elif op < 0.5:
         table[rng.choice(["bogus", "dt", "label", "elements", "name"])] = rng.choice(NASTY)
     elif op < 0.85 and table:
@@ -422,7 +420,7 @@ def mutate_structure(rng: random.Random, deck: dict) -> None:
     else:
         name = rng.choice([p for p in VOCABULARY if p])
         base = name.rstrip("[]").rstrip(".*")
-        entry = {k: rng.choice(v) for k, v in VOCABULARY[name].items() if rng.random() < 0.7}
+        entry = {k: copy.deepcopy(rng.choice(v)) for k, v in VOCABULARY[name].items() if rng.random() < 0.7}
         if name.endswith("[]"):
             deck.setdefault(base, [])
             if isinstance(deck[base], list):
