@@ -1,4 +1,4 @@
-"""The ``flexmbs`` command: run, crosscheck, report, derive, bench, sweep.
+"""The ``flexmbs`` command: run, modes, crosscheck, report, derive, bench, sweep.
 
 Every failure is one line on stderr, ``flexmbs: error: …``, and its exit status is
 chosen by the exception's class (:func:`exit_status`; the first row that matches):
@@ -177,14 +177,27 @@ def deferred_signals():
 
 
 def cmd_run(args) -> int:
-    from flexmbs.progress import ProgressBar
     from reference.io.deck import load_deck
+
+    check_signals()  # a stop that came while the engine's modules loaded
+    deck = load_deck(args.deck, overrides=_overrides(args))
+    _run_deck(args, deck)
+    return 0
+
+
+def _overrides(args) -> dict:
+    return {k: v for k, v in (("t_end", args.t_end), ("dt", getattr(args, "dt", None)), ("refine", args.refine))
+            if v is not None}
+
+
+def _run_deck(args, deck):
+    """Solve a loaded deck into ``--out`` (results file, ParaView file) with a progress bar, as ``flexmbs run``;
+    the model's warnings end the bar's line first.  Returns the results."""
+    from flexmbs.progress import ProgressBar
     from reference.io.vtk import write_vtk
     from reference.solution import SolverDiverged
+    from reference.validation import show_warning
 
-    overrides = {k: v for k, v in (("t_end", args.t_end), ("dt", args.dt), ("refine", args.refine)) if v is not None}
-    check_signals()  # a stop that came while the engine's modules loaded
-    deck = load_deck(args.deck, overrides=overrides)
     domain = deck.domain
     out = Path(args.out) if args.out else Path("out") / Path(args.deck).stem
     out.mkdir(parents=True, exist_ok=True)
@@ -196,6 +209,11 @@ def cmd_run(args) -> int:
         check_signals()  # every output: a stop lost while the kernels loaded ends the run here
         bar(fraction, t)
 
+    def warning_line(*shown, **named) -> None:
+        bar.close()  # a warning during the run (a change of stability) on a line of its own
+        show_warning(*shown, **named)
+
+    shown_before, warnings.showwarning = warnings.showwarning, warning_line
     try:
         check_signals()
         result = deck.solve(results_path=results_path, progress=progress)
@@ -212,6 +230,7 @@ def cmd_run(args) -> int:
         raise RunFailed(f"{args.deck}: the run failed at t = {run.get('t', 0.0):.6g}: "
                            f"{type(exc).__name__}: {exc}{where} (status 'failed')") from exc
     finally:
+        warnings.showwarning = shown_before
         bar.close()
     wall = time.perf_counter() - t0
     check_signals()
@@ -220,6 +239,21 @@ def cmd_run(args) -> int:
         pvd = write_vtk(domain, result, out / "vtk", domain.name, every=args.vtk_every)
     print(f"{domain.name}: {len(result.time)} outputs to t = {result.time[-1]:g} in {wall:.2f} s "
           f"(solve {result.wall_time:.3f} s) → {results_path}" + (f", {pvd}" if pvd else ""))
+    return result
+
+
+def cmd_modes(args) -> int:
+    from reference.io.deck import load_deck
+
+    check_signals()
+    deck = load_deck(args.deck, overrides=_overrides(args))
+    algo = deck.domain.algorithm()
+    if not algo.linearised:
+        raise CommandError(f"{args.deck}: solver.algorithm is {algo.name!r}; `flexmbs modes` runs a deck with "
+                           "algorithm = \"modes\" or \"buckling\" (use `flexmbs run` for the others)")
+    result = _run_deck(args, deck)
+    for line in algo.table(result):
+        print(line)
     return 0
 
 
@@ -367,6 +401,16 @@ def parser() -> argparse.ArgumentParser:
     run.add_argument("--vtk-every", type=number(int, 0, low_ok=True, example="--vtk-every 10"), default=1,
                      metavar="N", help="ParaView output of every N-th output record (default 1; 0: none)")
     run.set_defaults(func=cmd_run)
+    mod = sub.add_parser("modes", help="a modes or buckling deck: its table, and the results file as `run` writes it")
+    mod.add_argument("deck")
+    mod.add_argument("--out", help="output folder (default out/<deck name>)")
+    mod.add_argument("--t-end", type=number(example="--t-end 2"),
+                     help="end of the static path (load factor 1 of buckling), overriding the deck's")
+    mod.add_argument("--refine", type=number(int, 1, low_ok=True, example="--refine 2"),
+                     help="multiply every beam's element count")
+    mod.add_argument("--no-vtk", dest="vtk_every", action="store_const", const=0, default=1,
+                     help="skip the ParaView output of the configuration")
+    mod.set_defaults(func=cmd_modes)
     cc = sub.add_parser("crosscheck", help="run a deck in the reference and in Exudyn and compare")
     cc.add_argument("deck")
     cc.add_argument("--out", help="output folder (default out/<deck name>_crosscheck)")

@@ -458,10 +458,7 @@ class Domain:
         """
         t_end = self.solver.t_end if t_end is None else float(t_end)
         algo = self.algorithm(dt)
-        steps = t_end / algo.dt
-        n_total = int(round(steps)) if steps < 2.0**62 else 0
-        if n_total < 1 or abs(n_total * algo.dt - t_end) > 1e-9 * max(t_end, 1.0):
-            raise ValueError(f"t_end = {t_end} is not a whole number of steps of dt = {algo.dt}")
+        n_total = algo.n_steps(t_end)
         self.last_run = {"path": None, "status": "not started", "t": 0.0}
         joint_offsets(self)
         model = self.initialization()

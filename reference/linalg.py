@@ -14,7 +14,8 @@ with partial pivoting — which handles the zero block of the saddle-point
 systems — chooses the ordering and the pivots once, the fill pattern follows
 from the structure, and later matrices are refactored in compiled code with
 the same permutations).  Compiled loops solve with the factors through
-:func:`lu_solve`.
+:func:`lu_solve`.  :func:`null_space` gives a sparse basis of the null space of a constraint
+Jacobian (the linearised analyses, :mod:`reference.linearization`).
 
 **Singularity** is judged on the equilibrated matrix (:func:`equilibrate`): with rows and
 then columns scaled to a largest entry of 1 (the scaling of LAPACK's ``dgeequ``; Higham 2002,
@@ -31,8 +32,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import connected_components
 
 from reference.jit import kernel
 
@@ -42,6 +45,10 @@ SINGULAR_PIVOT = 1e-14
 equilibration a regular matrix of condition κ has pivots down to about 1/κ of the largest; a
 pivot of 1e-14 (≈ 50 machine epsilons) means κ ≳ 1e14, where a Newton correction has no
 correct digit left, and the round-off pivot of an exactly singular matrix is of order ε."""
+RANK_TOLERANCE = 1e-10
+"""A singular value of a group of constraint rows below this fraction of the group's largest counts
+as zero (a redundant row).  Redundant rows give round-off, ~1e-16 of the largest; the independent rows
+of the shipped mechanisms stay above 1e-3 of it (their joint offsets against unit direction rows)."""
 SINGULAR_MESSAGE = (f"pivot below {SINGULAR_PIVOT:g} of the largest after equilibration "
                     "(the matrix is numerically singular)")
 
@@ -328,3 +335,44 @@ class SparseLU:
         x = np.empty_like(b)
         lu_solve(self.f, b, self.work, x)
         return x
+
+
+def null_space(B: sps.csr_matrix, tol: float = RANK_TOLERANCE) -> tuple[sps.csr_matrix, int]:
+    """A sparse basis Z (n, n − r) of the null space of B (m, n), and r = rank B.
+
+    Coordinates that no row touches get identity columns.  The touched ones fall into groups that
+    share rows (the joints of one loop or chain); each group's block of B is decomposed by a dense SVD
+    (Golub & Van Loan 2013, §5.4.6), its rank counted with :data:`RANK_TOLERANCE`, and the right
+    singular vectors of the zero singular values are its columns of Z (orthonormal).  Cost: one SVD of
+    at most (rows × 12 joints) per group.
+    """
+    m, n = B.shape
+    B = sps.csr_matrix(B)
+    touched = np.zeros(n, dtype=bool)
+    touched[B.indices[B.data != 0.0]] = True
+    cols, rows, vals = [], [], []
+    untouched = np.flatnonzero(~touched)
+    rows.append(untouched)
+    cols.append(np.arange(untouched.size))
+    vals.append(np.ones(untouched.size))
+    k, rank = untouched.size, 0
+    if m:
+        # the groups: coordinates linked through a common row
+        link = abs(B).T @ abs(B)
+        n_groups, label = connected_components(link, directed=False)
+        for g in np.unique(label[touched]):
+            members = np.flatnonzero((label == g) & touched)
+            sub = B[:, members]
+            used = np.flatnonzero(np.diff(sub.tocsr().indptr) > 0)
+            block = sub[used].toarray()
+            _, s, vt = sla.svd(block, full_matrices=True)
+            r = int(np.sum(s > tol * s[0])) if s.size and s[0] > 0.0 else 0
+            basis = vt[r:].T
+            rank += r
+            rr, cc = np.nonzero(np.ones_like(basis, dtype=bool))
+            rows.append(members[rr])
+            cols.append(k + cc)
+            vals.append(basis[rr, cc])
+            k += basis.shape[1]
+    Z = sps.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, k))
+    return Z, rank

@@ -4,8 +4,10 @@
 and the initial state (``initial_conditions``) and hands them to :func:`run`,
 which advances the state one output interval at a time with the algorithm
 (``Algorithm.advance``, compiled), completes each record with the derived
-outputs (:class:`Outputs`: joint reactions and section resultants) and hands it
-to a sink: the results file (:class:`reference.io.results.ResultsWriter`) or
+outputs (:class:`Outputs`: joint reactions and section resultants) and the
+algorithm's own (``Algorithm.recorded``) and hands it to a sink, which also takes
+the datasets the algorithm writes at the end (``Algorithm.finish``: a linearised
+analysis's modes, a static run's stability events): the results file (:class:`reference.io.results.ResultsWriter`) or
 preallocated arrays (:class:`reference.io.results.MemoryRecorder`).  The blow-up
 monitor (:mod:`reference.monitor`) checks every record.  Whatever stops the
 run, the sink is closed with a status saying how it ended.
@@ -142,7 +144,8 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
             chunk = min(every, n_total - done)
             t_record = state.t
             code = algo.advance(model, state, run_state, chunk, rec)
-            sink.append(outputs.record(t_record))
+            entry, extra = outputs.record(t_record), algo.recorded(run_state)
+            sink.append({**entry, **extra} if extra else entry)
             why = watch.check(rec.energy, rec.x) if watch is not None and code == OK else ""
             if why:
                 status = f"diverged after t = {t_record:.6g}"
@@ -158,8 +161,10 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
                 progress(done / n_total, state.t)
             if chunk == 0:
                 break
+        sink.add_datasets(algo.finish(model, state, run_state, True))
         status = "completed"
     except SolverDiverged:
+        sink.add_datasets(algo.finish(model, state, run_state, False))
         raise
     except KeyboardInterrupt:
         status = f"interrupted at t = {state.t:.6g}"

@@ -7,11 +7,12 @@ own module, added here by name.
 
 from reference.algorithms.base import Algorithm, SolverSettings
 from reference.algorithms.generalized_alpha import GeneralizedAlpha
+from reference.algorithms.linear import Buckling, Modes
 from reference.algorithms.staggered import StaggeredCentralDifference, step
 from reference.algorithms.static import Static
 
-ALGORITHMS = {cls.name: cls for cls in (StaggeredCentralDifference, Static, GeneralizedAlpha)}
+ALGORITHMS = {cls.name: cls for cls in (StaggeredCentralDifference, Static, GeneralizedAlpha, Modes, Buckling)}
 """Algorithm classes by deck name."""
 
-__all__ = ["ALGORITHMS", "Algorithm", "GeneralizedAlpha", "SolverSettings", "StaggeredCentralDifference", "Static",
-           "step"]
+__all__ = ["ALGORITHMS", "Algorithm", "Buckling", "GeneralizedAlpha", "Modes", "SolverSettings",
+           "StaggeredCentralDifference", "Static", "step"]

@@ -29,17 +29,33 @@ class Algorithm(ABC):
       fills it with the output at the starting time; the status is a code of
       :mod:`reference.status`;
     - ``failure(code, state, run) → (status, message)`` for a code other than ``OK``.
+
+    What the solution loop (:func:`reference.solution.run`) asks besides, with defaults for a
+    time-stepping algorithm: ``n_steps(t_end)`` (how many steps reach ``t_end``), ``recorded(run)``
+    (values the algorithm adds to every output record, by record key) and ``finish(model, state, run,
+    completed)`` (datasets written once at the end, by path in the results file).  The linearised
+    analyses (:mod:`reference.algorithms.linear`) override them: they take no step, or only those of
+    the static path to the state they linearise about, and write their modes at the end.
     """
 
     name: str
     dt: float
     explicit: bool = False
+    linearised: bool = False
+    """A linearised analysis (:mod:`reference.algorithms.linear`): its results have a table (:meth:`table`)."""
     deck_required: tuple = ()
     deck_optional: tuple = ()
 
     @staticmethod
     def refusal(model) -> str | None:
         return None
+
+    @classmethod
+    def deck_keys(cls, solver: dict) -> tuple[tuple, tuple]:
+        """``(required, optional)`` keys of ``[solver]`` besides ``algorithm`` for this table (some
+        algorithms' keys depend on the value of another); all of them are in ``deck_required`` or
+        ``deck_optional``."""
+        return cls.deck_required, cls.deck_optional
 
     @classmethod
     @abstractmethod
@@ -54,6 +70,27 @@ class Algorithm(ABC):
     @abstractmethod
     def failure(self, code: int, state, run) -> tuple[str, str]: ...
 
+    def n_steps(self, t_end: float) -> int:
+        """The number of steps of ``dt`` from 0 to ``t_end``; ValueError when it is not a whole number."""
+        steps = t_end / self.dt
+        n_total = int(round(steps)) if steps < 2.0**62 else 0
+        if n_total < 1 or abs(n_total * self.dt - t_end) > 1e-9 * max(t_end, 1.0):
+            raise ValueError(f"t_end = {t_end} is not a whole number of steps of dt = {self.dt}")
+        return n_total
+
+    def recorded(self, run) -> dict:
+        """Values added to each output record (record key → value, :data:`reference.io.results.DATASETS`)."""
+        return {}
+
+    def table(self, results) -> list[str]:
+        """Lines of the terminal table of a linearised analysis's results (none for the others)."""
+        return []
+
+    def finish(self, model, state, run, completed: bool) -> dict:
+        """Datasets written once when the run ends (path in the results file → array); ``completed``
+        whether every step was taken."""
+        return {}
+
 
 @dataclass
 class SolverSettings:
@@ -63,7 +100,8 @@ class SolverSettings:
     ----------
     algorithm : str
         A name of :data:`reference.algorithms.ALGORITHMS`: ``"staggered_central_difference"``
-        (Park, explicit), ``"static"`` (load stepping, Newton), ``"generalized_alpha"`` (implicit).
+        (Park, explicit), ``"static"`` (load stepping, Newton), ``"generalized_alpha"`` (implicit),
+        ``"modes"``, ``"buckling"`` (linearised analyses).
     dt : float
         Time step [s] (static: ``t_end / load_steps``).
     t_end : float
@@ -83,6 +121,11 @@ class SolverSettings:
         Generalized-α: spectral radius at infinite frequency (1: no numerical dissipation).
     tolerance, max_iterations : float, int, optional
         Newton settings of the implicit algorithms (None: the algorithm's default).
+    modes : int
+        Modes and buckling: how many of the lowest modes (load factors) to compute.
+    about : str
+        Modes: the configuration linearised about, ``"reference"`` (the initial state) or ``"static"``
+        (the static equilibrium at ``t_end``).
     """
 
     algorithm: str = "staggered_central_difference"
@@ -95,3 +138,5 @@ class SolverSettings:
     rho_inf: float = 0.8
     tolerance: float | None = None
     max_iterations: int | None = None
+    modes: int = 6
+    about: str = "reference"

@@ -144,26 +144,9 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         x, q, v, w, f_prev, clock = state[:6]
         N, m = x.shape[0], model.n_constraints
         t = clock[0]
-        vd = np.zeros((N, 6))
-        lam = np.zeros(m)
         system.work.angle[:] = state.angle  # the force elements' continuous angles
-        system.evaluate(x, q, v, w, vd, lam, t, True)
-        r0 = system.work.r.copy()
-        rate = np.zeros(m)
-        if m:
-            tau = 1e-3 * self.dt
-            g = []
-            for sgn in (1.0, -1.0):
-                xs = x + sgn * tau * v
-                qs = np.empty_like(q)
-                compose(q, sgn * tau * w, qs, np.empty(4))
-                system.evaluate(xs, qs, v, w, vd, lam, t + sgn * tau, True)
-                g.append(system.work.PHIt + system.constraint_rate(v, w))
-            rate = (g[0] - g[1]) / (2.0 * tau)
-            system.evaluate(x, q, v, w, vd, lam, t, True)
         try:
-            lu = system.factor(x, q, w, t, lam, 1.0, 0.0, 0.0, ce=0.0)
-            vd, lam = system.solve(lu, -r0, -rate)
+            vd, lam = system.consistent_accelerations(x, q, v, w, t, 1e-3 * self.dt)
         except SingularMatrix:
             return SINGULAR
         run.vd, run.a, run.lam = vd, vd.copy(), lam

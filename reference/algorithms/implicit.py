@@ -191,6 +191,7 @@ class NewtonSystem:
         self.wt = work_tuple(self.work)
         self.zero_psi = np.zeros((model.nodes.mass.shape[0], 3))
         self.slu = SparseLU(self.pattern.n)
+        self._mass = None
 
     def evaluate(self, x, q, v, w, vd, lam, t, dynamic) -> float:
         """:func:`evaluate` into :attr:`work`; returns the strain energy."""
@@ -202,17 +203,56 @@ class NewtonSystem:
         phi = self.work.PHI - self.model.joints.eps * lam
         return float(math.sqrt(ck * ck * r @ r + phi @ phi))
 
-    def factor(self, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
-        """Assemble and factor the Newton matrix at ``(x, q, ω, t, λ)``; returns the factor arrays
-        (:class:`reference.linalg.SparseLU`: SuperLU once, compiled refactorisations after).
-
-        Raises :class:`reference.linalg.SingularMatrix` when the matrix is singular.
-        """
+    def matrix(self, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
+        """The Newton matrix ``[c_m M + c_c C + c_k K, Bᵀ; B, −c_e ε]`` at ``(x, q, ω, t, λ)`` (CSC, the
+        pattern's one matrix object, overwritten by the next call; ``c_e = 1/c_k`` by default).  The
+        force elements' blocks are taken at the velocities of the last :meth:`evaluate`."""
         wk = self.work
         ce = 1.0 / ck if ce is None else ce
         psi = self.zero_psi if psi is None else psi
         tangent_values(self.model, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12, wk.Kel)
-        return self.slu.factor(self.pattern.matrix(wk.values))
+        return self.pattern.matrix(wk.values)
+
+    def mass(self, x, q):
+        """The mass matrix on the free coordinates (CSR; constant, lumped masses and body-frame inertias:
+        assembled at the first call, at a configuration ``(x, q)`` where the force elements are defined)."""
+        if self._mass is None:
+            zero = np.zeros_like(x)
+            A = self.matrix(x, q, zero, 0.0, np.zeros(self.model.n_constraints), 1.0, 0.0, 0.0, ce=0.0).tocsr()
+            self._mass = A[: self.n_free, : self.n_free]
+        return self._mass
+
+    def factor(self, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
+        """Assemble (:meth:`matrix`) and factor the Newton matrix; returns the factor arrays
+        (:class:`reference.linalg.SparseLU`: SuperLU once, compiled refactorisations after).
+
+        Raises :class:`reference.linalg.SingularMatrix` when the matrix is singular.
+        """
+        return self.slu.factor(self.matrix(x, q, w, t, lam, cm, cc, ck, ce, psi))
+
+    def consistent_accelerations(self, x, q, v, w, t, tau, ce=0.0):
+        """Accelerations ``V̇`` (N, 6) and multipliers λ (m,) consistent with the state at t:
+        ``M V̇ + Bᵀλ = −r(V̇ = 0, λ = 0)``, ``B V̇ − c_e ε λ = −d/dt(B V + Φ_t)``, the last by a central
+        difference of step ``tau`` [s] along the motion.  Raises :class:`reference.linalg.SingularMatrix`."""
+        model = self.model
+        N, m = x.shape[0], model.n_constraints
+        vd = np.zeros((N, 6))
+        lam = np.zeros(m)
+        self.evaluate(x, q, v, w, vd, lam, t, True)
+        r0 = self.work.r.copy()
+        rate = np.zeros(m)
+        if m:
+            g = []
+            for sgn in (1.0, -1.0):
+                xs = x + sgn * tau * v
+                qs = np.empty_like(q)
+                compose(q, sgn * tau * w, qs, np.empty(4))
+                self.evaluate(xs, qs, v, w, vd, lam, t + sgn * tau, True)
+                g.append(self.work.PHIt + self.constraint_rate(v, w))
+            rate = (g[0] - g[1]) / (2.0 * tau)
+            self.evaluate(x, q, v, w, vd, lam, t, True)
+        lu = self.factor(x, q, w, t, lam, 1.0, 0.0, 0.0, ce=ce)
+        return self.solve(lu, -r0, -rate)
 
     def solve(self, lu, rhs_nodes: np.ndarray, rhs_rows: np.ndarray):
         """Solve with the factor arrays ``lu``: node part (N,6) and constraint part (m,) → (δ (N,6), μ (m,))."""

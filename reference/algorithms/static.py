@@ -22,20 +22,38 @@ Records: velocities and kinetic energy 0; strain energy; external work by the
 trapezoidal rule along the load path, ``½(F_old + F_new)·(Δx, Δθ)``, plus the
 work of the prescribed drives, ``−½(λ_old B_old + λ_new B_new)·Δ``;
 ``‖Φ‖`` and (velocities being zero) ``‖Φ_t‖``.
+
+**Stability along the path** (docs/formulation.md §11): at every equilibrium reached, the number of
+negative eigenvalues of the tangent reduced to the constraints' null space (its inertia:
+:func:`reference.modal.negative_eigenvalues` on ``Zᵀ K Z``, Z from :func:`reference.linalg.null_space`)
+is recorded (``/stability/negative_eigenvalues``).  When it changes between two load levels, the
+eigenvalue nearest zero at both (:func:`reference.modal.nearest_zero`, in the mass metric) is
+interpolated linearly to its zero, the critical load factor; the event is a *bifurcation* when the
+load increment is orthogonal to the critical mode (``|φᵀ ΔF| ≤`` :data:`BIFURCATION` ``‖φ‖_M ‖ΔF‖_M⁻¹``),
+else a *limit point*, and is announced as one :class:`reference.validation.ModelWarning` line and
+written to ``/stability/critical_load_factor`` and ``/stability/critical_kind`` at the end.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse.linalg as spla
 
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
-from reference.linalg import SingularMatrix
+from reference.linalg import SingularMatrix, null_space
+from reference.modal import nearest_zero, negative_eigenvalues
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
+from reference.validation import ModelWarning
 
 MAX_CUTS = 8
 """Halvings of a load step before the run stops (smallest step 1/256 of the nominal)."""
+BIFURCATION = 1e-3
+"""A change of stability is a bifurcation when the load increment's component along the critical mode is
+below this fraction of its size (mass metric): exactly zero on a perfect symmetric structure (the
+lateral–torsional mode of an in-plane loaded beam: 1e-12), of the order of the imperfection otherwise."""
 
 
 @dataclass
@@ -57,6 +75,10 @@ class StaticRun:
     started: bool = False
     stopped_at: float | None = None
     history: list = field(default_factory=list)
+    negative: int = -1
+    recorded: int = -1
+    previous: tuple | None = None
+    events: list = field(default_factory=list)
 
 
 class Static(ImplicitAlgorithm):
@@ -147,9 +169,11 @@ class Static(ImplicitAlgorithm):
             run.P = _row_forces(system, lam)
             f_prev[:] = system.work.F
             run.started = True
+            self._stability(run, x, q, lam, clock[0])
         if record is not None:
             U = run.U = float(system.evaluate(x, q, x, x, x, lam, clock[0], False))
             system.write_record(record, x, q, v, w, U, clock, lam)
+            run.recorded = run.negative
         for _ in range(n_steps):
             t0, target = clock[0], clock[0] + self.dt
             sub, t = self.dt, t0
@@ -161,6 +185,7 @@ class Static(ImplicitAlgorithm):
                     dW, run.P = _work_increment(system, saved[0], saved[1], f_prev, run.P, x, q, lam)
                     clock[2] += dW
                     f_prev[:] = system.work.F
+                    self._stability(run, x, q, lam, t_try)
                     t = t_try
                     sub = min(2.0 * sub, self.dt)
                     continue
@@ -175,6 +200,67 @@ class Static(ImplicitAlgorithm):
             clock[1] += 1
             clock[0] = clock[1] * self.dt
         return OK
+
+
+    def recorded(self, run) -> dict:
+        """The number of negative eigenvalues of the reduced tangent at the recorded equilibrium."""
+        return {"negative_eigenvalues": float(run.recorded)}
+
+    def finish(self, model, state, run, completed: bool) -> dict:
+        """The changes of stability along the path (none: empty datasets)."""
+        events = run.events
+        return {"stability/critical_load_factor": np.array([e[2] for e in events], dtype=float),
+                "stability/critical_kind": np.array([e[3] for e in events], dtype=str),
+                "stability/bracket": np.array([e[:2] for e in events], dtype=float).reshape(-1, 2)}
+
+    def _stability(self, run, x, q, lam, t) -> None:
+        """The inertia of the reduced tangent at the equilibrium just reached (the last evaluation is at it);
+        a change from the previous equilibrium becomes an event and a warning."""
+        system = run.system
+        count, K, Z, _ = reduced_tangent(system, x, q, lam, t)
+        F = system.work.F.copy()
+        before, run.previous = run.previous, (x.copy(), q.copy(), lam.copy(), t, F)
+        old, run.negative = run.negative, count
+        if before is None:
+            if count > 0:
+                warnings.warn(f"the equilibrium at load factor {t:.6g} is unstable: {_eigenvalues(count)} of the "
+                              "tangent", ModelWarning, stacklevel=2)
+            return
+        if count == old or count < 0 or old < 0:
+            return
+        x0, q0, lam0, t0, F0 = before
+        M = (Z.T @ system.mass(x, q) @ Z).tocsr()
+        mu1, phi = nearest_zero(K, M)
+        mu0 = nearest_zero(reduced_tangent(system, x0, q0, lam0, t0, Z)[1], M)[0]
+        system.evaluate(x, q, x, x, x, lam, t, False)  # the evaluation at the current equilibrium again
+        t_cr = t0 + (t - t0) * mu0 / (mu0 - mu1) if mu0 != mu1 else t
+        dF = Z.T @ (F - F0)[system.free]
+        along = abs(phi @ dF)
+        size = np.sqrt(max(dF @ spla.spsolve(M.tocsc(), dF), 0.0)) * np.sqrt(max(phi @ (M @ phi), 0.0))
+        kind = "bifurcation" if along <= BIFURCATION * size else "limit point"
+        run.events.append((t0, t, t_cr, kind, count))
+        change = "stability lost" if count > old else "stability regained" if count == 0 else "stability changed"
+        warnings.warn(f"{change} between load factor {t0:.6g} and {t:.6g}: {kind}, {_eigenvalues(count)} "
+                      f"(critical load factor {t_cr:.6g}, interpolated from the lowest eigenvalue)",
+                      ModelWarning, stacklevel=2)
+
+
+def _eigenvalues(count: int) -> str:
+    return f"{count} negative eigenvalue{'s' if count != 1 else ''}"
+
+
+def reduced_tangent(system, x, q, lam, t, Z=None):
+    """``(negative eigenvalues, K_r, Z, rank B)`` of the static tangent at ``(x, q, λ, t)``, reduced to the
+    null space of B (Z given, or from :func:`reference.linalg.null_space`); evaluates the model there."""
+    zero = np.zeros_like(x)
+    system.evaluate(x, q, zero, zero, zero, lam, t, False)
+    A = system.matrix(x, q, zero, t, lam, 0.0, 0.0, 1.0, ce=0.0).tocsr()
+    n = system.n_free
+    rank = -1
+    if Z is None:
+        Z, rank = null_space(A[n:, :n])
+    K = (Z.T @ A[:n, :n] @ Z).tocsr()
+    return negative_eigenvalues(K), K, Z, rank
 
 
 def _work_increment(system, x0, q0, F0, P0, x, q, lam):

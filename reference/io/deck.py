@@ -139,7 +139,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
         model = domain.initialization()
     except ValueError as exc:
         raise rd.fail("model", str(exc)) from None
-    problem = algo_cls.refusal(model)
+    problem = domain.algorithm().refusal(model)
     if problem:
         raise rd.fail("solver.algorithm", f"{algorithm!r} cannot run this model: {problem}")
     return Deck(domain, str(path), text, metadata, checks, crosscheck)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 
 from reference.algorithms import ALGORITHMS, SolverSettings
+from reference.algorithms.linear import ABOUT
 from reference.domain import Domain
 from reference.io.deck_reader import Reader, show
 from reference.monitor import SAFETY, damping_problem
@@ -30,6 +31,8 @@ MAX_ITERATIONS = 1000
 all (the implicit runs here need at most 7); a step that needs more needs a smaller step."""
 SUGGEST = 0.8
 """Fraction of the critical estimate used for the dt the messages suggest."""
+MAX_MODES = 10_000
+"""Largest ``solver.modes``: the lowest modes of a model are asked for, not its spectrum."""
 
 
 def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine: int):
@@ -43,9 +46,16 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
     algorithm = rd.choice(sv.get("algorithm", SolverSettings.algorithm), "solver.algorithm", ALGORITHMS, "algorithm")
     algo_cls = ALGORITHMS[algorithm]
     rd.keys(sv, "solver", required=algo_cls.deck_required, optional=["algorithm", *algo_cls.deck_optional])
+    about = rd.choice(sv.get("about", SolverSettings.about), "solver.about", ABOUT, "configuration",
+                      "'reference' (the initial state) or 'static' (the static equilibrium at t_end)")
+    # keys that only some values of another accept (modes: the static algorithm's keys with about = "static")
+    required, optional = algo_cls.deck_keys(sv)
+    rd.keys(sv, "solver", required=required, optional=["algorithm", *optional])
+    modes = rd.integer(sv.get("modes", SolverSettings.modes), "solver.modes", maximum=MAX_MODES,
+                       fix=f"ask for the lowest modes, at most {MAX_MODES}")
     dt_entry = "dt override (--dt)" if "dt" in overrides else "solver.dt"
     t_entry = "t_end override (--t-end)" if "t_end" in overrides else "solver.t_end"
-    t_end = rd.number(overrides.get("t_end", sv["t_end"]), t_entry, positive=True)
+    t_end = rd.number(overrides.get("t_end", sv.get("t_end", SolverSettings.t_end)), t_entry, positive=True)
     load_steps = rd.integer(sv.get("load_steps", 1), "solver.load_steps", maximum=MAX_STEPS,
                             fix="a static run of more load steps would take days; raise max_steps is no help")
     # the explicit step shrinks with the refined mesh; an implicit step does not
@@ -71,6 +81,7 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
         max_iterations=rd.integer(sv["max_iterations"], "solver.max_iterations", maximum=MAX_ITERATIONS,
                                   fix="Newton converges in a few iterations or not at all; use a smaller step")
         if "max_iterations" in sv else None,
+        modes=modes, about=about,
     )
     max_steps = rd.integer(sv.get("max_steps", MAX_STEPS), "solver.max_steps", maximum=MAX_STEPS_LIMIT,
                            fix="a run of more steps would take weeks")

@@ -64,6 +64,7 @@ DATASETS = {
     "reaction_moment": "joints/reaction_moment",
     "section_force": "elements/section_force",
     "section_moment": "elements/section_moment",
+    "negative_eigenvalues": "stability/negative_eigenvalues",
 }
 """Record key → dataset path."""
 
@@ -195,6 +196,17 @@ class ResultsWriter:
         self.f.flush()
         self._flushed = time.monotonic()
 
+    def add_datasets(self, datasets: dict) -> None:
+        """Write datasets that are not time histories (path → array, e.g. ``"modes/frequency"``); an
+        existing one of that path is replaced."""
+        for path, value in datasets.items():
+            if path in self.f:
+                del self.f[path]
+            value = np.asarray(value)
+            self.f.create_dataset(path, data=value.astype(h5py.string_dtype()) if value.dtype.kind == "U" else value)
+        if datasets:
+            self.f.flush()
+
     def close(self, status: str = "completed") -> None:
         """Write what is buffered, record ``status`` and close (safe to call twice)."""
         if self.f.id.valid:
@@ -303,8 +315,9 @@ class Results:
         return value
 
     def data(self, path: str, index=()) -> np.ndarray:
-        """The dataset at ``path`` (e.g. ``"constraints/multipliers"``), or its ``[:, index]`` part;
-        NaN (zero columns for the multipliers) where the run did not compute it."""
+        """The dataset at ``path`` (e.g. ``"constraints/multipliers"``, ``"modes/frequency"``), or its
+        ``[:, index]`` part (text as ``str``); NaN (zero columns for the multipliers) where the run did
+        not compute it."""
         if path in self.extra:
             return self.extra[path][(slice(None), *np.atleast_1d(index))] if index != () else self.extra[path]
         if self.source is None:
@@ -315,7 +328,8 @@ class Results:
         with h5py.File(self.source, "r") as f:
             if path not in f:
                 return self._missing(path, f["time"].shape[0])
-            return f[path][(slice(None), index)] if index != () else f[path][()]
+            ds = f[path].asstr() if h5py.check_string_dtype(f[path].dtype) else f[path]
+            return np.asarray(ds[(slice(None), index)] if index != () else ds[()])
 
     def _missing(self, path: str, n: int) -> np.ndarray:
         if path == "constraints/multipliers":
@@ -400,6 +414,7 @@ class MemoryRecorder:
         self.capacity, self.labels, self.n = capacity, labels, 0
         self.joint_labels, self.element_labels = list(joint_labels), list(element_labels)
         self.arrays: dict[str, np.ndarray] = {}
+        self.datasets: dict[str, np.ndarray] = {}
 
     def append(self, entry: dict) -> None:
         if not self.arrays:
@@ -407,6 +422,10 @@ class MemoryRecorder:
         for k, v in entry.items():
             self.arrays[k][self.n] = v
         self.n += 1
+
+    def add_datasets(self, datasets: dict) -> None:
+        """Keep datasets that are not time histories (path → array), read back by :meth:`Results.data`."""
+        self.datasets.update({path: np.asarray(value) for path, value in datasets.items()})
 
     def close(self, status: str) -> None:
         self.status = status
@@ -417,5 +436,6 @@ class MemoryRecorder:
         by_path = {dataset_path(k): a[: self.n] for k, a in self.arrays.items()}
         fields = {name: by_path.pop(path) for name, path in Results.ARRAYS.items() if path in by_path}
         energy = {k: by_path.pop(f"energy/{k}", np.full(self.n, np.nan)) for k in Results.ENERGIES}
-        return Results(labels=self.labels, energy=energy, status=self.status, wall_time=wall_time, extra=by_path,
+        return Results(labels=self.labels, energy=energy, status=self.status, wall_time=wall_time,
+                       extra={**by_path, **self.datasets},
                        joint_labels=self.joint_labels, element_labels=self.element_labels, **fields)

@@ -1,0 +1,258 @@
+"""Linearised analyses: vibration modes and linear buckling (``algorithm = "modes"``, ``"buckling"``).
+
+They take no time step.  Each reaches the configuration it linearises about — the initial state
+(``about = "reference"``), or the end of the static algorithm's load path (``about = "static"`` and
+buckling: :class:`~reference.algorithms.static.Static` with the deck's ``t_end`` and ``load_steps``,
+its stability indicator included) — and then, in :meth:`LinearAnalysis.finish`, linearises there
+(:mod:`reference.linearization`) and solves the eigenproblem (:mod:`reference.modal`).  The solution
+loop (:func:`reference.solution.run`) treats them like any algorithm: the records of the path (one
+record for the reference state) and, at the end, the analysis's datasets (docs/results.md):
+
+- modes: ``/modes/frequency`` [Hz], ``/modes/damping_ratio``, ``/modes/omega_squared`` [rad²/s²],
+  ``/modes/root`` (k, 2) the roots s (real, imaginary) [1/s], ``/modes/kind`` (``elastic``, ``zero``,
+  ``unstable``), ``/modes/shape`` (k, N, 6) mass-normalised, ``/modes/shape_imaginary`` (damped or
+  gyroscopic), ``/modes/zero_modes``, ``/modes/mobility``, ``/modes/constraint_rank``,
+  ``/modes/coordinates``, ``/modes/time``;
+- buckling: ``/buckling/load_factor``, ``/buckling/shape`` (k, N, 6) with ``max |φ| = 1``,
+  ``/buckling/time``.
+
+Load factor of buckling: the loads ``F(0) + μ (F(t_end) − F(0))``, ``K_g = K_T(t_end) − K_T(0)``
+(docs/formulation.md §11: why the secant from the two equilibria, and what it misses).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from reference.algorithms.base import Algorithm
+from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem
+from reference.algorithms.static import Static, StaticRun
+from reference import linearization
+from reference.linalg import SingularMatrix
+from reference.modal import buckling, modes
+from reference.status import OK, SINGULAR
+from reference.validation import ModelWarning
+
+ABOUT = ("reference", "static")
+"""The configurations a modal analysis linearises about (``solver.about``)."""
+
+
+@dataclass
+class LinearRun:
+    """A linearised analysis's run state: the Newton system, the static path's run (None about the
+    reference), the multipliers of the configuration, the unloaded equilibrium ``(x, q, λ, t)`` of a
+    path, and ``started``."""
+
+    system: NewtonSystem
+    path: StaticRun | None
+    lam: np.ndarray | None = None
+    initial: tuple | None = None
+    started: bool = False
+    stopped_at: float | None = None
+
+
+class LinearAnalysis(Algorithm):
+    """Base of the linearised analyses: the path to the configuration, the records, the refusal.
+
+    Parameters
+    ----------
+    n_modes : int
+        How many modes (or buckling factors) to compute, the lowest.
+    path : Static or None
+        The static algorithm whose end state is linearised (None: the initial state).
+    """
+
+    explicit = False
+    linearised = True
+
+    def __init__(self, n_modes: int, path: Static | None = None):
+        if int(n_modes) < 1:
+            raise ValueError(f"modes must be a positive integer, got {n_modes!r}")
+        self.n_modes = int(n_modes)
+        self.path = path
+        self.dt = path.dt if path is not None else math.inf
+
+    def refusal(self, model) -> str | None:
+        """Master/slave joints (as the implicit algorithms), no free coordinate, more modes than free
+        coordinates (more than independent ones, free less the rank of B, is refused when the
+        configuration is known, by :meth:`analyse`)."""
+        problem = ImplicitAlgorithm.refusal(model)
+        if problem:
+            return problem
+        free = int(np.sum(model.nodes.free > 0.5))
+        if free == 0:
+            return "the model has no free coordinates (every node is fixed): there is nothing to linearise"
+        if self.n_modes > free:
+            return f"{self.n_modes} modes asked of a model with {free} free coordinates; ask at most {free}"
+        return None
+
+    def n_steps(self, t_end: float) -> int:
+        return self.path.n_steps(t_end) if self.path is not None else 0
+
+    def start(self, model, state, critical_step=math.inf, guard=None) -> LinearRun:
+        problem = self.refusal(model)
+        if problem:
+            raise ValueError(problem)
+        if self.path is not None:
+            path = self.path.start(model, state)
+            return LinearRun(path.system, path)
+        return LinearRun(NewtonSystem(model), None)
+
+    def advance(self, model, state, run, n_steps, record) -> int:
+        """The path's steps (its first call also keeps the unloaded equilibrium); about the reference,
+        the consistent multipliers and the one record."""
+        if run.path is not None:
+            if not run.path.started:
+                code = self.path.advance(model, state, run.path, 0, record)
+                if code != OK:
+                    return code
+                run.initial = (state.x.copy(), state.q.copy(), run.path.lam.copy(), state.t)
+                if n_steps == 0:
+                    return OK
+                record = None
+            return self.path.advance(model, state, run.path, n_steps, record)
+        system = run.system
+        if not run.started:
+            system.work.angle[:] = state.angle
+            try:
+                _, run.lam = system.consistent_accelerations(state.x, state.q, state.v, state.w, state.t,
+                                                             1e-6, ce=1.0)
+            except SingularMatrix:
+                run.stopped_at = state.t
+                return SINGULAR
+            run.started = True
+        if record is not None:
+            x, q, v, w = state.x, state.q, state.v, state.w
+            U = system.evaluate(x, q, v, w, np.zeros((x.shape[0], 6)), run.lam, state.t, True)
+            system.write_record(record, x, q, v, w, U, state.clock, run.lam)
+        return OK
+
+    def failure(self, code: int, state, run) -> tuple[str, str]:
+        if run.path is not None:
+            return self.path.failure(code, state, run.path)
+        return ("failed: singular constraints at the reference state",
+                "the constraint Jacobian at the initial state is singular (redundant, unregularised joints): "
+                "the multipliers cannot be found; regularise the joints (epsilon > 0) or remove the redundancy")
+
+    def recorded(self, run) -> dict:
+        return self.path.recorded(run.path) if run.path is not None else {}
+
+    def multipliers(self, run) -> np.ndarray:
+        return run.path.lam if run.path is not None else run.lam
+
+    def finish(self, model, state, run, completed: bool) -> dict:
+        """The path's datasets and, when it completed, the analysis's (:meth:`analyse`)."""
+        datasets = self.path.finish(model, state, run.path, completed) if run.path is not None else {}
+        if completed:
+            datasets.update(self.analyse(model, state, run))
+        return datasets
+
+    def analyse(self, model, state, run) -> dict:
+        raise NotImplementedError
+
+
+class Modes(LinearAnalysis):
+    """Vibration modes about the reference state or a static equilibrium (``algorithm = "modes"``).
+
+    Undamped modes when the reduced damping is zero and the stiffness symmetric, else the damped or
+    gyroscopic quadratic problem (:func:`reference.modal.modes`).  Zero modes are counted among the
+    lowest ``modes + mobility`` and compared with the mobility (:func:`reference.linearization.mobility`):
+    more zero modes than rigid and mechanism motions is warned about (a direction without stiffness).
+    """
+
+    name = "modes"
+    deck_required = ("modes",)
+    deck_optional = ("about", "t_end", "load_steps", "tolerance", "max_iterations", "output_every", "max_steps")
+    STATIC_KEYS = ("t_end", "load_steps")
+
+    @classmethod
+    def deck_keys(cls, solver: dict) -> tuple[tuple, tuple]:
+        """The keys of ``[solver]`` for its ``about``: the static algorithm's with ``"static"``."""
+        if solver.get("about", "reference") == "static":
+            return cls.deck_required + cls.STATIC_KEYS, ("about",) + Static.deck_optional
+        return cls.deck_required, ("about",)
+
+    @classmethod
+    def from_settings(cls, settings, dt=None):
+        path = Static.from_settings(settings, dt) if settings.about == "static" else None
+        return cls(settings.modes, path)
+
+    def analyse(self, model, state, run) -> dict:
+        lin = linearization.linearize(model, state.x, state.q, state.v, state.w, self.multipliers(run), state.t, state.angle,
+                        run.system)
+        red = linearization.reduce(lin)
+        size = red.M.shape[0]
+        if self.n_modes > size:
+            raise ValueError(f"{self.n_modes} modes asked of a model with {size} independent coordinates "
+                             f"({lin.n_free} free less {red.rank} independent constraints); ask at most {size}")
+        movable = linearization.mobility(model, lin)
+        found = modes(red.M, red.D, red.K, min(self.n_modes + movable, size))
+        zero = int(np.sum(found.kind == "zero"))
+        if zero > movable:
+            warnings.warn(f"{zero} zero modes, but the joints and fixed coordinates allow only {movable} rigid-body "
+                          "or mechanism motions: some direction has no stiffness (an unsupported node, a zero "
+                          "stiffness)", ModelWarning, stacklevel=2)
+        k = self.n_modes
+        shapes = lin.nodal((red.Z @ found.phi[:, :k]).T)
+        out = {"modes/frequency": found.frequency[:k], "modes/damping_ratio": found.damping_ratio[:k],
+               "modes/omega_squared": found.omega2[:k], "modes/root": np.stack([found.s.real, found.s.imag], 1)[:k],
+               "modes/kind": found.kind[:k].astype(str), "modes/shape": shapes.real,
+               "modes/zero_modes": np.int64(zero), "modes/mobility": np.int64(movable),
+               "modes/constraint_rank": np.int64(red.rank), "modes/coordinates": np.int64(size),
+               "modes/time": np.float64(state.t)}
+        if found.damped:
+            out["modes/shape_imaginary"] = shapes.imag
+        return out
+
+    def table(self, results) -> list[str]:
+        """Mode, frequency [Hz], damping ratio, kind; then the zero modes against the mobility."""
+        f, zeta, kind = (results.data(f"modes/{k}") for k in ("frequency", "damping_ratio", "kind"))
+        lines = [f"{'mode':>4}  {'frequency [Hz]':>15}  {'damping ratio':>13}  kind"]
+        lines += [f"{k + 1:>4}  {f[k]:>15.6g}  {zeta[k]:>13.4g}  {kind[k]}" for k in range(len(f))]
+        zero, movable, size = (int(results.data(f"modes/{k}")) for k in ("zero_modes", "mobility", "coordinates"))
+        lines.append(f"{zero} zero mode{'s' if zero != 1 else ''} (rigid-body or mechanism); mobility {movable}; "
+                     f"{size} independent coordinates; about t = {float(results.data('modes/time')):g}")
+        return lines
+
+
+class Buckling(LinearAnalysis):
+    """Linear buckling about the pre-stressed state of the deck's loads (``algorithm = "buckling"``).
+
+    The static path from the equilibrium at t = 0 to ``t_end`` (load factor 1: the loads at ``t_end``),
+    then ``(K_0 + μ K_g) φ = 0`` with ``K_g = K_T(t_end) − K_T(0)`` reduced to the null space of B at
+    ``t_end`` (:func:`reference.modal.buckling`).
+    """
+
+    name = "buckling"
+    deck_required = ("modes",)
+    deck_optional = ("t_end", "load_steps", "tolerance", "max_iterations", "output_every", "max_steps")
+
+    @classmethod
+    def from_settings(cls, settings, dt=None):
+        return cls(settings.modes, Static.from_settings(settings, dt))
+
+    def analyse(self, model, state, run) -> dict:
+        x0, q0, lam0, t0 = run.initial
+        lin1 = linearization.linearize(model, state.x, state.q, None, None, self.multipliers(run), state.t, state.angle, run.system)
+        red = linearization.reduce(lin1)
+        if self.n_modes > red.M.shape[0]:
+            raise ValueError(f"{self.n_modes} buckling modes asked of a model with {red.M.shape[0]} independent "
+                             f"coordinates; ask at most {red.M.shape[0]}")
+        lin0 = linearization.linearize(model, x0, q0, None, None, lam0, t0, state.angle, run.system)
+        K0 = (red.Z.T @ lin0.K @ red.Z).tocsr()
+        mu, phi = buckling(K0, red.K, self.n_modes)
+        return {"buckling/load_factor": mu, "buckling/shape": lin1.nodal((red.Z @ phi).T),
+                "buckling/time": np.float64(state.t), "buckling/reference_time": np.float64(t0)}
+
+    def table(self, results) -> list[str]:
+        """Mode and load factor (the loads at t_end, their increment from t = 0, times the factor)."""
+        mu = results.data("buckling/load_factor")
+        t1, t0 = float(results.data("buckling/time")), float(results.data("buckling/reference_time"))
+        lines = [f"{'mode':>4}  {'load factor':>12}"] + [f"{k + 1:>4}  {mu[k]:>12.6g}" for k in range(len(mu))]
+        lines.append(f"load factor 1: the loads at t = {t1:g} (the increment from t = {t0:g}); "
+                     f"{len(mu)} positive factor{'s' if len(mu) != 1 else ''} found")
+        return lines

@@ -1,0 +1,265 @@
+"""Modes, linear buckling and the inertia of a tangent, on the reduced linearisation (docs/formulation.md §11).
+
+Given the reduced matrices of :func:`reference.linearization.reduce` (``M_r``, ``D_r``, ``K_r`` on
+independent coordinates):
+
+- **undamped modes** (:func:`modes`, ``D_r = 0`` and ``K_r`` symmetric): ``K_r φ = ω² M_r φ``, the lowest
+  by shift-invert Lanczos (``scipy.sparse.linalg.eigsh``; Ericsson & Ruhe 1980) about a shift slightly
+  below zero, so that zero (rigid-body, mechanism) modes do not make the shifted matrix singular; dense
+  ``scipy.linalg.eigh`` for small models;
+- **damped or gyroscopic modes** (``D_r ≠ 0``, or ``K_r`` not symmetric: follower loads): the quadratic
+  problem ``(s² M_r + s D_r + K_r) φ = 0`` in first-order form ``[0 I; −K −D] y = s [I 0; 0 M] y``
+  (Tisseur & Meerbergen 2001, §3.4), shift-invert Arnoldi (``eigs``); frequency ``|Im s|/2π``, damping
+  ratio ``−Re s/|s|``;
+- **linear buckling** (:func:`buckling`): ``(K_0 + μ K_g) φ = 0`` with ``K_g = K_1 − K_0`` the change of
+  the tangent from the unloaded state to the state under the loads of load factor 1;
+- **the inertia of a tangent** (:func:`negative_eigenvalues`): the number of negative pivots of an
+  ``L D Lᵀ`` factorisation with symmetric ordering (Sylvester's law of inertia).
+
+A mode whose ``|ω²|`` is below :data:`ZERO_MODE` times the stiffness scale (the largest
+``K_ii/M_ii``) is a *zero* mode; a negative ``ω²`` beyond it an *unstable* one (a divergence).
+Mode shapes are mass-normalised (``φᵀ M_r φ = 1``; ``φᴴ M_r φ = 1`` for complex ones, rotated so that
+the largest entry is real and positive).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
+
+ZERO_MODE = 1e-12
+"""``|ω²|`` below this fraction of the stiffness scale s (:func:`stiffness_scale`) is a zero mode.  The
+shift-inverted solution finds an exact zero eigenvalue at about 1e-16 s (measured: the six rigid modes of
+a free, very slender beam, 1.3e-18 s to 1.0e-16 s); its lowest elastic mode lies at 2.4e-8 s, the
+lowest elastic or gravity mode of the shipped decks and tests higher still."""
+SHIFT = 1e-9
+"""The shift of the shift-invert solutions, ``σ = −SHIFT × s`` (s as in :data:`ZERO_MODE`): ``K − σM`` is
+positive definite with zero modes (condition about 1e9), σ lies below every elastic eigenvalue, and the
+eigenvalues near it come out accurate to round-off of |σ| (not of the largest eigenvalue, as with the
+plain ``eigh(K, M)``, which put the same rigid modes at ±2e-12 s and the first elastic one 6e-5 off)."""
+DENSE = 600
+"""Reduced systems up to this size are solved densely (all eigenvalues; faster than ARPACK there)."""
+SYMMETRY = 1e-9
+"""``K_r`` is treated as symmetric when ``|K − Kᵀ|`` is below this fraction of ``|K|`` (its
+symmetric part is then used); at an equilibrium the skew parts of the element, joint and load tangents
+cancel to round-off (docs/tangents.md, "Skew part")."""
+
+
+@dataclass
+class ModeSet:
+    """Eigenvalues and mass-normalised shapes on the reduced coordinates.
+
+    ``s`` (k,) complex: the roots of ``det(s² M + s D + K) = 0`` (undamped: ``s = i ω``, or ``s = |ω|``
+    for an unstable ``ω² < 0``); ``omega2`` (k,) ``−s²`` real part for undamped sets;
+    ``phi`` (n_r, k) shapes; ``kind`` (k,) "elastic", "zero" or "unstable"; ``scale`` the stiffness
+    scale s of :data:`ZERO_MODE`; ``damped`` whether the first-order form was used.
+    """
+
+    s: np.ndarray
+    phi: np.ndarray
+    kind: np.ndarray
+    scale: float
+    damped: bool
+
+    @property
+    def frequency(self) -> np.ndarray:
+        """``|Im s| / 2π`` [Hz] (for an undamped unstable mode ``|s|/2π``, the growth rate)."""
+        f = np.where(self.kind == "unstable", np.abs(self.s), np.abs(self.s.imag))
+        return f / (2.0 * np.pi)
+
+    @property
+    def damping_ratio(self) -> np.ndarray:
+        """``−Re s / |s|`` (0 for a zero mode)."""
+        mag = np.abs(self.s)
+        return np.where(mag > 0.0, -self.s.real / np.where(mag > 0.0, mag, 1.0), 0.0) + 0.0
+
+    @property
+    def omega2(self) -> np.ndarray:
+        """``−Re(s²)`` [rad²/s²]: ω² of an undamped mode (negative: unstable)."""
+        return -(self.s * self.s).real + 0.0
+
+
+def stiffness_scale(K, M) -> float:
+    """``Σ |K_ii| / Σ M_ii``: the stiffness over the mass of the coordinates that carry them, about the
+    element frequency² of the translations (the rotary inertias, small, hardly count); 1 if K is zero."""
+    k, m = float(np.sum(np.abs(K.diagonal()))), float(np.sum(np.abs(M.diagonal())))
+    return k / m if k > 0.0 and m > 0.0 else 1.0
+
+
+def is_symmetric(K, tol: float = SYMMETRY) -> bool:
+    big = abs(K).max() if K.nnz else 0.0
+    return bool(big == 0.0 or abs(K - K.T).max() <= tol * big)
+
+
+def modes(M, D, K, n: int) -> ModeSet:
+    """The ``n`` modes of lowest ``|s|`` of the reduced system (sparse M, D, K of size n_r).
+
+    Undamped (:func:`undamped`) when D is zero and K symmetric, else first-order (:func:`damped`).
+    Raises ValueError when ``n`` is not in 1 … n_r.
+    """
+    size = M.shape[0]
+    if not 1 <= n <= size:
+        raise ValueError(f"{n} modes asked of a model with {size} independent coordinates; ask at most {size}")
+    D = sps.csr_matrix(D)
+    if (D.nnz == 0 or abs(D).max() == 0.0) and is_symmetric(K):
+        return undamped(M, K, n)
+    return damped(M, D, K, n)
+
+
+def undamped(M, K, n: int) -> ModeSet:
+    """``K φ = ω² M φ`` (K symmetrised), the n eigenvalues nearest ``σ = −SHIFT s``: for a stable system
+    the lowest n."""
+    K = sps.csr_matrix(0.5 * (K + K.T))
+    M = sps.csr_matrix(0.5 * (M + M.T))
+    scale = stiffness_scale(K, M)
+    size = M.shape[0]
+    if size <= DENSE or n >= size - 1:
+        try:  # shift-invert in dense form: M φ = ν (K − σM) φ, ω² = σ + 1/ν (accurate near σ)
+            nu, phi = sla.eigh(M.toarray(), (K + SHIFT * scale * M).toarray())
+            w2 = -SHIFT * scale + 1.0 / nu
+        except np.linalg.LinAlgError:  # K − σM indefinite: unstable modes
+            w2, phi = sla.eigh(K.toarray(), M.toarray())
+        order = np.argsort(np.abs(w2 + SHIFT * scale), kind="stable")[:n]
+    else:
+        w2, phi = spla.eigsh(K.tocsc(), k=n, M=M.tocsc(), sigma=-SHIFT * scale, which="LM")
+        order = np.argsort(np.abs(w2 + SHIFT * scale), kind="stable")
+    w2, phi = w2[order], phi[:, order]
+    order = np.argsort(w2, kind="stable")
+    w2, phi = w2[order], _normalise(phi[:, order], M)
+    kind = _kind(w2, scale)
+    s = np.where(w2 >= 0.0, 1j * np.sqrt(np.abs(w2)), np.sqrt(np.abs(w2)) + 0j)
+    s[kind == "zero"] = 0.0
+    return ModeSet(s, phi, kind, scale, False)
+
+
+def _kind(w2: np.ndarray, scale: float) -> np.ndarray:
+    zero = np.abs(w2) <= ZERO_MODE * scale
+    return np.where(zero, "zero", np.where(w2 < 0.0, "unstable", "elastic"))
+
+
+def damped(M, D, K, n: int) -> ModeSet:
+    """The quadratic problem in first-order form; a conjugate pair is one mode (Im s > 0 kept), a real
+    root one mode, a zero mode's double root (a Jordan block) one mode."""
+    size = M.shape[0]
+    scale = stiffness_scale(K, M)
+    eye = sps.identity(size, format="csr")
+    A = sps.bmat([[None, eye], [-K, -D]], format="csc")
+    Bm = sps.bmat([[eye, None], [None, M]], format="csc")
+    sigma = -np.sqrt(SHIFT * scale)
+    want = min(2 * n + 2, 2 * size)
+    if 2 * size <= DENSE or want >= 2 * size - 1:
+        s, y = sla.eig(A.toarray(), Bm.toarray())
+    else:
+        lu = spla.splu(sps.csc_matrix(A - sigma * Bm))
+        op = spla.LinearOperator(A.shape, matvec=lambda z: lu.solve(np.asarray(Bm @ z, dtype=complex)), dtype=complex)
+        nu, y = spla.eigs(op, k=want, which="LM")
+        s = sigma + 1.0 / nu
+    keep = np.isfinite(s)
+    s, y = s[keep], y[:, keep]
+    zero = np.abs(s) ** 2 <= ZERO_MODE * scale
+    n_zero = (int(zero.sum()) + 1) // 2
+    rest = ~zero & (s.imag >= -1e-12 * np.abs(s))
+    # a pair with Im s = ±0 (an overdamped root) is kept once per root
+    order = np.flatnonzero(rest)[np.lexsort((-s[rest].imag, np.abs(s[rest])))]
+    picked = list(np.flatnonzero(zero)[:n_zero]) + list(order)
+    picked = picked[:n]
+    s, phi = s[picked], y[:size, picked]
+    s[: min(n_zero, len(picked))] = 0.0
+    kind = np.where(np.abs(s) == 0.0, "zero", np.where(s.real > ZERO_MODE * np.abs(s), "unstable", "elastic"))
+    return ModeSet(s, _normalise(phi, M), kind, scale, True)
+
+
+def _normalise(phi: np.ndarray, M) -> np.ndarray:
+    """``φᴴ M φ = 1`` per column, the largest entry real and positive."""
+    phi = np.array(phi)
+    for k in range(phi.shape[1]):
+        col = phi[:, k]
+        norm = np.sqrt(abs(np.vdot(col, M @ col)))
+        big = col[np.argmax(np.abs(col))]
+        phase = np.conj(big) / abs(big) if abs(big) > 0.0 else 1.0
+        phi[:, k] = col * phase / (norm if norm > 0.0 else 1.0)
+    return phi
+
+
+def buckling(K0, K1, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The smallest positive load factors μ of ``(K_0 + μ (K_1 − K_0)) φ = 0`` and their shapes (n_r, k),
+    normalised to ``max |φ| = 1``.
+
+    ``K_0`` the reduced tangent of the unloaded state, ``K_1`` that under the loads of load factor 1.
+    Solved as ``−K_g φ = (1/μ) K_0 φ`` (``K_0`` positive definite: a restrained structure) for the
+    largest positive ``1/μ``.  Raises ValueError when ``K_0`` is not positive definite (a mechanism, an
+    unconstrained body) or when ``n`` exceeds the coordinates; returns fewer than n factors when
+    fewer are positive (the loads stiffen the structure in the other modes).
+    """
+    size = K0.shape[0]
+    if not 1 <= n <= size:
+        raise ValueError(f"{n} buckling modes asked of a model with {size} independent coordinates; ask at most {size}")
+    K0 = sps.csr_matrix(0.5 * (K0 + K0.T))
+    Kg = sps.csr_matrix(K1) - K0
+    if not is_symmetric(Kg, 1e-7):
+        raise ValueError("the load stiffness is not symmetric (follower loads, or a state that is not an "
+                         "equilibrium): linear buckling assumes conservative loads; follow the static path instead")
+    Kg = 0.5 * (Kg + Kg.T)
+    if size <= DENSE or n >= size - 1:
+        try:
+            nu, phi = sla.eigh(-Kg.toarray(), K0.toarray())
+        except np.linalg.LinAlgError:
+            raise ValueError(_NOT_RESTRAINED) from None
+    else:
+        try:
+            nu, phi = spla.eigsh(-Kg.tocsc(), k=n, M=K0.tocsc(), which="LA")
+        except (RuntimeError, spla.ArpackError):
+            raise ValueError(_NOT_RESTRAINED) from None
+    positive = nu > 1e-12 * max(float(np.max(np.abs(nu), initial=0.0)), 1e-300)
+    nu, phi = nu[positive], phi[:, positive]
+    order = np.argsort(-nu)[:n]
+    mu, phi = 1.0 / nu[order], phi[:, order]
+    big = phi[np.argmax(np.abs(phi), axis=0), np.arange(phi.shape[1])]
+    return mu, phi / np.where(big != 0.0, big, 1.0)
+
+
+_NOT_RESTRAINED = ("the unloaded tangent is not positive definite (a mechanism or an unconstrained body): linear "
+                   "buckling needs a restrained structure; clamp or fix the free motions")
+
+
+def negative_eigenvalues(K) -> int:
+    """The number of negative eigenvalues of the symmetric part of K (sparse), by Sylvester's law of inertia
+    from the pivots of ``P K Pᵀ = L D Lᵀ``: SuperLU in its symmetric mode with diagonal pivots
+    (``diag_pivot_thresh = 0``) and a minimum-degree ordering of ``K + Kᵀ``, so that ``U = D Lᵀ``
+    (Bathe 1996, §8.2.5, the Sturm sequence property).  A zero or a non-diagonal pivot falls back to
+    the dense eigenvalues (or returns −1 above :data:`DENSE` × 4 coordinates)."""
+    K = sps.csc_matrix(0.5 * (K + K.T))
+    size = K.shape[0]
+    if size == 0:
+        return 0
+    try:
+        lu = spla.splu(K, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                       options={"SymmetricMode": True})
+        if np.array_equal(lu.perm_r, lu.perm_c):
+            d = lu.U.diagonal()
+            if np.all(np.isfinite(d)) and np.all(d != 0.0):
+                return int(np.sum(d < 0.0))
+    except RuntimeError:
+        pass
+    if size > 4 * DENSE:
+        return -1
+    return int(np.sum(np.linalg.eigvalsh(K.toarray()) < 0.0))
+
+
+def nearest_zero(K, M) -> tuple[float, np.ndarray]:
+    """The eigenvalue of ``K φ = μ M φ`` (K symmetrised) nearest zero and its shape: where the inertia
+    changes, the eigenvalue that crosses zero."""
+    K = sps.csc_matrix(0.5 * (K + K.T))
+    M = sps.csc_matrix(M)
+    size = K.shape[0]
+    if size <= DENSE:
+        mu, phi = sla.eigh(K.toarray(), M.toarray())
+    else:
+        shift = SHIFT * SHIFT * stiffness_scale(K, M)
+        mu, phi = spla.eigsh(K, k=min(4, size - 1), M=M, sigma=shift, which="LM")
+    k = int(np.argmin(np.abs(mu)))
+    return float(mu[k]), phi[:, k]
