@@ -337,6 +337,21 @@ class SparseLU:
         return x
 
 
+def permutation_sign(perm) -> int:
+    """The sign of a permutation (−1 for an odd number of transpositions), from its cycles."""
+    perm = np.asarray(perm)
+    seen = np.zeros(perm.size, dtype=bool)
+    transpositions = 0
+    for start in range(perm.size):
+        length, k = 0, start
+        while not seen[k]:
+            seen[k] = True
+            k = perm[k]
+            length += 1
+        transpositions += max(length - 1, 0)
+    return -1 if transpositions % 2 else 1
+
+
 def null_space(B: sps.csr_matrix, tol: float = RANK_TOLERANCE) -> tuple[sps.csr_matrix, int]:
     """A sparse basis Z (n, n − r) of the null space of B (m, n), and r = rank B.
 

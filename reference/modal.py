@@ -31,6 +31,8 @@ import scipy.linalg as sla
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
+from reference.linalg import permutation_sign
+
 ZERO_MODE = 1e-12
 """``|ω²|`` below this fraction of the stiffness scale s (:func:`stiffness_scale`) is a zero mode.  The
 shift-inverted solution finds an exact zero eigenvalue at about 1e-16 s (measured: the six rigid modes of
@@ -43,10 +45,14 @@ eigenvalues near it come out accurate to round-off of |σ| (not of the largest e
 plain ``eigh(K, M)``, which put the same rigid modes at ±2e-12 s and the first elastic one 6e-5 off)."""
 DENSE = 600
 """Reduced systems up to this size are solved densely (all eigenvalues; faster than ARPACK there)."""
+SMALL = 200
+"""Tangents up to this size are counted densely by :func:`negative_eigenvalues` (faster than the sparse
+factorisation's set-up there: the static path counts at every load step)."""
 SYMMETRY = 1e-9
 """``K_r`` is treated as symmetric when ``|K − Kᵀ|`` is below this fraction of ``|K|`` (its
-symmetric part is then used); at an equilibrium the skew parts of the element, joint and load tangents
-cancel to round-off (docs/tangents.md, "Skew part")."""
+symmetric part is then used).  At an equilibrium under conservative loads (dead forces, gravity, joints,
+springs) the skew parts of the tangents cancel to round-off (docs/tangents.md, "Skew part"); dead or
+follower moments and follower forces leave one (they are not conservative: docs/formulation.md §11)."""
 
 
 @dataclass
@@ -226,40 +232,88 @@ _NOT_RESTRAINED = ("the unloaded tangent is not positive definite (a mechanism o
                    "buckling needs a restrained structure; clamp or fix the free motions")
 
 
-def negative_eigenvalues(K) -> int:
-    """The number of negative eigenvalues of the symmetric part of K (sparse), by Sylvester's law of inertia
-    from the pivots of ``P K Pᵀ = L D Lᵀ``: SuperLU in its symmetric mode with diagonal pivots
-    (``diag_pivot_thresh = 0``) and a minimum-degree ordering of ``K + Kᵀ``, so that ``U = D Lᵀ``
-    (Bathe 1996, §8.2.5, the Sturm sequence property).  A zero or a non-diagonal pivot falls back to
-    the dense eigenvalues (or returns −1 above :data:`DENSE` × 4 coordinates)."""
-    K = sps.csc_matrix(0.5 * (K + K.T))
+def negative_eigenvalues(K, known: tuple | None = None) -> tuple[int, int]:
+    """``(count, sign)``: the number of negative real eigenvalues of K (sparse or dense), its directions of
+    divergence, and the sign of ``det K``.
+
+    When the symmetric part of K is positive definite there is none (a real eigenpair has
+    ``λ |φ|² = φᵀ K φ > 0``): a Cholesky factorisation that succeeds answers 0 at the cost of one
+    factorisation, the common case.  Otherwise, for a symmetric K (conservative loads), its inertia by
+    Sylvester's law (Bathe 1996, §8.2.5, the Sturm sequence property): the eigenvalues below :data:`SMALL`
+    coordinates, else the pivots of ``P K Pᵀ = L D Lᵀ`` (SuperLU in its symmetric mode with diagonal
+    pivots, ``diag_pivot_thresh = 0``, and a minimum-degree ordering, so that ``U = D Lᵀ``).  A K that is
+    not symmetric (dead or follower moments, follower forces: non-conservative loads) has no inertia in that
+    sense: its real eigenvalues are counted (densely), unless ``known`` = the ``(count, sign)`` of the
+    previous state on the path says that none went through zero (the sign of the determinant, from an LU
+    factorisation, has not changed).  A count of −1: not known (a non-symmetric K above 4 × :data:`DENSE`
+    coordinates, or a singular one).
+    """
     size = K.shape[0]
     if size == 0:
-        return 0
+        return 0, 1
+    if size <= SMALL:
+        K = K.toarray() if sps.issparse(K) else np.asarray(K)
+        symmetric = np.abs(K - K.T).max() <= SYMMETRY * np.abs(K).max()
+        if not symmetric and known is not None and known[0] >= 0:
+            lu, piv, _ = sla.lapack.dgetrf(K)
+            sign = _sign(np.diag(lu), piv != np.arange(size))
+            if known[1] == sign:
+                return known[0], sign
+        if _cholesky(K + K.T):
+            return 0, 1
+        if symmetric:
+            count = int(np.sum(sla.eigvalsh(0.5 * (K + K.T), check_finite=False) < 0.0))
+            return count, (-1) ** count
+        ev = sla.eigvals(K, check_finite=False)
+        count = int(np.sum((ev.imag == 0.0) & (ev.real < 0.0)))
+        return count, (-1) ** count
+    symmetric = is_symmetric(K)
+    A = sps.csc_matrix(0.5 * (K + K.T)) if symmetric else sps.csc_matrix(K)
     try:
-        lu = spla.splu(K, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                       options={"SymmetricMode": True})
-        if np.array_equal(lu.perm_r, lu.perm_c):
-            d = lu.U.diagonal()
-            if np.all(np.isfinite(d)) and np.all(d != 0.0):
-                return int(np.sum(d < 0.0))
+        lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0 if symmetric else 1.0,
+                       options={"SymmetricMode": symmetric})
     except RuntimeError:
-        pass
+        return -1, 0
+    d = lu.U.diagonal()
+    sign = _sign(d, None) * permutation_sign(lu.perm_r) * permutation_sign(lu.perm_c)
+    if symmetric and np.array_equal(lu.perm_r, lu.perm_c) and np.all(d != 0.0):
+        return int(np.sum(d < 0.0)), sign
+    if not symmetric and known is not None and known[0] >= 0 and known[1] == sign:
+        return known[0], sign
     if size > 4 * DENSE:
-        return -1
-    return int(np.sum(np.linalg.eigvalsh(K.toarray()) < 0.0))
+        return -1, sign
+    ev = np.linalg.eigvals(A.toarray())
+    return int(np.sum((ev.imag == 0.0) & (ev.real < 0.0))), sign
+
+
+def _cholesky(S: np.ndarray) -> bool:
+    """Whether the dense symmetric S is positive definite (LAPACK ``dpotrf`` succeeds)."""
+    _, info = sla.lapack.dpotrf(S, lower=False, clean=False, overwrite_a=False)
+    return info == 0
+
+
+def _sign(diagonal, swapped) -> int:
+    """The sign of a determinant from its LU pivots and, for LAPACK's, the row interchanges."""
+    sign = -1 if np.sum(diagonal < 0.0) % 2 else 1
+    if swapped is not None and np.sum(swapped) % 2:
+        sign = -sign
+    return 0 if np.any(diagonal == 0.0) else sign
 
 
 def nearest_zero(K, M) -> tuple[float, np.ndarray]:
-    """The eigenvalue of ``K φ = μ M φ`` (K symmetrised) nearest zero and its shape: where the inertia
-    changes, the eigenvalue that crosses zero."""
+    """The real eigenvalue of ``K φ = μ M φ`` nearest zero and its shape: where the count of
+    :func:`negative_eigenvalues` changes, the eigenvalue that crosses zero."""
+    size = K.shape[0]
+    if not is_symmetric(K):
+        mu, phi = sla.eig(K.toarray(), M.toarray())
+        real = np.flatnonzero(np.isfinite(mu) & (mu.imag == 0.0))
+        k = real[np.argmin(np.abs(mu[real].real))]
+        return float(mu[k].real), phi[:, k].real
     K = sps.csc_matrix(0.5 * (K + K.T))
     M = sps.csc_matrix(M)
-    size = K.shape[0]
     if size <= DENSE:
         mu, phi = sla.eigh(K.toarray(), M.toarray())
     else:
-        shift = SHIFT * SHIFT * stiffness_scale(K, M)
-        mu, phi = spla.eigsh(K, k=min(4, size - 1), M=M, sigma=shift, which="LM")
+        mu, phi = spla.eigsh(K, k=min(4, size - 1), M=M, sigma=ZERO_MODE * stiffness_scale(K, M), which="LM")
     k = int(np.argmin(np.abs(mu)))
     return float(mu[k]), phi[:, k]

@@ -38,7 +38,7 @@ def rollup(load_steps=20, **solver):
 
 
 def test_registry():
-    assert set(ALGORITHMS) == {"staggered_central_difference", "static", "generalized_alpha"}
+    assert set(ALGORITHMS) == {"staggered_central_difference", "static", "generalized_alpha", "modes", "buckling"}
     assert ALGORITHMS["generalized_alpha"] is GeneralizedAlpha
 
 

@@ -40,11 +40,12 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
 from reference.linalg import SingularMatrix, null_space
-from reference.modal import nearest_zero, negative_eigenvalues
+from reference.modal import SMALL, nearest_zero, negative_eigenvalues
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
 from reference.validation import ModelWarning
 
@@ -76,6 +77,7 @@ class StaticRun:
     stopped_at: float | None = None
     history: list = field(default_factory=list)
     negative: int = -1
+    sign: int = 0
     recorded: int = -1
     previous: tuple | None = None
     events: list = field(default_factory=list)
@@ -217,10 +219,11 @@ class Static(ImplicitAlgorithm):
         """The inertia of the reduced tangent at the equilibrium just reached (the last evaluation is at it);
         a change from the previous equilibrium becomes an event and a warning."""
         system = run.system
-        count, K, Z, _ = reduced_tangent(system, x, q, lam, t)
+        (count, sign), K, Z, _ = reduced_tangent(system, x, q, lam, t, known=(run.negative, run.sign),
+                                                 evaluate=False)
         F = system.work.F.copy()
         before, run.previous = run.previous, (x.copy(), q.copy(), lam.copy(), t, F)
-        old, run.negative = run.negative, count
+        (old, run.negative), run.sign = (run.negative, count), sign
         if before is None:
             if count > 0:
                 warnings.warn(f"the equilibrium at load factor {t:.6g} is unstable: {_eigenvalues(count)} of the "
@@ -229,9 +232,10 @@ class Static(ImplicitAlgorithm):
         if count == old or count < 0 or old < 0:
             return
         x0, q0, lam0, t0, F0 = before
+        Z = sps.identity(system.n_free, format="csr") if Z is None else Z
         M = (Z.T @ system.mass(x, q) @ Z).tocsr()
-        mu1, phi = nearest_zero(K, M)
-        mu0 = nearest_zero(reduced_tangent(system, x0, q0, lam0, t0, Z)[1], M)[0]
+        mu1, phi = nearest_zero(sps.csr_matrix(K), M)
+        mu0 = nearest_zero(sps.csr_matrix(reduced_tangent(system, x0, q0, lam0, t0, Z)[1]), M)[0]
         system.evaluate(x, q, x, x, x, lam, t, False)  # the evaluation at the current equilibrium again
         t_cr = t0 + (t - t0) * mu0 / (mu0 - mu1) if mu0 != mu1 else t
         dF = Z.T @ (F - F0)[system.free]
@@ -249,18 +253,26 @@ def _eigenvalues(count: int) -> str:
     return f"{count} negative eigenvalue{'s' if count != 1 else ''}"
 
 
-def reduced_tangent(system, x, q, lam, t, Z=None):
-    """``(negative eigenvalues, K_r, Z, rank B)`` of the static tangent at ``(x, q, λ, t)``, reduced to the
-    null space of B (Z given, or from :func:`reference.linalg.null_space`); evaluates the model there."""
+def reduced_tangent(system, x, q, lam, t, Z=None, known=None, evaluate=True):
+    """``((negative eigenvalues, sign of det), K_r, Z, rank B)`` of the static tangent at ``(x, q, λ, t)``
+    reduced to the null space of B (Z given, or from :func:`reference.linalg.null_space`; None without
+    constraints, K_r then dense up to :data:`reference.modal.SMALL` coordinates;
+    :func:`reference.modal.negative_eigenvalues` with ``known``); evaluates the model there unless its
+    last evaluation is at it (``evaluate`` false)."""
     zero = np.zeros_like(x)
-    system.evaluate(x, q, zero, zero, zero, lam, t, False)
-    A = system.matrix(x, q, zero, t, lam, 0.0, 0.0, 1.0, ce=0.0).tocsr()
+    if evaluate:
+        system.evaluate(x, q, zero, zero, zero, lam, t, False)
+    A = system.matrix(x, q, zero, t, lam, 0.0, 0.0, 1.0, ce=0.0)
     n = system.n_free
+    if A.shape[0] == n:  # no constraint: the free coordinates are independent (Z = None: the identity)
+        K = A.toarray() if n <= SMALL else A.copy()
+        return negative_eigenvalues(K, known), K, None, 0
+    A = A.tocsr()
     rank = -1
     if Z is None:
         Z, rank = null_space(A[n:, :n])
     K = (Z.T @ A[:n, :n] @ Z).tocsr()
-    return negative_eigenvalues(K), K, Z, rank
+    return negative_eigenvalues(K, known), K, Z, rank
 
 
 def _work_increment(system, x0, q0, F0, P0, x, q, lam):
