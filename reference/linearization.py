@@ -215,3 +215,15 @@ def mobility(model: Model, lin: Linearization, tol: float = RANK_TOLERANCE) -> i
 
 def _skew(a) -> np.ndarray:
     return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+def lowest_modes(model: Model, state: State, n: int = 20):
+    """The ``n`` lowest modes of ``model`` about ``state`` (:func:`at_state`, :func:`reduce`,
+    :func:`reference.modal.modes`): ``(frequencies [Hz], ModeSet, Linearization, Reduced)``, shapes on the
+    nodes by ``lin.nodal((red.Z @ modes.phi).T)``.  What ``flexmbs bench`` times."""
+    from reference.modal import modes
+
+    lin = at_state(model, state)
+    red = reduce(lin)
+    found = modes(red.M, red.D, red.K, n)
+    return found.frequency, found, lin, red
