@@ -182,8 +182,14 @@ def deck_data(deck) -> list[str]:
                      f"diag {np.round(np.diag(n.inertia), 6).tolist()} kg m², centre {np.round(n.position, 6).tolist()} m")
     steps = int(round(domain.solver.t_end / domain.solver.dt))
     crit = domain.critical_time_step() if domain.elements else float("inf")
-    lines += ["", f"{len(domain.nodes)} nodes, {len(domain.elements)} Beam2 elements, {len(domain.joints)} joints "
-              f"({domain.model.n_constraints} constraint equations); h = {domain.solver.dt:g} s, t_end = "
+    counts = (f"{len(domain.nodes)} nodes, {len(domain.elements)} Beam2 elements, {len(domain.joints)} joints "
+              f"({domain.model.n_constraints} constraint equations)")
+    algo = domain.algorithm()
+    if algo.linearised:  # no time step: what is linearised, and how many modes
+        where = (f"the static equilibrium at t = {domain.solver.t_end:g} ({domain.solver.load_steps} load steps)"
+                 if algo.n_steps(domain.solver.t_end) else "the initial state")
+        return lines + ["", f"{counts}; `{algo.name}`: the {algo.n_modes} lowest, about {where}.", ""]
+    lines += ["", f"{counts}; h = {domain.solver.dt:g} s, t_end = "
               f"{domain.solver.t_end:g} s ({steps} steps)" + (f"; critical step {crit:.3e} s (margin "
                                                              f"{crit / domain.solver.dt:.2f})" if domain.elements else "")
               + (f"; mass-proportional damping c = {domain.solver.damping:g} 1/s" if domain.solver.damping else "") + ".", ""]
