@@ -433,6 +433,8 @@ def measured(domain, times, pos, rot, vel, omg, wall, dt):
 
     model = domain.model
     n, N = len(times), len(domain.nodes)
+    # the kernels below are compiled for C-ordered arrays: a strided view would compile them again
+    pos, rot, vel, omg = (np.ascontiguousarray(a, dtype=float) for a in (pos, rot, vel, omg))
     phi = np.zeros(n)
     phid = np.zeros(n)
     kinetic, strain, work = np.zeros(n), np.zeros(n), np.zeros(n)
