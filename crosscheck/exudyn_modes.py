@@ -14,7 +14,8 @@ Two variants of Exudyn's solver:
   every joint, clamp and weld an ``ObjectJointGeneric``; Exudyn projects its mass
   and stiffness matrices onto the null space of its constraint Jacobian (a dense SVD)
   and solves the dense symmetric problem (``scipy.linalg.eigh``): all modes, O(n³) —
-  a few seconds at 2,000 coordinates.  ``damped=True`` solves Exudyn's first-order
+  1.4 s at 900 coordinates, 6.1 s at 2,000 (cantilevers of 128 and 280 elements; above
+  1,000 Exudyn prints a warning about its dense linear solver).  ``damped=True`` solves Exudyn's first-order
   (complex) problem with its damping matrix: frequency ``|λ|/2π`` and damping ratio
   ``−Re λ/|λ|`` (no shapes).
 * **sparse**: rotation-vector Lie-group nodes (six coordinates, no normalisation
@@ -36,9 +37,10 @@ constraint forces — a pendulum under gravity — gets zero frequencies, and Ex
 static solver cannot bring one to equilibrium (its Jacobian is singular once its
 load-step stabiliser is gone).  ``joint_reactions=True`` adds that term: λ are the
 multipliers that balance Exudyn's forces at the configuration (least squares; exact
-at an equilibrium), the term the central differences of Exudyn's own constraint
-Jacobian; the constrained problem (null space of ``C_q``, ``scipy.linalg.null_space``)
-is then solved here with Exudyn's matrices (:func:`_own_modes`).  About a static
+at an equilibrium), the Hessian the second differences of Exudyn's own constraint
+equations (:func:`crosscheck.exudyn_matrices.constraint_hessian`); the constrained
+problem (null space of ``C_q``, ``scipy.linalg.null_space``) is then solved here with
+Exudyn's matrices (:func:`_own_modes`, :func:`crosscheck.exudyn_matrices.lowest`).  About a static
 equilibrium the stiffness is Exudyn's ODE2 Jacobian by numerical differentiation:
 the analytic one of ``ObjectBeamGeometricallyExact`` leaves out the derivatives of
 its nodes' G matrices and of the SE(3) tangent operator (its source says so) — for a
@@ -69,11 +71,13 @@ maps it, :func:`crosscheck.exudyn_items.beams`), for differences beyond 0.1 %:
   where flexmbs *lumps* ``ρA L/2`` and ``(L/2) ρJ`` at each node.  A bending wave of
   wavenumber k on elements of length h then runs at ``ω_h/ω ≈ 1 + (kh)²/8`` in Exudyn
   (stiffness ``(kh)²/24``, mass ``(kh)²/12``) and ``1 + (kh)²/24`` in flexmbs: Exudyn's
-  frequencies are higher by about ``(kh)²/12`` — 1.3e-3 for the third bending mode of
-  a 64-element cantilever.  ``lumped_mass=True`` (sparse variant) block-lumps Exudyn's
-  mass matrix (each node's 3×3 blocks summed over its row: exactly flexmbs' lumped
-  mass) and solves with Exudyn's stiffness: the frequencies flexmbs must reproduce
-  to round-off.  Mode vectors are mass-normalised with the mass solved with.
+  frequencies are higher by about ``(kh)²/12`` — measured 1.6e-3 for the third bending
+  mode of a 64-element cantilever (9.8356 against 9.8201 Hz), 5e-5 for its first axial
+  and torsional modes (+2.5e-5 and −2.5e-5 about the closed forms: the bar's textbook
+  ``±(kh)²/24``).  ``lumped_mass=True`` (sparse variant) block-lumps Exudyn's mass
+  matrix (each node's 3×3 blocks summed over its row: exactly flexmbs' lumped mass) and
+  solves with Exudyn's stiffness: the frequencies flexmbs must reproduce, its stiffness
+  being Exudyn's to 3e-11.  Mode vectors are mass-normalised with the mass solved with.
 * Exudyn's mass-proportional damping is a connector per node to ground
   (:func:`crosscheck.exudyn_items.damping`), the same forces ``−c m v``, ``−c J ω``
   with flexmbs' lumped m and J (so not exactly proportional to Exudyn's mass).
@@ -92,17 +96,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from crosscheck.exudyn_items import TRANSLATORS, clamps, matrix
+from crosscheck.exudyn_matrices import constraint_hessian, lowest, lumped, matrices
 from crosscheck.exudyn_model import DENSE_LIMIT, SUBDIVISIONS, ExudynFailed, Unsupported, build, solver_settings
 from reference.rotation import quaternion_product
 
 ABOUT = ("reference", "static")
 """The configurations :func:`modes` linearises about: the deck's t = 0, or its static equilibrium at ``t_end``."""
-DIFFERENCE_STEP = 1e-4
-"""Central-difference step of the constraint equations in their coordinates (:func:`_constraint_hessian`):
-Exudyn's joint equations are at most quartic in the Euler parameters and linear in the positions, so
-the truncation is ~1e-8 and the round-off of the second differences ~1e-16/h² = 1e-8, relative."""
-
-
 @dataclass
 class ExudynModes:
     """Exudyn's modes of a deck.
@@ -113,7 +112,8 @@ class ExudynModes:
     ``−Re λ/|λ|`` (zero undamped); ``shape`` (n, N, 6) per mode and deck node the
     displacement [m, inertial] and rotation increment [rad, node frame], each mode
     mass-normalised with the mass matrix solved with (sign arbitrary), None for the
-    damped problem; ``wall_time`` [s] the eigen call alone;
+    damped problem; ``wall_time`` [s] Exudyn's eigen call alone (``joint_reactions``,
+    ``lumped_mass``: the whole solve here, :func:`_own_modes`);
     ``coordinates`` the coordinates of Exudyn's problem before constraints;
     ``method`` one line saying what was solved.
     """
@@ -337,119 +337,44 @@ def _damped(values, n2: int, wall: float, n_modes: int) -> ExudynModes:
                        "Exudyn ComputeODE2Eigenvalues, dense first-order (complex) problem with its damping matrix")
 
 
-def _matrices(t, settings):
-    """Exudyn's mass matrix, stiffness (−∂f/∂q), transposed constraint Jacobian ``C_qᵀ`` (n2 × nAE) and
-    forces f (ODE2 right-hand side) at the initial state, from its static solver (as its eigen-solver
-    gets them)."""
-    s = t.exu.MainSolverStatic()
-    s.InitializeSolver(t.mbs, settings)
-    n2 = s.GetODE2size()
-    s.ComputeMassMatrix(t.mbs)
-    M = np.array(s.GetSystemMassMatrix())
-    s.ComputeODE2RHS(t.mbs)
-    f = np.array(s.GetSystemResidual())[:n2]
-    s.ComputeJacobianODE2RHS(t.mbs, scalarFactor_ODE2=-1.0, scalarFactor_ODE2_t=0.0, scalarFactor_ODE1=0.0)
-    s.ComputeJacobianAE(t.mbs, scalarFactor_ODE2=1.0, scalarFactor_ODE2_t=0.0, scalarFactor_ODE1=0.0,
-                        velocityLevel=False)
-    J = np.array(s.GetSystemJacobian())
-    return s, M[:n2, :n2], J[:n2, :n2], J[:n2, n2:], f
-
-
-def _constraint_hessian(t, s, Ct: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """The constraint forces' stiffness ``∂(C_qᵀλ)/∂q = Σ λ_i ∂²Φ_i/∂q²`` and the static multipliers λ.
-
-    Exudyn's ``C_q`` of an Euler-parameter node is the gradient of Φ less its component
-    along the parameters (exact on the tangent of the unit sphere, but not its derivative:
-    differenced, it gave half the pendulum's stiffness), so the joints' gradient and
-    Hessian are taken here from Exudyn's constraint residual Φ(q) itself, by central
-    differences over the coordinates the joints involve (step :data:`DIFFERENCE_STEP`);
-    the normalisation equations ``p·p − 1`` are exact (gradient ``2p``, Hessian ``2I``).
-    λ solves ``∇Φᵀλ = f`` in least squares (exact at an equilibrium).  Returns
-    ``(K_λ, λ, residual of that balance)``.
-    """
-    mbs, current = t.mbs, t.exu.ConfigurationType.Current
-    q0 = np.array(mbs.systemData.GetODE2Coordinates(current))
-    n2, nae = Ct.shape
-    grad = np.array(Ct.T)
-    normal = {}  # AE row → first Euler-parameter coordinate, every Euler-parameter node (welded ends too)
-    for node in range(mbs.systemData.NumberOfNodes()):
-        if mbs.GetNode(node)["nodeType"] == "RigidBodyEP":
-            k = int(mbs.GetNodeODE2Index(node)) + 3
-            normal[int(mbs.GetNodeAEIndex(node))] = k
-            grad[int(mbs.GetNodeAEIndex(node))] = 0.0
-            grad[int(mbs.GetNodeAEIndex(node)), k:k + 4] = \
-                2.0 * (np.asarray(mbs.GetNode(node)["referenceCoordinates"])[3:] + q0[k:k + 4])
-    joint = np.array(sorted(set(range(nae)) - set(normal)), dtype=int)
-    involved = np.flatnonzero(np.any(Ct[:, joint] != 0.0, axis=1))
-    h = DIFFERENCE_STEP
-
-    def phi(*steps):
-        q = q0.copy()
-        for i, step in steps:
-            q[i] += step
-        mbs.systemData.SetODE2Coordinates(list(q), current)
-        s.ComputeAlgebraicEquations(mbs, velocityLevel=False)
-        return np.array(s.GetSystemResidual())[n2:][joint]
-
-    for i in involved:
-        grad[joint, i] = (phi((i, h)) - phi((i, -h))) / (2.0 * h)
-    lam = np.linalg.lstsq(grad.T, f, rcond=None)[0]
-    K = np.zeros((n2, n2))
-    for row, k in normal.items():
-        K[k:k + 4, k:k + 4] += 2.0 * lam[row] * np.eye(4)
-    for a, i in enumerate(involved):
-        for j in involved[a:]:
-            H = sum(si * sj * (lam[joint] @ phi((i, si * h), (j, sj * h))) for si in (1, -1) for sj in (1, -1))
-            K[i, j] += H / (4.0 * h * h)
-            if j != i:
-                K[j, i] += H / (4.0 * h * h)
-    mbs.systemData.SetODE2Coordinates(list(q0), current)
-    return K, lam, float(np.linalg.norm(grad.T @ lam - f))
-
-
-def lumped(M: np.ndarray) -> np.ndarray:
-    """Block-lump a mass matrix in six coordinates per node (u, θ): each node's 3×3 translational and
-    rotational blocks summed over its block row, the coupling blocks dropped — from Exudyn's consistent
-    beam mass (ρA L/3, ρA L/6 per element) the lumped ρA L/2 per node, and likewise for ρJ."""
-    n = M.shape[0] // 3
-    blocks = M.reshape(n, 3, n, 3)
-    out = np.zeros_like(M)
-    for b in range(n):  # translations with translations (even blocks), rotations with rotations (odd)
-        out[3 * b:3 * b + 3, 3 * b:3 * b + 3] = blocks[b, :, b % 2::2, :].sum(axis=1)
-    return out
-
-
 def _own_modes(t, settings, n_modes: int, joint_reactions: bool) -> ExudynModes:
     """The undamped problem solved here with Exudyn's matrices (the module docstring).
 
     ``joint_reactions``: ``K = −∂f/∂q + ∂(C_qᵀλ)/∂q`` with λ the least-squares multipliers
     of ``C_qᵀλ = f`` (static balance at the configuration), projected on the null space ``N``
     of ``C_q``.  Otherwise (the sparse variant, ``lumped_mass``): Exudyn's stiffness, its mass
-    block-lumped (:func:`lumped`), the fixed coordinates removed.  ``(NᵀKN) x = ω² (NᵀMN) x``
-    with the symmetric part of ``NᵀKN``; the wall time is this whole solve (matrices,
+    block-lumped (:func:`crosscheck.exudyn_matrices.lumped`), the fixed coordinates removed.
+    ``(NᵀKN) x = ω² (NᵀMN) x`` with the symmetric part of ``NᵀKN``
+    (:func:`crosscheck.exudyn_matrices.lowest`); the wall time is this whole solve (matrices,
     differences and eigen-solve).
     """
-    from scipy.linalg import eigh, null_space
+    from scipy.linalg import null_space
 
     t0 = time.perf_counter()
-    s, M, K, Ct, f = _matrices(t, settings)
+    s, M, K, Ct, f = matrices(t, settings)
     n2 = M.shape[0]
     if joint_reactions:
-        K_lam, lam, residual = _constraint_hessian(t, s, Ct, f)
+        K_lam, lam, residual = constraint_hessian(t, s, Ct, f)
         K = K + K_lam
         N = null_space(Ct.T)
+        Kr, Mr = N.T @ K @ N, N.T @ M @ N
         method = ("Exudyn's matrices with the constraint forces' stiffness added (central differences of its "
                   f"constraint equations; residual of the static balance {residual:.1e} N), null-space eigen-solve "
                   "here")
     else:
-        M = lumped(M)
-        N = np.eye(n2)[:, np.setdiff1d(np.arange(n2), _fixed_coordinates(t))]
+        free = np.setdiff1d(np.arange(n2), _fixed_coordinates(t))
+        N = None  # the free coordinates, selected
+        Kr, Mr = K[np.ix_(free, free)], lumped(M)[np.ix_(free, free)]
         method = "Exudyn's stiffness with its mass block-lumped, fixed coordinates removed, eigen-solve here"
     s.FinalizeSolver(t.mbs, settings)
-    Kr = N.T @ K @ N
-    values, x = eigh(0.5 * (Kr + Kr.T), N.T @ M @ N, subset_by_index=[0, min(n_modes, N.shape[1]) - 1])
+    values, x = lowest(Kr, Mr, n_modes)
     wall = time.perf_counter() - t0
-    return _undamped(values, shapes(t, N @ x), wall, n2, method)
+    if N is None:
+        vectors = np.zeros((n2, x.shape[1]))
+        vectors[free] = x
+    else:
+        vectors = N @ x
+    return _undamped(values, shapes(t, vectors), wall, n2, method)
 
 
 TIMING_SECTION = dict(EA=1e4, GA2=1e4, GA3=1e4, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-4, rhoJ2=1e-4,

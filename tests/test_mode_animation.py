@@ -1,4 +1,4 @@
-"""`flexmbs plot RESULTS --mode K`: a mode of a results file as an animated VTKHDF file (reference/io/mode_animation.py).
+"""`flexmbs plot RESULTS --mode K`: a mode of a results file as an animated VTKHDF file (mode_animation.py).
 
 The results file is synthetic — written here with h5py in the layout of a file of `flexmbs run`
 (copied from one: /time, /nodes/*, /energy/*, /constraints/*, /elements/*, /joints/label and the
@@ -15,10 +15,14 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-import vtk
 
 from flexmbs.cli import main
+from reference.io.mode_animation import amplitude
+from reference.io.vtk import Layout
 from reference.rotation import EulerParameters, RotationVector
+
+from conftest import cantilever
+from test_vtk import SEC, read  # read: vtkHDFReader, step by step
 
 ROOT = Path(__file__).resolve().parent.parent
 DECK = """[meta]
@@ -101,15 +105,6 @@ def results_file(tmp_path, dataset: str = "modes", seed: int = 7) -> tuple[Path,
     return path, {"domain": domain, "x0": x0, "q0": q0, "shape": shape}
 
 
-def read(path, step):
-    reader = vtk.vtkHDFReader()
-    reader.SetFileName(str(path))
-    reader.UpdateInformation()
-    times = reader.GetOutputInformation(0).Get(vtk.vtkStreamingDemandDrivenPipeline.TIME_STEPS())
-    reader.UpdateTimeStep(times[step])
-    return reader.GetOutput(), times
-
-
 def test_mode_animation_reads_back_frame_by_frame(tmp_path, capsys):
     path, data = results_file(tmp_path)
     assert main(["plot", str(path), "--mode", "2", "--out", str(tmp_path / "out")]) == 0
@@ -179,3 +174,13 @@ def test_the_mode_animation_needs_no_matplotlib(tmp_path):
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "out" / "mode_demo_mode1.vtkhdf").stat().st_size > 1000
+
+
+def test_a_mode_that_moves_no_point_turns_by_the_fraction():
+    d, nodes = cantilever(4, SEC)
+    shape = np.zeros((5, 6))
+    shape[:, 3] = np.linspace(0.0, 2.0, 5)  # torsion of a straight beam: no node moves
+    q0 = np.array([n.rotation for n in d.nodes])
+    assert amplitude(Layout(d), q0, shape) == pytest.approx(0.1 / 2.0, rel=1e-15)  # the largest twist 0.1 rad
+    shape[4, 2] = 1e-3  # a tip displacement: 10 % of the 1 m model size
+    assert amplitude(Layout(d), q0, shape) == pytest.approx(0.1 / 1e-3, rel=1e-15)
