@@ -118,11 +118,15 @@ class Translation:
     deck joint → its Exudyn joint), ``loads`` ((load, vector, time function), set per
     step), ``actuators`` ((connector, force function)), ``primary`` (N, 4): per node, the
     offset from the node frame to its Exudyn node's frame (identity except at beam nodes
-    whose first element end is kinked against the node frame).
+    whose first element end is kinked against the node frame).  ``lie_group``: every node a
+    ``NodeRigidBodyRotVecLG`` (position and rotation vector, six coordinates and no algebraic
+    equation: Exudyn's sparse eigen-solve, :mod:`crosscheck.exudyn_modes`) in place of a
+    ``NodeRigidBodyEP`` (seven coordinates, one normalisation equation).
     """
 
-    def __init__(self, domain, exu, eii):
+    def __init__(self, domain, exu, eii, lie_group: bool = False):
         self.domain, self.exu, self.eii, self.model = domain, exu, eii, domain.model
+        self.lie_group = lie_group
         self.SC = exu.SystemContainer()
         self.mbs = self.SC.AddSystem()
         self.ground = self.mbs.AddObject(eii.ObjectGround())
@@ -146,6 +150,10 @@ class Translation:
         node = self.domain.nodes[i]
         p = _qmul(node.rotation, o)
         w = matrix(o).T @ self.state.w[i]
+        if self.lie_group:  # rotation vector; the velocity coordinates carry the body-frame angular velocity
+            return self.mbs.AddNode(self.eii.NodeRigidBodyRotVecLG(
+                referenceCoordinates=list(node.position) + list(EulerParameters(p).log()),
+                initialVelocities=list(self.state.v[i]) + list(w)))
         qd = EulerParameters(p).kinematic_rate(w)
         return self.mbs.AddNode(self.eii.NodeRigidBodyEP(referenceCoordinates=list(node.position) + list(p),
                                                          initialVelocities=list(self.state.v[i]) + list(qd)))

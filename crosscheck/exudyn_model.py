@@ -111,13 +111,14 @@ def preflight(domain) -> None:
     build(domain)
 
 
-def build(domain, progress=None, t_end: float = 1.0) -> Translation:
+def build(domain, progress=None, t_end: float = 1.0, translators=TRANSLATORS, lie_group: bool = False) -> Translation:
     """Translate ``domain`` into an assembled Exudyn system (:class:`~crosscheck.exudyn_items.Translation`,
     with its ``sensors``).  Raises :class:`Unsupported` (one line) for anything untranslatable or
-    refused by Exudyn."""
+    refused by Exudyn.  ``translators`` and ``lie_group`` (the nodes' kind) are those of the
+    eigen-solve's sparse variant (:mod:`crosscheck.exudyn_modes`); the defaults translate everything."""
     check_supported(domain)
     try:
-        return _build(domain, progress, t_end)
+        return _build(domain, progress, t_end, translators, lie_group)
     except Unsupported:
         raise
     except Exception as exc:  # Exudyn's own errors (RuntimeError, ValueError, …): one line, before any run
@@ -125,12 +126,12 @@ def build(domain, progress=None, t_end: float = 1.0) -> Translation:
         raise Unsupported(f"Exudyn refused the translated model: {first}") from None
 
 
-def _build(domain, progress, t_end) -> Translation:
+def _build(domain, progress, t_end, translators, lie_group) -> Translation:
     import exudyn as exu
     import exudyn.itemInterface as eii
 
-    t = Translation(domain, exu, eii)
-    for translate in TRANSLATORS:
+    t = Translation(domain, exu, eii, lie_group)
+    for translate in translators:
         translate(t)
     step_function(t, progress, t_end)
     t.sensors = sensors(t)
@@ -182,9 +183,9 @@ an output is recorded at the end of whatever step crosses its time (16 elements 
 45.94 in place of 45); a run whose outputs are off their times is run again on a finer grid."""
 
 
-def solver_settings(domain, dt: float, t_end: float, every: int):
-    """Exudyn's solver and settings for the deck's algorithm at the step ``dt``, recording every
-    ``every`` steps; returns ``(solver, settings, label)``.
+def solver_settings(domain, dt: float, t_end: float, every: int, algorithm: str | None = None):
+    """Exudyn's solver and settings for the deck's algorithm (or ``algorithm``) at the step ``dt``,
+    recording every ``every`` steps; returns ``(solver, settings, label)``.
 
     ``static`` → Exudyn's static solver, the load factor its time, ``t_end / dt`` load
     steps; ``generalized_alpha`` → Exudyn's generalized-α at the same ρ∞; the explicit
@@ -199,7 +200,8 @@ def solver_settings(domain, dt: float, t_end: float, every: int):
     settings.timeIntegration.verboseMode = 0
     n_steps = int(round(t_end / dt))
     force = force_scale(domain)
-    if domain.solver.algorithm == "static":
+    algorithm = algorithm or domain.solver.algorithm
+    if algorithm == "static":
         static = settings.staticSolver
         static.verboseMode = 0
         static.numberOfLoadSteps = n_steps
@@ -215,7 +217,7 @@ def solver_settings(domain, dt: float, t_end: float, every: int):
     ti.newton.relativeTolerance = NEWTON["dynamic"]
     ti.newton.absoluteTolerance = NEWTON["dynamic"] * force
     ti.adaptiveStep = True
-    if domain.solver.algorithm == "generalized_alpha":
+    if algorithm == "generalized_alpha":
         ti.generalizedAlpha.spectralRadius = domain.solver.rho_inf
     label = f"generalized-alpha, rho_inf = {ti.generalizedAlpha.spectralRadius:g}"
     return exu.MainSolverImplicitSecondOrder(), settings, label
@@ -433,6 +435,8 @@ def measured(domain, times, pos, rot, vel, omg, wall, dt):
 
     model = domain.model
     n, N = len(times), len(domain.nodes)
+    # the kernels below are compiled for C-ordered arrays: a strided view would compile them again
+    pos, rot, vel, omg = (np.ascontiguousarray(a, dtype=float) for a in (pos, rot, vel, omg))
     phi = np.zeros(n)
     phid = np.zeros(n)
     kinetic, strain, work = np.zeros(n), np.zeros(n), np.zeros(n)

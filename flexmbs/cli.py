@@ -431,6 +431,9 @@ def parser() -> argparse.ArgumentParser:
                     help="animate every n-th output")
     pl.add_argument("--magnify", type=number(example="--magnify 50"), default=1.0,
                     help="animation: multiply the beams' deflection from their chord (e.g. 50, as the paper's Fig. 14)")
+    pl.add_argument("--mode", type=number(int, 1, low_ok=True, example="--mode 1"), metavar="K",
+                    help="mode K (from 1) of a modes or buckling results file as an animated ParaView file "
+                    "NAME_modeK.vtkhdf (with --animate: the GIF shows the mode)")
     pl.add_argument("--out", help="folder for the figures (default: next to the results file)")
     pl.set_defaults(func=cmd_plot)
     rep = sub.add_parser("report", help="the verification report → reports/")

@@ -24,7 +24,7 @@ import numpy as np
 from reference.algorithms import Algorithm
 from reference.elements.families import resultants
 from reference.io.results import MemoryRecorder, Results
-from reference.jit import inlined, kernel
+from reference.jit import boundary, inlined, kernel, named
 from reference.joints.reactions import joint_reactions
 from reference.joints.reactions import scratch as reaction_scratch
 from reference.monitor import BlowUpMonitor, nonfinite_load
@@ -70,7 +70,7 @@ class Outputs:
     def __init__(self, model: Model, joints: list, rec: Record):
         rows = [k for k, j in enumerate(joints) if j.formulation.multipliers]
         self.model, self.rec = model, rec
-        self.arrays = OutputArrays(model.joints, model.time_functions, model.elements)
+        self.arrays = boundary(OutputArrays(model.joints, model.time_functions, model.elements))
         self.slot = np.array(rows, dtype=np.int64)
         J, E = len(joints), model.n_elements
         # rows of master/slave joints are never written: NaN once
@@ -108,6 +108,7 @@ def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, sec
     resultants into ``section_force``, ``section_moment`` (E, 3), in one compiled call.
 
     ``model`` is the :class:`~reference.state.Model` or its :class:`OutputArrays`."""
+    model = named(model, OutputArrays)
     _joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, prim_phi, prim_B, A)
     resultants(model.elements, element_work, x, q, section_force, section_moment)
 

@@ -47,9 +47,9 @@ import numpy as np
 from dataclasses import dataclass, field
 
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, evaluate, write_record
-from reference.jit import inlined, kernel
+from reference.jit import boundary, inlined, kernel, named
 from reference.linalg import SingularMatrix, lu_solve
-from reference.state import Record
+from reference.state import Model, Record
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR
 
 
@@ -187,8 +187,8 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         while left > 0:
             if run.factors is None:
                 par[9] = -1.0  # only predict: the factor is made at the predictor
-            code, done = steps(model, x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, energy, system.dof, par,
-                               left, NO_FACTOR if run.factors is None else run.factors, system.wt, run.arrays, rec)
+            code, done = steps(system.arg, x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, energy, system.dof, par,
+                               left, NO_FACTOR if run.factors is None else run.factors, system.wt, run.arrays, boundary(rec))
             left -= done
             if code == OK:
                 continue
@@ -345,6 +345,8 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     the interrupted step's iterate; record: 1 to first write the output record ``rec`` of the
     current state from the last evaluation, :func:`reference.algorithms.implicit.write_record`).
     """
+    model = named(model, Model)
+    rec = named(rec, Record)
     dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, psi = arr
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = wt
     h, am, af, gamma, beta, tol, L, contraction = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]

@@ -57,10 +57,10 @@ from reference.elements.families import family_of
 from reference.evaluation.forces import generalized_forces
 from reference.evaluation.tangent import newton_pattern, tangent_values
 from reference.generated import rotation_maps as rm
-from reference.jit import inlined, kernel
+from reference.jit import boundary, inlined, kernel, named
 from reference.joints.assembly import joint_rows
 from reference.linalg import SingularMatrix, SparseLU, lu_solve
-from reference.state import element_work
+from reference.state import Model, Record, element_work
 from reference.status import newton_failure
 
 
@@ -108,6 +108,7 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
     zero velocities.  U includes the springs' energy; the dampers' power ``Σ c (B_e V)²`` [W]
     goes to ``fe_out[0]``.
     """
+    model = named(model, Model)
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = w_
     G, angle, fe_e, fe_B, fe_G, C12, fv, fw, fe_out = fe
     N = x.shape[0]
@@ -184,6 +185,7 @@ class NewtonSystem:
 
     def __init__(self, model):
         self.model = model
+        self.arg = boundary(model)  # what the kernels are called with (reference.jit.boundary)
         self.pattern, self.dof = newton_pattern(model)
         self.free = self.dof >= 0
         self.n_free = int(self.free.sum())
@@ -195,7 +197,7 @@ class NewtonSystem:
 
     def evaluate(self, x, q, v, w, vd, lam, t, dynamic) -> float:
         """:func:`evaluate` into :attr:`work`; returns the strain energy."""
-        return evaluate(self.model, x, q, v, w, vd, lam, t, dynamic, self.wt)
+        return evaluate(self.arg, x, q, v, w, vd, lam, t, dynamic, self.wt)
 
     def residual_norm(self, ck: float, lam) -> float:
         """‖[c_k r; Φ − ελ]‖ of the last :meth:`evaluate` (free coordinates only)."""
@@ -210,7 +212,7 @@ class NewtonSystem:
         wk = self.work
         ce = 1.0 / ck if ce is None else ce
         psi = self.zero_psi if psi is None else psi
-        tangent_values(self.model, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12, wk.Kel)
+        tangent_values(self.arg, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12, wk.Kel)
         return self.pattern.matrix(wk.values)
 
     def mass(self, x, q):
@@ -273,7 +275,8 @@ class NewtonSystem:
 
     def write_record(self, rec, x, q, v, w, U, energy_clock, lam) -> None:
         """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B)."""
-        write_record(self.model, x, q, v, w, U, energy_clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl, rec)
+        write_record(self.arg, x, q, v, w, U, energy_clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl,
+                     boundary(rec))
 
     def constraint_rate(self, v, w) -> np.ndarray:
         """``B V`` (m,) from the last evaluation's local rows."""
@@ -385,6 +388,8 @@ def relative_rotation(q0, q1, out, tmp):
 @kernel
 def write_record(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
     """Record: configuration, velocities, energies [T, U, W, D], ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
+    model = named(model, Model)
+    rec = named(rec, Record)
     T = 0.0
     J, mass = model.nodes.inertia, model.nodes.mass
     rx, rq, rv, rw = rec.x, rec.q, rec.v, rec.w

@@ -213,7 +213,7 @@ def _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows,
     return OK
 
 
-@inlined
+@kernel
 def _record(model, scratch, rec, x, q, v, w, v_new, w_new, first, U, dD_fe, clock, n_rows):
     """The output record at ``t_n``: integer-step velocities (the mean of the two half-step ones, the
     initial ones at the first step), energies and constraint residuals, multipliers."""

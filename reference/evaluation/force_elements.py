@@ -88,7 +88,7 @@ def _continuous(angle, k, raw):
     return angle[k] + d
 
 
-@inlined
+@kernel
 def force_element_forces(model, x, q, v, w, t, angle, F, F_ext, e, B):
     """Forces of all force elements at one configuration; returns ``(energy, dissipation rate)``.
 

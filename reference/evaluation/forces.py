@@ -14,7 +14,7 @@ from reference.elements.families import assemble_forces
 from reference.evaluation.force_elements import force_element_forces
 from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
-from reference.jit import inlined
+from reference.jit import inlined, kernel
 
 
 @inlined
@@ -63,7 +63,7 @@ def external_forces(model, x, q, t, F, A):
             F[i, 5] += arm[0] * b1 - arm[1] * b0
 
 
-@inlined
+@kernel
 def generalized_forces(model, element_work, x, q, v, w, t, S, F, G, angle, A, fe_phi, fe_B):
     """Internal forces into ``S`` and external forces into ``F`` (N, 6) at time t; returns
     ``(U, D)``: the strain energy of the elements and springs [J] and the power of the force

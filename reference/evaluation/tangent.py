@@ -30,11 +30,12 @@ from reference.elements.families import tangent_values as element_tangent_values
 from reference.evaluation.force_elements import force_element_tangent
 from reference.generated import tangents as generated_tangents
 from reference.interactions import tf_value
-from reference.jit import inlined, kernel
+from reference.jit import inlined, kernel, named
 from reference.joints.hessian import joint_rows_hessian
 from reference.joints.sparse import jacobian_row_columns
 from reference.linalg import BlockPattern
 from reference.newton_blocks import times_right_jacobian
+from reference.state import Model
 
 
 @kernel
@@ -190,6 +191,7 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, smal
     algorithms' work tuple (:func:`reference.algorithms.implicit.work_tuple`); ``small`` (8, 12),
     ``K12`` (12, 12) and ``Kel`` (flat, the element families' largest block) scratch.
     """
+    model = named(model, Model)
     Jr = small[7, :9]
     A = w_[6]
     p = _node_blocks(model, q, w, psi, t, cm, cc, ck, values, 0, K12, Jr, small[6, :9], A)

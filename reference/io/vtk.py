@@ -64,10 +64,14 @@ def safe_name(name: str) -> str:
     return cleaned or "flexmbs"
 
 
-class _Layout:
-    """Static topology: the points (beam nodes, rigid-body centres and named points) and the cells."""
+class Layout:
+    """Static topology: the points (beam nodes, rigid-body centres and named points) and the cells.
 
-    def __init__(self, domain):
+    ``p0`` (P, 3) are the points in the configuration ``x0`` (N, 3), ``q0`` (N, 4) — by default the
+    nodes' at t = 0 — from which ``displacement`` is measured.
+    """
+
+    def __init__(self, domain, x0=None, q0=None):
         beam = sorted({i for e in domain.elements for i in e.nodes})
         in_beam = set(beam)
         self.rigid = [n for n in domain.nodes if n.id not in in_beam]
@@ -93,10 +97,10 @@ class _Layout:
         self.lines = np.array(lines, dtype=np.int64).reshape(-1, 2)
         self.vertices = np.array(vertices, dtype=np.int64)
         self.n_elements = len(domain.elements)
-        x0 = np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3)
-        q0 = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4)
-        A = rotation_matrices(q0[self.node_of_point])
-        self.p0 = x0[self.node_of_point] + np.einsum("pij,pj->pi", A, self.offsets)
+        x0 = np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3) if x0 is None else x0
+        q0 = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4) if q0 is None else q0
+        A = rotation_matrices(np.asarray(q0, dtype=float)[self.node_of_point])
+        self.p0 = np.asarray(x0, dtype=float)[self.node_of_point] + np.einsum("pij,pj->pi", A, self.offsets)
 
     @property
     def n_points(self) -> int:
@@ -167,15 +171,17 @@ class _History:
             self.file.close()
 
 
-def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1) -> Path:
+def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1, about=None) -> Path:
     """Write ``directory/NAME.vtkhdf`` with every ``every``-th output of ``results``; return its path.
 
-    ``name`` is made a safe file name (:func:`safe_name`).
+    ``name`` is made a safe file name (:func:`safe_name`).  ``about``: the configuration
+    ``(x0 (N, 3), q0 (N, 4))`` the ``displacement`` is measured from (default: the nodes' at t = 0;
+    a mode animation's, :mod:`reference.io.mode_animation`).
     """
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / f"{safe_name(name)}.vtkhdf"
-    lay = _Layout(domain)
+    lay = Layout(domain, *(about or ()))
     every = max(int(every), 1)
     times = np.asarray(results.time, dtype=float)[::every]
     history = _History(results)
@@ -187,7 +193,7 @@ def write_vtk(domain, results, directory, name: str = "flexmbs", every: int = 1)
     return path
 
 
-def _write_vtk(f, lay: _Layout, history: _History, times: np.ndarray, every: int, model) -> None:
+def _write_vtk(f, lay: Layout, history: _History, times: np.ndarray, every: int, model) -> None:
     """The VTKHDF groups of the whole file: topology once, then the outputs ``times`` block by block."""
     n, P, C, E = len(times), lay.n_points, lay.n_cells, lay.n_elements
     root = f.create_group("VTKHDF")

@@ -87,7 +87,9 @@ def constraint_blocks(model: Model, x, q, t: float):
     """
     m, J = model.n_constraints, model.joints.i.shape[0]
     PHI, PHIt, Bj, BMj = np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12))
-    assemble_constraints(model, x, q, float(t), PHI, PHIt, Bj, np.zeros(10), np.zeros(120))
+    # C-ordered copies of strided views: one compiled signature for every caller
+    assemble_constraints(model, np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(q, dtype=float), float(t),
+                         PHI, PHIt, Bj, np.zeros(10), np.zeros(120))
     apply_inverse_mass(model, Bj, BMj)
     return PHI, PHIt, Bj, BMj
 
