@@ -20,15 +20,16 @@ The increments are reduced to independent ones by a null-space basis Z of B (``B
 the whole model would enter here as the map from the increments to a frame spinning with the model
 (Coriolis and centrifugal terms added to D and K); it is not implemented.
 
-Entry points: :func:`linearize` (a configuration), :func:`at_state` (a :class:`~reference.state.State`,
-with multipliers consistent with its accelerations), :func:`at_results` (one output of a results file).
-The reference and static-equilibrium configurations are those of the ``modes`` and ``buckling``
-algorithms (:mod:`reference.algorithms.linear`).
+Entry points: :func:`linearize` (a configuration), :func:`at_reference` (a Domain's initial state),
+:func:`at_static_equilibrium` (the static algorithm's equilibrium at ``t_end``), :func:`at_state` (a
+:class:`~reference.state.State`, with multipliers consistent with its accelerations), :func:`at_results`
+(one output of a results file); :func:`lowest_modes` the modes about a state.  The ``modes`` and
+``buckling`` algorithms (:mod:`reference.algorithms.linear`) linearise about the same configurations.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -166,6 +167,31 @@ def at_results(model: Model, results, t: float, system: NewtonSystem | None = No
     if lam.shape[1:] == (model.n_constraints,) and np.all(np.isfinite(lam[k])):
         return linearize(model, x, q, v, w, lam[k], state.t, state.angle, system)
     return at_state(model, state, system)
+
+
+def at_reference(domain) -> Linearization:
+    """The linearisation of a :class:`~reference.domain.Domain` about its initial state (t = 0, its initial
+    velocities, consistent multipliers): what ``algorithm = "modes"``, ``about = "reference"`` uses."""
+    return at_state(domain.initialization(), domain.initial_conditions())
+
+
+def at_static_equilibrium(domain, t_end: float | None = None, load_steps: int | None = None) -> Linearization:
+    """The linearisation about the static equilibrium of ``domain``'s loads at ``t_end`` (default: its
+    solver's), reached by :class:`~reference.algorithms.static.Static` in ``load_steps`` (default: its
+    solver's) from t = 0, with the multipliers of that equilibrium.  Raises ValueError with the static
+    algorithm's message when it fails."""
+    from reference.algorithms.static import Static
+    from reference.status import OK
+
+    settings = replace(domain.solver, algorithm="static", t_end=float(t_end or domain.solver.t_end),
+                       load_steps=int(load_steps or domain.solver.load_steps))
+    algo = Static.from_settings(settings)
+    model, state = domain.initialization(), domain.initial_conditions()
+    run = algo.start(model, state)
+    code = algo.advance(model, state, run, algo.n_steps(settings.t_end), None)
+    if code != OK:
+        raise ValueError(algo.failure(code, state, run)[1])
+    return linearize(model, state.x, state.q, None, None, run.lam, state.t, state.angle, run.system)
 
 
 def reduce(lin: Linearization, tol: float = RANK_TOLERANCE) -> Reduced:

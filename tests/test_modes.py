@@ -25,7 +25,7 @@ from reference.forces import PointToPoint
 from reference.interactions import Clamp, FixedCoordinates, Gravity, NodalLoad, Ramp
 from reference.io.deck import DeckError, load_deck
 from reference.io.results import load_results
-from reference.linearization import at_results, at_state, linearize, mobility, reduce
+from reference.linearization import at_reference, at_results, at_state, at_static_equilibrium, linearize, mobility, reduce
 from reference.modal import negative_eigenvalues
 from reference.validation import ModelWarning
 
@@ -278,6 +278,7 @@ def test_the_state_api_unstable_modes_and_sylvesters_law():
     d = double_pendulum(True)
     model, state = d.initialization(), d.initial_conditions()
     lin = at_state(model, state)
+    assert np.array_equal(lin.K.toarray(), at_reference(d).K.toarray())
     red = reduce(lin)
     w2 = np.sort(np.linalg.eigvals(np.linalg.solve(red.M.toarray(), red.K.toarray())).real)
     J = 0.01 + 1.0 / 12.0
@@ -300,6 +301,9 @@ def test_the_state_api_unstable_modes_and_sylvesters_law():
                                                 "eigenvalues of the tangent"]
     run = d.last_run["solver"]
     lin = linearize(d.model, d.state.x, d.state.q, lam=run.lam, t=1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelWarning)  # the same line again
+        assert negative_eigenvalues(reduce(at_static_equilibrium(d)).K)[0] == 3  # the API reaches the same state
     m = lin.B.shape[0]
     saddle = np.block([[lin.K.toarray(), lin.B.T.toarray()], [lin.B.toarray(), np.zeros((m, m))]])
     assert m > 0 and run.negative == 3
@@ -351,6 +355,14 @@ def test_bad_solver_keys_are_one_line_errors(tmp_path, solver, message):
         load_deck(path)
     text = str(info.value)
     assert "\n" not in text and text.startswith(str(path)) and message in text, text
+
+
+def test_a_model_without_free_coordinates_is_refused():
+    d, nodes = cantilever(1, SLENDER)
+    d.add_interaction(Clamp(nodes[1]))
+    d.solver = SolverSettings(algorithm="modes", modes=1)
+    assert d.algorithm().refusal(d.initialization()) == ("the model has no free coordinates (every node is fixed): "
+                                                         "there is nothing to linearise")
 
 
 def test_flexmbs_modes_prints_the_table_and_writes_the_results(tmp_path, capsys):
