@@ -184,6 +184,32 @@ def test_double_pendulum_about_its_hanging_equilibrium():
     assert list(r.data("modes/kind")) == ["zero", "zero"]
 
 
+def test_damped_modes_of_an_oscillator_and_of_a_damped_beam():
+    """The first-order form: a body of mass 2 on a spring-damper (k = 50, c = 3) along x, its other motions
+    fixed: ω = √(k/m), ζ = c/(2√(km)) to round-off (1e-9).  A cantilever with mass-proportional damping
+    c = 0.3 s⁻¹: every mode's ζ = c/(2ω) and its frequency ω√(1 − ζ²) from the undamped ω (to 1e-7)."""
+    d = Domain("oscillator")
+    body = d.add_rigid_body("m", 2.0, (1.0, 1.0, 1.0), (1.0, 0.0, 0.0))
+    d.add_force_element(PointToPoint(body, (1.0, 0.0, 0.0), None, (0.0, 0.0, 0.0), stiffness=50.0, damping=3.0))
+    d.add_interaction(FixedCoordinates(body, (1, 2, 3, 4, 5)))
+    d.solver = SolverSettings(algorithm="modes", modes=1)
+    r = d.solve()
+    w, zeta = np.sqrt(50.0 / 2.0), 3.0 / (2.0 * np.sqrt(100.0))
+    assert 2 * np.pi * r.data("modes/frequency")[0] == pytest.approx(w * np.sqrt(1 - zeta**2), rel=1e-9)
+    assert r.data("modes/damping_ratio")[0] == pytest.approx(zeta, rel=1e-9)
+    assert r.data("modes/shape_imaginary").shape == (1, 1, 6)
+    d, _ = cantilever(8, SLENDER)
+    d.solver = SolverSettings(algorithm="modes", modes=4)
+    undamped = 2 * np.pi * d.solve().data("modes/frequency")
+    d.solver = SolverSettings(algorithm="modes", modes=4, damping=0.3)
+    r = d.solve()
+    zeta = 0.3 / (2 * undamped)
+    # 1e-7: the dense QZ of the first-order form resolves the lowest root to about ε ω_max/ω₁ (ω_max ≈ 1e6 ω₁:
+    # the tiny rotary inertia); measured 4e-9
+    assert r.data("modes/damping_ratio") == pytest.approx(zeta, rel=1e-7)
+    assert 2 * np.pi * r.data("modes/frequency") == pytest.approx(undamped * np.sqrt(1 - zeta**2), rel=1e-7)
+
+
 def test_a_free_beam_has_six_rigid_body_modes_and_they_are_counted():
     """A free-floating beam: mobility 6, exactly 6 zero modes below the first elastic one (free–free
     βL = 4.7300: 32 elements within 3e-3; measured −2.5e-3, −6.3e-4 at 64: second order, the free ends'
