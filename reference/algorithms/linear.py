@@ -182,8 +182,8 @@ class Modes(LinearAnalysis):
         return cls(settings.modes, path)
 
     def analyse(self, model, state, run) -> dict:
-        lin = linearization.linearize(model, state.x, state.q, state.v, state.w, self.multipliers(run), state.t, state.angle,
-                        run.system)
+        lin = linearization.linearize(model, state.x, state.q, state.v, state.w, self.multipliers(run), state.t,
+                                      state.angle, run.system)
         red = linearization.reduce(lin)
         size = red.M.shape[0]
         if self.n_modes > size:
@@ -237,7 +237,8 @@ class Buckling(LinearAnalysis):
 
     def analyse(self, model, state, run) -> dict:
         x0, q0, lam0, t0 = run.initial
-        lin1 = linearization.linearize(model, state.x, state.q, None, None, self.multipliers(run), state.t, state.angle, run.system)
+        lin1 = linearization.linearize(model, state.x, state.q, None, None, self.multipliers(run), state.t,
+                                       state.angle, run.system)
         red = linearization.reduce(lin1)
         if self.n_modes > red.M.shape[0]:
             raise ValueError(f"{self.n_modes} buckling modes asked of a model with {red.M.shape[0]} independent "
