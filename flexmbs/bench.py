@@ -614,6 +614,10 @@ def main(args=None) -> int:
     vtk_cost(targets=targets)
     quick = bool(getattr(args, "quick", False)) or os.environ.get("FLEXMBS_QUICK") == "1"
     print()
+    from flexmbs.bench_modes import modes_timing
+
+    print("\n".join(modes_timing(repeat, targets)))
+    print()
     lines = static_rollup(targets)
     print("\n".join(lines))
     data = work_precision(quick)
