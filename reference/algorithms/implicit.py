@@ -64,10 +64,6 @@ from reference.state import Model, Record, element_work
 from reference.status import newton_failure
 
 
-_generalized_forces = inlined(generalized_forces)
-"""Inlined into the residual: a call per Newton iteration cost ~1.4 µs (three-bar generalized-α, measured)."""
-
-
 class Work:
     """Work arrays of the implicit algorithms for one model (allocated once)."""
 
@@ -122,7 +118,7 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
             for k in range(3):
                 fv[i, k] = v[i, k] if dynamic else 0.0
                 fw[i, k] = w[i, k] if dynamic else 0.0
-    U, D_fe = _generalized_forces(model, elements, x, q, fv, fw, t, S, F, G, angle, A, fe_e, fe_B)
+    U, D_fe = generalized_forces(model, elements, x, q, fv, fw, t, S, F, G, angle, A, fe_e, fe_B)
     fe_out[0] = D_fe
     # the model's arrays are taken out once: each access of a Model field in a loop costs two
     # atomic reference-count updates
