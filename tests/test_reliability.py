@@ -165,3 +165,15 @@ def test_redundancy_message_names_the_loop_and_its_fix_works():
     r = d.solve()
     assert r.status == "completed" and r.constraint_violation.max() < 1e-4  # the bound of test_pendulum's linkage
     assert r.position("crank")[-1][0] < r.position("crank")[0][0] - 1e-3  # it swings under gravity
+
+
+def test_a_long_name_and_its_fix_fit_the_message_length(tmp_path):
+    """make fuzz (10,000 cases): a 400-character beam name in a line load gave 302 characters after the file
+    name — the two separators were not counted. Every message keeps to 300 after the file name."""
+    from reference.io.deck_reader import MESSAGE_CHARS, Reader
+
+    reader = Reader(tmp_path / "deck.toml")
+    for problem, fix in (("no flexible beam '" + "x" * 400 + "'", "beams: b"), ("p" * 50, "f" * 500),
+                         ("q" * 500, "g" * 500), ("short", "")):
+        message = str(reader.fail("line_loads[0].beam", problem, fix))
+        assert len(message) - len(str(tmp_path / "deck.toml")) <= MESSAGE_CHARS, message

@@ -95,7 +95,7 @@ class Reader:
     def fail(self, entry: str, problem: str, fix: str = "") -> DeckError:
         """``FILE: ENTRY: problem; fix``; the part after the file name is kept to :data:`MESSAGE_CHARS`."""
         entry = _clip(entry, 60)
-        room = MESSAGE_CHARS - len(entry) - 4
+        room = MESSAGE_CHARS - len(entry) - 6  # ": " after the file and the entry, "; " before the fix
         if len(problem) + len(fix) > room:
             fix = _clip(fix, max(room // 3, room - len(problem)))
             problem = _clip(problem, room - len(fix))
