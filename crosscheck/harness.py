@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from crosscheck.compare import compare, pointwise
-from crosscheck.exudyn_model import preflight
+from crosscheck.exudyn_model import Unsupported, preflight
 from crosscheck.exudyn_model import solve as solve_exudyn
 from reference.observables import default_crosscheck, parse, wrap
 
@@ -73,6 +73,11 @@ def run_engines(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_en
     out = Path(out)
     overrides = {"refine": refine, **({"t_end": t_end} if t_end else {})}
     read = load_deck(deck, overrides=overrides)
+    if read.domain.algorithm().linearised:
+        # a time-history comparison of a linearised deck would compare two unloaded states and pass
+        raise Unsupported(f"algorithm = {read.domain.solver.algorithm!r} is a linearised analysis and this command "
+                          "compares time histories; compare its frequencies with Exudyn's eigen-solver through "
+                          "crosscheck.exudyn_modes.modes")
     checks = {name: spec for name, spec in read.crosscheck.items() if int(spec.get("refine", 1)) == refine}
     ex_domain = load_deck(deck, overrides=overrides).domain
     preflight(ex_domain)  # refuse (one line) before running anything: untranslatable or refused by Exudyn

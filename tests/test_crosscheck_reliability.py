@@ -175,3 +175,13 @@ def test_a_steel_rod_of_200_elements_crosschecks(tmp_path, algorithm):
           f"reference {cmp['reference'].wall_time:.2f} s")
     assert tip.passed
     assert np.isclose(cmp["reference"].time[-1], cmp["exudyn"].time[-1])
+
+
+@pytest.mark.parametrize("deck", ["cantilever_modes", "lateral_buckling"])
+def test_a_linearised_deck_is_refused_in_one_line_instead_of_a_vacuous_pass(tmp_path, capsys, deck):
+    """`flexmbs crosscheck` compares time histories: on a modes deck it compared two unloaded states
+    and printed "pass position:*: 0.000e+00". It refuses before any solve and names the eigen-solve."""
+    assert main(["crosscheck", str(MODELS / f"{deck}.toml"), "--out", str(tmp_path / "cc")]) == 2
+    line = one_line(capsys)
+    assert "linearised analysis" in line and "crosscheck.exudyn_modes.modes" in line
+    assert not (tmp_path / "cc").exists()  # nothing ran, nothing written
