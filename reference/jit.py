@@ -26,7 +26,7 @@ slower for named tuples than for plain ones: a call taking the Model costs 7.7 �
 arrays as plain nested tuples 3.0 µs (three-bar model, 51 arrays; measured).  The implicit
 algorithms make hundreds of such calls per solve (an evaluation, a factorisation, a chunk of
 steps, the derived outputs of a record), so those kernels take their named tuples through
-:func:`boundary` (the same arrays as plain nested tuples, made once per object) and name them
+:func:`boundary` (the same arrays as plain nested tuples, made once per run by the caller) and name them
 again on entry with :func:`named`, which costs nothing in compiled code (a copy of pointers;
 on a named tuple it is the identity).  The explicit step kernel, called once per output for
 many steps, takes its named tuples as they are.
@@ -127,9 +127,6 @@ _TYPES: dict = {}
 _NAMED_TYPES: dict = {}
 """(numba type of a plain copy made by :func:`boundary`, the named tuple's class) → its numba type
 (two classes may have the same plain type)."""
-_PLAIN: dict = {}
-"""id of a named tuple → (the tuple, its plain copy): the last objects passed to :func:`boundary`."""
-_PLAIN_KEPT = 64
 
 
 def _plain(obj):
@@ -147,21 +144,16 @@ def boundary(obj):
     """``obj`` (a named tuple of arrays, scalars and named tuples) as plain nested tuples of the same
     arrays, for a kernel that calls :func:`named` on it; the identity with ``NUMBA_DISABLE_JIT=1``.
 
-    The copy of the last few objects is kept (keyed by identity), so a run's repeated calls cost a
-    dictionary look-up.  The arrays are shared: what the kernel writes into them, ``obj`` sees.
+    The arrays are shared: what the kernel writes into them, ``obj`` sees.  Making the copy costs
+    ~20 µs for a Model: a caller that passes the same object again keeps its copy (nothing here keeps
+    the object, or its arrays, alive).
     """
     if numba.config.DISABLE_JIT:
         return obj
-    kept = _PLAIN.get(id(obj))
-    if kept is not None and kept[0] is obj:
-        return kept[1]
     plain, key = _plain(obj)
     if key not in _TYPES:
         _TYPES[key] = numba.typeof(plain), numba.typeof(obj)
         _NAMED_TYPES[_TYPES[key][0], type(obj)] = _TYPES[key][1]
-    if len(_PLAIN) >= _PLAIN_KEPT:
-        _PLAIN.pop(next(iter(_PLAIN)))
-    _PLAIN[id(obj)] = (obj, plain)
     return plain
 
 

@@ -47,7 +47,7 @@ import numpy as np
 from dataclasses import dataclass, field
 
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, evaluate, write_record
-from reference.jit import boundary, inlined, kernel, named
+from reference.jit import inlined, kernel, named
 from reference.linalg import SingularMatrix, lu_solve
 from reference.state import Model, Record
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR
@@ -188,7 +188,8 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             if run.factors is None:
                 par[9] = -1.0  # only predict: the factor is made at the predictor
             code, done = steps(system.arg, x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, energy, system.dof, par,
-                               left, NO_FACTOR if run.factors is None else run.factors, system.wt, run.arrays, boundary(rec))
+                               left, NO_FACTOR if run.factors is None else run.factors, system.wt, run.arrays,
+                               system.record_arg(rec))
             left -= done
             if code == OK:
                 continue

@@ -194,6 +194,7 @@ class NewtonSystem:
         self.zero_psi = np.zeros((model.nodes.mass.shape[0], 3))
         self.slu = SparseLU(self.pattern.n)
         self._mass = None
+        self._record = (None, None)  # the last output record and its plain copy (record_arg)
 
     def evaluate(self, x, q, v, w, vd, lam, t, dynamic) -> float:
         """:func:`evaluate` into :attr:`work`; returns the strain energy."""
@@ -276,7 +277,14 @@ class NewtonSystem:
     def write_record(self, rec, x, q, v, w, U, energy_clock, lam) -> None:
         """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B)."""
         write_record(self.arg, x, q, v, w, U, energy_clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl,
-                     boundary(rec))
+                     self.record_arg(rec))
+
+    def record_arg(self, rec):
+        """``rec`` (:class:`~reference.state.Record`) as the kernels take it (:func:`reference.jit.boundary`),
+        made once for the record a run passes again and again."""
+        if self._record[0] is not rec:
+            self._record = (rec, boundary(rec))
+        return self._record[1]
 
     def constraint_rate(self, v, w) -> np.ndarray:
         """``B V`` (m,) from the last evaluation's local rows."""
