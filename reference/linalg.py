@@ -374,7 +374,7 @@ def null_space(B: sps.csr_matrix, tol: float = RANK_TOLERANCE) -> tuple[sps.csr_
     if m:
         # the groups: coordinates linked through a common row
         link = abs(B).T @ abs(B)
-        n_groups, label = connected_components(link, directed=False)
+        _, label = connected_components(link, directed=False)
         for g in np.unique(label[touched]):
             members = np.flatnonzero((label == g) & touched)
             sub = B[:, members]

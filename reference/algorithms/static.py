@@ -203,7 +203,6 @@ class Static(ImplicitAlgorithm):
             clock[0] = clock[1] * self.dt
         return OK
 
-
     def recorded(self, run) -> dict:
         """The number of negative eigenvalues of the reduced tangent at the recorded equilibrium."""
         return {"negative_eigenvalues": float(run.recorded)}
