@@ -19,8 +19,9 @@ $(VENV)/.notebooks: $(STAMP)
 report: $(STAMP)
 	$(BIN)/flexmbs report
 
+# one worker per core (pytest-xdist): most of the suite's time is numba compiling the kernels
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto
 
 # 10,000 mutated decks through the deck reader (the test suite runs 1,000)
 fuzz: $(STAMP)
