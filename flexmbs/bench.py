@@ -15,7 +15,7 @@ with both tips printed: the same answer at the same step.  Per-step costs time
 the compiled stepping alone (median of ``repeat`` after a warm-up).  Then the
 share of a run spent writing ParaView output (2,000 elements, 1,000 outputs).
 
-Last, the implicit algorithms (issue 8): the static roll-up against Exudyn's
+Last, the implicit algorithms: the static roll-up against Exudyn's
 static solver, and the work–precision study — for the three-bar and its steel
 variant, each engine/algorithm at several steps, the error of the coupler's
 mid-span deflection against a converged-in-time reference of the same mesh and

@@ -23,7 +23,7 @@ MODES = 20
 
 
 def modes_timing(repeat: int = 3, targets: list | None = None, elements: int = ELEMENTS, n: int = MODES) -> list[str]:
-    """Time both engines on the cantilever; append the two targets of the issue (≤ 2 s, ≤ 0.5 × Exudyn)
+    """Time both engines on the cantilever; append its two targets (≤ 2 s, ≤ 0.5 × Exudyn)
     to ``targets``; return the printed lines."""
     from crosscheck.exudyn_modes import exudyn_modes_timing, timing_cantilever
     from flexmbs.bench import Target

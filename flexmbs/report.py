@@ -133,7 +133,8 @@ def provenance_header(quick: bool) -> list[str]:
             return ""
 
     commit = git("rev-parse", "HEAD") or "unknown (not a git checkout)"
-    dirty = git("status", "--porcelain", "--untracked-files=no")
+    # the report's own outputs (reports/) are tracked: a previous report must not mark the next one dirty
+    dirty = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)reports")
     versions = []
     for pkg in ("flexmbs", "numpy", "scipy", "numba", "sympy", "h5py", "matplotlib", "exudyn"):
         try:
@@ -181,7 +182,6 @@ def deck_data(deck) -> list[str]:
         lines.append(f"- rigid body `{n.label}`: mass {n.mass:g} kg, inertia about the centre of mass (body frame) "
                      f"diag {np.round(np.diag(n.inertia), 6).tolist()} kg m², centre {np.round(n.position, 6).tolist()} m")
     steps = int(round(domain.solver.t_end / domain.solver.dt))
-    crit = domain.critical_time_step() if domain.elements else float("inf")
     counts = (f"{len(domain.nodes)} nodes, {len(domain.elements)} Beam2 elements, {len(domain.joints)} joints "
               f"({domain.model.n_constraints} constraint equations)")
     algo = domain.algorithm()
@@ -189,9 +189,11 @@ def deck_data(deck) -> list[str]:
         where = (f"the static equilibrium at t = {domain.solver.t_end:g} ({domain.solver.load_steps} load steps)"
                  if algo.n_steps(domain.solver.t_end) else "the initial state")
         return lines + ["", f"{counts}; `{algo.name}`: the {algo.n_modes} lowest, about {where}.", ""]
-    lines += ["", f"{counts}; h = {domain.solver.dt:g} s, t_end = "
-              f"{domain.solver.t_end:g} s ({steps} steps)" + (f"; critical step {crit:.3e} s (margin "
-                                                             f"{crit / domain.solver.dt:.2f})" if domain.elements else "")
+    # the critical step bounds only an explicit scheme's step: an implicit deck's margin would mean nothing
+    crit = domain.critical_time_step() if domain.elements and algo.explicit else None
+    lines += ["", f"{counts}; `{algo.name}`, h = {domain.solver.dt:g} s, t_end = "
+              f"{domain.solver.t_end:g} s ({steps} steps)"
+              + (f"; critical step {crit:.3e} s (margin {crit / domain.solver.dt:.2f})" if crit else "")
               + (f"; mass-proportional damping c = {domain.solver.damping:g} 1/s" if domain.solver.damping else "") + ".", ""]
     return lines
 
@@ -354,6 +356,20 @@ def deck_section(number: int, deck: Path, out: Path, figures: Path, quick: bool,
     return lines, checks, compile_time
 
 
+def contents(lines: list[str]) -> list[str]:
+    """The contents table: a link to every section (``## `` heading), by its GitHub anchor."""
+    from flexmbs.html import anchor
+
+    seen, toc = {}, ["## Contents", ""]
+    for line in lines:
+        if line.startswith("#"):
+            level = len(line) - len(line.lstrip("#"))
+            slug = anchor(line[level:].strip(), seen)
+            if level == 2:
+                toc.append(f"- [{line[3:].strip()}](#{slug})")
+    return toc + [""]
+
+
 LIMITATIONS = [
     "## Limitations: what this report does not verify",
     "",
@@ -403,8 +419,7 @@ def main(args=None) -> int:
         f"**{len(checks) - len(failed)} of {len(checks)} checks pass** over {len(decks)} decks." + (
             "  Failed: " + "; ".join(c.name for c in failed) if failed else ""),
         "",
-        "Decks: " + ", ".join(f"{i + 1}. `{d.stem}`" for i, d in enumerate(decks)) + ".",
-        "",
+        *contents(lines + ["## Solve times"] + LIMITATIONS + ["## All checks"]),
     ]
     timing = ["## Solve times", "",
               "Warm solve times (the solve call only; numba's compilation is excluded: every deck first runs two "

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -155,6 +156,19 @@ def test_quick_report_runs_and_every_check_passes(tmp_path, capsys):
         elif table:
             assert set(table) == {table[0]}, table
             table = []
+    # a reader's report: every section in the contents table, each link an anchor of the HTML rendering;
+    # no words of a tracker the reader does not have; no critical-step margin where no step is critical
+    html = (tmp_path / "verification_quick.html").read_text()
+    links = re.findall(r"^- \[[^\]]+\]\(#([^)]+)\)$", text, re.M)
+    sections = [line for line in text.splitlines() if line.startswith("## ") and line != "## Contents"]
+    assert len(links) == len(sections) > 10
+    for link in links:
+        assert f'id="{link}"' in html and f'href="#{link}"' in html, link
+    assert not re.search(r"\bissue\b|acceptance", text, re.I)
+    implicit = [section.split("\n\n![")[0] for section in text.split("\n## ")[1:]
+                if "`generalized_alpha`, h =" in section or "`static`, h =" in section]
+    assert implicit and not any("margin" in data for data in implicit)
+    assert "`staggered_central_difference`, h =" in text and "margin" in text  # the explicit decks keep it
     for fig in ("rollup_fig12.png", "three_bar_fig14.png", "rollup_convergence.png", "rollup_history.png",
                 "embedded_beam_sketch.png", "three_bar_sketch.png"):
         assert (tmp_path / "figures" / fig).stat().st_size > 10_000
@@ -170,3 +184,25 @@ def test_plot_writes_histories_drift_energy_and_animation(tmp_path, capsys):
         assert (tmp_path / "fig" / name).stat().st_size > 1000, name
     assert main(["plot", str(results), "--node", "nope"]) == 2
     assert "no node 'nope'" in capsys.readouterr().err
+
+
+def test_report_header_is_not_made_dirty_by_a_previous_report(tmp_path, monkeypatch):
+    """The report's own outputs are tracked (reports/): rewriting them must not mark the next report
+    *dirty*; a change to any other tracked file must."""
+    from flexmbs import report
+
+    def git(*args):
+        subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *args], cwd=tmp_path, check=True,
+                       capture_output=True)
+
+    (tmp_path / "reports").mkdir()
+    (tmp_path / "reports" / "verification.md").write_text("old\n")
+    (tmp_path / "model.toml").write_text("a = 1\n")
+    git("init", "-q")
+    git("add", ".")
+    git("commit", "-qm", "x")
+    monkeypatch.setattr(report, "ROOT", tmp_path)
+    (tmp_path / "reports" / "verification.md").write_text("new\n")
+    assert "dirty" not in "\n".join(report.provenance_header(False))
+    (tmp_path / "model.toml").write_text("a = 2\n")
+    assert "dirty" in "\n".join(report.provenance_header(False))

@@ -1,4 +1,4 @@
-"""The 45° bend of Bathe & Bolourchi (1979): curved and joined beams (issue 9).
+"""The 45° bend of Bathe & Bolourchi (1979): curved and joined beams.
 
 Checks: the tip position at P = 300, 450 and 600 against the published values of
 Simo & Vu-Quoc (1986) (Bathe & Bolourchi 1979 listed beside

@@ -1,4 +1,4 @@
-"""The roll-up as a static problem (issue 8): every load step against the discrete polygon and the elastica."""
+"""The roll-up as a static problem: every load step against the discrete polygon and the elastica."""
 
 from __future__ import annotations
 

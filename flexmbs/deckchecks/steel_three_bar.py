@@ -1,4 +1,4 @@
-"""Steel three-bar: generalized-α at 400 explicit steps against the explicit scheme, same mesh (issue 8)."""
+"""Steel three-bar: generalized-α at 400 explicit steps against the explicit scheme, same mesh."""
 
 from __future__ import annotations
 
