@@ -235,3 +235,15 @@ def test_the_api_refuses_what_the_deck_refuses(tmp_path):
     with pytest.raises(DeckError) as info:
         load_deck(path).domain
     assert str(info.value) == f"{path}: joints[0].axis: {ZERO_DIRECTION[0]}; {ZERO_DIRECTION[1]}"
+
+
+def test_the_names_a_model_needs_come_from_reference():
+    """A model built in Python needs no module paths: the deck's vocabulary is exported from ``reference``."""
+    import reference
+    from reference import Domain, Gravity, Section, SolverSettings
+
+    assert Domain.__module__ == "reference.domain" and Section.__module__ == "reference.elements.section"
+    assert SolverSettings().algorithm == "staggered_central_difference"
+    assert Gravity([0.0, 0.0, -9.81]).g[2] == -9.81
+    for name in reference.__all__:
+        assert getattr(reference, name).__doc__, name
