@@ -195,6 +195,7 @@ def _run_deck(args, deck):
     the model's warnings end the bar's line first.  Returns the results."""
     from flexmbs.progress import ProgressBar
     from reference.io.vtk import write_vtk
+    from reference.jit import CompileTimer
     from reference.solution import SolverDiverged
     from reference.validation import show_warning
 
@@ -213,10 +214,17 @@ def _run_deck(args, deck):
         bar.close()  # a warning during the run (a change of stability) on a line of its own
         show_warning(*shown, **named)
 
+    def compiling() -> None:
+        bar.close()
+        print("compiling the kernels (once for this version of the engine, about a minute)…", file=sys.stderr,
+              flush=True)
+
     shown_before, warnings.showwarning = warnings.showwarning, warning_line
+    timer = CompileTimer(compiling)
     try:
         check_signals()
-        result = deck.solve(results_path=results_path, progress=progress)
+        with timer:
+            result = deck.solve(results_path=results_path, progress=progress)
     except SolverDiverged as exc:
         raise RunFailed(f"{args.deck}: {exc} (results file: {results_path})") from None
     except (Stopped, KeyboardInterrupt) as exc:
@@ -238,7 +246,9 @@ def _run_deck(args, deck):
     if args.vtk_every > 0:
         pvd = write_vtk(domain, result, out / "vtk", domain.name, every=args.vtk_every)
     print(f"{domain.name}: {len(result.time)} outputs to t = {result.time[-1]:g} in {wall:.2f} s "
-          f"(solve {result.wall_time:.3f} s) → {results_path}" + (f", {pvd}" if pvd else ""))
+          f"(solve {result.wall_time - timer.seconds:.3f} s"
+          + (f", compiling the kernels {timer.seconds:.1f} s" if timer.kernels else "") + f") → {results_path}"
+          + (f", {pvd}" if pvd else ""))
     return result
 
 

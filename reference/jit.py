@@ -45,15 +45,17 @@ from __future__ import annotations
 
 import hashlib
 import os
+import time
 from pathlib import Path
 
 import numba
+import numba.core.event
 import numpy as np
 from numba import prange, types
 from numba.core.imputils import impl_ret_borrowed
 from numba.extending import intrinsic
 
-__all__ = ["boundary", "kernel", "inlined", "named", "parallel_kernel", "prange", "threads", "use_threads",
+__all__ = ["CompileTimer", "boundary", "kernel", "inlined", "named", "parallel_kernel", "prange", "threads", "use_threads",
            "source_digest"]
 
 THREADS_ENV = "FLEXMBS_THREADS"
@@ -72,6 +74,40 @@ def source_digest(root: Path = ENGINE) -> str:
 if not os.environ.get("NUMBA_CACHE_DIR"):
     numba.config.CACHE_DIR = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
                                  / "flexmbs" / "numba" / source_digest())
+
+
+class CompileTimer(numba.core.event.Listener):
+    """Wall time [s] numba spends compiling kernels while it listens (``with CompileTimer() as timer:``).
+
+    It counts the outermost ``numba:compile`` events only (a kernel compiles the kernels it calls inside
+    its own event); loading a kernel from the on-disk cache is not compilation and is not counted.
+    ``announce`` (no arguments) is called once, when the first compilation starts: on a first run, the
+    command line says why nothing seems to happen for a minute.
+    """
+
+    def __init__(self, announce=None):
+        self.seconds, self.kernels, self._depth, self._start, self._announce = 0.0, 0, 0, 0.0, announce
+
+    def on_start(self, event) -> None:
+        if self._depth == 0:
+            if self._announce is not None:
+                self._announce()
+                self._announce = None
+            self._start = time.perf_counter()
+        self._depth += 1
+
+    def on_end(self, event) -> None:
+        self._depth -= 1
+        if self._depth == 0:
+            self.seconds += time.perf_counter() - self._start
+            self.kernels += 1
+
+    def __enter__(self) -> "CompileTimer":
+        numba.core.event.register("numba:compile", self)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        numba.core.event.unregister("numba:compile", self)
 
 
 def kernel(func):

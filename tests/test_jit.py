@@ -84,3 +84,28 @@ def test_a_run_makes_the_plain_copy_of_its_record_once():
     first = system.record_arg(rec)
     assert system.record_arg(rec) is first  # the same record: the same copy, no new one
     assert system.record_arg(other) is not first and system.record_arg(other)[0] is other.x  # x first
+
+
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="nothing compiles with NUMBA_DISABLE_JIT=1")
+def test_compile_timer_counts_compilation_once_and_announces_it_once():
+    """`flexmbs run` says when it compiles and leaves the compilation out of the solve time: the timer
+    counts a kernel that compiles (and the kernel it calls inside it, once), and nothing for a kernel
+    already compiled."""
+    announced = []
+
+    def inner(x):
+        return x * 2.0 + 1.0
+
+    inner = numba.njit(inner)
+
+    @numba.njit
+    def outer(x):
+        return inner(x) - 1.0
+
+    with jit.CompileTimer(lambda: announced.append(1)) as timer:
+        assert outer(1.5) == 3.0
+        assert outer(2.5) == 5.0  # compiled: no event
+    assert announced == [1] and timer.kernels == 1 and timer.seconds > 0.0
+    with jit.CompileTimer(lambda: announced.append(2)) as again:
+        outer(3.0)
+    assert announced == [1] and again.kernels == 0 and again.seconds == 0.0
