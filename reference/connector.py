@@ -1,6 +1,6 @@
 """What joints and force elements share: two bodies connected at body-fixed points and frames.
 
-A *connector* acts between body i and body j (``None``: the ground) — a joint
+A *connector* acts between body i and body j (``"ground"`` or ``None``: the ground) — a joint
 (:class:`reference.joints.joint.Joint`, paper §4.2.3) or a force element
 (:class:`reference.forces.ForceElement`, a load between bodies).  It is defined in the
 inertial frame at t = 0 by a point on each body and a frame (columns u1, u2, u3), and
@@ -17,6 +17,20 @@ from __future__ import annotations
 import numpy as np
 
 from reference.generated import rotation_maps as rm
+
+
+GROUND = "ground"
+"""The ground's name, in a deck and in the API alike (``None`` is accepted for it too)."""
+
+
+def body_or_ground(body, entry: str):
+    """``body`` (a node), or None for the ground (``"ground"`` or None); any other string is refused."""
+    if isinstance(body, str):
+        if body != GROUND:
+            raise ValueError(f"{entry}: got the string {body!r}; give a node (as the Domain returned it) or "
+                             f"{GROUND!r}")
+        return None
+    return body
 
 
 def body_matrix(body) -> np.ndarray:

@@ -28,6 +28,7 @@ from reference.algorithms import ALGORITHMS, Algorithm, SolverSettings
 from reference.elements import Element, Section
 from reference.elements.families import ALWAYS_PACKED, DEFAULT_FAMILY, ELEMENT_FAMILIES
 from reference.elements.formulation import PlacedElement
+from reference.connector import GROUND
 from reference.forces import ForceElement, pack_force_elements
 from reference.generated import rotation_maps as rm
 from reference.interactions import (
@@ -226,7 +227,8 @@ class Domain:
     def add_joint(self, kind: str, body_i, body_j, point, axis=(0.0, 0.0, 1.0), reference=None, frame=None,
                   formulation=None, time_function: TimeFunction | None = None, mode: str = "position",
                   label: str = "") -> Joint:
-        """Join ``body_i`` to ``body_j`` (``None``: the ground) at ``point`` about/along ``axis``.
+        """Join ``body_i`` to ``body_j`` (a node, its id or label; ``"ground"`` or ``None``: the ground) at
+        ``point`` about/along ``axis``.
 
         ``reference`` fixes the joint frame's u1 (see :func:`reference.joints.joint_frame`);
         a full ``frame`` (columns u1, u2, u3) may be given instead.  For a universal
@@ -244,7 +246,9 @@ class Domain:
                 raise ValueError("the reference direction of a joint frame is parallel to its axis")
             frame = joint_frame(u3, axis)
         frame = joint_frame(axis, reference) if frame is None else np.asarray(frame, dtype=float)
-        joint = Joint(kind, None if body_i is None else self.node(body_i), None if body_j is None else self.node(body_j),
+        ends = [None if body is None or (isinstance(body, str) and body == GROUND) else self.node(body)
+                for body in (body_i, body_j)]
+        joint = Joint(kind, *ends,
                       point, frame, formulation or Jacobian(), time_function or Constant(0.0), mode,
                       label or f"{kind}:{len(self.joints)}")
         self.joints.append(joint)

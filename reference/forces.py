@@ -57,7 +57,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from reference.connector import Connector, body_matrix
+from reference.connector import Connector, body_matrix, body_or_ground
 from reference.interactions import TimeFunction
 from reference.joints.joint import joint_frame
 from reference.state import ForceElements
@@ -67,7 +67,7 @@ KINDS = {"point_to_point": POINT_TO_POINT, "rotational": ROTATIONAL, "bushing": 
 
 
 class ForceElement(Connector, ABC):
-    """A spring-damper between ``body_i`` and ``body_j`` (``None``: the ground).
+    """A spring-damper between ``body_i`` and ``body_j`` (``"ground"`` or ``None``: the ground).
 
     Subclasses provide ``kind`` (a :data:`KINDS` value), :meth:`points`
     (the attachment points on i and j, inertial at t = 0), :meth:`frame` (the
@@ -130,10 +130,14 @@ def _frame(axis, reference, label):
 
 
 def _check_bodies(body_i, body_j, label):
+    """The two bodies, ``"ground"`` read as None, after the checks: body i is a body, not body j."""
+    body_i = body_or_ground(body_i, f"force element {label!r} body_i")
+    body_j = body_or_ground(body_j, f"force element {label!r} body_j")
     if body_i is None:
         raise ValueError(f"force element {label!r}: body_i cannot be the ground")
     if body_i is body_j:
         raise ValueError(f"force element {label!r}: body_i and body_j are the same body")
+    return body_i, body_j
 
 
 @dataclass
@@ -145,7 +149,7 @@ class PointToPoint(ForceElement):
 
     Parameters
     ----------
-    body_i, body_j : Node or None
+    body_i, body_j : Node, "ground" or None
     point_i, point_j : array (3,)
         Attachment points, inertial at t = 0 [m] (body-fixed after).
     stiffness : float
@@ -170,7 +174,7 @@ class PointToPoint(ForceElement):
     kind = POINT_TO_POINT
 
     def __post_init__(self):
-        _check_bodies(self.body_i, self.body_j, self.label)
+        self.body_i, self.body_j = _check_bodies(self.body_i, self.body_j, self.label)
         self.point_i = np.asarray(self.point_i, dtype=float).reshape(3)
         self.point_j = np.asarray(self.point_j, dtype=float).reshape(3)
         if self.stiffness < 0.0 or self.damping < 0.0:
@@ -208,7 +212,7 @@ class Rotational(ForceElement):
 
     Parameters
     ----------
-    body_i, body_j : Node or None
+    body_i, body_j : Node, "ground" or None
     axis : array (3,)
         Inertial at t = 0 (body-fixed on both bodies after).
     stiffness : float
@@ -232,7 +236,7 @@ class Rotational(ForceElement):
     kind = ROTATIONAL
 
     def __post_init__(self):
-        _check_bodies(self.body_i, self.body_j, self.label)
+        self.body_i, self.body_j = _check_bodies(self.body_i, self.body_j, self.label)
         if self.stiffness < 0.0 or self.damping < 0.0:
             raise ValueError(f"spring {self.label!r}: stiffness and damping must not be negative")
         self._frame = _frame(self.axis, self.reference, self.label)
@@ -263,7 +267,7 @@ class Bushing(ForceElement):
 
     Parameters
     ----------
-    body_i, body_j : Node or None
+    body_i, body_j : Node, "ground" or None
     point : array (3,)
         Inertial at t = 0 [m].
     axis, reference : array (3,)
@@ -283,7 +287,7 @@ class Bushing(ForceElement):
     kind = BUSHING
 
     def __post_init__(self):
-        _check_bodies(self.body_i, self.body_j, self.label)
+        self.body_i, self.body_j = _check_bodies(self.body_i, self.body_j, self.label)
         self.point = np.asarray(self.point, dtype=float).reshape(3)
         self.stiffness = np.asarray(self.stiffness, dtype=float).reshape(6)
         self.damping = np.asarray(self.damping, dtype=float).reshape(6)

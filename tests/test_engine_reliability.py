@@ -247,3 +247,18 @@ def test_the_names_a_model_needs_come_from_reference():
     assert Gravity([0.0, 0.0, -9.81]).g[2] == -9.81
     for name in reference.__all__:
         assert getattr(reference, name).__doc__, name
+
+
+def test_the_ground_has_the_decks_name_in_the_api():
+    """Deck and API use one word for the ground: ``"ground"`` (None is accepted too); any other string is
+    refused in one line."""
+    from reference import Domain, PointToPoint
+
+    d = Domain("pendulum")
+    bob = d.add_rigid_body("bob", 1.0, [1.0, 1.0, 1.0], [1.0, 0.0, 0.0])
+    pin = d.add_joint("revolute", "ground", bob, [0.0, 0.0, 0.0], label="pin")
+    assert pin.body_i is bob and pin.body_j is None  # the ground kept on side j
+    spring = PointToPoint(bob, [1.0, 0.0, 0.0], "ground", [0.0, 0.0, 0.0], stiffness=1.0, label="s")
+    assert spring.body_j is None
+    with pytest.raises(ValueError, match=r"^force element 's' body_j: got the string 'grund'; give a node"):
+        PointToPoint(bob, [1.0, 0.0, 0.0], "grund", [0.0, 0.0, 0.0], stiffness=1.0, label="s")

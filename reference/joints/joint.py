@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from reference.connector import Connector
+from reference.connector import Connector, body_or_ground
 from reference.generated import joints as generated
 from reference.interactions import Constant, TimeFunction
 
@@ -67,8 +67,8 @@ class Joint(Connector):
     ----------
     kind : str
         One of ``ROWS``.
-    body_i, body_j : Node or None
-        The two bodies; ``None`` is the ground (only one of them).
+    body_i, body_j : Node, "ground" or None
+        The two bodies; ``"ground"`` (or ``None``) is the ground (only one of them).
     point : array (3,)
         Joint point P, inertial, at t = 0 [m].
     frame : array (3, 3)
@@ -98,6 +98,8 @@ class Joint(Connector):
 
         if self.kind not in ROWS:
             raise ValueError(f"unknown joint kind {self.kind!r}; valid: {', '.join(ROWS)}")
+        self.body_i = body_or_ground(self.body_i, f"joint {self.label!r} body_i")
+        self.body_j = body_or_ground(self.body_j, f"joint {self.label!r} body_j")
         if self.body_i is None and self.body_j is None:
             raise ValueError("a joint needs at least one body")
         if self.body_i is None:  # keep the ground on side j
