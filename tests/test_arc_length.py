@@ -13,7 +13,7 @@ import pytest
 
 from flexmbs.verification import analytic
 from flexmbs.verification.analytic import polygon_tip
-from reference.algorithms import ALGORITHMS, ArcLength, SolverSettings
+from reference.algorithms import ALGORITHMS, ArcLength, SolverSettings, Static
 from reference.domain import Domain, SolverDiverged
 from reference.elements import Section
 from reference.interactions import FixedCoordinates, NodalLoad, Ramp
@@ -121,6 +121,24 @@ def test_von_mises_truss_through_both_limit_points_to_the_mirror():
     assert len(caught_lines(caught)) == 2
 
 
+def test_displacement_control_gives_the_same_points():
+    """Displacement control of the apex height (``control = "position.z:left:1"``, steps of 0.005 × the model
+    size 2): the apex moves down by exactly 0.01 per point (to 1e-12), the load factor that holds it is on
+    the closed form within 1e-6 P_max at every point, as the arc-length points are; the same two limit
+    points, within 1e-3 of ±P_max."""
+    d = truss(algorithm="arc_length", arc_length=0.005, max_points=30, max_load_factor=10.0)
+    node = d.node("left:1").id
+    d.solver.control = (node, 2, "position.z:left:1")
+    r = d.solve()
+    lam, apex = r.data("path/load_factor"), r.position("left:1")
+    limit = truss_limit()
+    assert np.allclose(apex[:, 2], RISE - 0.01 * np.arange(len(lam)), atol=1e-12, rtol=0.0)
+    assert max(abs(lam[k] - truss_load(apex[k])) for k in range(len(lam))) <= 1e-6 * limit
+    assert list(r.data("path/critical_kind")) == ["limit point", "limit point"]
+    print("limit points by displacement control", r.data("path/critical_load_factor"))
+    assert r.data("path/critical_load_factor") == pytest.approx([limit, -limit], rel=1e-3)
+
+
 def test_rollup_past_two_turns_on_the_polygon():
     """The embedded beam (12 elements) under its end moment by arc length, from 0 to k = 2.2 (λ = 1.1 of the
     deck's moment at t_end = 2, k = 2): every point on the discrete polygon within 1e-8 L, as the static
@@ -144,25 +162,27 @@ def ltb(**solver) -> Domain:
 def test_lateral_torsional_bifurcation_and_its_post_buckled_branch():
     """The perfect cantilever of models/lateral_buckling.toml (32 elements, tip load 4 λ): the bifurcation
     flagged within 1 % of the rod's closed form (measured below 0.1 %, Beam2's mesh error), a bifurcation
-    and not a limit point.  With ``branch_switch`` the path leaves along the lateral–torsional mode: the
-    tip moves sideways while the load stays near the critical one (a stable symmetric bifurcation)."""
+    and not a limit point, the beam in its plane up to there.  With ``branch_switch`` the path then leaves
+    along the lateral–torsional mode: the tip moves sideways, further at every point, while the load stays
+    within 5 % above the critical one and the tangent stays positive definite (a stable symmetric
+    bifurcation)."""
     exact = analytic.lateral_buckling_cantilever(100.0, 1.0, 1.0, 1.0)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        r = ltb(arc_length=0.05, max_points=40, max_load_factor=1.1).solve()
+        r = ltb(arc_length=0.05, max_points=16, max_load_factor=1.5, branch_switch=True).solve()
     critical, kind = r.data("path/critical_load_factor"), r.data("path/critical_kind")
     print("critical tip load", 4.0 * critical, "rod", exact)
     assert list(kind) == ["bifurcation"] and abs(4.0 * critical[0] / exact - 1.0) <= 1e-2
-    assert np.max(np.abs(r.position("beam:end")[:, 1])) == 0.0  # the perfect beam stays in its plane
     assert len(caught_lines(caught)) == 1
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ModelWarning)
-        post = ltb(arc_length=0.05, max_points=30, max_load_factor=1.5, branch_switch=True).solve()
-    lam, lateral = post.data("path/load_factor"), post.position("beam:end")[:, 1]
-    after = np.flatnonzero(np.abs(lateral) > 0.0)
-    print("post-buckled: load factor", lam[after[-1]], "lateral tip", lateral[after[-1]])
-    assert after.size >= 5 and abs(lateral[after[-1]]) > 0.05
-    assert np.all(lam[after] > 0.99 * exact / 4.0) and np.all(lam[after] < 1.1 * exact / 4.0)
+    lam, lateral, count = r.data("path/load_factor"), r.position("beam:end")[:, 1], r.data("path/negative_eigenvalues")
+    first = int(np.argmax(count > 0))  # the first point past the bifurcation, on the primary path
+    assert first > 0 and lam[first - 1] < critical[0] < lam[first]
+    assert np.all(lateral[:first + 1] == 0.0)  # the perfect beam stays in its plane up to there
+    after = np.arange(first + 1, len(lam))
+    print("post-buckled: load factors", lam[after], "lateral tip", lateral[after])
+    assert after.size >= 5 and np.all(np.abs(lateral[after]) > 0.0) and abs(lateral[-1]) > 0.05
+    assert np.all(np.diff(np.abs(lateral[after])) > 0.0) and np.all(count[after] == 0.0)  # a stable branch
+    assert np.all(lam[after] > 0.99 * exact / 4.0) and np.all(lam[after] < 1.05 * exact / 4.0)
 
 
 class FailingArc(ArcLength):
@@ -179,9 +199,9 @@ class FailingArc(ArcLength):
 
 def test_a_failed_run_keeps_every_converged_point(tmp_path, monkeypatch):
     """Arc length: a corrector that fails at the 7th point — the file keeps the starting point and the 6
-    converged ones, its status says where it stopped.  Static: 8 load steps of 0.133 P_max past the limit
-    load, cut down at the limit — the last converged sub-level (between the last whole step and the
-    limit) is the last record, on the closed form."""
+    converged ones, its status says where it stopped.  Static: Newton failing above λ = 0.33, load steps
+    of 0.1 — the step from 0.3 is cut 8 times; the last converged sub-level (in [0.33 − 0.1/256, 0.33]) is
+    the last record, on the closed form."""
     algo = FailingArc(0.02, 50, 1.0)
     algo.calls = 0
     d = truss(algorithm="arc_length", arc_length=0.02, max_points=50, max_load_factor=1.0)
@@ -189,16 +209,55 @@ def test_a_failed_run_keeps_every_converged_point(tmp_path, monkeypatch):
     with pytest.raises(SolverDiverged, match="load factor"):
         d.solve(results_path=tmp_path / "arc.h5")
     r = load_results(tmp_path / "arc.h5")
-    assert len(r.time) == 7 and r.status.startswith("failed")
+    assert len(r.time) == 7 and r.status.startswith("Newton did not converge at load factor")
     assert np.all(np.diff(r.data("path/arc_length")) > 0.0)
-    limit = truss_limit()
-    step = 0.4 * limit / 3.0
-    d = truss(algorithm="static", t_end=8 * step, load_steps=8, dt=step)
-    with pytest.raises(SolverDiverged):
+    algo = FailingStatic(0.1, 1e-10, 25)
+    d = truss(algorithm="static", t_end=0.5, load_steps=5, dt=0.1)
+    monkeypatch.setattr(d, "algorithm", lambda dt=None: algo)
+    with pytest.raises(SolverDiverged, match="load factor 0.3"):
         d.solve(results_path=tmp_path / "static.h5")
     r = load_results(tmp_path / "static.h5")
     apex = r.position("left:1")
-    print("static: records at", r.time, "limit", limit)
-    assert 7 * step < limit < 8 * step
-    assert r.time[-1] > 7 * step + 1e-9 and r.time[-1] < limit  # the sub-level after the cuts
-    assert abs(r.time[-1] - truss_load(apex[-1])) <= 1e-6 * limit
+    print("static: records at", r.time)
+    assert r.time[:4] == pytest.approx([0.0, 0.1, 0.2, 0.3], abs=1e-12)
+    assert len(r.time) == 5 and 0.33 - 0.1 / 256 <= r.time[-1] <= 0.33  # the last sub-level after the cuts
+    assert abs(r.time[-1] - truss_load(apex[-1])) <= 1e-6 * truss_limit()
+
+
+class FailingStatic(Static):
+    """Its Newton fails above load factor 0.33 (between two load steps of 0.1)."""
+
+    def _equilibrium(self, run, x, q, lam, t):
+        return NO_CONVERGENCE if t > 0.33 else super()._equilibrium(run, x, q, lam, t)
+
+
+def test_one_sign_rule_for_both_drives():
+    """A positive drive turns body_i by +θ about, or moves it by +s along, the axis relative to body_j (the
+    ground here): the root of a free beam on a translational joint along x driven by s = 0.3 sits at
+    x = +0.3; the root of a beam on a revolute joint about z driven by θ = 0.3 turns its tip to
+    (cos 0.3, 2 + sin 0.3, 0) (static algorithm, exact to Newton's tolerance)."""
+    sec = Section(1e4, 1e4, 1e4, 10.0, 10.0, 10.0, rhoA=1.0, rhoJ1=2e-3, rhoJ2=1e-3, rhoJ3=1e-3)
+    d = Domain("drives")
+    slider = d.add_beam("slider", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 1, sec)
+    crank = d.add_beam("crank", (0.0, 2.0, 0.0), (1.0, 2.0, 0.0), 1, sec)
+    ramp = Ramp(0.0, 1.0, 0.0, 0.3)
+    d.add_joint("translational", slider[0], None, (0.0, 0.0, 0.0), axis=(1.0, 0.0, 0.0))
+    d.add_joint("displacement_drive", slider[0], None, (0.0, 0.0, 0.0), axis=(1.0, 0.0, 0.0), time_function=ramp)
+    d.add_joint("revolute", crank[0], None, (0.0, 2.0, 0.0), axis=(0.0, 0.0, 1.0))
+    d.add_joint("rotation_drive", crank[0], None, (0.0, 2.0, 0.0), axis=(0.0, 0.0, 1.0), time_function=ramp)
+    d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=2, dt=0.5)
+    r = d.solve()
+    assert r.position("slider:0")[-1] == pytest.approx([0.3, 0.0, 0.0], abs=1e-9)
+    assert r.position("crank:1")[-1] == pytest.approx([np.cos(0.3), 2.0 + np.sin(0.3), 0.0], abs=1e-9)
+
+
+def test_plot_path(tmp_path):
+    """``flexmbs plot --path``: the load factor against an observable, one PNG; a vector observable is refused
+    in one line naming a component."""
+    from flexmbs.cli import main
+
+    d = truss(algorithm="arc_length", arc_length=0.05, max_points=40, max_load_factor=0.5)
+    d.solve(results_path=tmp_path / "truss.h5")
+    assert main(["plot", str(tmp_path / "truss.h5"), "--path", "position.z:left:1", "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "path_position.z_left_1.png").stat().st_size > 0
+    assert main(["plot", str(tmp_path / "truss.h5"), "--path", "position:left:1", "--out", str(tmp_path)]) != 0

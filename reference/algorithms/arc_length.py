@@ -56,6 +56,7 @@ from reference.algorithms.static import BIFURCATION, _eigenvalues, _row_forces
 from reference.interactions import tf_value
 from reference.linalg import SingularMatrix, null_space
 from reference.modal import SMALL, nearest_zero, negative_eigenvalues
+from reference.observables import ObservableError, _Names, parse
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
 from reference.validation import ModelWarning
 
@@ -112,6 +113,7 @@ class ArcRun:
     weights: np.ndarray | None = None
     follower: list = field(default_factory=list)
     recorded: tuple = (0.0, 0.0, 0, -1)
+    controlled: int = -1
 
 
 class ArcLength(ImplicitAlgorithm):
@@ -134,17 +136,22 @@ class ArcLength(ImplicitAlgorithm):
     stop_when : tuple or None
         ``(node index, component, comparison, value)``: the run ends at the first point where the
         node's coordinate compares true (parsed from ``"position.z:NODE < -1.5"``).
+    control : tuple or None
+        ``(node index, component)``: displacement control (Batoz & Dhatt 1979) in place of the arc: each
+        point moves that coordinate by ``arc_length × L`` (fixed steps, halved only for a point whose
+        corrector fails; the direction kept from point to point), the load factor is the unknown that
+        holds it there (parsed from ``"position.z:NODE"``).
     """
 
     name = "arc_length"
     deck_required = ("arc_length", "max_points", "max_load_factor")
-    deck_optional = ("t_end", "stop_when", "branch_switch", "tolerance", "max_iterations", "output_every")
+    deck_optional = ("t_end", "stop_when", "branch_switch", "control", "tolerance", "max_iterations", "output_every")
     progress_name = "load factor"
     no_convergence_fix = ("Lower arc_length or raise max_iterations; a path that turns sharply needs a short arc.")
 
     def __init__(self, arc_length: float, max_points: int, max_load_factor: float, t_end: float = 1.0,
                  tolerance: float = 1e-10, max_iterations: int = 25, branch_switch: bool = False,
-                 stop_when: tuple | None = None):
+                 stop_when: tuple | None = None, control: tuple | None = None):
         super().__init__(1.0, tolerance, max_iterations)
         if not arc_length > 0.0:
             raise ValueError(f"arc_length must be positive, got {arc_length!r}")
@@ -152,14 +159,14 @@ class ArcLength(ImplicitAlgorithm):
             raise ValueError(f"max_points must be a positive integer, got {max_points!r}")
         self.arc_length, self.max_points = float(arc_length), int(max_points)
         self.max_load_factor, self.t_end = float(max_load_factor), float(t_end)
-        self.branch_switch, self.stop_when = bool(branch_switch), stop_when
+        self.branch_switch, self.stop_when, self.control = bool(branch_switch), stop_when, control
         self.cut_note = f"even with the arc length halved {MAX_CUTS} times"
 
     @classmethod
     def from_settings(cls, settings, dt=None):
         return cls(settings.arc_length, settings.max_points, settings.max_load_factor, settings.t_end,
                    settings.tolerance or 1e-10, settings.max_iterations or 25, settings.branch_switch,
-                   settings.stop_when)
+                   settings.stop_when, settings.control)
 
     @classmethod
     def deck_settings(cls, rd, solver: dict, domain) -> dict:
@@ -172,6 +179,9 @@ class ArcLength(ImplicitAlgorithm):
                "branch_switch": rd.boolean(solver.get("branch_switch", False), "solver.branch_switch")}
         if "stop_when" in solver:
             out["stop_when"] = _stop_when(rd, solver["stop_when"], domain)
+        if "control" in solver:
+            out["control"] = _coordinate(rd, solver["control"], "solver.control", domain,
+                                         "e.g. control = \"position.z:beam:end\" (a node coordinate)")
         return out
 
     def n_steps(self, t_end: float) -> int:
@@ -188,6 +198,11 @@ class ArcLength(ImplicitAlgorithm):
         scale[:, :3] = 1.0 / run.L
         run.weights = scale[system.free]
         loads = model.loads
+        if self.control is not None:
+            node, comp = self.control[:2]
+            if system.dof[node, comp] < 0:
+                raise ValueError(f"the controlled coordinate {self.control[-1]!r} is fixed: control a free one")
+            run.controlled = int(np.sum(system.free.ravel()[:6 * node + comp]))
         run.follower = [(int(loads.node[k]), int(loads.code[k]), int(loads.tf[k]), np.array(loads.vec[k]))
                         for k in range(loads.node.shape[0]) if loads.code[k] in (1, 2)]
         return run
@@ -336,6 +351,17 @@ class ArcLength(ImplicitAlgorithm):
                     norm = float(np.linalg.norm(dir_u))
                     step_u, step_mu, dlam = run.switch * (ds / norm), np.zeros_like(run.mu), 0.0
                     normal = np.append(dir_u / norm, 0.0)
+                elif self.control is not None:  # the controlled coordinate moves by ds, λ follows
+                    dF, muF = self._tangent(run, x, q, run.lam)
+                    c = run.controlled
+                    t_c = self._scaled(run, dF)[c]
+                    if t_c == 0.0:
+                        raise SingularMatrix("the load moves the controlled coordinate not at all")
+                    sgn = math.copysign(1.0, run.previous[c]) if run.previous is not None else math.copysign(1.0, t_c)
+                    dlam = sgn * ds / t_c
+                    step_u, step_mu = dlam * dF, dlam * muF
+                    normal = np.zeros(system.n_free + 1)
+                    normal[c] = sgn
                 else:
                     dF, muF = self._tangent(run, x, q, run.lam)
                     t_u = self._scaled(run, dF)
@@ -356,7 +382,8 @@ class ArcLength(ImplicitAlgorithm):
                 q[:] = qn
                 run.mu += step_mu
                 code, lam, moved = self._correct(run, x, q, run.lam + dlam, normal)
-                if code == OK and run.switch is None and float(np.linalg.norm(moved)) > WANDER * ds:
+                if code == OK and run.switch is None and self.control is None and \
+                        float(np.linalg.norm(moved)) > WANDER * ds:
                     code = NO_CONVERGENCE  # the corrector wandered off along the plane: another branch
             if code == OK:
                 increment = moved + np.append(self._scaled(run, step_u), dlam)
@@ -365,8 +392,9 @@ class ArcLength(ImplicitAlgorithm):
                 dW, run.P = self._work(run, saved[0], saved[1], x, q, lam)
                 clock[2] += dW
                 run.lam, run.jumped, run.switch = lam, run.switch is not None, None
-                factor = math.sqrt(TARGET_ITERATIONS / max(run.iterations, 1))
-                run.ds = min(ds * min(max(factor, 1.0 / GROWTH), GROWTH), MAX_GROWTH * self.arc_length)
+                if self.control is None:
+                    factor = math.sqrt(TARGET_ITERATIONS / max(run.iterations, 1))
+                    run.ds = min(ds * min(max(factor, 1.0 / GROWTH), GROWTH), MAX_GROWTH * self.arc_length)
                 return OK
             x[:], q[:], run.mu[:], system.work.angle[:] = saved
             ds *= 0.5
@@ -475,25 +503,28 @@ class ArcLength(ImplicitAlgorithm):
 
 def _stop_when(rd, text, domain) -> tuple:
     """``(node id, component, comparison, value, text)`` of ``solver.stop_when``: one-line DeckError otherwise."""
-    from reference.observables import ObservableError, parse
-
     example = "e.g. stop_when = \"position.z:beam:end < -1.5\" (a node coordinate, <, <=, > or >=, a number)"
     words = text.split() if isinstance(text, str) else []
     if len(words) != 3 or words[1] not in STOP_OPERATORS:
         raise rd.fail("solver.stop_when", f"expected 'OBSERVABLE OP VALUE', got {text!r}", example)
-    head, _, ref = words[0].partition(":")
-    if head not in ("position.x", "position.y", "position.z"):
-        raise rd.fail("solver.stop_when", f"{words[0]!r}: only a node coordinate position.x|y|z:NODE stops a path",
-                      example)
     try:
-        label = parse(words[0], domain).args[0]
         value = float(words[2])
-    except (ObservableError, ValueError) as exc:
+    except ValueError as exc:
         raise rd.fail("solver.stop_when", f"{text!r}: {exc}", example) from None
-    from reference.observables import _Names
+    node, comp, _ = _coordinate(rd, words[0], "solver.stop_when", domain, example)
+    return node, comp, words[1], value, text
 
-    node = domain.node(_Names(domain).node(label)).id
-    return node, "xyz".index(head[-1]), words[1], value, text
+
+def _coordinate(rd, text, entry, domain, example) -> tuple:
+    """``(node id, component, text)`` of a node coordinate ``position.C:NODE``: one-line DeckError otherwise."""
+    head = text.partition(":")[0] if isinstance(text, str) else ""
+    if head not in ("position.x", "position.y", "position.z"):
+        raise rd.fail(entry, f"{text!r}: only a node coordinate position.x|y|z:NODE is allowed here", example)
+    try:
+        label = parse(text, domain).args[0]
+    except ObservableError as exc:
+        raise rd.fail(entry, f"{text!r}: {exc}", example) from None
+    return domain.node(_Names(domain).node(label)).id, "xyz".index(head[-1]), text
 
 
 def _extremum(s0, s1, f0, f1, d0, d1) -> float:

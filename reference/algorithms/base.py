@@ -143,9 +143,9 @@ class SolverSettings:
     about : str
         Modes: the configuration linearised about, ``"reference"`` (the initial state) or ``"static"``
         (the static equilibrium at ``t_end``).
-    arc_length, max_points, max_load_factor, branch_switch, stop_when
+    arc_length, max_points, max_load_factor, branch_switch, stop_when, control
         Arc length: the initial arc (scaled norm), the converged points, the stop on ``|λ|``, the switch
-        at a bifurcation and the stop on a node coordinate (:class:`reference.algorithms.arc_length.ArcLength`).
+        at a bifurcation, the stop on a node coordinate and the displacement control (:class:`reference.algorithms.arc_length.ArcLength`).
     """
 
     algorithm: str = "staggered_central_difference"
@@ -165,3 +165,4 @@ class SolverSettings:
     max_load_factor: float = math.inf
     branch_switch: bool = False
     stop_when: tuple | None = None
+    control: tuple | None = None
