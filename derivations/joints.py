@@ -21,7 +21,8 @@ body j about u3 (when the axes are aligned), ``θ = atan2(row 5, row 9)``.
 Joint kinds select rows (``JOINT_ROWS``); the driving constraints combine rows
 5, 8 and 9 with a time function at run time (``reference/joints``):
 ``Φ = row5 cos θ(t) − row9 sin θ(t) = sin(θ − θ(t))`` for a rotation drive,
-``Φ = row8 − s(t)`` for a displacement drive.
+``Φ = row8 + s(t)`` for a displacement drive: body i turns by +θ and slides by +s relative to
+body j (one sign rule for both drives).
 
 The velocity-level Jacobian ``B`` (columns ``[v_i | ω_i | v_j | ω_j]``, ω in
 the body frames) is obtained **by differentiation**, not by hand: the

@@ -434,6 +434,9 @@ def parser() -> argparse.ArgumentParser:
     pl.add_argument("--node", action="append", help="node label (repeatable)")
     pl.add_argument("--observable", action="append", metavar="EXPR",
                     help="any observable, e.g. 'reaction_moment.z:crank drive' (repeatable; docs/observables.md)")
+    pl.add_argument("--path", action="append", metavar="EXPR",
+                    help="arc-length runs: the load factor against a scalar observable, e.g. 'position.z:apex', "
+                    "limit and bifurcation points marked (repeatable)")
     pl.add_argument("--drift", action="store_true", help="constraint violation history")
     pl.add_argument("--energy", action="store_true", help="energy histories")
     pl.add_argument("--animate", metavar="NAME.gif", type=animation_name, help="animation of the motion")

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 WHAT = ("--node LABEL (position and velocity histories), --observable EXPR (any observable, docs/observables.md), "
+        "--path EXPR (an arc-length run's load factor against an observable), "
         "--drift (constraint violation), --energy, --animate NAME.gif, --mode K (a mode as a ParaView animation)")
 
 
@@ -179,7 +180,8 @@ def mode_animation(r, path, k: int, out: Path):
 
 def main(args) -> int:
     mode = getattr(args, "mode", None)
-    if not (args.node or getattr(args, "observable", None) or args.drift or args.energy or args.animate or mode):
+    if not (args.node or getattr(args, "observable", None) or getattr(args, "path", None) or args.drift
+            or args.energy or args.animate or mode):
         raise OSError(f"{args.results}: nothing to plot; choose one or more of {WHAT}")
     r = _load(args.results)
     if len(r.time) == 0:
@@ -190,7 +192,8 @@ def main(args) -> int:
     animated = r
     if mode:
         _, animated = mode_animation(r, args.results, mode, out)  # with --animate: the GIF shows the mode
-    if not (args.node or getattr(args, "observable", None) or args.drift or args.energy or args.animate):
+    if not (args.node or getattr(args, "observable", None) or getattr(args, "path", None) or args.drift
+            or args.energy or args.animate):
         return 0
     import matplotlib
 
@@ -239,6 +242,8 @@ def main(args) -> int:
         written.append(save_figure(fig, out / "energy.png"))
     for text in getattr(args, "observable", None) or []:
         written.append(plot_observable(r, text, out, plt))
+    for text in getattr(args, "path", None) or []:
+        written.append(plot_path(r, args.results, text, out, plt))
     if args.animate:
         from flexmbs.progress import ProgressBar
 
@@ -275,6 +280,36 @@ def plot_observable(r, text: str, out: Path, plt) -> Path:
     ax.set_title(textwrap.fill(f"{obs.describe()} ({r.attrs.get('engine', '')})", 80), fontsize=8)
     safe = "".join(c if c.isalnum() or c in "._-" else "_" for c in text)
     return save_figure(fig, out / f"observable_{safe}.png")
+
+
+def plot_path(r, source, text: str, out: Path, plt) -> Path:
+    """The equilibrium path of an arc-length run: the load factor (``/path/load_factor``) against a scalar
+    observable or a component (``position.z:apex``), the unstable points (negative eigenvalues) drawn
+    hollow, the limit and bifurcation points marked on the load factor they were interpolated to."""
+    from reference.observables import parse
+
+    lam = r.data("path/load_factor")
+    if not np.all(np.isfinite(lam)):
+        raise OSError(f"{source}: no /path/load_factor: --path plots the results of an arc_length run")
+    obs = parse(text, r)
+    values = obs.evaluate(r)
+    if values.ndim != 1:
+        raise ValueError(f"--path {text!r}: the observable has {values.shape[1]} components; pick one, e.g. "
+                         f"'{obs.kind}.z:{','.join(obs.args)}'")
+    unstable = r.data("path/negative_eigenvalues") > 0
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    ax.plot(values, lam, "-", lw=0.8, color="C0")
+    ax.plot(values[~unstable], lam[~unstable], "o", ms=3, color="C0", label="stable")
+    ax.plot(values[unstable], lam[unstable], "o", ms=3, mfc="none", color="C3", label="unstable")
+    for load, kind in zip(r.data("path/critical_load_factor"), r.data("path/critical_kind")):
+        ax.axhline(load, lw=0.6, ls="--" if kind == "limit point" else ":", color="k")
+        ax.annotate(f"{kind} {load:.5g}", (ax.get_xlim()[0], load), fontsize=7, va="bottom")
+    ax.set_xlabel(f"{obs.text} [{obs.unit}]", fontsize=8)
+    ax.set_ylabel("load factor λ")
+    ax.legend(fontsize=8)
+    ax.set_title(textwrap.fill(f"equilibrium path ({r.attrs.get('engine', '')})", 80), fontsize=8)
+    safe = "".join(c if c.isalnum() or c in "._-" else "_" for c in text)
+    return save_figure(fig, out / f"path_{safe}.png")
 
 
 def animate(r, path: Path, every: int = 1, magnify: float = 1.0, progress=None) -> Path:

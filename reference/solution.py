@@ -142,7 +142,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
         domain.last_run["solver"] = run_state
         done = 0
         while True:
-            chunk = min(every, n_total - done)
+            chunk = 0 if algo.done(run_state) else min(every, n_total - done)
             t_record = state.t
             code = algo.advance(model, state, run_state, chunk, rec)
             entry, extra = outputs.record(t_record), algo.recorded(run_state)
@@ -152,6 +152,8 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
                 status = f"diverged after t = {t_record:.6g}"
                 raise SolverDiverged(f"{why} (stopped at t = {t_record:.6g}); results up to then are kept")
             if code != OK:
+                if algo.record_last(model, state, run_state, rec):  # the last converged state, kept
+                    sink.append({**outputs.record(state.t), **algo.recorded(run_state)})
                 status, message = algo.failure(code, state, run_state)
                 load = nonfinite_load(domain, (t_record, state.t, state.t + algo.dt))
                 if load:

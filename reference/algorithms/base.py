@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
@@ -91,6 +92,22 @@ class Algorithm(ABC):
         whether every step was taken."""
         return {}
 
+    def done(self, run) -> bool:
+        """The run has ended before its ``n_steps`` (a path-following stop): the solution loop records the
+        state once more and stops."""
+        return False
+
+    def record_last(self, model, state, run, record) -> bool:
+        """After a failed ``advance``: fill ``record`` with the last converged state when it is not recorded
+        yet (a static path's last sub-level after its cuts); True when filled."""
+        return False
+
+    @classmethod
+    def deck_settings(cls, rd, solver: dict, domain) -> dict:
+        """The :class:`SolverSettings` fields read from this algorithm's own ``[solver]`` keys (``rd`` the
+        deck reader, for one-line errors); none for most algorithms."""
+        return {}
+
 
 @dataclass
 class SolverSettings:
@@ -126,6 +143,9 @@ class SolverSettings:
     about : str
         Modes: the configuration linearised about, ``"reference"`` (the initial state) or ``"static"``
         (the static equilibrium at ``t_end``).
+    arc_length, max_points, max_load_factor, branch_switch, stop_when, control
+        Arc length: the initial arc (scaled norm), the converged points, the stop on ``|λ|``, the switch
+        at a bifurcation, the stop on a node coordinate and the displacement control (:class:`reference.algorithms.arc_length.ArcLength`).
     """
 
     algorithm: str = "staggered_central_difference"
@@ -140,3 +160,9 @@ class SolverSettings:
     max_iterations: int | None = None
     modes: int = 6
     about: str = "reference"
+    arc_length: float = 0.0
+    max_points: int = 0
+    max_load_factor: float = math.inf
+    branch_switch: bool = False
+    stop_when: tuple | None = None
+    control: tuple | None = None

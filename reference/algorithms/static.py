@@ -79,6 +79,7 @@ class StaticRun:
     negative: int = -1
     sign: int = 0
     recorded: int = -1
+    recorded_at: float | None = None
     previous: tuple | None = None
     events: list = field(default_factory=list)
 
@@ -175,7 +176,7 @@ class Static(ImplicitAlgorithm):
         if record is not None:
             U = run.U = float(system.evaluate(x, q, x, x, x, lam, clock[0], False))
             system.write_record(record, x, q, v, w, U, clock, lam)
-            run.recorded = run.negative
+            run.recorded, run.recorded_at = run.negative, float(clock[0])
         for _ in range(n_steps):
             t0, target = clock[0], clock[0] + self.dt
             sub, t = self.dt, t0
@@ -202,6 +203,14 @@ class Static(ImplicitAlgorithm):
             clock[1] += 1
             clock[0] = clock[1] * self.dt
         return OK
+
+    def record_last(self, model, state, run, record) -> bool:
+        """After a failed step: the last converged load level (a sub-level of the cut step, or a whole
+        step between outputs), when it is not recorded yet."""
+        if not run.started or run.recorded_at == float(state.clock[0]):
+            return False
+        self.advance(model, state, run, 0, record)
+        return True
 
     def recorded(self, run) -> dict:
         """The number of negative eigenvalues of the reduced tangent at the recorded equilibrium."""

@@ -81,7 +81,7 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
         max_iterations=rd.integer(sv["max_iterations"], "solver.max_iterations", maximum=MAX_ITERATIONS,
                                   fix="Newton converges in a few iterations or not at all; use a smaller step")
         if "max_iterations" in sv else None,
-        modes=modes, about=about,
+        modes=modes, about=about, **algo_cls.deck_settings(rd, sv, domain),
     )
     max_steps = rd.integer(sv.get("max_steps", MAX_STEPS), "solver.max_steps", maximum=MAX_STEPS_LIMIT,
                            fix="a run of more steps would take weeks")

@@ -79,8 +79,8 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
             sv, sd = tf_value(tf_kind, tf_par, t), tf_derivative(tf_kind, tf_par, t)
         else:
             sv, sd = tf_integral(tf_kind, tf_par, t), tf_value(tf_kind, tf_par, t)
-        phi[0] = prim_phi[8] - sv
-        phit[0] = -sd
+        phi[0] = prim_phi[8] + sv  # u3_i · (P_j − P_i) = −s: body i slides by +s relative to body j
+        phit[0] = sd
         for k in range(12):
             B[0, k] = prim_B[96 + k]
     if j < 0:

@@ -9,7 +9,7 @@ is the joint's geometric stiffness (docs/tangents.md).  A joint's row r uses
 primitive ``rows[r]`` (``reference/generated/joints.py``), so
 ``K_c = Σ_p w_p H_p`` with the weight ``w_p`` the multiplier of the row that uses
 primitive p; a rotation drive's row is ``row5 cos θ(t) − row9 sin θ(t)``
-(weights ``λ cos θ``, ``−λ sin θ``), a displacement drive's row is ``row8 − s(t)``.
+(weights ``λ cos θ``, ``−λ sin θ``), a displacement drive's row is ``row8 + s(t)``.
 The weighted sum of the primitive Hessians is the generated
 ``tangents.joint_primitive_hessian``.  With the ground (``j = −1``) the rows and
 columns of body j are zero.

@@ -20,8 +20,9 @@ rotation_drive    relative rotation about u3 = θ(t)           1
 displacement_drive  sliding along u3 = s(t)                   1
 ================  ==========================================  =========
 
-A drive prescribes the relative rotation (or sliding) measured from the
-initial configuration, either as the value of a time function (``mode =
+A drive prescribes the rotation (or sliding) of body i relative to body j about (along) u3,
+measured from the initial configuration — positive: body i turns by +θ about, or moves by +s
+along, u3 (one sign rule for both drives) — either as the value of a time function (``mode =
 "position"``) or as its integral (``mode = "velocity"``: the time function is
 the angular velocity / sliding speed).
 """
