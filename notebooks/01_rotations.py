@@ -126,22 +126,32 @@ print("J_r(ψ) =\n", right_jacobian(psi))
 # ## Exercises
 # **Exercise 1.** Write the Euler parameters of a rotation of 120° about $(1,1,1)/\sqrt3$ by hand
 # ($e_0 = \cos 60°$, $\mathbf e = \sin 60°\,\hat n$) and check that it permutes the axes
-# $x\to y\to z\to x$. The cell below is one answer: change it and re-run the check.
+# $x\to y\to z\to x$.
+#
+# **Exercise 2.** Updating with the *explicit* Euler rule $q^{n+1} = q^n + \tfrac h2\,q^n\otimes(0,\omega)$
+# leaves the unit sphere. Over one turn at $|\omega| = 1$ rad/s with $h = 0.01$ s, how far does $|q|$
+# drift? Predict it (each step multiplies $|q|^2$ by the same factor) and check by iterating.
+#
+# **Exercise 3 (change the model and rerun).** In the cell of Figure 2, double the angular
+# velocity `w` and rerun it. *What you should see:* the error line moves up by a factor
+# $2^3 = 8$ and keeps its slope 3 — the update depends on $h\omega$ only, so doubling $\omega$ at
+# step $h$ gives exactly the error of the old $\omega$ at step $2h$.
+#
+# Try them before you open the answers below (click the collapsed cells to show them).
+#
+# ## Answers
 
-# %%
+# %% tags=["solution"] jupyter={"source_hidden": true}
+# Exercise 1
 n = np.ones(3) / np.sqrt(3.0)
 q120 = EulerParameters(np.concatenate([[np.cos(np.pi / 3)], np.sin(np.pi / 3) * n]))
 A120 = q120.matrix()
 assert np.allclose(A120 @ [1, 0, 0], [0, 1, 0], atol=1e-14) and np.allclose(A120 @ [0, 1, 0], [0, 0, 1], atol=1e-14)
-print("exercise 1: correct")
+print("exercise 1: q =", q120.q.round(6), "maps x to y and y to z")
 
-# %% [markdown]
-# **Exercise 2.** Updating with the *explicit* Euler rule $q^{n+1} = q^n + \tfrac h2\,q^n\otimes(0,\omega)$
-# leaves the unit sphere. Over one turn at $|\omega| = 1$ rad/s with $h = 0.01$ s, how far does $|q|$
-# drift? (Answer: $(1 + h^2|\omega|^2/4)^{N/2} - 1$ with $N = 2\pi/h$ steps, about 8e-3 — while the
-# Cayley update stays at round-off.)
-
-# %%
+# %% tags=["solution"] jupyter={"source_hidden": true}
+# Exercise 2: |q ⊗ (0, ω)| = |q| |ω|, orthogonal to q, so each step multiplies |q|² by 1 + h²|ω|²/4:
+# after N = 2π/h steps |q| − 1 = (1 + h²|ω|²/4)^(N/2) − 1, about 8e-3 — the Cayley update stays at round-off.
 h, omega = 0.01, np.array([0.0, 0.6, 0.8])
 qe = np.array([1.0, 0.0, 0.0, 0.0])
 N = int(round(2 * np.pi / h))
@@ -151,3 +161,12 @@ drift = np.linalg.norm(qe) - 1.0
 predicted = (1 + h**2 / 4) ** (N / 2) - 1
 print(f"explicit Euler: |q| − 1 = {drift:.3e} (predicted {predicted:.3e})")
 assert abs(drift - predicted) < 1e-3 * predicted
+
+# %% tags=["solution", "rerun"] jupyter={"source_hidden": true}
+# Exercise 3: Figure 2 again with 2ω
+errors_2w = np.array([np.linalg.norm(q.cayley_update(2 * w, h).q
+                                     - q.product(RotationVector(h * 2 * w).to_euler_parameters()).q) for h in steps])
+print("error ratio (2ω : ω) at each step:", (errors_2w / errors).round(3))
+print("observed orders with 2ω:", np.log2(errors_2w[:-1] / errors_2w[1:]).round(3))
+assert abs(errors_2w[-1] / errors[-1] - 8.0) < 0.1  # (h|ω|)³: 8 at the smallest step
+assert np.allclose(errors_2w[1:], errors[:-1], rtol=1e-6)  # 2ω at h is ω at 2h

@@ -100,9 +100,17 @@ plt.show()
 # **Exercise 1.** A *dot-1* constraint keeps two body-fixed unit vectors perpendicular:
 # $\Phi = a_i^{\mathsf T}a_j$ with $a = A a'$. Derive $\partial\Phi/\partial\omega_i$ with sympy as above and check it
 # against the formula $(a_i\times a_j)^{\mathsf T}A_i$ of `docs/formulation.md` §5.
-# The cell below is one answer.
+#
+# **Exercise 2 (change the model and rerun).** Rerun the spherical pendulum with half the step,
+# $h = 5\times10^{-4}$ s, over its first second. *What you should see:* the drift bound
+# $h^2v^2/(2l)$ predicts the largest $\|\Phi\|$ to fall by about 4.
+#
+# Try them before you open the answers below (click the collapsed cells to show them).
+#
+# ## Answers
 
-# %%
+# %% tags=["solution"] jupyter={"source_hidden": true}
+# Exercise 1
 Aj = sp.Matrix(3, 3, lambda r, c: sp.Symbol(f"b_{r + 1}{c + 1}"))
 ai, aj = sp.Matrix(sp.symbols("p_1:4")), sp.Matrix(sp.symbols("r_1:4"))
 phi_dot1 = ((A * (sp.eye(3) + skew(dth)) * ai).T * (Aj * aj))[0]
@@ -116,11 +124,8 @@ vals = {**dict(zip(A, Ar)), **dict(zip(Aj, sp.Matrix(RotationVector([-0.1, 0.4, 
 assert (derived.xreplace(vals) - ((Ar * sp.Matrix([1, 0, 0])).cross(Aj.xreplace(vals) * sp.Matrix([0, 1, 0]))).T * Ar).norm() < 1e-12
 print("exercise 1: the dot-1 row for ω_i is (a'_i × A_iᵀ a_j)ᵀ = (a_i × a_j)ᵀ A_i")
 
-# %% [markdown]
-# **Exercise 2.** Halve the step to $h = 5\times10^{-4}$ s: the drift bound $h^2v^2/(2l)$ predicts
-# $\|\Phi\|$ to fall by about 4. Check it on the first second.
-
-# %%
+# %% tags=["solution", "rerun"] jupyter={"source_hidden": true}
+# Exercise 2
 peaks = []
 for h in (1e-3, 5e-4):
     d2 = Domain("spherical pendulum")

@@ -69,8 +69,9 @@ assert np.isfinite(peak(lo)) and not np.isfinite(peak(hi))
 for _ in range(6):
     mid = 0.5 * (lo + hi)
     lo, hi = (mid, hi) if np.isfinite(peak(mid)) else (lo, mid)
-print("observed limit / estimate = %.3f" % (lo / h_crit))
-assert 1.0 <= lo / h_crit <= 1.25  # safe, and not needlessly small
+limit_ratio = float(lo / h_crit)
+print("observed limit / estimate = %.3f" % limit_ratio)
+assert 1.0 <= limit_ratio <= 1.25  # safe, and not needlessly small
 
 fig, ax = plt.subplots(figsize=(6.0, 3.6))
 shown = np.where(np.isfinite(peaks), peaks, np.nan)
@@ -86,7 +87,8 @@ plt.show()
 
 # %% [markdown]
 # Here the coupled shear–rotation mode governs (thin sections make it the smallest), and its
-# estimate is on the safe side by roughly 10 % — which the bisection shows.
+# estimate is on the safe side: the bisection finds the true limit at
+# 1.09<!-- check limit_ratio rel 0.02 --> times the estimate.
 #
 # ## Constraint drift
 # The multipliers come from the stabilised backward-Euler relation
@@ -113,21 +115,31 @@ plt.show()
 # %% [markdown]
 # ## Exercises
 # **Exercise 1.** Every estimate above is proportional to $L_0$ except the shear–rotation one, which
-# tends to $2\sqrt{\rho J/GA}$ for long elements — so halving $L_0$ halves the step only while the
-# $4/L_0^2$ term dominates. Check: with 20 elements instead of 10 the estimate falls by a factor
-# between 1.5 and 2.
+# tends to $2\sqrt{\rho J/GA}$ for long elements. By what factor does the critical-step estimate of
+# the cantilever fall when it has 20 elements instead of 10 — exactly 2, or less? Predict it from
+# the shear–rotation formula, then check with `critical_time_step`.
+#
+# **Exercise 2 (change the model and rerun).** Rerun the three-bar's first second with the step
+# of its deck halved twice ($h = 2\times10^{-4}, 10^{-4}, 5\times10^{-5}$ s, the override `dt`). *What
+# you should see:* central differences are second order, so halving the step divides the error of
+# the coupler's mid-span deflection by about 4. Measured against the run at the smallest step
+# (not the exact answer), the ratio of the two differences is $(1 - 1/16)/(1/4 - 1/16) = 5$.
+#
+# Try them before you open the answers below (click the collapsed cells to show them).
+#
+# ## Answers
 
-# %%
+# %% tags=["solution"] jupyter={"source_hidden": true}
+# Exercise 1: 2/sqrt((GA/ρA)(4/L0² + ρA/ρJ)) falls by sqrt((4/L0² + ρA/ρJ) at L0/2 / (4/L0² + ρA/ρJ) at L0), less than 2
+shear_rotation = [2 / np.sqrt(1e3 / 1.0 * (4 / L0**2 + 1.0 / 1e-2)) for L0 in (0.1, 0.05)]
+print("shear–rotation formula: ratio %.3f" % (shear_rotation[0] / shear_rotation[1]))
 h10, h20 = cantilever(1e-4, 10).critical_time_step(), cantilever(1e-4, 20).critical_time_step()
 print("critical step: 10 elements %.3e s, 20 elements %.3e s, ratio %.2f" % (h10, h20, h10 / h20))
 assert 1.5 < h10 / h20 <= 2.0
+assert abs(h10 / h20 - shear_rotation[0] / shear_rotation[1]) < 1e-3
 
-# %% [markdown]
-# **Exercise 2.** Central differences are second order: halving the step divides the error of the
-# three-bar's coupler deflection by about 4. Measured against a run at $h/4$ (not the exact answer),
-# the ratio of the differences is $(1 - 1/16)/(1/4 - 1/16) = 5$. Check it on the first second.
-
-# %%
+# %% tags=["solution", "rerun"] jupyter={"source_hidden": true}
+# Exercise 2
 from flexmbs.verification.observables import midspan_deflection
 
 runs = {h: Domain.from_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 1.0, "dt": h}).solve()

@@ -167,15 +167,27 @@ ax.legend(fontsize=7)
 plt.show()
 
 # %% [markdown]
-# ## Exercise
-# Build a right-angle frame: two legs of length 1 along $x$ then $y$, **sharing** the corner node,
-# clamped at the origin, with a small tip force $F$ along $z$. Beam theory gives
+# ## Exercises
+# **Exercise 1.** Build a right-angle frame: two legs of length 1 along $x$ then $y$, **sharing** the
+# corner node, clamped at the origin, with a small tip force $F$ along $z$. Beam theory gives
 # $w = F\,(2L^3/3EI + L^3/GJ + 2L/GA)$ (each leg bends, the first also twists). Use
 # `Domain.add_beam(..., start_node=...)` for the second leg (its `axis2` must not be along $y$),
 # reach the static state as above, and check that the corner's rotary inertia is the sum of the two
 # legs' tensors.
+#
+# **Exercise 2 (change the model and rerun).** Make the first leg of your frame twice as stiff in
+# torsion ($GJ \to 2GJ$, leg 1 only) and rerun it. *What you should see:* only the twist term
+# $FL^3/GJ$ changes — it halves — so the tip deflection falls from
+# $F(2/3EI + 1/GJ + 2/GA)$ to $F(2/3EI + 1/2GJ + 2/GA)$ ($L = 1$), by about 30 %. (The answer
+# reaches the static state with `algorithm = "static"`, lesson 2's Newton solution, which is quicker
+# than damped dynamics.)
+#
+# Try them before you open the answers below (click the collapsed cells to show them).
+#
+# ## Answers
 
-# %%
+# %% tags=["solution"] jupyter={"source_hidden": true}
+# Exercise 1
 frame_section = Section(EA=1e4, GA2=1e4, GA3=1e4, GJ=2.0, EI2=2.0, EI3=2.0,
                         rhoA=1.0, rhoJ1=0.1, rhoJ2=0.05, rhoJ3=0.05)
 
@@ -203,3 +215,27 @@ print("corner inertia\n", frame.model.nodes.inertia[corner])
 # leg 1 contributes diag(ρJ1, ρJ2, ρJ3) h about (x, y, z), leg 2 (along y) diag(ρJ2, ρJ1, ρJ3) h
 assert np.allclose(frame.model.nodes.inertia[corner], np.diag([0.1 + 0.05, 0.05 + 0.1, 0.05 + 0.05]) * h, atol=1e-15)
 assert abs(w / beam_theory - 1) < 5e-3   # 8 elements per leg: discretisation error about 0.15 %
+
+# %% tags=["solution", "rerun"] jupyter={"source_hidden": true}
+# Exercise 2
+from dataclasses import replace  # noqa: E402
+
+from reference.domain import SolverSettings  # noqa: E402
+
+
+def static_frame(leg1_section, n=8, F=1e-3):
+    d = Domain()
+    leg1 = d.add_beam("leg1", [0.0, 0, 0], [1.0, 0, 0], n, leg1_section)
+    leg2 = d.add_beam("leg2", [1.0, 0, 0], [1.0, 1.0, 0], n, frame_section, axis2=(-1.0, 0, 0), start_node=leg1[-1])
+    d.add_interaction(Clamp(leg1[0]))
+    d.add_interaction(NodalLoad(leg2[-1], np.array([0, 0, F])))
+    d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=1)
+    return d.solve().position(leg2[-1].label)[-1, 2]
+
+
+w_static, w_stiff = static_frame(frame_section), static_frame(replace(frame_section, GJ=2 * frame_section.GJ))
+predicted_stiff = 1e-3 * (2 / (3 * fs.EI2) + 1 / (2 * fs.GJ) + 2 / fs.GA3)
+print(f"static: GJ {w_static:.6e} (dynamic relaxation {w:.6e}); leg 1 with 2 GJ {w_stiff:.6e}, "
+      f"beam theory {predicted_stiff:.6e}; deflection falls by {1 - w_stiff / w_static:.1%}")
+assert abs(w_static / w - 1) < 1e-3  # the same equilibrium, by Newton and by damped dynamics
+assert abs(w_stiff / predicted_stiff - 1) < 5e-3  # 8 elements per leg, as in exercise 1

@@ -157,15 +157,26 @@ assert balance < 1e-3
 # cross-check (`flexmbs crosscheck models/three_bar.toml`) compares this torque and the force of
 # pin A with Exudyn's own joint sensors.
 #
-# ## Exercise
+# ## Exercises
 #
-# For the falling pendulum of part 1, the pin force is largest at the bottom ($\varphi = 90°$).
-# Show with the two formulas above that there $F = m g\,(1 + 2 m r^2 / J_P)$, which for a slender
-# bar ($J_P = m\ell^2/3$) is $2.5\,m g$. Then run the pendulum long enough to pass the bottom and
-# compare with the largest reaction the engine reports. Write your prediction below.
+# **Exercise 1.** For the falling pendulum of part 1, the pin force is largest at the bottom
+# ($\varphi = 90°$). Show with the two formulas above that there $F = m g\,(1 + 2 m r^2 / J_P)$, which
+# for a slender bar ($J_P = m\ell^2/3$) is $2.5\,m g$. Then run the pendulum long enough to pass
+# the bottom and compare with the largest reaction the engine reports.
+#
+# **Exercise 2 (change the model and rerun).** Move the pin from the end of the bar to a quarter
+# of its length (the bar from $x = -\ell/4$ to $3\ell/4$, the revolute joint still at the origin)
+# and rerun part 1 past the bottom. *What you should see:* the same formula with $r = \ell/4$ and
+# $J_P = m\ell^2/12 + m r^2$ predicts a smaller largest pin force, $\tfrac{13}{7}\,m g \approx 1.86\,m g$
+# instead of $2.5\,m g$ — the centre of mass swings on a smaller circle.
+#
+# Try them before you open the answers below (click the collapsed cells to show them).
+#
+# ## Answers
 
-# %%
-prediction = m * g * (1 + 2 * m * r**2 / J_P)  # your answer here
+# %% tags=["solution"] jupyter={"source_hidden": true}
+# Exercise 1
+prediction = m * g * (1 + 2 * m * r**2 / J_P)  # phi = 90°: phi_dot² = 2 m g r / J_P, phi_ddot = 0
 longer = Domain("falling pendulum, to the bottom")
 bar2 = longer.add_rigid_bar("bar", [0.0, 0.0, 0.0], [ell, 0.0, 0.0], bar_section)
 longer.add_joint("revolute", bar2, None, [0.0, 0.0, 0.0], axis=[0.0, 1.0, 0.0], label="pin")
@@ -174,3 +185,17 @@ longer.solver = SolverSettings(dt=1e-3, t_end=1.2, output_every=1)
 peak = np.max(np.linalg.norm(longer.solve().reaction("pin")[0], axis=1))
 print(f"predicted {prediction:.4f} N, engine {peak:.4f} N, slender-bar value {2.5 * m * g:.4f} N")
 assert abs(peak / prediction - 1) < 1e-3, "check the formula for F at the bottom"
+
+# %% tags=["solution", "rerun"] jupyter={"source_hidden": true}
+# Exercise 2
+quarter = Domain("falling pendulum, pinned at a quarter")
+bar3 = quarter.add_rigid_bar("bar", [-ell / 4, 0.0, 0.0], [3 * ell / 4, 0.0, 0.0], bar_section)
+quarter.add_joint("revolute", bar3, None, [0.0, 0.0, 0.0], axis=[0.0, 1.0, 0.0], label="pin")
+quarter.add_interaction(Gravity([0.0, 0.0, -g]))
+quarter.solver = SolverSettings(dt=1e-3, t_end=1.2, output_every=1)
+r_q = ell / 4
+J_q = bar3.inertia[1, 1] + m * r_q**2
+predicted_q = m * g * (1 + 2 * m * r_q**2 / J_q)
+peak_q = np.max(np.linalg.norm(quarter.solve().reaction("pin")[0], axis=1))
+print(f"pin at a quarter: predicted {predicted_q:.4f} N, engine {peak_q:.4f} N ({peak_q / (m * g):.3f} m g; 13/7 = {13 / 7:.3f})")
+assert abs(peak_q / predicted_q - 1) < 1e-3  # as in exercise 1: O(h²) with h = 1e-3
