@@ -257,6 +257,34 @@ def cmd_modes(args) -> int:
     return 0
 
 
+def cmd_campbell(args) -> int:
+    from flexmbs import campbell
+    from reference.io.deck import load_deck
+
+    check_signals()
+    try:
+        rates = campbell.parse_rates(args.rates)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+    deck = load_deck(args.deck, overrides=_overrides(args))
+    if deck.domain.solver.algorithm != "modes" or deck.domain.solver.about != "rotation":
+        raise CommandError(f"{args.deck}: `flexmbs campbell` needs a modes deck about a steady rotation; set "
+                           "[solver] algorithm = \"modes\", about = \"rotation\" with spin_rate and spin_axis")
+    result = _run_deck(args, deck)
+    try:
+        table = campbell.campbell(deck.domain, rates)
+    except ValueError as exc:
+        raise RunFailed(f"{args.deck}: {exc}") from None
+    out = Path(result.source).parent
+    campbell.write(result.source, table)
+    for line in table.table():
+        print(line)
+    if args.plot:
+        campbell.figure(table, out / "campbell.png", f"Campbell diagram: {deck.domain.name}")
+        print(f"campbell diagram → {out / 'campbell.png'}; datasets /campbell/* → {result.source}")
+    return 0
+
+
 def cmd_derive(args) -> int:
     derivations = _module("derivations", "derive")
 
@@ -411,6 +439,16 @@ def parser() -> argparse.ArgumentParser:
     mod.add_argument("--no-vtk", dest="vtk_every", action="store_const", const=0, default=1,
                      help="skip the ParaView output of the configuration")
     mod.set_defaults(func=cmd_modes)
+    cb = sub.add_parser("campbell", help="a modes deck about a steady rotation over a range of spin rates: table, "
+                        "figure, /campbell/* in the results file")
+    cb.add_argument("deck")
+    cb.add_argument("--rates", required=True, metavar="START:STOP:N",
+                    help="N equally spaced spin rates [rad/s] from START to STOP, e.g. 0:12:13")
+    cb.add_argument("--out", help="output folder (default out/<deck name>)")
+    cb.add_argument("--refine", type=number(int, 1, low_ok=True, example="--refine 2"),
+                    help="multiply every beam's element count")
+    cb.add_argument("--no-plot", dest="plot", action="store_false", help="skip the figure campbell.png")
+    cb.set_defaults(func=cmd_campbell, vtk_every=0, t_end=None)
     cc = sub.add_parser("crosscheck", help="run a deck in the reference and in Exudyn and compare")
     cc.add_argument("deck")
     cc.add_argument("--out", help="output folder (default out/<deck name>_crosscheck)")

@@ -124,8 +124,10 @@ class SolverSettings:
     modes : int
         Modes and buckling: how many of the lowest modes (load factors) to compute.
     about : str
-        Modes: the configuration linearised about, ``"reference"`` (the initial state) or ``"static"``
-        (the static equilibrium at ``t_end``).
+        Modes: the configuration linearised about, ``"reference"`` (the initial state), ``"static"``
+        (the static equilibrium at ``t_end``) or ``"rotation"`` (the whole model spinning steadily).
+    spin_rate, spin_axis, spin_point : float, tuple, tuple
+        Modes about a rotation: the rate Ω [rad/s], the axis (inertial) and a point of it [m].
     """
 
     algorithm: str = "staggered_central_difference"
@@ -140,3 +142,6 @@ class SolverSettings:
     max_iterations: int | None = None
     modes: int = 6
     about: str = "reference"
+    spin_rate: float = 0.0
+    spin_axis: tuple = (0.0, 0.0, 1.0)
+    spin_point: tuple = (0.0, 0.0, 0.0)

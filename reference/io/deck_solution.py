@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from reference.algorithms import ALGORITHMS, SolverSettings
 from reference.algorithms.linear import ABOUT
 from reference.domain import Domain
@@ -47,7 +49,8 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
     algo_cls = ALGORITHMS[algorithm]
     rd.keys(sv, "solver", required=algo_cls.deck_required, optional=["algorithm", *algo_cls.deck_optional])
     about = rd.choice(sv.get("about", SolverSettings.about), "solver.about", ABOUT, "configuration",
-                      "'reference' (the initial state) or 'static' (the static equilibrium at t_end)")
+                      "'reference' (the initial state), 'static' (the static equilibrium at t_end) or 'rotation' "
+                      "(the model spinning at spin_rate about spin_axis)")
     # keys that only some values of another accept (modes: the static algorithm's keys with about = "static")
     required, optional = algo_cls.deck_keys(sv)
     rd.keys(sv, "solver", required=required, optional=["algorithm", *optional])
@@ -81,7 +84,7 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
         max_iterations=rd.integer(sv["max_iterations"], "solver.max_iterations", maximum=MAX_ITERATIONS,
                                   fix="Newton converges in a few iterations or not at all; use a smaller step")
         if "max_iterations" in sv else None,
-        modes=modes, about=about,
+        modes=modes, about=about, **_spin(rd, sv),
     )
     max_steps = rd.integer(sv.get("max_steps", MAX_STEPS), "solver.max_steps", maximum=MAX_STEPS_LIMIT,
                            fix="a run of more steps would take weeks")
@@ -112,6 +115,16 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
         raise rd.fail(t_entry, f"t_end = {t_end:g} is not a whole number of steps dt = {dt:g} ({steps:.6g} steps)",
                       f"use t_end = {max(round(steps), 1) * dt:.10g} or {_suggest_dt(t_end, dt)}")
     return algorithm, algo_cls
+
+
+def _spin(rd: Reader, sv: dict) -> dict:
+    """``spin_rate``, ``spin_axis`` (nonzero; normalised) and ``spin_point`` of modes about a rotation."""
+    if "spin_rate" not in sv:
+        return {}
+    axis = rd.direction(sv["spin_axis"], "solver.spin_axis")
+    return {"spin_rate": rd.number(sv["spin_rate"], "solver.spin_rate"),
+            "spin_axis": tuple(axis / np.linalg.norm(axis)),
+            "spin_point": tuple(rd.vector(sv.get("spin_point", [0.0, 0.0, 0.0]), "solver.spin_point"))}
 
 
 def _whole_steps(t_end: float, dt: float) -> bool:

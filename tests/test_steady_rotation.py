@@ -1,0 +1,175 @@
+"""Modes about a steady rotation (issue 19): the co-rotating linearisation against the Euler equations of a
+spinning rigid body and the published rotating-cantilever table, the deck keys, ``flexmbs campbell``.
+
+The 0.5 % target at 32 elements and the Campbell diagram over the table's spin rates are in the report
+(``flexmbs/deckchecks/rotating_cantilever.py``); here the meshes are 8 and 16 elements.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from flexmbs.campbell import parse_rates
+from flexmbs.cli import main
+from flexmbs.deckchecks.rotating_cantilever import by_family
+from flexmbs.verification.analytic import ROTATING_CANTILEVER_FLAP, rotating_cantilever_frequencies
+from reference.algorithms import SolverSettings
+from reference.domain import Domain
+from reference.elements import Section
+from reference.interactions import Clamp, FixedCoordinates
+from reference.io.deck import DeckError, load_deck
+from reference.io.results import load_results
+from reference.linearization import at_steady_rotation, reduce
+from reference.modal import damped, modes
+
+SLENDER = Section(EA=1e7, GA2=1e7, GA3=1e7, GJ=0.8, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-6, rhoJ2=1e-8, rhoJ3=1e-8)
+"""EI = ρA = L = 1: frequencies in rad/s are the table's ω̄, spin rates its λ; axially stiff (the stretch at
+λ = 12 is 7e-6) and thin (rotary inertia 1e-8), so the Euler–Bernoulli table applies to ~1e-5."""
+
+
+@pytest.mark.parametrize("axis, kind", [(2, "largest"), (0, "smallest"), (1, "intermediate")])
+def test_a_spinning_rigid_body_against_the_linearised_euler_equations(axis, kind):
+    """Body frame principal inertias (1, 2, 3), centre fixed, spinning at Ω = 2 about principal axis a.  The
+    linearised Euler equations give δω with ``s² = −Ω² (I_a − I_b)(I_a − I_c)/(I_b I_c)`` (nutation; real
+    s, unstable, about the intermediate axis) and the kinematics ``θ̇ = δω − ω̃₀θ`` add ``s = ±iΩ`` (the
+    tilted spin axis seen from the spinning frame) and a zero root (the phase about the axis).  Exact to
+    round-off (1e-12): the rotational terms ω̃₀ of D and K carry the whole answer."""
+    I, Omega = np.array([1.0, 2.0, 3.0]), 2.0
+    d = Domain("spinning body")
+    body = d.add_rigid_body("b", 1.0, I, (0.5, 0.0, 0.0))
+    d.add_interaction(FixedCoordinates(body, (0, 1, 2)))
+    e = np.eye(3)[axis]
+    lin = at_steady_rotation(d.initialization(), d.initial_conditions(), Omega, e, spin_point=(0.5, 0.0, 0.0))
+    red = reduce(lin)
+    Ia, (Ib, Ic) = I[axis], np.delete(I, axis)
+    s2 = -Omega**2 * (Ia - Ib) * (Ia - Ic) / (Ib * Ic)
+    # stable: the roots 0 (double), ±iΩ, ±i√|s²| are 3 modes; about the intermediate axis ±√s² are two
+    expected = [0.0, Omega] + [np.sqrt(abs(s2))] * (2 if kind == "intermediate" else 1)
+    found = damped(red.M, red.D, red.K, len(expected))  # a real pair is two modes of 3 coordinates
+    assert sorted(np.abs(found.s)) == pytest.approx(sorted(expected), abs=1e-12)
+    unstable = found.kind == "unstable"
+    assert unstable.sum() == (kind == "intermediate")
+    if kind == "intermediate":
+        assert found.s[unstable][0].real == pytest.approx(np.sqrt(s2), rel=1e-12)
+
+
+def rotating_cantilever(n: int, rate: float, k: int = 4):
+    """The nondimensional flap and lag frequencies of an n-element cantilever along x, clamped at the origin,
+    spinning about z at ``rate``; and the largest |damping ratio|."""
+    d = Domain("rotating cantilever")
+    nodes = d.add_beam("b", (0, 0, 0), (1, 0, 0), n, SLENDER, axis2=(0, 1, 0))
+    d.add_interaction(Clamp(nodes[0]))
+    lin = at_steady_rotation(d.initialization(), d.initial_conditions(), rate, (0, 0, 1))
+    red = reduce(lin)
+    found = modes(red.M, red.D, red.K, k)
+    return by_family(found.frequency, lin.nodal((red.Z @ found.phi).T), 1.0), np.max(np.abs(found.damping_ratio))
+
+
+def test_rotating_cantilever_against_the_published_table_at_second_order():
+    """Flapwise ω̄ against Hodges & Rutkowski (1981) at λ = 6 and 12, lead-lag against ``√(ω̄² − λ²)``; the
+    error falls 4× from 8 to 16 elements (Beam2's order 2; measured ratios 3.9–4.0), and at 16 elements it is
+    within 0.6 % (measured −0.54 % for the second flap mode at λ = 12, −0.05 % for the first at λ = 6; the
+    report checks the issue's 0.5 % at 32 elements).  Purely imaginary roots: |ζ| ≤ 1e-12."""
+    for lam in (6.0, 12.0):
+        published = np.array(ROTATING_CANTILEVER_FLAP[int(lam)])
+        assert rotating_cantilever_frequencies(lam) == pytest.approx(published, abs=5e-5)  # the table's 4 decimals
+        errors = {}
+        for n in (8, 16):
+            found, zeta = rotating_cantilever(n, lam)
+            assert zeta <= 1e-12
+            errors[n] = {"flap": found["flap"][:2] / published - 1.0,
+                         "lag": found["lag"][:2] / np.sqrt(published**2 - lam**2) - 1.0}
+        for family in ("flap", "lag"):
+            assert np.all(np.abs(errors[16][family]) <= 6e-3), (lam, family, errors[16][family])
+            assert errors[8][family] / errors[16][family] == pytest.approx([4.0, 4.0], rel=0.1), (lam, family)
+
+
+def test_at_zero_spin_the_rotating_linearisation_is_the_reference_one():
+    """Ω = 0: no Coriolis, no stretch; the frequencies equal those of the reference state (βL)² within the mesh
+    error, and the flap and lag pairs coincide (EI2 = EI3) to 1e-9."""
+    found, _ = rotating_cantilever(16, 0.0)
+    assert found["flap"][:2] == pytest.approx(found["lag"][:2], rel=1e-9)
+    assert found["flap"][:2] == pytest.approx([1.8751040687**2, 4.6940911330**2], rel=2e-3)
+
+
+BASE = """
+[meta]
+name = "spin"
+description = "a spinning cantilever"
+units = "SI"
+provenance = { source = "test", data = "test" }
+[sections.s]
+EA = 1e7
+GA2 = 1e7
+GA3 = 1e7
+GJ = 0.8
+EI2 = 1.0
+EI3 = 1.0
+rhoA = 1.0
+rhoJ1 = 2e-6
+rhoJ2 = 1e-8
+rhoJ3 = 1e-8
+[[beams]]
+label = "b"
+start = [0.0, 0.0, 0.0]
+end = [1.0, 0.0, 0.0]
+elements = 8
+section = "s"
+axis2 = [0.0, 1.0, 0.0]
+[[clamps]]
+node = "b:start"
+[solver]
+algorithm = "modes"
+modes = 2
+"""
+
+
+@pytest.mark.parametrize("solver, message", [
+    ('about = "rotation"\nspin_axis = [0.0, 0.0, 1.0]', "solver: missing required key 'spin_rate'"),
+    ('about = "rotation"\nspin_rate = 1.0', "solver: missing required key 'spin_axis'"),
+    ('about = "rotation"\nspin_rate = 1.0\nspin_axis = [0.0, 0.0, 0.0]', "solver.spin_axis"),
+    ('about = "rotation"\nspin_rate = 1.0\nspin_axis = [0.0, 1.0]', "solver.spin_axis: expected a list of 3 numbers"),
+    ('about = "rotation"\nspin_rate = "fast"\nspin_axis = [0.0, 0.0, 1.0]', "solver.spin_rate: expected a number"),
+    ('spin_rate = 1.0\nspin_axis = [0.0, 0.0, 1.0]', "solver.spin_rate: unknown key"),
+])
+def test_bad_spin_keys_are_one_line_errors(tmp_path, solver, message):
+    path = tmp_path / "deck.toml"
+    path.write_text(BASE + solver + "\n", encoding="utf-8")
+    with pytest.raises(DeckError) as info:
+        load_deck(path)
+    text = str(info.value)
+    assert "\n" not in text and text.startswith(str(path)) and message in text, text
+
+
+def test_flexmbs_campbell_table_datasets_and_errors(tmp_path, capsys):
+    """The deck's run, the table and /campbell/* at λ = 0, 6, 12 (8 elements: the table within 2.5 %, the
+    mesh error measured −2.2 % for the second flap mode at λ = 12); the 8-element frequencies at λ = 6 equal
+    the deck's own modes."""
+    path = tmp_path / "deck.toml"
+    path.write_text(BASE + 'about = "rotation"\nspin_rate = 6.0\nspin_axis = [0.0, 0.0, 2.0]\n', encoding="utf-8")
+    assert main(["campbell", str(path), "--rates", "0:12:3", "--out", str(tmp_path / "out"), "--no-plot"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[1].split()[:2] == ["spin", "rate"] and [float(line.split()[0]) for line in out[2:5]] == [0.0, 6.0, 12.0]
+    r = load_results(tmp_path / "out" / "results.h5")
+    f = r.data("campbell/frequency")
+    assert r.data("campbell/spin_rate").tolist() == [0.0, 6.0, 12.0] and f.shape == (3, 2)
+    assert f[1] == pytest.approx(r.data("modes/frequency"), rel=1e-9)
+    # the lowest two at λ = 12: the first lag mode, then the first flap mode
+    lam = 12.0
+    flap = ROTATING_CANTILEVER_FLAP[12][0]
+    assert 2 * np.pi * f[2] == pytest.approx([np.sqrt(flap**2 - lam**2), flap], rel=2.5e-2)
+    assert float(out[4].split()[1]) == pytest.approx(f[2, 0], rel=1e-5)
+    assert main(["campbell", str(path), "--rates", "0:12", "--out", str(tmp_path / "o2")]) == 2
+    assert "expected START:STOP:N, e.g. --rates 0:12:13" in capsys.readouterr().err
+    path.write_text(BASE, encoding="utf-8")
+    assert main(["campbell", str(path), "--rates", "0:12:3", "--out", str(tmp_path / "o3")]) == 2
+    assert "needs a modes deck about a steady rotation" in capsys.readouterr().err
+
+
+def test_rates_parse():
+    assert parse_rates("0:12:13").tolist() == list(np.arange(13.0))
+    assert parse_rates("5:5:1").tolist() == [5.0]
+    for bad in ("0:12", "a:1:2", "0:1:0", "0:1:1", "0:inf:3"):
+        with pytest.raises(ValueError, match="--rates"):
+            parse_rates(bad)
