@@ -287,10 +287,10 @@ ROTATING_CANTILEVER_FLAP = {
     5: (6.4495, 25.4461), 6: (7.3604, 26.8091), 7: (8.2996, 28.3341), 8: (9.2568, 29.9954), 9: (10.2257, 31.7705),
     10: (11.2023, 33.6404), 11: (12.1843, 35.5890), 12: (13.1702, 37.6031)}
 """The two lowest flapwise frequencies ω̄ = ω √(ρA L⁴/EI) of a uniform cantilever clamped on the spin axis
-(zero hub radius), by spin rate λ = Ω √(ρA L⁴/EI): the table of Hodges & Rutkowski, *Free-vibration analysis
-of rotating beams by a variable-order finite-element method*, AIAA J. 19 (1981) 1459–1466 (Table 1), equal to
-the Frobenius-series values of Wright, Smith, Thresher & Wang, J. Appl. Mech. 49 (1982) 197–202.
-:func:`rotating_cantilever_frequencies` reproduces every entry to the four decimals."""
+(zero hub radius), by spin rate λ = Ω √(ρA L⁴/EI), as tabulated by Hodges & Rutkowski, *Free-vibration analysis
+of rotating beams by a variable-order finite-element method*, AIAA J. 19 (1981) 1459–1466, and by the Frobenius
+series of Wright, Smith, Thresher & Wang, J. Appl. Mech. 49 (1982) 197–202.  :func:`rotating_cantilever_frequencies`,
+an independent solution of the same equation, reproduces all 26 entries to their four decimals (within 5.0e-5)."""
 
 
 def rotating_cantilever_frequencies(lam: float, n: int = 2, points: int = 24) -> np.ndarray:
