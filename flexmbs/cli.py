@@ -311,6 +311,8 @@ def cmd_crosscheck(args) -> int:
     # a refined run has its own folder (and figure name): it never overwrites the unrefined run's files
     default = Path(args.deck).stem + "_crosscheck" + (f"_refine{refine}" if refine != 1 else "")
     out = Path(args.out) if args.out else Path("out") / default
+    if _linearised(args.deck):
+        return _crosscheck_modes(args, out, refine, exudyn_model)
     try:
         harness.check_refine(args.deck, refine)  # before anything runs
         cmp = harness.run(args.deck, out, refine=refine, exudyn_dt=args.exudyn_dt, t_end=args.t_end,
@@ -330,6 +332,30 @@ def cmd_crosscheck(args) -> int:
     print(f"solve times: reference {cmp['reference'].wall_time:.3g} s (warm: after a two-step solve that loads its "
           f"kernels), Exudyn {cmp['exudyn_wall']:.3g} s → {out / 'crosscheck.md'}, {cmp['figure']}")
     return 1 if failed else 0
+
+
+def _linearised(deck) -> bool:
+    from reference.io.deck import load_deck
+
+    return bool(load_deck(deck).domain.algorithm().linearised)
+
+
+def _crosscheck_modes(args, out: Path, refine: int, exudyn_model) -> int:
+    """A modes deck: its frequencies against Exudyn's eigen-solve (:mod:`crosscheck.modes_crosscheck`)."""
+    compare = _module("crosscheck.modes_crosscheck", "crosscheck")
+    try:
+        cmp = compare.run(args.deck, out, refine)
+    except exudyn_model.Unsupported as exc:
+        raise CommandError(f"{args.deck}: cannot be cross-checked in Exudyn: {exc}") from None
+    except exudyn_model.ExudynFailed as exc:
+        raise RunFailed(f"{args.deck}: {exc}") from None
+    for line in cmp["lines"]:
+        print(line)
+    worst = max(abs(float(d)) for d in cmp["differences"])
+    passed = worst <= compare.TOLERANCE
+    print(f"{'pass' if passed else 'FAIL'}  frequencies, same mass: largest relative difference {worst:.3e} "
+          f"(tolerance {compare.TOLERANCE:g})")
+    return 0 if passed else 1
 
 
 def cmd_plot(args) -> int:
