@@ -1,4 +1,4 @@
-"""The ``flexmbs`` command: run, modes, crosscheck, report, derive, bench, sweep.
+"""The ``flexmbs`` command: run, modes, campbell, crosscheck, report, derive, bench, sweep.
 
 Every failure is one line on stderr, ``flexmbs: error: …``, and its exit status is
 chosen by the exception's class (:func:`exit_status`; the first row that matches):
