@@ -54,6 +54,30 @@ def test_a_spinning_rigid_body_against_the_linearised_euler_equations(axis, kind
         assert found.s[unstable][0].real == pytest.approx(np.sqrt(s2), rel=1e-12)
 
 
+@pytest.mark.parametrize("hinge", ["flap", "lag"])
+def test_a_hinged_rigid_blade_against_the_rotor_blade_hinge_frequencies(hinge):
+    """A rigid bar (mass m = 1, length 1) on a revolute joint to the ground at the hinge offset e = 0.2 from the
+    spin axis, spinning at Ω = 3: a flap hinge (axis y) and a lag hinge (axis z).  About the hinge, with the body
+    axes x along the bar and z along the spin axis, the centrifugal moment of a hinge rotation φ is
+    ``−Ω²φ (I_z − I_x + e S)`` for flap and ``−Ω²φ e S`` for lag (S = m L/2 the first moment; the classical
+    ``ν_β² = 1 + e S/I_β`` and ``ν_ζ² = e S/I_ζ`` of rotor blades, e.g. Johnson, *Helicopter Theory*, 1980, with
+    the bar's own rotary inertia), so ``ω_flap² = Ω²(I_z − I_x + eS)/I_y`` and ``ω_lag² = Ω² e S/I_z``.  The joint
+    turns with the frame; its multiplier carries the centrifugal force ``m Ω² r_c`` into the λ·∂Bᵀ stiffness.
+    Exact to round-off (1e-10)."""
+    bar = Section(EA=1.0, GA2=1.0, GA3=1.0, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=0.02, rhoJ2=0.01, rhoJ3=0.01)
+    e, Omega = 0.2, 3.0
+    d = Domain("hinged blade")
+    blade = d.add_rigid_bar("blade", (e, 0, 0), (e + 1.0, 0, 0), bar)
+    d.add_joint("revolute", blade, None, (e, 0, 0), axis=(0, 1, 0) if hinge == "flap" else (0, 0, 1))
+    lin = at_steady_rotation(d.initialization(), d.initial_conditions(), Omega, (0, 0, 1))
+    assert np.max(np.abs(lin.lam)) == pytest.approx(Omega**2 * (e + 0.5), rel=1e-12)  # m Ω² r_c at the hinge
+    red = reduce(lin)
+    found = damped(red.M, red.D, red.K, 1)
+    I_x, I_yz, S = 0.02, 0.01 + 1.0 / 12.0 + 0.25, 0.5  # about the hinge: ρJ L; ρJ L + ρA L³/12 + m (L/2)²
+    w2 = Omega**2 * ((I_yz - I_x + e * S) / I_yz if hinge == "flap" else e * S / I_yz)
+    assert found.s[0] == pytest.approx(1j * np.sqrt(w2), rel=1e-10)
+
+
 def rotating_cantilever(n: int, rate: float, k: int = 4):
     """The nondimensional flap and lag frequencies of an n-element cantilever along x, clamped at the origin,
     spinning about z at ``rate``; and the largest |damping ratio|."""
