@@ -18,7 +18,6 @@ from reference.algorithms import SolverSettings
 from reference.domain import Domain
 from reference.elements import Section
 from reference.interactions import Clamp, FixedCoordinates
-from reference.io.deck import DeckError, load_deck
 from reference.io.results import load_results
 from reference.linearization import at_steady_rotation, reduce
 from reference.modal import damped, modes
@@ -147,23 +146,6 @@ node = "b:start"
 algorithm = "modes"
 modes = 2
 """
-
-
-@pytest.mark.parametrize("solver, message", [
-    ('about = "rotation"\nspin_axis = [0.0, 0.0, 1.0]', "solver: missing required key 'spin_rate'"),
-    ('about = "rotation"\nspin_rate = 1.0', "solver: missing required key 'spin_axis'"),
-    ('about = "rotation"\nspin_rate = 1.0\nspin_axis = [0.0, 0.0, 0.0]', "solver.spin_axis"),
-    ('about = "rotation"\nspin_rate = 1.0\nspin_axis = [0.0, 1.0]', "solver.spin_axis: expected a list of 3 numbers"),
-    ('about = "rotation"\nspin_rate = "fast"\nspin_axis = [0.0, 0.0, 1.0]', "solver.spin_rate: expected a number"),
-    ('spin_rate = 1.0\nspin_axis = [0.0, 0.0, 1.0]', "solver.spin_rate: unknown key"),
-])
-def test_bad_spin_keys_are_one_line_errors(tmp_path, solver, message):
-    path = tmp_path / "deck.toml"
-    path.write_text(BASE + solver + "\n", encoding="utf-8")
-    with pytest.raises(DeckError) as info:
-        load_deck(path)
-    text = str(info.value)
-    assert "\n" not in text and text.startswith(str(path)) and message in text, text
 
 
 def test_flexmbs_campbell_table_datasets_and_errors(tmp_path, capsys):
