@@ -196,3 +196,21 @@ def test_the_sparse_first_order_solution_equals_the_dense_one(monkeypatch):
     sparse = modal.damped(red.M, red.D, red.K, 4)
     assert sparse.frequency == pytest.approx(dense.frequency, rel=1e-7)
     assert np.max(np.abs(sparse.damping_ratio)) <= 1e-9
+
+
+def test_a_failed_newton_is_one_message_through_the_api_and_the_run(tmp_path, capsys):
+    """Newton limited to one iteration cannot reach the stretched state at λ = 12 (it needs two): after 8 halvings
+    of the Ω² ramp the API raises one message with the fix, and a modes run stops with it as its status."""
+    d = Domain("rotating cantilever")
+    nodes = d.add_beam("b", (0, 0, 0), (1, 0, 0), 4, SLENDER, axis2=(0, 1, 0))
+    d.add_interaction(Clamp(nodes[0]))
+    with pytest.raises(ValueError, match="no steady rotation found at the spin rate .* lower spin_rate"):
+        at_steady_rotation(d.initialization(), d.initial_conditions(), 12.0, (0, 0, 1), max_iterations=1,
+                           tolerance=1e-300)
+    path = tmp_path / "deck.toml"
+    path.write_text(BASE + 'about = "rotation"\nspin_rate = 12.0\nspin_axis = [0.0, 0.0, 1.0]\nmax_iterations = 1\n'
+                    'tolerance = 1e-30\n', encoding="utf-8")
+    assert main(["modes", str(path), "--out", str(tmp_path / "out"), "--no-vtk"]) == 1
+    assert load_results(tmp_path / "out" / "results.h5").status == "failed: no steady rotation"
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "no steady rotation found at the spin rate" in err, err

@@ -5,10 +5,10 @@ They take no time step.  Each reaches the configuration it linearises about — 
 buckling: :class:`~reference.algorithms.static.Static` with the deck's ``t_end`` and ``load_steps``,
 its stability indicator included), or the relative equilibrium of the whole model spinning at
 ``spin_rate`` about ``spin_axis`` through ``spin_point`` (``about = "rotation"``:
-:func:`reference.linearization.at_steady_rotation`, the modes in the spinning frame) — and then, in :meth:`LinearAnalysis.finish`, linearises there
-(:mod:`reference.linearization`) and solves the eigenproblem (:mod:`reference.modal`).  The solution
-loop (:func:`reference.solution.run`) treats them like any algorithm: the records of the path (one
-record for the reference state) and, at the end, the analysis's datasets (docs/results.md):
+:func:`reference.linearization.at_steady_rotation`, the modes in the spinning frame) — and then, in
+:meth:`LinearAnalysis.finish`, linearises there (:mod:`reference.linearization`) and solves the
+eigenproblem (:mod:`reference.modal`).  The solution loop (:func:`reference.solution.run`) treats them
+like any algorithm: the records of the path (one record for the reference or spinning state) and, at the end, the analysis's datasets (docs/results.md):
 
 - modes: ``/modes/frequency`` [Hz], ``/modes/damping_ratio``, ``/modes/omega_squared`` [rad²/s²],
   ``/modes/root`` (k, 2) the roots s (real, imaginary) [1/s], ``/modes/kind`` (``elastic``, ``zero``,
@@ -72,8 +72,9 @@ class LinearAnalysis(Algorithm):
 
     explicit = False
     linearised = True
-
     spin = None
+    """``(spin_rate, spin_axis, spin_point, Newton settings)`` of modes about a steady rotation (:class:`Modes`),
+    else None."""
 
     def __init__(self, n_modes: int, path: Static | None = None):
         if int(n_modes) < 1:
@@ -124,7 +125,7 @@ class LinearAnalysis(Algorithm):
         system = run.system
         if not run.started and self.spin is not None:
             try:
-                lin = linearization.at_steady_rotation(model, state, *self.spin, system=system)
+                lin = linearization.at_steady_rotation(model, state, *self.spin[:3], system=system, **self.spin[3])
             except ValueError as exc:
                 run.problem, run.stopped_at = str(exc), state.t
                 return NO_CONVERGENCE
@@ -191,7 +192,6 @@ class Modes(LinearAnalysis):
     def __init__(self, n_modes: int, path: Static | None = None, spin: tuple | None = None):
         super().__init__(n_modes, path)
         self.spin = spin
-        """``(spin_rate [rad/s], spin_axis, spin_point)`` of ``about = "rotation"``, else None."""
 
     @classmethod
     def deck_keys(cls, solver: dict) -> tuple[tuple, tuple]:
@@ -201,13 +201,15 @@ class Modes(LinearAnalysis):
         if about == "static":
             return cls.deck_required + cls.STATIC_KEYS, ("about",) + Static.deck_optional
         if about == "rotation":
-            return cls.deck_required + cls.SPIN_KEYS, ("about", "spin_point")
+            return cls.deck_required + cls.SPIN_KEYS, ("about", "spin_point", "tolerance", "max_iterations")
         return cls.deck_required, ("about",)
 
     @classmethod
     def from_settings(cls, settings, dt=None):
         path = Static.from_settings(settings, dt) if settings.about == "static" else None
-        spin = ((settings.spin_rate, settings.spin_axis, settings.spin_point) if settings.about == "rotation"
+        newton = {k: v for k, v in (("tolerance", settings.tolerance), ("max_iterations", settings.max_iterations))
+                  if v is not None}
+        spin = ((settings.spin_rate, settings.spin_axis, settings.spin_point, newton) if settings.about == "rotation"
                 else None)
         return cls(settings.modes, path, spin)
 
