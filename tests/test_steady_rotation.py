@@ -182,8 +182,8 @@ def test_rates_parse():
 
 
 def test_the_sparse_first_order_solution_equals_the_dense_one(monkeypatch):
-    """Gyroscopic modes by shift-invert Arnoldi (above ``DENSE_FIRST_ORDER``) and by QZ agree to 1e-7 (measured
-    1e-8).  Reproducer: the Arnoldi operator passed complex vectors to a real SuperLU factor (a TypeError on every
+    """Gyroscopic modes by shift-invert Arnoldi (above ``DENSE_FIRST_ORDER``, a fixed start vector) and by QZ agree
+    to 1e-7 (measured 1e-8).  Reproducer: the Arnoldi operator passed complex vectors to a real SuperLU factor (a TypeError on every
     damped or gyroscopic model of more than 300 independent coordinates)."""
     import reference.modal as modal
 
@@ -195,7 +195,9 @@ def test_the_sparse_first_order_solution_equals_the_dense_one(monkeypatch):
     monkeypatch.setattr(modal, "DENSE_FIRST_ORDER", 0)
     sparse = modal.damped(red.M, red.D, red.K, 4)
     assert sparse.frequency == pytest.approx(dense.frequency, rel=1e-7)
-    assert np.max(np.abs(sparse.damping_ratio)) <= 1e-9
+    # real parts of the imaginary roots: the Arnoldi solution's accuracy on the stiff beam's pencil (measured
+    # 5e-10 at 32 elements; the dense QZ 1e-16)
+    assert np.max(np.abs(sparse.damping_ratio)) <= 1e-7
 
 
 def test_a_failed_newton_is_one_message_through_the_api_and_the_run(tmp_path, capsys):
