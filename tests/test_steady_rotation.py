@@ -14,7 +14,6 @@ from flexmbs.campbell import parse_rates
 from flexmbs.cli import main
 from flexmbs.deckchecks.rotating_cantilever import by_family
 from flexmbs.verification.analytic import ROTATING_CANTILEVER_FLAP, rotating_cantilever_frequencies
-from reference.algorithms import SolverSettings
 from reference.domain import Domain
 from reference.elements import Section
 from reference.interactions import Clamp, FixedCoordinates

@@ -49,7 +49,7 @@ def evaluate(ctx):
               ctx.check("lag", f"lead-lag modes 1–2 at λ = {lam:g}: max relative error",
                         "√(ω̄_flap² − λ²), published ω̄_flap", np.max(np.abs(errors["lag"]))),
               ctx.check("undamped", "largest |damping ratio|", "0 (conservative)", zeta)]
-    lines = [f"| family | mode | ω̄ computed | ω̄ published | relative error |", "|---|---|---|---|---|"]
+    lines = ["| family | mode | ω̄ computed | ω̄ published | relative error |", "|---|---|---|---|---|"]
     for k in ("flap", "lag"):
         for j in range(2):
             lines.append(f"| {k} | {j + 1} | {found[k][j]:.5f} | {published(lam, k)[j]:.4f} | {errors[k][j]:+.2e} |")
