@@ -1,4 +1,4 @@
-"""The ``flexmbs`` command: run, modes, crosscheck, report, derive, bench, sweep.
+"""The ``flexmbs`` command: run, modes, campbell, crosscheck, report, derive, bench, sweep.
 
 Every failure is one line on stderr, ``flexmbs: error: …``, and its exit status is
 chosen by the exception's class (:func:`exit_status`; the first row that matches):
@@ -267,6 +267,34 @@ def cmd_modes(args) -> int:
     return 0
 
 
+def cmd_campbell(args) -> int:
+    from flexmbs import campbell
+    from reference.io.deck import load_deck
+
+    check_signals()
+    try:
+        rates = campbell.parse_rates(args.rates)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+    deck = load_deck(args.deck, overrides=_overrides(args))
+    if deck.domain.solver.algorithm != "modes" or deck.domain.solver.about != "rotation":
+        raise CommandError(f"{args.deck}: `flexmbs campbell` needs a modes deck about a steady rotation; set "
+                           "[solver] algorithm = \"modes\", about = \"rotation\" with spin_rate and spin_axis")
+    result = _run_deck(args, deck)
+    try:
+        table = campbell.campbell(deck.domain, rates)
+    except ValueError as exc:
+        raise RunFailed(f"{args.deck}: {exc}") from None
+    out = Path(result.source).parent
+    campbell.write(result.source, table)
+    for line in table.table():
+        print(line)
+    if args.plot:
+        campbell.figure(table, out / "campbell.png", f"Campbell diagram: {deck.domain.name}")
+        print(f"campbell diagram → {out / 'campbell.png'}; datasets /campbell/* → {result.source}")
+    return 0
+
+
 def cmd_derive(args) -> int:
     derivations = _module("derivations", "derive")
 
@@ -293,6 +321,8 @@ def cmd_crosscheck(args) -> int:
     # a refined run has its own folder (and figure name): it never overwrites the unrefined run's files
     default = Path(args.deck).stem + "_crosscheck" + (f"_refine{refine}" if refine != 1 else "")
     out = Path(args.out) if args.out else Path("out") / default
+    if _linearised(args.deck):
+        return _crosscheck_modes(args, out, refine, exudyn_model)
     try:
         harness.check_refine(args.deck, refine)  # before anything runs
         cmp = harness.run(args.deck, out, refine=refine, exudyn_dt=args.exudyn_dt, t_end=args.t_end,
@@ -312,6 +342,30 @@ def cmd_crosscheck(args) -> int:
     print(f"solve times: reference {cmp['reference'].wall_time:.3g} s (warm: after a two-step solve that loads its "
           f"kernels), Exudyn {cmp['exudyn_wall']:.3g} s → {out / 'crosscheck.md'}, {cmp['figure']}")
     return 1 if failed else 0
+
+
+def _linearised(deck) -> bool:
+    from reference.io.deck import load_deck
+
+    return bool(load_deck(deck).domain.algorithm().linearised)
+
+
+def _crosscheck_modes(args, out: Path, refine: int, exudyn_model) -> int:
+    """A modes deck: its frequencies against Exudyn's eigen-solve (:mod:`crosscheck.modes_crosscheck`)."""
+    compare = _module("crosscheck.modes_crosscheck", "crosscheck")
+    try:
+        cmp = compare.run(args.deck, out, refine)
+    except exudyn_model.Unsupported as exc:
+        raise CommandError(f"{args.deck}: cannot be cross-checked in Exudyn: {exc}") from None
+    except exudyn_model.ExudynFailed as exc:
+        raise RunFailed(f"{args.deck}: {exc}") from None
+    for line in cmp["lines"]:
+        print(line)
+    worst = max(abs(float(d)) for d in cmp["differences"])
+    passed = worst <= compare.TOLERANCE
+    print(f"{'pass' if passed else 'FAIL'}  frequencies, same mass: largest relative difference {worst:.3e} "
+          f"(tolerance {compare.TOLERANCE:g})")
+    return 0 if passed else 1
 
 
 def cmd_plot(args) -> int:
@@ -421,6 +475,16 @@ def parser() -> argparse.ArgumentParser:
     mod.add_argument("--no-vtk", dest="vtk_every", action="store_const", const=0, default=1,
                      help="skip the ParaView output of the configuration")
     mod.set_defaults(func=cmd_modes)
+    cb = sub.add_parser("campbell", help="a modes deck about a steady rotation over a range of spin rates: table, "
+                        "figure, /campbell/* in the results file")
+    cb.add_argument("deck")
+    cb.add_argument("--rates", required=True, metavar="START:STOP:N",
+                    help="N equally spaced spin rates [rad/s] from START to STOP, e.g. 0:12:13")
+    cb.add_argument("--out", help="output folder (default out/<deck name>)")
+    cb.add_argument("--refine", type=number(int, 1, low_ok=True, example="--refine 2"),
+                    help="multiply every beam's element count")
+    cb.add_argument("--no-plot", dest="plot", action="store_false", help="skip the figure campbell.png")
+    cb.set_defaults(func=cmd_campbell, vtk_every=0, t_end=None)
     cc = sub.add_parser("crosscheck", help="run a deck in the reference and in Exudyn and compare")
     cc.add_argument("deck")
     cc.add_argument("--out", help="output folder (default out/<deck name>_crosscheck)")

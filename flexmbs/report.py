@@ -188,6 +188,9 @@ def deck_data(deck) -> list[str]:
     if algo.linearised:  # no time step: what is linearised, and how many modes
         where = (f"the static equilibrium at t = {domain.solver.t_end:g} ({domain.solver.load_steps} load steps)"
                  if algo.n_steps(domain.solver.t_end) else "the initial state")
+        if domain.solver.about == "rotation":
+            where = (f"the steady rotation at {domain.solver.spin_rate:g} rad/s about "
+                     f"{np.round(domain.solver.spin_axis, 6).tolist()} (in the spinning frame)")
         return lines + ["", f"{counts}; `{algo.name}`: the {algo.n_modes} lowest, about {where}.", ""]
     # the critical step bounds only an explicit scheme's step: an implicit deck's margin would mean nothing
     crit = domain.critical_time_step() if domain.elements and algo.explicit else None

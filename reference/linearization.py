@@ -17,13 +17,14 @@ does not already use (and that ``tests/test_tangents.py`` does not check).
 
 The increments are reduced to independent ones by a null-space basis Z of B (``B Z = 0``,
 :func:`null_space`): ``δ = Z η``, ``M_r = Zᵀ M Z``, ``D_r``, ``K_r`` likewise.  A steady rotation of
-the whole model would enter here as the map from the increments to a frame spinning with the model
-(Coriolis and centrifugal terms added to D and K); it is not implemented.
+the whole model is linearised in the frame spinning with it (:func:`at_steady_rotation`: the centrifugally
+stretched relative equilibrium, the Coriolis and centrifugal terms added to D and K).
 
 Entry points: :func:`linearize` (a configuration), :func:`at_reference` (a Domain's initial state),
 :func:`at_static_equilibrium` (the static algorithm's equilibrium at ``t_end``), :func:`at_state` (a
 :class:`~reference.state.State`, with multipliers consistent with its accelerations), :func:`at_results`
-(one output of a results file); :func:`lowest_modes` the modes about a state.  The ``modes`` and
+(one output of a results file), :func:`at_steady_rotation` (the whole model spinning at a constant rate);
+:func:`lowest_modes` the modes about a state.  The ``modes`` and
 ``buckling`` algorithms (:mod:`reference.algorithms.linear`) linearise about the same configurations.
 """
 
@@ -34,9 +35,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sps
+import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import connected_components
 
-from reference.algorithms.implicit import NewtonSystem
+from reference.algorithms.implicit import NewtonSystem, compose
 from reference.generated import rotation_maps as rm
 from reference.linalg import RANK_TOLERANCE, null_space
 from reference.state import Model, State
@@ -192,6 +194,148 @@ def at_static_equilibrium(domain, t_end: float | None = None, load_steps: int | 
     if code != OK:
         raise ValueError(algo.failure(code, state, run)[1])
     return linearize(model, state.x, state.q, None, None, run.lam, state.t, state.angle, run.system)
+
+
+def at_steady_rotation(model: Model, state: State, spin_rate: float, spin_axis, spin_point=(0.0, 0.0, 0.0),
+                       system: NewtonSystem | None = None, tolerance: float = 1e-10, max_iterations: int = 25,
+                       max_halvings: int = 8) -> Linearization:
+    """The linearisation in the frame spinning with the whole model at the rate Ω about a fixed axis
+    (docs/formulation.md §11, "Steady rotation").
+
+    The supports, the joints to the ground and the model turn with the frame: the motion
+    ``x(t) = p + R(t)(x₀ − p)``, ``Λ(t) = R(t)Λ₀`` (``R = exp(Ωt ẽ)``), with ``v = Ω̃(x₀ − p)``,
+    ``ω = Λ₀ᵀΩe`` (body frame), ``v̇ = Ω̃²(x₀ − p)``, ``ω̇ = 0``, is a relative equilibrium when the
+    residual vanishes there.  ``(x₀, Λ₀, λ)`` is found by Newton from ``state`` (the reference) on the
+    tangent ``K + D W + M A₀`` of that residual, with Ω² ramped in halved steps when a step fails.  The
+    perturbations ``x = p + R(x₀ − p + u)``, ``Λ = RΛ₀ exp(θ̃)`` give ``δV = δ̇ + W δ`` and
+    ``δV̇ = δ̈ + A₁ δ̇ + A₀ δ`` with, per node, ``W = (Ω̃, ω̃₀)``, ``A₁ = (2Ω̃, ω̃₀)``, ``A₀ = (Ω̃², 0)``;
+    the returned M, D, K are ``M``, ``D + M A₁``, ``K + D W + M A₀`` (co-rotating, constant in time),
+    B unchanged; ``v``, ``w`` are the spin velocities and ``lam`` the multipliers of the relative
+    equilibrium.  Fixed coordinates stay fixed in the spinning frame.
+
+    Parameters
+    ----------
+    spin_rate : float
+        Ω [rad/s].
+    spin_axis : array (3,)
+        The axis e (inertial; normalised here).
+    spin_point : array (3,)
+        A point p of the axis [m].
+    tolerance, max_iterations, max_halvings
+        Newton stops when the largest correction is below ``tolerance`` × model size (translations) and
+        ``tolerance`` rad (rotations); a ramp step that fails in ``max_iterations`` is halved up to
+        ``max_halvings`` times.
+
+    Raises ValueError when Newton fails (centrifugal loads beyond what the model carries, a mechanism
+    without a relative equilibrium) or the axis is zero.
+    """
+    e = np.asarray(spin_axis, dtype=float)
+    if not (e.shape == (3,) and np.linalg.norm(e) > 0.0):
+        raise ValueError(f"spin_axis must be a nonzero 3-vector, got {spin_axis!r}")
+    e = e / np.linalg.norm(e)
+    p = np.asarray(spin_point, dtype=float)
+    system = system or NewtonSystem(model)
+    system.work.angle[:] = state.angle
+    x, q, lam = state.x.copy(), state.q.copy(), np.zeros(model.n_constraints)
+    span = max(float(np.max(np.ptp(x, axis=0))) if x.shape[0] > 1 else 0.0, 1e-3)
+    level, step, cuts = 0.0, 1.0, 0  # the ramp in Ω² / spin_rate²
+    while level < 1.0:
+        trial = min(1.0, level + step)
+        rate = float(spin_rate) * np.sqrt(trial)
+        solved = _relative_equilibrium(model, system, x, q, lam, rate * e, p, state.t, tolerance, max_iterations,
+                                       span)
+        if solved is None:
+            cuts += 1
+            if cuts > max_halvings:
+                raise ValueError(f"no steady rotation found at the spin rate {rate:.6g} rad/s (Newton did not "
+                                 f"converge in {max_iterations} iterations after {max_halvings} halvings of the "
+                                 "ramp): the centrifugal loads exceed what the model carries, or a mechanism has "
+                                 "no relative equilibrium; lower spin_rate")
+            step *= 0.5
+            continue
+        (x, q, lam), level = solved, trial
+    return _spinning(model, system, x, q, lam, float(spin_rate) * e, p, state.t)
+
+
+def _spin_velocities(x, q, Omega, p):
+    """Per node ``v = Ω × (x − p)``, ``ω = Λᵀ Ω`` (body frame), and ``V̇ = (Ω × v, 0)``."""
+    v = np.cross(Omega, x - p)
+    w = np.empty_like(v)
+    A = np.zeros(9)
+    for i in range(x.shape[0]):
+        rm.rotation_matrix(q[i], A)
+        w[i] = A.reshape(3, 3).T @ Omega
+    vd = np.zeros((x.shape[0], 6))
+    vd[:, :3] = np.cross(Omega, v)
+    return v, w, vd
+
+
+def _spin_maps(dof: np.ndarray, Omega, w) -> tuple:
+    """``W``, ``A₁``, ``A₀`` of :func:`at_steady_rotation` on the free coordinates (sparse; a fixed
+    coordinate has no increment in the spinning frame)."""
+    n = int(np.sum(dof >= 0))
+    Ot = _skew(Omega)
+    out = []
+    for translation, rotation in ((Ot, True), (2.0 * Ot, True), (Ot @ Ot, False)):
+        rows, cols, vals = [], [], []
+        for i in range(dof.shape[0]):
+            for offset, block in ((0, translation), (3, _skew(w[i]) if rotation else None)):
+                if block is None:
+                    continue
+                index = dof[i, offset:offset + 3]
+                a, b = np.nonzero((index[:, None] >= 0) & (index[None, :] >= 0) & (block != 0.0))
+                rows.append(index[a])
+                cols.append(index[b])
+                vals.append(block[a, b])
+        out.append(sps.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)))
+    return tuple(out)
+
+
+def _spinning(model, system, x, q, lam, Omega, p, t) -> Linearization:
+    """The co-rotating linearisation at ``(x, q, λ)`` spinning at Ω about p (:func:`at_steady_rotation`)."""
+    v, w, _ = _spin_velocities(x, q, Omega, p)
+    lin = linearize(model, x, q, v, w, lam, t, system.work.angle.copy(), system)
+    W, A1, A0 = _spin_maps(lin.dof, Omega, w)
+    return replace(lin, D=_clean(lin.D + lin.M @ A1), K=_clean(lin.K + lin.D @ W + lin.M @ A0))
+
+
+def _force_scale(model, work, vd, w) -> float:
+    """The size of the forces of a spinning state: the largest inertial, gyroscopic, internal or external
+    force or moment (for the residual test of :func:`_relative_equilibrium`)."""
+    Jw = np.einsum("nab,nb->na", model.nodes.inertia, w)
+    parts = (model.nodes.mass[:, None] * vd[:, :3], np.cross(w, Jw), work.S, work.F)
+    return max(max(float(np.max(np.abs(a), initial=0.0)) for a in parts), 1e-300)
+
+
+def _relative_equilibrium(model, system, x, q, lam, Omega, p, t, tolerance, max_iterations, span):
+    """Newton on the residual of the spinning state from ``(x, q, λ)``: its tangent is the co-rotating K
+    (:func:`at_steady_rotation`).  The converged ``(x, q, λ)``, or None."""
+    x, q, lam = x.copy(), q.copy(), lam.copy()
+    free, n, eps = system.free, system.n_free, model.joints.eps
+    for _ in range(max_iterations):
+        lin = _spinning(model, system, x, q, lam, Omega, p, t)
+        v, w, vd = _spin_velocities(x, q, Omega, p)
+        system.evaluate(x, q, v, w, vd, lam, t, True)
+        rhs = -np.concatenate([system.work.r[free], system.work.PHI - eps * lam])
+        if np.max(np.abs(rhs), initial=0.0) <= tolerance * _force_scale(model, system.work, vd, w):
+            return x, q, lam  # already balanced (e.g. a body spinning about a principal axis: a singular K)
+        A = sps.bmat([[lin.K, lin.B.T], [lin.B, sps.diags(-eps)]], format="csc") if lam.size else lin.K.tocsc()
+        with np.errstate(all="ignore"):
+            try:
+                sol = spla.spsolve(A, rhs)
+            except RuntimeError:
+                return None
+        if not np.all(np.isfinite(sol)):
+            return None
+        delta = np.zeros((x.shape[0], 6))
+        delta[free] = sol[:n]
+        x += delta[:, :3]
+        q_new = np.empty_like(q)
+        compose(q, np.ascontiguousarray(delta[:, 3:]), q_new, np.empty(4))
+        q, lam = q_new, lam + sol[n:]
+        if max(np.max(np.abs(delta[:, :3]), initial=0.0) / span, np.max(np.abs(delta[:, 3:]), initial=0.0)) <= tolerance:
+            return x, q, lam
+    return None
 
 
 def reduce(lin: Linearization, tol: float = RANK_TOLERANCE) -> Reduced:

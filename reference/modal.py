@@ -45,6 +45,12 @@ eigenvalues near it come out accurate to round-off of |σ| (not of the largest e
 plain ``eigh(K, M)``, which put the same rigid modes at ±2e-12 s and the first elastic one 6e-5 off)."""
 DENSE = 600
 """Reduced systems up to this size are solved densely (all eigenvalues; faster than ARPACK there)."""
+DENSE_FIRST_ORDER = 200
+"""First-order (damped, gyroscopic) problems up to this size (twice the reduced coordinates) are solved
+densely (QZ of the pencil); above it shift-invert Arnoldi is faster: the 4 lowest modes of the spinning
+32-element cantilever (size 384) in 0.018 s against 0.45 s dense, the frequencies equal to 1e-8; the real
+parts of its imaginary roots come out at up to 5e-9 |s| against 1e-16 dense (the shifted pencil of a stiff
+beam, EA/h ~ 3e8 against the bending stiffness, is ill-conditioned)."""
 SMALL = 200
 """Tangents up to this size are counted densely by :func:`negative_eigenvalues` (faster than the sparse
 factorisation's set-up there: the static path counts at every load step)."""
@@ -157,12 +163,18 @@ def damped(M, D, K, n: int) -> ModeSet:
     Bm = sps.bmat([[eye, None], [None, M]], format="csc")
     sigma = -np.sqrt(SHIFT * scale)
     want = min(2 * n + 2, 2 * size)
-    if 2 * size <= DENSE or want >= 2 * size - 1:
+    if 2 * size <= DENSE_FIRST_ORDER or want >= 2 * size - 1:
         s, y = sla.eig(A.toarray(), Bm.toarray())
     else:
         lu = spla.splu(sps.csc_matrix(A - sigma * Bm))
-        op = spla.LinearOperator(A.shape, matvec=lambda z: lu.solve(np.asarray(Bm @ z, dtype=complex)), dtype=complex)
-        nu, y = spla.eigs(op, k=want, which="LM", ncv=_ncv(want, 2 * size))
+
+        def solve(z):  # the real factor solves the real and imaginary parts (SuperLU takes no complex b here)
+            b = Bm @ z
+            return lu.solve(np.ascontiguousarray(b.real)) + 1j * lu.solve(np.ascontiguousarray(b.imag))
+
+        op = spla.LinearOperator(A.shape, matvec=solve, dtype=complex)
+        # a fixed start vector: the same roots at every run (ARPACK's random one moves them by ~1e-9 |s|)
+        nu, y = spla.eigs(op, k=want, which="LM", ncv=_ncv(want, 2 * size), v0=np.ones(2 * size, dtype=complex))
         s = sigma + 1.0 / nu
     keep = np.isfinite(s)
     s, y = s[keep], y[:, keep]

@@ -287,7 +287,9 @@ VOCABULARY = {
                "allow_unsafe_dt": [True, False], "load_steps": [1, 3], "rho_inf": [0.0, 0.8, 1.0],
                "tolerance": [1e-8, 1e-14], "max_iterations": [1, 10],
                # keys of the algorithms to come (issues 19, 20, 22): refused in one line until they land
-               "modes": [1, 6], "about": ["reference", "static"], "arc_length": [0.1, 1e-3],
+               "modes": [1, 6], "about": ["reference", "static", "rotation"], "arc_length": [0.1, 1e-3],
+               "spin_rate": [0.0, 6.0, -20.0], "spin_axis": [[0.0, 0.0, 1.0], [0.0, 0.0, 0.0]],
+               "spin_point": [[0.0, 0.0, 0.0], [1.0, 2.0, 3.0]],
                "max_points": [10, 1000], "max_load_factor": [1.0, 10.0],
                "stop_when": ["position.z:b:end < -0.5", "load_factor > 2"], "branch_switch": [True, False],
                "error_tolerance": [1e-3, 1e-6], "dt_min": [1e-6, 1e-4], "dt_max": [1e-2, 1e-3]},

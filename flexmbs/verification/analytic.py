@@ -280,3 +280,48 @@ def lateral_buckling_closed_form(A: float, B: float, C: float, L: float) -> floa
     exact first-order correction (:func:`lateral_buckling_cantilever`: 4.0531 against 4.0596 at
     A = 100 B = 100 C)."""
     return 4.0126 * np.sqrt(B * C) / L**2 / np.sqrt((1.0 - B / A) * (1.0 - C / A))
+
+
+ROTATING_CANTILEVER_FLAP = {
+    0: (3.5160, 22.0345), 1: (3.6816, 22.1810), 2: (4.1373, 22.6149), 3: (4.7973, 23.3203), 4: (5.5850, 24.2733),
+    5: (6.4495, 25.4461), 6: (7.3604, 26.8091), 7: (8.2996, 28.3341), 8: (9.2568, 29.9954), 9: (10.2257, 31.7705),
+    10: (11.2023, 33.6404), 11: (12.1843, 35.5890), 12: (13.1702, 37.6031)}
+"""The two lowest flapwise frequencies ω̄ = ω √(ρA L⁴/EI) of a uniform cantilever clamped on the spin axis
+(zero hub radius), by spin rate λ = Ω √(ρA L⁴/EI), as tabulated by Hodges & Rutkowski, *Free-vibration analysis
+of rotating beams by a variable-order finite-element method*, AIAA J. 19 (1981) 1459–1466, and by the Frobenius
+series of Wright, Smith, Thresher & Wang, J. Appl. Mech. 49 (1982) 197–202.  :func:`rotating_cantilever_frequencies`,
+an independent solution of the same equation, reproduces all 26 entries to their four decimals (within 5.0e-5)."""
+
+
+def rotating_cantilever_frequencies(lam: float, n: int = 2, points: int = 24) -> np.ndarray:
+    """The ``n`` lowest flapwise frequencies ω̄ = ω √(ρA L⁴/EI) of a uniform Euler–Bernoulli cantilever
+    clamped on the spin axis, perpendicular to it, spinning at λ = Ω √(ρA L⁴/EI).
+
+    ``w'''' − (T w')' = ω̄² w`` on ξ ∈ [0, 1] with the centrifugal tension ``T = λ²(1 − ξ²)/2``
+    (Hodges & Rutkowski 1981, eq. 1 with zero hub radius), ``w = w' = 0`` at the root, ``w'' = w''' = 0``
+    at the tip (T = 0 there); Chebyshev collocation on ``points`` Gauss–Lobatto points, the four boundary
+    conditions replacing the equation's end rows (Trefethen, *Spectral Methods in MATLAB*, 2000, ch. 6
+    and 14).  At 24 points the λ ≤ 12 values are converged to 1e-9 (at λ = 0 within 6e-10 of (βL)², more
+    points lose digits to the round-off of the fourth derivative).  The in-plane (lead-lag) frequencies
+    of the same beam follow from these: ``ω̄_lag² = ω̄² − λ²`` (the in-plane equation has the extra
+    ``−λ² w`` of the centrifugal force's in-plane component, Wright et al. 1982).
+    """
+    k = np.arange(points + 1)
+    t = np.cos(np.pi * k / points)  # Gauss–Lobatto points on [−1, 1]
+    c = np.where((k == 0) | (k == points), 2.0, 1.0) * (-1.0) ** k
+    dt = t[:, None] - t[None, :] + np.eye(points + 1)
+    D = np.outer(c, 1.0 / c) / dt
+    D -= np.diag(D.sum(axis=1))
+    xi, D = (t + 1.0) / 2.0, 2.0 * D  # on [0, 1]
+    D2 = D @ D
+    A = D2 @ D2 - 0.5 * lam**2 * (np.diag(1.0 - xi**2) @ D2 - np.diag(2.0 * xi) @ D)
+    B = np.eye(points + 1)
+    tip, root = 0, points  # ξ = 1 at t = 1 (k = 0), ξ = 0 at k = points
+    for row, condition in ((root, np.eye(points + 1)[root]), (root - 1, D[root]), (tip, D2[tip]),
+                           (tip + 1, (D2 @ D)[tip])):
+        A[row], B[row] = condition, 0.0
+    import scipy.linalg as sla
+
+    w2 = sla.eigvals(A, B)
+    w2 = np.sort(w2[np.isfinite(w2)].real)
+    return np.sqrt(w2[w2 > 0.0][:n])

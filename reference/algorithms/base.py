@@ -141,8 +141,10 @@ class SolverSettings:
     modes : int
         Modes and buckling: how many of the lowest modes (load factors) to compute.
     about : str
-        Modes: the configuration linearised about, ``"reference"`` (the initial state) or ``"static"``
-        (the static equilibrium at ``t_end``).
+        Modes: the configuration linearised about, ``"reference"`` (the initial state), ``"static"``
+        (the static equilibrium at ``t_end``) or ``"rotation"`` (the whole model spinning steadily).
+    spin_rate, spin_axis, spin_point : float, tuple, tuple
+        Modes about a rotation: the rate Ω [rad/s], the axis (inertial) and a point of it [m].
     arc_length, max_points, max_load_factor, branch_switch, stop_when, control
         Arc length: the initial arc (scaled norm), the converged points, the stop on ``|λ|``, the switch
         at a bifurcation, the stop on a node coordinate and the displacement control (:class:`reference.algorithms.arc_length.ArcLength`).
@@ -166,3 +168,6 @@ class SolverSettings:
     branch_switch: bool = False
     stop_when: tuple | None = None
     control: tuple | None = None
+    spin_rate: float = 0.0
+    spin_axis: tuple = (0.0, 0.0, 1.0)
+    spin_point: tuple = (0.0, 0.0, 0.0)

@@ -1,12 +1,14 @@
 """Linearised analyses: vibration modes and linear buckling (``algorithm = "modes"``, ``"buckling"``).
 
 They take no time step.  Each reaches the configuration it linearises about — the initial state
-(``about = "reference"``), or the end of the static algorithm's load path (``about = "static"`` and
+(``about = "reference"``), the end of the static algorithm's load path (``about = "static"`` and
 buckling: :class:`~reference.algorithms.static.Static` with the deck's ``t_end`` and ``load_steps``,
-its stability indicator included) — and then, in :meth:`LinearAnalysis.finish`, linearises there
-(:mod:`reference.linearization`) and solves the eigenproblem (:mod:`reference.modal`).  The solution
-loop (:func:`reference.solution.run`) treats them like any algorithm: the records of the path (one
-record for the reference state) and, at the end, the analysis's datasets (docs/results.md):
+its stability indicator included), or the relative equilibrium of the whole model spinning at
+``spin_rate`` about ``spin_axis`` through ``spin_point`` (``about = "rotation"``:
+:func:`reference.linearization.at_steady_rotation`, the modes in the spinning frame) — and then, in
+:meth:`LinearAnalysis.finish`, linearises there (:mod:`reference.linearization`) and solves the
+eigenproblem (:mod:`reference.modal`).  The solution loop (:func:`reference.solution.run`) treats them
+like any algorithm: the records of the path (one record for the reference or spinning state) and, at the end, the analysis's datasets (docs/results.md):
 
 - modes: ``/modes/frequency`` [Hz], ``/modes/damping_ratio``, ``/modes/omega_squared`` [rad²/s²],
   ``/modes/root`` (k, 2) the roots s (real, imaginary) [1/s], ``/modes/kind`` (``elastic``, ``zero``,
@@ -34,10 +36,10 @@ from reference.algorithms.static import Static, StaticRun
 from reference import linearization
 from reference.linalg import SingularMatrix
 from reference.modal import buckling, modes
-from reference.status import OK, SINGULAR
+from reference.status import NO_CONVERGENCE, OK, SINGULAR
 from reference.validation import ModelWarning
 
-ABOUT = ("reference", "static")
+ABOUT = ("reference", "static", "rotation")
 """The configurations a modal analysis linearises about (``solver.about``)."""
 
 
@@ -53,6 +55,8 @@ class LinearRun:
     initial: tuple | None = None
     started: bool = False
     stopped_at: float | None = None
+    spinning: linearization.Linearization | None = None
+    problem: str = ""
 
 
 class LinearAnalysis(Algorithm):
@@ -68,6 +72,9 @@ class LinearAnalysis(Algorithm):
 
     explicit = False
     linearised = True
+    spin = None
+    """``(spin_rate, spin_axis, spin_point, Newton settings)`` of modes about a steady rotation (:class:`Modes`),
+    else None."""
 
     def __init__(self, n_modes: int, path: Static | None = None):
         if int(n_modes) < 1:
@@ -116,6 +123,14 @@ class LinearAnalysis(Algorithm):
                 record = None
             return self.path.advance(model, state, run.path, n_steps, record)
         system = run.system
+        if not run.started and self.spin is not None:
+            try:
+                lin = linearization.at_steady_rotation(model, state, *self.spin[:3], system=system, **self.spin[3])
+            except ValueError as exc:
+                run.problem, run.stopped_at = str(exc), state.t
+                return NO_CONVERGENCE
+            state.x[:], state.q[:], state.v[:], state.w[:] = lin.x, lin.q, lin.v, lin.w
+            run.spinning, run.lam, run.started = lin, lin.lam, True
         if not run.started:
             system.work.angle[:] = state.angle
             try:
@@ -134,6 +149,8 @@ class LinearAnalysis(Algorithm):
     def failure(self, code: int, state, run) -> tuple[str, str]:
         if run.path is not None:
             return self.path.failure(code, state, run.path)
+        if run.problem:
+            return "failed: no steady rotation", run.problem
         return ("failed: singular constraints at the reference state",
                 "the constraint Jacobian at the initial state is singular (redundant, unregularised joints): "
                 "the multipliers cannot be found; regularise the joints (epsilon > 0) or remove the redundancy")
@@ -156,7 +173,8 @@ class LinearAnalysis(Algorithm):
 
 
 class Modes(LinearAnalysis):
-    """Vibration modes about the reference state or a static equilibrium (``algorithm = "modes"``).
+    """Vibration modes about the reference state, a static equilibrium or a steady rotation
+    (``algorithm = "modes"``).
 
     Undamped modes when the reduced damping is zero and the stiffness symmetric, else the damped or
     gyroscopic quadratic problem (:func:`reference.modal.modes`).  Zero modes are counted among the
@@ -166,24 +184,51 @@ class Modes(LinearAnalysis):
 
     name = "modes"
     deck_required = ("modes",)
-    deck_optional = ("about", "t_end", "load_steps", "tolerance", "max_iterations", "output_every", "max_steps")
+    deck_optional = ("about", "t_end", "load_steps", "tolerance", "max_iterations", "output_every", "max_steps",
+                     "spin_rate", "spin_axis", "spin_point")
     STATIC_KEYS = ("t_end", "load_steps")
+    SPIN_KEYS = ("spin_rate", "spin_axis")
+
+    def __init__(self, n_modes: int, path: Static | None = None, spin: tuple | None = None):
+        super().__init__(n_modes, path)
+        self.spin = spin
 
     @classmethod
     def deck_keys(cls, solver: dict) -> tuple[tuple, tuple]:
-        """The keys of ``[solver]`` for its ``about``: the static algorithm's with ``"static"``."""
-        if solver.get("about", "reference") == "static":
+        """The keys of ``[solver]`` for its ``about``: the static algorithm's with ``"static"``, the spin's
+        with ``"rotation"``."""
+        about = solver.get("about", "reference")
+        if about == "static":
             return cls.deck_required + cls.STATIC_KEYS, ("about",) + Static.deck_optional
+        if about == "rotation":
+            return cls.deck_required + cls.SPIN_KEYS, ("about", "spin_point", "tolerance", "max_iterations")
         return cls.deck_required, ("about",)
+
+    @classmethod
+    def deck_settings(cls, rd, solver: dict, domain) -> dict:
+        """``spin_rate``, ``spin_axis`` (nonzero; normalised) and ``spin_point`` of modes about a rotation."""
+        if "spin_rate" not in solver:
+            return {}
+        axis = rd.direction(solver["spin_axis"], "solver.spin_axis")
+        return {"spin_rate": rd.number(solver["spin_rate"], "solver.spin_rate"),
+                "spin_axis": tuple(axis / np.linalg.norm(axis)),
+                "spin_point": tuple(rd.vector(solver.get("spin_point", [0.0, 0.0, 0.0]), "solver.spin_point"))}
 
     @classmethod
     def from_settings(cls, settings, dt=None):
         path = Static.from_settings(settings, dt) if settings.about == "static" else None
-        return cls(settings.modes, path)
+        newton = {k: v for k, v in (("tolerance", settings.tolerance), ("max_iterations", settings.max_iterations))
+                  if v is not None}
+        spin = ((settings.spin_rate, settings.spin_axis, settings.spin_point, newton) if settings.about == "rotation"
+                else None)
+        return cls(settings.modes, path, spin)
 
     def analyse(self, model, state, run) -> dict:
-        lin = linearization.linearize(model, state.x, state.q, state.v, state.w, self.multipliers(run), state.t,
-                                      state.angle, run.system)
+        if run.spinning is not None:
+            lin = run.spinning
+        else:
+            lin = linearization.linearize(model, state.x, state.q, state.v, state.w, self.multipliers(run), state.t,
+                                          state.angle, run.system)
         red = linearization.reduce(lin)
         size = red.M.shape[0]
         if self.n_modes > size:
@@ -204,6 +249,8 @@ class Modes(LinearAnalysis):
                "modes/zero_modes": np.int64(zero), "modes/mobility": np.int64(movable),
                "modes/constraint_rank": np.int64(red.rank), "modes/coordinates": np.int64(size),
                "modes/time": np.float64(state.t)}
+        if self.spin is not None:
+            out["modes/spin_rate"] = np.float64(self.spin[0])
         if found.damped:
             out["modes/shape_imaginary"] = shapes.imag
         return out
@@ -214,8 +261,12 @@ class Modes(LinearAnalysis):
         lines = [f"{'mode':>4}  {'frequency [Hz]':>15}  {'damping ratio':>13}  kind"]
         lines += [f"{k + 1:>4}  {f[k]:>15.6g}  {zeta[k]:>13.4g}  {kind[k]}" for k in range(len(f))]
         zero, movable, size = (int(results.data(f"modes/{k}")) for k in ("zero_modes", "mobility", "coordinates"))
+        about = f"t = {float(results.data('modes/time')):g}"
+        spin = np.asarray(results.data("modes/spin_rate"))
+        if spin.ndim == 0:  # a steady rotation (else the missing dataset's NaN per output)
+            about = f"the steady rotation at {float(spin):g} rad/s (spinning frame)"
         lines.append(f"{zero} zero mode{'s' if zero != 1 else ''} (rigid-body or mechanism); mobility {movable}; "
-                     f"{size} independent coordinates; about t = {float(results.data('modes/time')):g}")
+                     f"{size} independent coordinates; about {about}")
         return lines
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+
 from reference.algorithms import ALGORITHMS, SolverSettings
 from reference.algorithms.linear import ABOUT
 from reference.domain import Domain
@@ -47,7 +48,8 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
     algo_cls = ALGORITHMS[algorithm]
     rd.keys(sv, "solver", required=algo_cls.deck_required, optional=["algorithm", *algo_cls.deck_optional])
     about = rd.choice(sv.get("about", SolverSettings.about), "solver.about", ABOUT, "configuration",
-                      "'reference' (the initial state) or 'static' (the static equilibrium at t_end)")
+                      "'reference' (the initial state), 'static' (the static equilibrium at t_end) or 'rotation' "
+                      "(the model spinning at spin_rate about spin_axis)")
     # keys that only some values of another accept (modes: the static algorithm's keys with about = "static")
     required, optional = algo_cls.deck_keys(sv)
     rd.keys(sv, "solver", required=required, optional=["algorithm", *optional])
