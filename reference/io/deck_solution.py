@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import math
 
-
 from reference.algorithms import ALGORITHMS, SolverSettings
 from reference.algorithms.linear import ABOUT
 from reference.domain import Domain
