@@ -286,7 +286,7 @@ def plot_path(r, source, text: str, out: Path, plt) -> Path:
     """The equilibrium path of an arc-length run: the load factor (``/path/load_factor``) against a scalar
     observable or a component (``position.z:apex``), the unstable points (negative eigenvalues) drawn
     hollow, the limit and bifurcation points marked on the load factor they were interpolated to."""
-    from reference.observables import ObservableError, parse
+    from reference.observables import parse
 
     lam = r.data("path/load_factor")
     if not np.all(np.isfinite(lam)):
@@ -294,7 +294,7 @@ def plot_path(r, source, text: str, out: Path, plt) -> Path:
     obs = parse(text, r)
     values = obs.evaluate(r)
     if values.ndim != 1:
-        raise ObservableError(f"--path {text!r}: the observable has {values.shape[1]} components; pick one, e.g. "
+        raise OSError(f"{source}: --path {text!r}: the observable has {values.shape[1]} components; pick one, e.g. "
                          f"'{obs.kind}.z:{','.join(obs.args)}'")
     unstable = r.data("path/negative_eigenvalues") > 0
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
