@@ -261,3 +261,24 @@ def test_plot_path(tmp_path):
     assert main(["plot", str(tmp_path / "truss.h5"), "--path", "position.z:left:1", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "path_position.z_left_1.png").stat().st_size > 0
     assert main(["plot", str(tmp_path / "truss.h5"), "--path", "position:left:1", "--out", str(tmp_path)]) == 2
+
+
+def test_imperfect_cantilever_approaches_the_bifurcation_load():
+    """The same cantilever with a lateral tip load of 1/1000 of the vertical one (an imperfection): no
+    critical point (the tangent stays positive definite, the path is smooth), the tip moves sideways from
+    the start, and the load factor approaches the perfect beam's bifurcation load as the lateral deflection
+    grows: within 2 % of it once the tip is 0.05 L aside, and still below it at 0.02 L."""
+    critical = analytic.lateral_buckling_cantilever(100.0, 1.0, 1.0, 1.0) / 4.0
+    d = ltb(arc_length=0.05, max_points=40, max_load_factor=1.5)
+    d.add_interaction(NodalLoad(d.node("beam:32"), (0.0, 4e-3, 0.0)))
+    d.solver.stop_when = (d.node("beam:32").id, 1, ">", 0.06, "position.y:beam:end > 0.06")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r = d.solve()
+    lam, lateral = r.data("path/load_factor"), np.abs(r.position("beam:end")[:, 1])
+    print(f"imperfect: {len(lam)} points; load factor at 0.02 L aside {np.interp(0.02, lateral, lam):.5f}, at 0.05 L "
+          f"{np.interp(0.05, lateral, lam):.5f}; bifurcation {critical:.5f}")
+    assert not caught_lines(caught) and np.all(r.data("path/negative_eigenvalues") == 0.0)
+    assert lateral[-1] > 0.06 and np.all(np.diff(lateral) > 0.0)
+    assert np.interp(0.02, lateral, lam) < critical
+    assert abs(np.interp(0.05, lateral, lam) / critical - 1.0) <= 2e-2
