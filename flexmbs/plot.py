@@ -294,7 +294,7 @@ def plot_path(r, source, text: str, out: Path, plt) -> Path:
     obs = parse(text, r)
     values = obs.evaluate(r)
     if values.ndim != 1:
-        raise ValueError(f"--path {text!r}: the observable has {values.shape[1]} components; pick one, e.g. "
+        raise OSError(f"{source}: --path {text!r}: the observable has {values.shape[1]} components; pick one, e.g. "
                          f"'{obs.kind}.z:{','.join(obs.args)}'")
     unstable = r.data("path/negative_eigenvalues") > 0
     fig, ax = plt.subplots(figsize=(6.4, 4.2))

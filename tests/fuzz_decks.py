@@ -292,6 +292,7 @@ VOCABULARY = {
                "spin_point": [[0.0, 0.0, 0.0], [1.0, 2.0, 3.0]],
                "max_points": [10, 1000], "max_load_factor": [1.0, 10.0],
                "stop_when": ["position.z:b:end < -0.5", "load_factor > 2"], "branch_switch": [True, False],
+               "control": ["position.x:b:end", "position:b:end"],
                "error_tolerance": [1e-3, 1e-6], "dt_min": [1e-6, 1e-4], "dt_max": [1e-2, 1e-3]},
     "checks.*": {"observable": ["position:b:end"], "tolerance": [0.1], "reason": ["r"], "at": [[0.1]],
                  "description": ["d"], "node": ["b:end", "rb"], "reference": ["r"],
@@ -529,6 +530,7 @@ def warm_up() -> None:
     for name in ALGORITHMS:
         domain = load_deck(deck, overrides={"t_end": 0.02}).domain
         domain.solver.algorithm, domain.solver.dt, domain.solver.t_end, domain.solver.load_steps = name, 2e-4, 1e-3, 5
+        domain.solver.arc_length, domain.solver.max_points, domain.solver.max_load_factor = 1e-3, 5, 1.0
         domain.solve()
 
 

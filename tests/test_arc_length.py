@@ -94,8 +94,8 @@ def test_von_mises_truss_through_both_limit_points_to_the_mirror():
     limit −P_max) and the mirrored configuration (zero load at h = −H) on to twice the limit load.
     Every converged point on the closed form of the discrete truss within 1e-6 P_max (Newton's tolerance
     1e-10 of the forces, measured 6e-9); one negative eigenvalue exactly between the two limit points;
-    both flagged as limit points, their loads within 1e-3 of ±P_max (the Hermite interpolant of λ(s) over
-    one arc, measured ≤ 1e-4)."""
+    both flagged as limit points, their loads within 1e-4 of ±P_max (located by secant steps on the
+    eigenvalue nearest zero; measured 1e-9 and 3e-5)."""
     d = truss(algorithm="arc_length", arc_length=0.02, max_points=400, max_load_factor=0.8)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -117,7 +117,7 @@ def test_von_mises_truss_through_both_limit_points_to_the_mirror():
     critical, kind = r.data("path/critical_load_factor"), r.data("path/critical_kind")
     assert list(kind) == ["limit point", "limit point"]
     print("limit points", critical, "closed form ±", limit)
-    assert critical == pytest.approx([limit, -limit], rel=1e-3)
+    assert critical == pytest.approx([limit, -limit], rel=1e-4)
     assert len(caught_lines(caught)) == 2
 
 
@@ -125,7 +125,7 @@ def test_displacement_control_gives_the_same_points():
     """Displacement control of the apex height (``control = "position.z:left:1"``, steps of 0.005 × the model
     size 2): the apex moves down by exactly 0.01 per point (to 1e-12), the load factor that holds it is on
     the closed form within 1e-6 P_max at every point, as the arc-length points are; the same two limit
-    points, within 1e-3 of ±P_max."""
+    points, within 1e-4 of ±P_max (measured 1e-9 and 5e-8)."""
     d = truss(algorithm="arc_length", arc_length=0.005, max_points=30, max_load_factor=10.0)
     node = d.node("left:1").id
     d.solver.control = (node, 2, "position.z:left:1")
@@ -136,7 +136,7 @@ def test_displacement_control_gives_the_same_points():
     assert max(abs(lam[k] - truss_load(apex[k])) for k in range(len(lam))) <= 1e-6 * limit
     assert list(r.data("path/critical_kind")) == ["limit point", "limit point"]
     print("limit points by displacement control", r.data("path/critical_load_factor"))
-    assert r.data("path/critical_load_factor") == pytest.approx([limit, -limit], rel=1e-3)
+    assert r.data("path/critical_load_factor") == pytest.approx([limit, -limit], rel=1e-4)
 
 
 def test_rollup_past_two_turns_on_the_polygon():
@@ -161,7 +161,7 @@ def ltb(**solver) -> Domain:
 
 def test_lateral_torsional_bifurcation_and_its_post_buckled_branch():
     """The perfect cantilever of models/lateral_buckling.toml (32 elements, tip load 4 λ): the bifurcation
-    flagged within 1 % of the rod's closed form (measured below 0.1 %, Beam2's mesh error), a bifurcation
+    flagged within 1 % of the rod's closed form (the issue's target; measured +1.8e-4, Beam2's mesh error), a bifurcation
     and not a limit point, the beam in its plane up to there.  With ``branch_switch`` the path then leaves
     along the lateral–torsional mode: the tip moves sideways, further at every point, while the load stays
     within 5 % above the critical one and the tangent stays positive definite (a stable symmetric
@@ -260,4 +260,25 @@ def test_plot_path(tmp_path):
     d.solve(results_path=tmp_path / "truss.h5")
     assert main(["plot", str(tmp_path / "truss.h5"), "--path", "position.z:left:1", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "path_position.z_left_1.png").stat().st_size > 0
-    assert main(["plot", str(tmp_path / "truss.h5"), "--path", "position:left:1", "--out", str(tmp_path)]) != 0
+    assert main(["plot", str(tmp_path / "truss.h5"), "--path", "position:left:1", "--out", str(tmp_path)]) == 2
+
+
+def test_imperfect_cantilever_approaches_the_bifurcation_load():
+    """The same cantilever with a lateral tip load of 1/1000 of the vertical one (an imperfection): no
+    critical point (the tangent stays positive definite, the path is smooth), the tip moves sideways from
+    the start, and the load factor approaches the perfect beam's bifurcation load as the lateral deflection
+    grows: within 2 % of it once the tip is 0.05 L aside, and still below it at 0.02 L."""
+    critical = analytic.lateral_buckling_cantilever(100.0, 1.0, 1.0, 1.0) / 4.0
+    d = ltb(arc_length=0.05, max_points=40, max_load_factor=1.5)
+    d.add_interaction(NodalLoad(d.node("beam:32"), (0.0, 4e-3, 0.0)))
+    d.solver.stop_when = (d.node("beam:32").id, 1, ">", 0.06, "position.y:beam:end > 0.06")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r = d.solve()
+    lam, lateral = r.data("path/load_factor"), np.abs(r.position("beam:end")[:, 1])
+    print(f"imperfect: {len(lam)} points; load factor at 0.02 L aside {np.interp(0.02, lateral, lam):.5f}, at 0.05 L "
+          f"{np.interp(0.05, lateral, lam):.5f}; bifurcation {critical:.5f}")
+    assert not caught_lines(caught) and np.all(r.data("path/negative_eigenvalues") == 0.0)
+    assert lateral[-1] > 0.06 and np.all(np.diff(lateral) > 0.0)
+    assert np.interp(0.02, lateral, lam) < critical
+    assert abs(np.interp(0.05, lateral, lam) / critical - 1.0) <= 2e-2

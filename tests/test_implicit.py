@@ -38,7 +38,8 @@ def rollup(load_steps=20, **solver):
 
 
 def test_registry():
-    assert set(ALGORITHMS) == {"staggered_central_difference", "static", "generalized_alpha", "modes", "buckling"}
+    assert set(ALGORITHMS) == {"staggered_central_difference", "static", "generalized_alpha", "modes", "buckling",
+                               "arc_length"}
     assert ALGORITHMS["generalized_alpha"] is GeneralizedAlpha
 
 

@@ -34,9 +34,11 @@ eigenvalues of the tangent reduced to the constraints' null space
 (:func:`reference.modal.negative_eigenvalues`).  Where it changes between two points, the eigenvalue
 nearest zero (mass metric, :func:`reference.modal.nearest_zero`) is interpolated to its zero; the
 event is a *bifurcation* when the critical mode is orthogonal to the load (``|φᵀF| ≤``
-:data:`reference.algorithms.static.BIFURCATION` ``‖φ‖_M ‖F‖_M⁻¹``), else a *limit point*, whose load
-factor is the extremum of the cubic Hermite interpolant of λ(s) (values and path slopes dλ/ds at the
-two points).  ``branch_switch = true``: at the first bifurcation the next predictor goes along the
+:data:`reference.algorithms.static.BIFURCATION` ``‖φ‖_M ‖F‖_M⁻¹``), else a *limit point*.  Its load
+factor: :data:`reference.algorithms.critical_points.REFINE` secant steps on that eigenvalue along the path from the point before (probe points
+solved on its predictor's normal plane, not recorded); should a probe fail, the linear interpolation of
+the eigenvalue (bifurcation) or the extremum of the cubic Hermite interpolant of λ(s) from the values and
+path slopes at the two points (limit point).  ``branch_switch = true``: at the first bifurcation the next predictor goes along the
 critical mode (Δλ = 0, length ds; Wriggers 2008, §7.4.3), onto the post-buckled branch.
 """
 
@@ -44,21 +46,17 @@ from __future__ import annotations
 
 import math
 import operator
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sps
-import scipy.sparse.linalg as spla
 
+from reference.algorithms.critical_points import CriticalPoints
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
-from reference.algorithms.static import BIFURCATION, _eigenvalues, _row_forces
+from reference.algorithms.static import _row_forces
 from reference.interactions import tf_value
-from reference.linalg import SingularMatrix, null_space
-from reference.modal import SMALL, nearest_zero, negative_eigenvalues
+from reference.linalg import SingularMatrix
 from reference.observables import ObservableError, _Names, parse
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
-from reference.validation import ModelWarning
 
 MAX_CUTS = 10
 """Halvings of the arc length before the run stops (smallest arc 1/1024 of the one that failed)."""
@@ -116,7 +114,7 @@ class ArcRun:
     controlled: int = -1
 
 
-class ArcLength(ImplicitAlgorithm):
+class ArcLength(CriticalPoints, ImplicitAlgorithm):
     """Arc-length continuation of the static equilibrium path (Riks' normal-plane constraint).
 
     Parameters
@@ -412,72 +410,6 @@ class ArcLength(ImplicitAlgorithm):
         P1 = _row_forces(system, run.mu)
         return work - 0.5 * float(np.sum((run.P + P1) * d)), P1
 
-    def _reduced(self, run, x, q, lam, Z=None):
-        """``(K_r, Z, F_r)``: the tangent at λ reduced to the null space of B, and the reduced load."""
-        system = run.system
-        _, F = self._evaluate(run, x, q, lam)
-        F = F[system.free].copy()
-        A = self._matrix(run, x, q, lam, ce=0.0)
-        n = system.n_free
-        if A.shape[0] == n:
-            K = A.toarray() if n <= SMALL else A.copy()
-            return K, None, F
-        A = A.tocsr()
-        if Z is None:
-            Z, _ = null_space(A[n:, :n])
-        return (Z.T @ A[:n, :n] @ Z).tocsr(), Z, Z.T @ F
-
-    def _stability(self, run, x, q) -> None:
-        """Inertia of the reduced tangent at the point just converged, the path slope there, and the events."""
-        K, Z, F = self._reduced(run, x, q, run.lam)
-        count, sign = negative_eigenvalues(K, (run.negative, run.sign))
-        try:
-            dF, _ = self._tangent(run, x, q, run.lam)
-            t_u = self._scaled(run, dF)
-            sgn = -1.0 if run.previous is not None and t_u @ run.previous[:-1] + run.previous[-1] < 0.0 else 1.0
-            slope = sgn / math.sqrt(float(t_u @ t_u) + 1.0)
-        except SingularMatrix:
-            slope = 0.0
-        before = run.point
-        run.point = (x.copy(), q.copy(), run.mu.copy(), run.lam, run.s, count, slope)
-        old, run.negative, run.sign = run.negative, count, sign
-        if before is None:
-            if count > 0:
-                warnings.warn(f"the equilibrium at load factor {run.lam:.6g} is unstable: {_eigenvalues(count)} of "
-                              "the tangent", ModelWarning, stacklevel=3)
-            return
-        if count == old or count < 0 or old < 0 or run.jumped:  # a branch switch is no event of the path
-            return
-        system = run.system
-        x0, q0, mu0_, lam0, s0, _, slope0 = before
-        Zm = sps.identity(system.n_free, format="csr") if Z is None else Z
-        M = (Zm.T @ system.mass(x, q) @ Zm).tocsr()
-        mu1, phi = nearest_zero(sps.csr_matrix(K), M)
-        mu_now = run.mu
-        run.mu = mu0_
-        K0 = self._reduced(run, x0, q0, lam0, Z)[0]
-        run.mu = mu_now
-        mu0 = nearest_zero(sps.csr_matrix(K0), M)[0]
-        self._evaluate(run, x, q, run.lam)  # the evaluation at the current point again
-        s1, lam1 = run.s, run.lam
-        frac = mu0 / (mu0 - mu1) if mu0 != mu1 else 1.0
-        along = abs(phi @ F)
-        size = math.sqrt(max(F @ spla.spsolve(M.tocsc(), F), 0.0)) * math.sqrt(max(phi @ (M @ phi), 0.0))
-        if along <= BIFURCATION * size:
-            kind = "bifurcation"
-            lam_cr = lam0 + frac * (lam1 - lam0)
-            if self.branch_switch and not run.switched:
-                mode = np.zeros((x.shape[0], 6))
-                mode[system.free] = Zm @ phi
-                run.switch, run.switched = mode, True
-        else:
-            kind = "limit point"
-            lam_cr = _extremum(s0, s1, lam0, lam1, slope0, slope)
-        run.events.append((lam0, lam1, lam_cr, kind, count))
-        change = "stability lost" if count > old else "stability regained" if count == 0 else "stability changed"
-        warnings.warn(f"{change} between load factor {lam0:.6g} and {lam1:.6g} (arc length {s0:.6g} to {s1:.6g}): "
-                      f"{kind}, {_eigenvalues(count)} (critical load factor {lam_cr:.8g})", ModelWarning, stacklevel=3)
-
     def recorded(self, run) -> dict:
         """The path's datasets at the recorded point (docs/results.md ``/path``)."""
         lam, s, its, count = run.recorded
@@ -525,22 +457,6 @@ def _coordinate(rd, text, entry, domain, example) -> tuple:
     except ObservableError as exc:
         raise rd.fail(entry, f"{text!r}: {exc}", example) from None
     return domain.node(_Names(domain).node(label)).id, "xyz".index(head[-1]), text
-
-
-def _extremum(s0, s1, f0, f1, d0, d1) -> float:
-    """The extremum of the cubic Hermite interpolant of f on [s0, s1] (values f, slopes d); the nearer end's
-    value when it has none inside."""
-    h = s1 - s0
-    a = 2.0 * f0 + h * d0 - 2.0 * f1 + h * d1
-    b = -3.0 * f0 - 2.0 * h * d0 + 3.0 * f1 - h * d1
-    c = h * d0
-    roots = np.roots([3.0 * a, 2.0 * b, c]) if abs(a) + abs(b) > 0.0 else np.array([])
-    inside = [float(r.real) for r in np.atleast_1d(roots) if abs(r.imag) < 1e-12 and -1e-9 <= r.real <= 1.0 + 1e-9]
-    if not inside:
-        return f0 if abs(d0) < abs(d1) else f1
-    guess = d0 / (d0 - d1) if d0 != d1 else 0.5
-    tau = min(inside, key=lambda r: abs(r - guess))
-    return float(((a * tau + b) * tau + c) * tau + f0)
 
 
 def _skew(v) -> np.ndarray:
