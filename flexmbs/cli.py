@@ -239,6 +239,10 @@ def _run_deck(args, deck):
         pvd = write_vtk(domain, result, out / "vtk", domain.name, every=args.vtk_every)
     print(f"{domain.name}: {len(result.time)} outputs to t = {result.time[-1]:g} in {wall:.2f} s "
           f"(solve {result.wall_time:.3f} s) → {results_path}" + (f", {pvd}" if pvd else ""))
+    solver = (getattr(domain, "last_run", {}) or {}).get("solver")
+    line = domain.algorithm().summary(solver) if solver is not None else ""
+    if line:
+        print(f"{domain.name}: {line}")
     return result
 
 
