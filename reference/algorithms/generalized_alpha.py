@@ -33,6 +33,11 @@ tolerance (translations over the model size, rotations in rad).  The
 initial accelerations and multipliers are consistent: ``M V̇_0 + Bᵀλ_0 = −r_0``,
 ``B V̇_0 = −d/dt(B V + Φ_t)`` (the last by a central difference along the motion).
 
+Step size (:mod:`reference.algorithms.step_control`, docs/formulation.md §12): a step whose Newton
+iteration fails is halved and grows back; with ``error_tolerance`` every step is chosen from the local
+error estimate.  The compiled steps (predictor, modified Newton, acceptance) are
+:mod:`reference.algorithms.alpha_steps`; this module keeps the factorisations and the step control.
+
 Energies: external work by the trapezoidal rule on the step increments (loads,
 actuators and drives), damping dissipation by the trapezoidal rule on
 ``c Vᵀ M V`` plus the force elements' damper power ``Σ c (B_e V)²``.
@@ -319,6 +324,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         x, q, v, w, f_prev, clock = state[:6]
         target = (run.nominal + n_steps) * self.dt
         control = self.error_tolerance is not None
+        held = (x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers)  # what a rejected step restores
         saved = None
         while True:
             left = target - clock[0]
@@ -328,7 +334,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             h_use = left if left <= LANDING * h else (0.5 * left if left < 2.0 * h else h)
             self._set_step(run, h_use, clock[0], clock[1])
             if control:
-                saved = [arr.copy() for arr in (x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers)]
+                saved = [arr.copy() for arr in held]
             angle = system.work.angle.copy()
             code, done = self._steps(state, run, 1, rec)
             if code != OK:
@@ -343,7 +349,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                 err = error_norm(run.a, saved[5], v, w, h_use, self.beta, run.L, self.error_tolerance)
                 h_next = min(max(next_step(h_use, err), self.dt_min), self.dt_max)
                 if err > 1.0 and h_use > self.dt_min * (1.0 + 1e-12):
-                    for arr, old in zip((x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers), saved):
+                    for arr, old in zip(held, saved):
                         arr[...] = old
                     system.work.angle[:] = angle
                     par[11] = np.nan  # the last evaluation is no longer at the state
@@ -352,7 +358,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                     continue
                 stats.step(h_use, err)
                 # a step shortened to land on an output keeps the controller's step for the next
-                run.h = h_next if h_use >= h else max(h, h_next) if err <= 1.0 else h_next
+                run.h = h_next if h_use >= h else max(h, h_next)
             else:
                 stats.step(h_use)
                 run.good += 1
