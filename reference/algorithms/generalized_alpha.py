@@ -325,7 +325,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         target = (run.nominal + n_steps) * self.dt
         control = self.error_tolerance is not None
         held = (x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers)  # what a rejected step restores
-        saved = None
+        saved, rejected = None, False
         while True:
             left = target - clock[0]
             if left <= 1e-9 * self.dt:
@@ -355,7 +355,10 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                     par[11] = np.nan  # the last evaluation is no longer at the state
                     stats.rejected += 1
                     run.h = h_next
+                    rejected = True
                     continue
+                if rejected:
+                    h_next, rejected = min(h_next, h_use), False  # no growth right after a rejection (HNW §II.4)
                 stats.step(h_use, err)
                 # a step shortened to land on an output keeps the controller's step for the next
                 run.h = h_next if h_use >= h else max(h, h_next)

@@ -22,7 +22,7 @@ own increment, so neither the mesh's length scale nor the node count changes the
 **Controller** (Hairer, Nørsett & Wanner 1993, *Solving Ordinary Differential Equations I*, §II.4): a step with error
 norm ``err ≤ 1`` is accepted, one with ``err > 1`` is taken again from its start; either way the next
 step is ``h · min(MAX_GROWTH, max(MIN_SHRINK, SAFETY · err^(−1/3)))`` (local error O(h³)), within
-``[dt_min, dt_max]``.  Steps are shortened to land on the output times (no interpolation).
+``[dt_min, dt_max]``, and no larger than the rejected one right after a rejection.  Steps are shortened to land on the output times (no interpolation).
 """
 
 from __future__ import annotations
