@@ -623,6 +623,11 @@ def main(args=None) -> int:
     data = work_precision(quick)
     table = work_precision_table(data)
     print("\n".join(table))
+    from flexmbs.bench_adaptive import tolerance_table
+
+    adaptive = tolerance_table(data, quick)
+    print("\n".join(adaptive))
+    table = table + adaptive
     out = Path(getattr(args, "out", None) or ROOT / "out" / "bench")
     figure = work_precision_figure(data, out / "work_precision.png")
     (out / "work_precision.md").write_text("\n".join(lines + table + [f"![work-precision]({figure.name})", ""]),

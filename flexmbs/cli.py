@@ -249,6 +249,10 @@ def _run_deck(args, deck):
           f"(solve {result.wall_time - timer.seconds:.3f} s"
           + (f", compiling the kernels {timer.seconds:.1f} s" if timer.kernels else "") + f") → {results_path}"
           + (f", {pvd}" if pvd else ""))
+    solver = (getattr(domain, "last_run", {}) or {}).get("solver")
+    line = domain.algorithm().summary(solver) if solver is not None else ""
+    if line:
+        print(f"{domain.name}: {line}")
     return result
 
 

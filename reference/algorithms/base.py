@@ -87,6 +87,10 @@ class Algorithm(ABC):
         """Lines of the terminal table of a linearised analysis's results (none for the others)."""
         return []
 
+    def summary(self, run) -> str:
+        """One line on how the run went (steps, iterations, cuts), printed after ``flexmbs run`` ("": none)."""
+        return ""
+
     def finish(self, model, state, run, completed: bool) -> dict:
         """Datasets written once when the run ends (path in the results file → array); ``completed``
         whether every step was taken."""
@@ -138,6 +142,12 @@ class SolverSettings:
         Generalized-α: spectral radius at infinite frequency (1: no numerical dissipation).
     tolerance, max_iterations : float, int, optional
         Newton settings of the implicit algorithms (None: the algorithm's default).
+    error_tolerance : float, optional
+        Generalized-α: bound of the local error estimate; the algorithm chooses the step
+        (:mod:`reference.algorithms.step_control`; None: fixed steps of ``dt``).
+    dt_min, dt_max, first_step : float, optional
+        Generalized-α with ``error_tolerance``: bounds of the step and the first step [s] (``dt`` is
+        then the output grid).
     modes : int
         Modes and buckling: how many of the lowest modes (load factors) to compute.
     about : str
@@ -160,6 +170,10 @@ class SolverSettings:
     rho_inf: float = 0.8
     tolerance: float | None = None
     max_iterations: int | None = None
+    error_tolerance: float | None = None
+    dt_min: float | None = None
+    dt_max: float | None = None
+    first_step: float | None = None
     modes: int = 6
     about: str = "reference"
     arc_length: float = 0.0

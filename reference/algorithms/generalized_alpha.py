@@ -33,6 +33,11 @@ tolerance (translations over the model size, rotations in rad).  The
 initial accelerations and multipliers are consistent: ``M V̇_0 + Bᵀλ_0 = −r_0``,
 ``B V̇_0 = −d/dt(B V + Φ_t)`` (the last by a central difference along the motion).
 
+Step size (:mod:`reference.algorithms.step_control`, docs/formulation.md §13): a step whose Newton
+iteration fails is halved and grows back; with ``error_tolerance`` every step is chosen from the local
+error estimate.  The compiled steps (predictor, modified Newton, acceptance) are
+:mod:`reference.algorithms.alpha_steps`; this module keeps the factorisations and the step control.
+
 Energies: external work by the trapezoidal rule on the step increments (loads,
 actuators and drives), damping dissipation by the trapezoidal rule on
 ``c Vᵀ M V`` plus the force elements' damper power ``Σ c (B_e V)²``.
@@ -46,11 +51,13 @@ import numpy as np
 
 from dataclasses import dataclass, field
 
-from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, evaluate, write_record
-from reference.jit import inlined, kernel, named
-from reference.linalg import SingularMatrix, lu_solve
-from reference.state import Model, Record
-from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR
+from reference.algorithms.alpha_steps import NO_FACTOR, dissipation, power, steps
+from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem
+from reference.linalg import SingularMatrix
+from reference.state import Record
+from reference.algorithms.step_control import (GROW_AFTER, LANDING, MAX_CUTS, SolverStatistics, error_norm,
+                                               next_step)
+from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR, newton_failure
 
 
 def parameters(rho_inf: float) -> tuple[float, float, float, float]:
@@ -68,16 +75,21 @@ class GeneralizedAlphaRun:
     :class:`~reference.state.State`.
 
     ``system`` the model's Newton system; ``L`` the model size [m] of the convergence test;
-    ``vd``, ``a`` (N, 6) the accelerations V̇ and the algorithmic accelerations; ``lam`` (m,)
-    the multipliers; ``powers`` = [constraint power P, dissipated power D] of the last step;
-    ``factors`` the kept LU factor (None: none yet); ``par`` the compiled steps' settings and
-    counters (:func:`steps`); ``arrays`` their work arrays; ``started`` whether the consistent
-    initial accelerations are computed; ``iterations``, ``factorizations`` counts;
-    ``stopped_at`` the time where a failed step stopped.
+    ``h`` the current step [s]; ``vd``, ``a`` (N, 6) the accelerations V̇ and the algorithmic
+    accelerations; ``lam`` (m,) the multipliers; ``powers`` = [constraint power P, dissipated power D]
+    of the last step; ``factors`` the kept LU factor (None: none yet); ``par`` the compiled steps'
+    settings and counters (:func:`steps`); ``arrays`` their work arrays; ``started`` whether the
+    consistent initial accelerations are computed; ``varying`` whether the step is controlled step by
+    step (error control, or a cut step growing back); ``nominal`` the steps of ``dt`` reached (the
+    output grid); ``good`` converged steps since the last cut; ``ceiling`` the largest step it grows back to
+    (below the last that failed, doubled at every output up to ``dt``); ``stats`` the
+    :class:`~reference.algorithms.step_control.SolverStatistics`; ``row`` its record of the last
+    output; ``stopped_at`` the time where a failed step stopped; ``tried`` what was tried then.
     """
 
     system: NewtonSystem
     L: float
+    h: float
     vd: np.ndarray | None = None
     a: np.ndarray | None = None
     lam: np.ndarray | None = None
@@ -86,15 +98,27 @@ class GeneralizedAlphaRun:
     par: np.ndarray | None = None
     arrays: tuple = ()
     started: bool = False
-    iterations: int = 0
-    factorizations: int = 0
+    varying: bool = False
+    nominal: int = 0
+    good: int = 0
+    ceiling: float = math.inf
+    stats: SolverStatistics = field(default_factory=SolverStatistics)
+    row: dict = field(default_factory=dict)
     stopped_at: float | None = None
+    tried: str = ""
     history: list = field(default_factory=list)
 
+    @property
+    def iterations(self) -> int:
+        return self.stats.iterations
 
-NO_FACTOR = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
-             np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
-"""Empty factor arrays, passed to the compiled steps before the first factorisation."""
+    @property
+    def factorizations(self) -> int:
+        return self.stats.factorizations
+
+
+RECOVERABLE = (NO_CONVERGENCE, DIVERGED, SINGULAR)
+"""Step failures that a smaller step may cure (:mod:`reference.algorithms.step_control`)."""
 
 
 class GeneralizedAlpha(ImplicitAlgorithm):
@@ -103,39 +127,63 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     Parameters
     ----------
     dt : float
-        Time step h [s] (no stability limit).
+        Time step h [s] (no stability limit); with ``error_tolerance`` the output grid and, unless
+        ``first_step`` is given, the first step.
     rho_inf : float, default 0.8
         Spectral radius at infinite frequency, 0 ≤ ρ∞ ≤ 1 (1: no numerical dissipation).
     tolerance : float, default 1e-10
         Newton stops when the largest correction (or the error it leaves, see above) is
-        below ``tolerance`` × model size (translations) and ``tolerance`` rad (rotations).
+        below ``tolerance`` × model size (translations) and ``tolerance`` rad (rotations)
+        (× h/dt on a cut step, :mod:`reference.algorithms.step_control`).
     max_iterations : int, default 15
-        Newton corrections per step before the run stops.
+        Newton corrections per step before the step is cut.
+    error_tolerance : float, optional
+        The local error estimate's bound (:mod:`reference.algorithms.step_control`): the step is
+        chosen to keep it; None: fixed steps of ``dt``, cut only when Newton fails.
+    dt_min, dt_max : float, optional
+        Bounds of the controlled step [s] (default ``dt · 2⁻¹⁰`` and the output interval).
+    first_step : float, optional
+        The first step [s] with ``error_tolerance`` (default ``dt``).
     """
 
     name = "generalized_alpha"
-    deck_required = ("dt", "t_end")
-    deck_optional = ("rho_inf", "tolerance", "max_iterations", "damping", "output_every",
-                     "consistent_initial_velocities", "max_steps")
+    deck_required = ("t_end",)
+    deck_optional = ("dt", "rho_inf", "tolerance", "max_iterations", "damping", "output_every",
+                     "consistent_initial_velocities", "max_steps", "error_tolerance", "dt_min", "dt_max")
     contraction = 0.1
     """Modified Newton: the factor is kept over iterations and steps while each correction is
     below this fraction of the previous one; otherwise the matrix is refactored at the iterate."""
 
-    def __init__(self, dt: float, rho_inf: float = 0.8, tolerance: float = 1e-10, max_iterations: int = 15):
+    def __init__(self, dt: float, rho_inf: float = 0.8, tolerance: float = 1e-10, max_iterations: int = 15,
+                 error_tolerance: float | None = None, dt_min: float | None = None, dt_max: float | None = None,
+                 first_step: float | None = None):
         super().__init__(dt, tolerance, max_iterations)
         if not 0.0 <= rho_inf <= 1.0:
             raise ValueError(f"rho_inf must lie in [0, 1], got {rho_inf!r}")
         self.rho_inf = float(rho_inf)
         self.alpha_m, self.alpha_f, self.gamma, self.beta = parameters(self.rho_inf)
+        self.error_tolerance = None if error_tolerance is None else float(error_tolerance)
+        self.dt_min = float(dt_min) if dt_min else self.dt * 0.5**MAX_CUTS
+        self.dt_max = float(dt_max) if dt_max else math.inf
+        self.first_step = float(first_step) if first_step else self.dt
+        if self.dt_min > self.dt_max:
+            raise ValueError(f"dt_min = {self.dt_min:g} is above dt_max = {self.dt_max:g}")
+
+    @classmethod
+    def deck_keys(cls, solver: dict) -> tuple[tuple, tuple]:
+        """``dt`` is required, unless ``error_tolerance`` is given (the algorithm then chooses the step)."""
+        return ("t_end",) if "error_tolerance" in solver else ("dt", "t_end"), cls.deck_optional
 
     @classmethod
     def from_settings(cls, settings, dt=None):
-        return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or 1e-10, settings.max_iterations or 15)
+        return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or 1e-10, settings.max_iterations or 15,
+                   settings.error_tolerance, settings.dt_min, settings.dt_max, settings.first_step)
 
     def start(self, model, state, critical_step=None, guard=None) -> GeneralizedAlphaRun:
         """A run from ``state``: the Newton system; the initial accelerations are computed by the first
         :meth:`advance`."""
-        return GeneralizedAlphaRun(self.newton_system(model), self.length_scale(state.x))
+        h = self.dt if self.error_tolerance is None else min(max(self.first_step, self.dt_min), self.dt_max)
+        return GeneralizedAlphaRun(self.newton_system(model), self.length_scale(state.x), h)
 
     def _initial_accelerations(self, run, state) -> int:
         """Consistent initial accelerations and multipliers at the state's time."""
@@ -145,21 +193,26 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         N, m = x.shape[0], model.n_constraints
         t = clock[0]
         system.work.angle[:] = state.angle  # the force elements' continuous angles
+        h = run.h
+        bp = (1.0 - self.alpha_m) / (h * h * self.beta * (1.0 - self.alpha_f))
         try:
-            vd, lam = system.consistent_accelerations(x, q, v, w, t, 1e-3 * self.dt)
+            vd, lam = system.consistent_accelerations(x, q, v, w, t, 1e-3 * h, ce=bp)
         except SingularMatrix:
+            run.tried = "at the initial accelerations"
             return SINGULAR
         run.vd, run.a, run.lam = vd, vd.copy(), lam
         system.evaluate(x, q, v, w, vd, lam, t, True)
         f_prev[:] = system.work.F
-        run.powers = np.array([_power(model, system.work.Bl, lam, v, w),
-                               _dissipation(model, v, w) + system.work.fe_out[0]])
+        run.powers = np.array([power(model, system.work.Bl, lam, v, w),
+                               dissipation(model, v, w) + system.work.fe_out[0]])
         n = system.pattern.n
         run.arrays = tuple(np.zeros((N, 6)) for _ in range(7)) + (
             np.zeros(m), np.zeros(m), np.zeros(n), np.zeros(n), np.zeros(n),
             np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4), np.zeros((N, 3)))
-        run.par = np.array([self.dt, self.alpha_m, self.alpha_f, self.gamma, self.beta, self.tolerance, run.L,
-                            self.contraction, self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0, 0.0])
+        run.par = np.array([run.h, self.alpha_m, self.alpha_f, self.gamma, self.beta, self.tolerance, run.L,
+                            self.contraction, self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0, 0.0, t, clock[1]])
+        run.varying = self.error_tolerance is not None or run.h != self.dt
+        run.nominal = int(round(t / self.dt))
         run.started = True
         return OK
 
@@ -172,10 +225,12 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             if code != OK:
                 run.stopped_at = clock[0]
                 return code
-        par, energy = run.par, run.powers
+        par = run.par
         left = int(n_steps)
         rec = Record.empty(x.shape[0], model.n_constraints) if record is None else record
         if record is not None:
+            r = system.work.r[system.free]
+            run.row = run.stats.output(par[0], math.sqrt(r @ r))
             if left > 0 and math.isfinite(par[11]):
                 # the last Newton evaluation of the previous step is this state within the
                 # tolerance: the compiled steps write the record from it before stepping
@@ -184,229 +239,157 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                 U = par[11] if np.isfinite(par[11]) else system.evaluate(x, q, v, w, run.vd, run.lam, clock[0], True)
                 system.write_record(record, x, q, v, w, U, clock, run.lam)
         par[10] = 0.0
-        while left > 0:
-            if run.factors is None:
-                par[9] = -1.0  # only predict: the factor is made at the predictor
-            code, done = steps(system.arg, x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, energy, system.dof, par,
-                               left, NO_FACTOR if run.factors is None else run.factors, system.wt, run.arrays,
-                               system.record_arg(rec))
-            left -= done
-            if code == OK:
-                continue
-            if code == REFACTOR:
-                arr, h = run.arrays, self.dt
-                bp = (1.0 - self.alpha_m) / (h * h * self.beta * (1.0 - self.alpha_f))
-                ck, cc = 1.0 / bp, (self.gamma / (h * self.beta)) / bp
-                try:
-                    run.factors = system.factor(arr[12], arr[13], np.ascontiguousarray(arr[1][:, 3:]), clock[0] + h,
-                                                arr[7], 1.0, cc, ck, psi=np.ascontiguousarray(h * arr[0][:, 3:]))
-                except SingularMatrix:
-                    run.stopped_at = clock[0]
-                    return SINGULAR
-                run.factorizations += 1
-                par[9] = 1.0  # the interrupted step resumes with a fresh factor
-                continue
+        if run.varying:
+            code = self._controlled(state, run, left, rec)
+        else:
+            code, done = self._steps(state, run, left, rec)
+            run.nominal += done
+            run.stats.steps += done
+            if done:
+                run.stats.h_min, run.stats.h_max = min(run.stats.h_min, par[0]), max(run.stats.h_max, par[0])
+            if code in RECOVERABLE:
+                code = self._cut(state, run, code)
+                if code == OK:
+                    code = self._controlled(state, run, left - done, rec)
+        state.angle[:] = system.work.angle
+        run.stats.iterations += int(par[10])
+        if code != OK:
             run.factors = None
             par[12] = 0.0
             run.stopped_at = clock[0]
-            state.angle[:] = system.work.angle
+        return code
+
+    def _steps(self, state, run, n_steps, rec) -> tuple[int, int]:
+        """Up to ``n_steps`` compiled steps of ``par[0]``, the Newton matrix factored when they ask;
+        returns (status, steps done)."""
+        system, par = run.system, run.par
+        x, q, v, w, f_prev, clock = state[:6]
+        left, done = n_steps, 0
+        while left > 0:
+            if run.factors is None:
+                par[9] = -1.0  # only predict: the factor is made at the predictor
+            code, n = steps(system.arg, x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers, system.dof,
+                            par, left, NO_FACTOR if run.factors is None else run.factors, system.wt, run.arrays,
+                            system.record_arg(rec))
+            left -= n
+            done += n
+            if code == OK:
+                continue
+            if code != REFACTOR:
+                return code, done
+            arr, h = run.arrays, par[0]
+            bp = (1.0 - self.alpha_m) / (h * h * self.beta * (1.0 - self.alpha_f))
+            ck, cc = 1.0 / bp, (self.gamma / (h * self.beta)) / bp
+            try:
+                run.factors = system.factor(arr[12], arr[13], np.ascontiguousarray(arr[1][:, 3:]), clock[0] + h,
+                                            arr[7], 1.0, cc, ck, psi=np.ascontiguousarray(h * arr[0][:, 3:]))
+            except SingularMatrix:
+                return SINGULAR, done
+            run.stats.factorizations += 1
+            par[9] = 1.0  # the interrupted step resumes with a fresh factor
+        return OK, done
+
+    def _set_step(self, run, h: float, t0: float, n0: float) -> None:
+        """Steps of h from time t0 after step n0; a new h needs a new factor (its coefficients change)."""
+        par = run.par
+        if h != par[0]:
+            par[0] = h
+            run.factors = None
+            # the Newton tolerance follows a cut step (step_control): no more Newton error in the answer
+            par[5] = self.tolerance * min(1.0, h / self.dt) if self.error_tolerance is None else self.tolerance
+        par[15], par[16] = t0, n0
+
+    def _cut(self, state, run, code) -> int:
+        """Halve the step after a failed one (its iterate is dropped; the state is the last converged);
+        the failure's code when the step would fall below ``dt_min``."""
+        par, stats = run.par, run.stats
+        run.factors = None
+        par[12] = 0.0
+        h = par[0] * 0.5
+        if h < self.dt_min * (1.0 - 1e-12):
+            run.tried = (f"with the step cut from {self.dt:g} to {par[0]:g} s"
+                         if self.error_tolerance is None else f"with the step at dt_min = {self.dt_min:g} s")
             return code
-        state.angle[:] = system.work.angle
-        run.iterations += int(par[10])
+        stats.cuts += 1
+        run.good = 0
+        run.ceiling = h  # the step grows back to below the one that failed, until the next output
+        run.varying = True
+        run.h = h
         return OK
 
-
-@kernel
-def _power(model, Bl, lam, v, w):
-    """``−λᵀ B V`` (power of the constraint forces) from the local rows ``Bl``."""
-    P = 0.0
-    jt_i, jt_j, jt_row0, jt_neq = model.joints.i, model.joints.j, model.joints.row0, model.joints.neq
-    for k in range(jt_i.shape[0]):
-        i, j = jt_i[k], jt_j[k]
-        for r in range(jt_row0[k], jt_row0[k] + jt_neq[k]):
-            acc = 0.0
-            for a in range(3):
-                acc += Bl[r, a] * v[i, a] + Bl[r, 3 + a] * w[i, a]
-                if j >= 0:
-                    acc += Bl[r, 6 + a] * v[j, a] + Bl[r, 9 + a] * w[j, a]
-            P -= lam[r] * acc
-    return P
-
-
-@kernel
-def _dissipation(model, v, w):
-    """Power of the mass-proportional damping ``c Vᵀ M V`` [W] (the force elements' dampers are added
-    from the evaluation)."""
-    c = model.damping
-    D = 0.0
-    J, mass = model.nodes.inertia, model.nodes.mass
-    for i in range(v.shape[0]):
-        for a in range(3):
-            D += mass[i] * v[i, a] * v[i, a]
-            for b in range(3):
-                D += w[i, a] * J[i, a, b] * w[i, b]
-    return c * D
-
-
-_evaluate = inlined(evaluate)
-_write_record = inlined(write_record)
-_power_inlined = inlined(_power)
-_dissipation_inlined = inlined(_dissipation)
-"""The model-taking kernels that :func:`steps` calls every iteration, inlined: a compiled call
-with the Model costs an atomic reference-count update per array of it, twice."""
-
-
-@inlined
-def _predict(v, w, vd, a, lam, an, vdn, dq, Vn, lamn, h, am, gamma, beta):
-    """The step's predictor from the converged state: algorithmic accelerations ``a_{n+1}`` at
-    ``V̇_{n+1} = V̇_n``, the increment ``Δq`` and velocities ``V_{n+1}`` of the scheme, ``λ_{n+1} = λ_n``."""
-    for i in range(v.shape[0]):
-        for k in range(6):
-            Vk = v[i, k] if k < 3 else w[i, k - 3]
-            an[i, k] = (vd[i, k] - am * a[i, k]) / (1.0 - am)
-            vdn[i, k] = vd[i, k]
-            dq[i, k] = Vk + h * (0.5 - beta) * a[i, k] + h * beta * an[i, k]
-            Vn[i, k] = Vk + h * (1.0 - gamma) * a[i, k] + h * gamma * an[i, k]
-    for k in range(lam.shape[0]):
-        lamn[k] = lam[k]
-
-
-@inlined
-def _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe_out, h, am, af):
-    """The converged step: the energy bookkeeping with its last evaluation (within the Newton
-    tolerance of the step's end) and the new state ``x, q, V, V̇, a, λ`` from the iterate in ``arr``."""
-    dq, Vn, vdn, an, _, _, _, lamn, _, _, _, _, x1, q1, tmp, psi = arr
-    N = x.shape[0]
-    for i in range(N):
-        for k in range(3):
-            x1[i, k] = x[i, k] + h * dq[i, k]
-            psi[i, k] = h * dq[i, 3 + k]
-    compose(q, psi, q1, tmp)
-    P1 = _power_inlined(model, Bl, lamn, Vn[:, :3], Vn[:, 3:])
-    D1 = _dissipation_inlined(model, Vn[:, :3], Vn[:, 3:]) + fe_out[0]
-    dW = 0.0
-    for i in range(N):
-        for k in range(6):
-            dW += 0.5 * (f_prev[i, k] + F[i, k]) * h * dq[i, k]
-            f_prev[i, k] = F[i, k]
-    clock[2] += dW + 0.5 * h * (energy[0] + P1)
-    clock[3] += 0.5 * h * (energy[1] + D1)
-    energy[0], energy[1] = P1, D1
-    for i in range(N):
-        for k in range(6):
-            a[i, k] = an[i, k] + (1.0 - af) / (1.0 - am) * (vdn[i, k] - vd[i, k])
-            vd[i, k] = vdn[i, k]
-        for k in range(3):
-            x[i, k] = x1[i, k]
-            v[i, k] = Vn[i, k]
-            w[i, k] = Vn[i, 3 + k]
-        for k in range(4):
-            q[i, k] = q1[i, k]
-    for k in range(lam.shape[0]):
-        lam[k] = lamn[k]
-
-
-@inlined
-def _correction(r, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta, L):
-    """One Newton correction with the kept factor: the right-hand side ``−[c_k r; Φ − ελ]`` of the last
-    evaluation, the solution ``sol`` and the node part ``delta`` (N, 6); returns its size
-    (translations over the model size L, rotations in rad), NaN if the residual is not finite."""
-    m = lamn.shape[0]
-    n_free = rhs.shape[0] - m
-    for i in range(r.shape[0]):
-        for k in range(6):
-            if not math.isfinite(r[i, k]):
-                return math.nan
-            if dof[i, k] >= 0:
-                rhs[dof[i, k]] = -ck * r[i, k]
-    for k in range(m):
-        rhs[n_free + k] = -(PHI[k] - row_eps[k] * lamn[k])
-    lu_solve(factors, rhs, lwork, sol)
-    size = 0.0
-    for i in range(r.shape[0]):
-        for k in range(6):
-            d = sol[dof[i, k]] if dof[i, k] >= 0 else 0.0
-            delta[i, k] = d
-            size = max(size, abs(d) / L if k < 3 else abs(d))
-    return size
-
-
-@kernel
-def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr, rec):
-    """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton).
-
-    Returns ``(status, steps done)``; ``REFACTOR`` (a correction shrank by less than
-    ``contraction``, or there is no factor yet) leaves the iterate of the unfinished step in
-    ``arr`` (x1, q1, V, λ, h Δq): the caller factors the Newton matrix there and calls again,
-    and the step resumes from that iterate.  At most ``max_iterations`` corrections per step
-    (``NO_CONVERGENCE`` otherwise).
-    ``par`` = [h, α_m, α_f, γ, β, tolerance, L, contraction, max_iterations, fresh, iterations, U,
-    resume, corrections of this step, record] (fresh: 1 the factor is new, −1 there is none yet;
-    iterations counted here; U the strain energy of the last evaluation; resume: 1 to continue
-    the interrupted step's iterate; record: 1 to first write the output record ``rec`` of the
-    current state from the last evaluation, :func:`reference.algorithms.implicit.write_record`).
-    """
-    model = named(model, Model)
-    rec = named(rec, Record)
-    dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, psi = arr
-    S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = wt
-    h, am, af, gamma, beta, tol, L, contraction = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
-    max_it = int(par[8])
-    bp = (1.0 - am) / (h * h * beta * (1.0 - af))
-    gp = gamma / (h * beta)
-    ck = 1.0 / bp
-    N = x.shape[0]
-    m = lam.shape[0]
-    n_free = rhs.shape[0] - m
-    row_eps = model.joints.eps
-    if par[14] == 1.0:
-        par[14] = 0.0
-        _write_record(model, x, q, v, w, par[11], clock, lam, PHI, PHIt, Bl, rec)
-    for step in range(n_steps):
-        t1 = clock[0] + h
-        if not (step == 0 and par[12] == 1.0):
-            # predictor (unless resuming the iterate of an interrupted step with a new factor)
-            par[13] = 0.0
-            _predict(v, w, vd, a, lam, an, vdn, dq, Vn, lamn, h, am, gamma, beta)
-        par[12] = 1.0  # an interruption from here on keeps the iterate
-        previous = -1.0
-        converged = False
-        while par[13] < max_it:
-            for i in range(N):
-                for k in range(3):
-                    x1[i, k] = x[i, k] + h * dq[i, k]
-                    psi[i, k] = h * dq[i, 3 + k]
-            compose(q, psi, q1, tmp)
-            par[11] = _evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
-            if par[9] < 0.0:
-                return REFACTOR, step
-            size = _correction(r, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta, L)
-            if not math.isfinite(size):
-                return DIVERGED, step
-            if previous >= 0.0 and size > contraction * previous:
-                return REFACTOR, step  # a new factor at this iterate (full Newton when it keeps happening)
-            theta = size / previous if previous > 0.0 else 1.0
-            previous = size
-            par[13] += 1.0
-            for i in range(N):
-                for k in range(6):
-                    dq[i, k] += delta[i, k] / h
-                    Vn[i, k] += gp * delta[i, k]
-                    vdn[i, k] += bp * delta[i, k]
-            for k in range(m):
-                lamn[k] += bp * sol[n_free + k]
-            par[10] += 1.0
-            # the error left after this correction: about θ/(1 − θ) of it for a contraction θ
-            # (Hairer & Wanner 1996, §IV.8); the correction itself when θ is not known yet
-            if size <= tol or (theta < 1.0 and theta * size <= tol * (1.0 - theta)):
-                converged = True
+    def _controlled(self, state, run, n_steps, rec) -> int:
+        """Steps to the output time ``n_steps`` steps of ``dt`` ahead, each chosen by the error control
+        or growing back after a cut (:mod:`reference.algorithms.step_control`), the last landing on it."""
+        system, par, stats = run.system, run.par, run.stats
+        x, q, v, w, f_prev, clock = state[:6]
+        target = (run.nominal + n_steps) * self.dt
+        control = self.error_tolerance is not None
+        held = (x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers)  # what a rejected step restores
+        saved, rejected = None, False
+        while True:
+            left = target - clock[0]
+            if left <= 1e-9 * self.dt:
                 break
-        if not converged:
-            par[12] = 0.0
-            return NO_CONVERGENCE, step
-        par[9] = 0.0
-        par[12] = 0.0
-        _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe[8], h, am, af)
-        clock[1] += 1
-        clock[0] = clock[1] * h
-    return OK, n_steps
+            h = run.h
+            h_use = left if left <= LANDING * h else (0.5 * left if left < 2.0 * h else h)
+            self._set_step(run, h_use, clock[0], clock[1])
+            if control:
+                saved = [arr.copy() for arr in held]
+            angle = system.work.angle.copy()
+            code, done = self._steps(state, run, 1, rec)
+            if code != OK:
+                system.work.angle[:] = angle
+                if code not in RECOVERABLE:
+                    return code
+                code = self._cut(state, run, code)
+                if code != OK:
+                    return code
+                continue
+            if control:
+                err = error_norm(run.a, saved[5], v, w, h_use, self.beta, run.L, self.error_tolerance)
+                h_next = min(max(next_step(h_use, err), self.dt_min), self.dt_max)
+                if err > 1.0 and h_use > self.dt_min * (1.0 + 1e-12):
+                    for arr, old in zip(held, saved):
+                        arr[...] = old
+                    system.work.angle[:] = angle
+                    par[11] = np.nan  # the last evaluation is no longer at the state
+                    stats.rejected += 1
+                    run.h = h_next
+                    rejected = True
+                    continue
+                if rejected:
+                    h_next, rejected = min(h_next, h_use), False  # no growth right after a rejection (HNW §II.4)
+                stats.step(h_use, err)
+                # a step shortened to land on an output keeps the controller's step for the next
+                run.h = h_next if h_use >= h else max(h, h_next)
+            else:
+                stats.step(h_use)
+                run.good += 1
+                if run.h < run.ceiling and run.good >= GROW_AFTER:
+                    run.h, run.good = min(2.0 * run.h, run.ceiling), 0
+        clock[0] = target
+        run.nominal += n_steps
+        run.ceiling = min(2.0 * run.ceiling, self.dt)
+        if not control and run.h == self.dt:
+            self._set_step(run, self.dt, clock[0], clock[1])  # back to the fixed steps
+            run.varying = False
+        return OK
+
+    def recorded(self, run) -> dict:
+        """The solver statistics of the steps up to each output (:mod:`reference.algorithms.step_control`)."""
+        return run.row
+
+    def summary(self, run) -> str:
+        return run.stats.summary()
+
+    def failure(self, code: int, state, run) -> tuple[str, str]:
+        """``(status, message)``, saying what was tried (step cuts, dt_min) and what to change."""
+        t = run.stopped_at if run.stopped_at is not None else state.t
+        if code == SINGULAR and run.tried:
+            status, message = super().failure(code, state, run)
+            return status, message.replace(f"at t = {t:.6g}", f"at t = {t:.6g} {run.tried}", 1)
+        fix = ("Lower dt_min or raise max_iterations; if the step shrinks at one instant, look for an impact, "
+               "a lock-up or a load jump there." if self.error_tolerance is not None else
+               "The motion may need a smaller dt from the start, or raise max_iterations; error_tolerance lets "
+               "the step follow the motion.")
+        return newton_failure(code, f"t = {t:.6g}", self.max_iterations, run.tried, fix)

@@ -33,6 +33,8 @@ SUGGEST = 0.8
 """Fraction of the critical estimate used for the dt the messages suggest."""
 MAX_MODES = 10_000
 """Largest ``solver.modes``: the lowest modes of a model are asked for, not its spectrum."""
+ADAPTIVE_OUTPUTS = 1000
+"""Output intervals to ``t_end`` of a generalized-α run with ``error_tolerance`` and no ``dt``."""
 
 
 def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine: int):
@@ -61,7 +63,9 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
                             fix="a static run of more load steps would take days; raise max_steps is no help")
     # the explicit step shrinks with the refined mesh; an implicit step does not
     mesh_factor = refine if algo_cls.explicit else 1
-    deck_dt = rd.number(sv["dt"], "solver.dt", positive=True) / mesh_factor if "dt" in sv else t_end / load_steps
+    adaptive = "error_tolerance" in sv
+    deck_dt = (rd.number(sv["dt"], "solver.dt", positive=True) / mesh_factor if "dt" in sv
+               else t_end / ADAPTIVE_OUTPUTS if adaptive else t_end / load_steps)
     dt = rd.number(overrides.get("dt", deck_dt), dt_entry, positive=True)
     # keep the deck's output times when the step is overridden by a whole factor
     ratio = deck_dt / dt
@@ -82,8 +86,16 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
         max_iterations=rd.integer(sv["max_iterations"], "solver.max_iterations", maximum=MAX_ITERATIONS,
                                   fix="Newton converges in a few iterations or not at all; use a smaller step")
         if "max_iterations" in sv else None,
-        modes=modes, about=about, **algo_cls.deck_settings(rd, sv, domain),
+        modes=modes, about=about,
+        error_tolerance=rd.number(sv["error_tolerance"], "solver.error_tolerance", positive=True) if adaptive else None,
+        dt_min=rd.number(sv["dt_min"], "solver.dt_min", positive=True) if "dt_min" in sv else None,
+        dt_max=rd.number(sv["dt_max"], "solver.dt_max", positive=True) if "dt_max" in sv else None,
+        first_step=dt if adaptive and ("dt" in sv or "dt" in overrides) else None,
+        **algo_cls.deck_settings(rd, sv, domain),
     )
+    if adaptive and (domain.solver.dt_min or 0.0) > (domain.solver.dt_max or math.inf):
+        raise rd.fail("solver.dt_min", f"dt_min = {domain.solver.dt_min:g} is above dt_max = {domain.solver.dt_max:g}",
+                      "give dt_min ≤ dt_max")
     max_steps = rd.integer(sv.get("max_steps", MAX_STEPS), "solver.max_steps", maximum=MAX_STEPS_LIMIT,
                            fix="a run of more steps would take weeks")
     unsafe = rd.boolean(sv.get("allow_unsafe_dt", False), "solver.allow_unsafe_dt")
@@ -96,10 +108,12 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
     if algo_cls.explicit and dt > SAFETY * crit and not unsafe:
         raise rd.fail(dt_entry, f"dt = {dt:g} is above the critical time step {crit:.4g} of the explicit scheme "
                       f"× {SAFETY:g} (the safety margin)",
-                      f"use dt ≤ {SUGGEST * crit:.3g}, e.g. {_suggest_dt(t_end, SUGGEST * crit)}"
+                      f"use dt ≤ {SUGGEST * crit:.3g}, e.g. {_suggest_dt(t_end, SUGGEST * crit)}, or algorithm = "
+                      "\"generalized_alpha\" (implicit: no critical step)"
                       if t_end / (SUGGEST * crit) <= max_steps else
                       f"a stable step needs {t_end / (SUGGEST * crit):.3g} steps, above the limit of {max_steps:.3g}: "
-                      "check the units of the section data, or raise solver.max_steps")
+                      "check the units of the section data, raise solver.max_steps, or use algorithm = "
+                      "\"generalized_alpha\" (implicit: no critical step)")
     damping = damping_problem(domain.solver.damping, dt, crit, SAFETY) if algo_cls.explicit and not unsafe else ""
     if damping:
         raise rd.fail("solver.damping", damping)

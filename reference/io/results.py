@@ -65,6 +65,13 @@ DATASETS = {
     "section_force": "elements/section_force",
     "section_moment": "elements/section_moment",
     "negative_eigenvalues": "stability/negative_eigenvalues",
+    "step_size": "solver/step_size",
+    "steps": "solver/steps",
+    "newton_iterations": "solver/newton_iterations",
+    "residual_norm": "solver/residual_norm",
+    "step_cuts": "solver/step_cuts",
+    "factorizations": "solver/factorizations",
+    "error_estimate": "solver/error_estimate",
 }
 """Record key → dataset path."""
 

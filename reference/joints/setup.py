@@ -178,7 +178,8 @@ def check_redundancy(model: Model, lagrange: list[Joint], x, q) -> None:
     Raises
     ------
     ValueError
-        ``redundant constraints: …``, naming the joints of the loop and a fix.
+        ``redundant constraints: …`` (:func:`redundancy_message`): the equations that stay redundant
+        once the regularised rows (ε > 0, which give way) are discounted, each loop with its fix.
     """
     if model.n_constraints == 0:
         return
@@ -186,20 +187,47 @@ def check_redundancy(model: Model, lagrange: list[Joint], x, q) -> None:
     Lx, dependent = dependent_rows(model, Bj, BMj)
     redundant = np.flatnonzero(dependent[model.joints.pattern.row_iperm])
     owner = [joint for joint in lagrange for _ in range(joint.n_equations)]
-    unregularised = [r for r in redundant if owner[r].formulation.epsilon == 0.0]
-    involved = dependency_rows(model, Lx, dependent, model.joints.pattern.row_iperm[unregularised])
-    labels = {owner[r].label for r in involved}
-    loop = [j for j in lagrange if j.label in labels]
-    stiff = [j.label for j in loop if j.formulation.epsilon == 0.0]
-    if not stiff:
+    loops: dict = {}
+    for r in redundant:
+        if owner[r].formulation.epsilon != 0.0:
+            continue  # a regularised row: a compliance, not a constraint
+        involved = dependency_rows(model, Lx, dependent, model.joints.pattern.row_iperm[[r]])
+        if any(owner[k].formulation.epsilon != 0.0 for k in involved):
+            continue  # the dependency goes through a regularised row: the compliance absorbs it
+        labels = frozenset(owner[k].label for k in involved)
+        loops[labels] = loops.get(labels, 0) + 1
+    if not loops:
         return
-    revolute = [j.label for j in loop if j.kind == "revolute"]
-    fix = f"regularise one of {', '.join(stiff)} (epsilon > 0, a compliance)"
-    if len(revolute) >= 2:
-        fix += (f", or replace revolute {revolute[-1]} by a spherical and {revolute[-2]} by a universal joint "
-                "(a spherical alone leaves one redundant)")
-    raise ValueError(f"redundant constraints: {len(redundant)} equation(s) depend on the others in the loop of "
-                     f"joints {', '.join(j.label for j in loop)}; {fix}")
+    raise ValueError(redundancy_message(lagrange, loops))
+
+
+MESSAGE_LENGTH = 200
+"""The redundancy message's length: the loops beyond it are counted, not listed."""
+
+
+def redundancy_message(lagrange: list[Joint], loops: dict) -> str:
+    """One line: how many equations are redundant once the regularised joints are discounted, and each
+    loop (joints in the order of the deck) with the joint to regularise (docs/deck.md, "Redundant
+    constraints", gives the other fixes).  ``loops``: joint labels of a loop → its redundant equations."""
+    order = {j.label: k for k, j in enumerate(lagrange)}
+    kinds = {j.label: j for j in lagrange}
+    n = sum(loops.values())
+    head = f"redundant constraints: {n} equation(s) stay dependent after regularisation: "
+    tail = " (docs/deck.md, redundant constraints)"
+    parts = []
+    for labels, count in sorted(loops.items(), key=lambda item: min(order[x] for x in item[0])):
+        loop = sorted(labels, key=order.__getitem__)
+        stiff = [x for x in loop if kinds[x].formulation.epsilon == 0.0]
+        parts.append(f"{count} in the loop {', '.join(loop)}, fix: epsilon > 0 on {stiff[-1]}")
+    shown = []
+    for k, part in enumerate(parts):
+        rest = len(parts) - k - 1
+        more = f"; {rest} more loop(s)" if rest else ""
+        if shown and len(head + "; ".join(shown + [part]) + more + tail) > MESSAGE_LENGTH:
+            shown.append(f"{len(parts) - k} more loop(s)")
+            break
+        shown.append(part)
+    return head + "; ".join(shown) + tail
 
 
 def project_initial_velocities(model: Model, state: State) -> None:

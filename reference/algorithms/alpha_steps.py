@@ -1,0 +1,217 @@
+"""The compiled steps of generalized-α (:mod:`reference.algorithms.generalized_alpha`): predictor,
+modified-Newton corrections with the kept factor, acceptance with the energy bookkeeping, all in one
+compiled call for many steps; the step-size control and the factorisations stay in Python.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from reference.algorithms.implicit import compose, evaluate, write_record
+from reference.jit import inlined, kernel, named
+from reference.linalg import lu_solve
+from reference.state import Model, Record
+from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR
+
+NO_FACTOR = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
+             np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
+"""Empty factor arrays, passed to the compiled steps before the first factorisation."""
+
+
+@kernel
+def power(model, Bl, lam, v, w):
+    """``−λᵀ B V`` (power of the constraint forces) from the local rows ``Bl``."""
+    P = 0.0
+    jt_i, jt_j, jt_row0, jt_neq = model.joints.i, model.joints.j, model.joints.row0, model.joints.neq
+    for k in range(jt_i.shape[0]):
+        i, j = jt_i[k], jt_j[k]
+        for r in range(jt_row0[k], jt_row0[k] + jt_neq[k]):
+            acc = 0.0
+            for a in range(3):
+                acc += Bl[r, a] * v[i, a] + Bl[r, 3 + a] * w[i, a]
+                if j >= 0:
+                    acc += Bl[r, 6 + a] * v[j, a] + Bl[r, 9 + a] * w[j, a]
+            P -= lam[r] * acc
+    return P
+
+
+@kernel
+def dissipation(model, v, w):
+    """Power of the mass-proportional damping ``c Vᵀ M V`` [W] (the force elements' dampers are added
+    from the evaluation)."""
+    c = model.damping
+    D = 0.0
+    J, mass = model.nodes.inertia, model.nodes.mass
+    for i in range(v.shape[0]):
+        for a in range(3):
+            D += mass[i] * v[i, a] * v[i, a]
+            for b in range(3):
+                D += w[i, a] * J[i, a, b] * w[i, b]
+    return c * D
+
+
+_evaluate = inlined(evaluate)
+_write_record = inlined(write_record)
+_power_inlined = inlined(power)
+_dissipation_inlined = inlined(dissipation)
+"""The model-taking kernels that :func:`steps` calls every iteration, inlined: a compiled call
+with the Model costs an atomic reference-count update per array of it, twice."""
+
+
+@inlined
+def _predict(v, w, vd, a, lam, an, vdn, dq, Vn, lamn, h, am, gamma, beta):
+    """The step's predictor from the converged state: algorithmic accelerations ``a_{n+1}`` at
+    ``V̇_{n+1} = V̇_n``, the increment ``Δq`` and velocities ``V_{n+1}`` of the scheme, ``λ_{n+1} = λ_n``."""
+    for i in range(v.shape[0]):
+        for k in range(6):
+            Vk = v[i, k] if k < 3 else w[i, k - 3]
+            an[i, k] = (vd[i, k] - am * a[i, k]) / (1.0 - am)
+            vdn[i, k] = vd[i, k]
+            dq[i, k] = Vk + h * (0.5 - beta) * a[i, k] + h * beta * an[i, k]
+            Vn[i, k] = Vk + h * (1.0 - gamma) * a[i, k] + h * gamma * an[i, k]
+    for k in range(lam.shape[0]):
+        lamn[k] = lam[k]
+
+
+@inlined
+def _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe_out, h, am, af):
+    """The converged step: the energy bookkeeping with its last evaluation (within the Newton
+    tolerance of the step's end) and the new state ``x, q, V, V̇, a, λ`` from the iterate in ``arr``."""
+    dq, Vn, vdn, an, _, _, _, lamn, _, _, _, _, x1, q1, tmp, psi = arr
+    N = x.shape[0]
+    for i in range(N):
+        for k in range(3):
+            x1[i, k] = x[i, k] + h * dq[i, k]
+            psi[i, k] = h * dq[i, 3 + k]
+    compose(q, psi, q1, tmp)
+    P1 = _power_inlined(model, Bl, lamn, Vn[:, :3], Vn[:, 3:])
+    D1 = _dissipation_inlined(model, Vn[:, :3], Vn[:, 3:]) + fe_out[0]
+    dW = 0.0
+    for i in range(N):
+        for k in range(6):
+            dW += 0.5 * (f_prev[i, k] + F[i, k]) * h * dq[i, k]
+            f_prev[i, k] = F[i, k]
+    clock[2] += dW + 0.5 * h * (energy[0] + P1)
+    clock[3] += 0.5 * h * (energy[1] + D1)
+    energy[0], energy[1] = P1, D1
+    for i in range(N):
+        for k in range(6):
+            a[i, k] = an[i, k] + (1.0 - af) / (1.0 - am) * (vdn[i, k] - vd[i, k])
+            vd[i, k] = vdn[i, k]
+        for k in range(3):
+            x[i, k] = x1[i, k]
+            v[i, k] = Vn[i, k]
+            w[i, k] = Vn[i, 3 + k]
+        for k in range(4):
+            q[i, k] = q1[i, k]
+    for k in range(lam.shape[0]):
+        lam[k] = lamn[k]
+
+
+@inlined
+def _correction(r, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta, L):
+    """One Newton correction with the kept factor: the right-hand side ``−[c_k r; Φ − ελ]`` of the last
+    evaluation, the solution ``sol`` and the node part ``delta`` (N, 6); returns its size
+    (translations over the model size L, rotations in rad), NaN if the residual is not finite."""
+    m = lamn.shape[0]
+    n_free = rhs.shape[0] - m
+    for i in range(r.shape[0]):
+        for k in range(6):
+            if not math.isfinite(r[i, k]):
+                return math.nan
+            if dof[i, k] >= 0:
+                rhs[dof[i, k]] = -ck * r[i, k]
+    for k in range(m):
+        rhs[n_free + k] = -(PHI[k] - row_eps[k] * lamn[k])
+    lu_solve(factors, rhs, lwork, sol)
+    size = 0.0
+    for i in range(r.shape[0]):
+        for k in range(6):
+            d = sol[dof[i, k]] if dof[i, k] >= 0 else 0.0
+            delta[i, k] = d
+            size = max(size, abs(d) / L if k < 3 else abs(d))
+    return size
+
+
+@kernel
+def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr, rec):
+    """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton).
+
+    Returns ``(status, steps done)``; ``REFACTOR`` (a correction shrank by less than
+    ``contraction``, or there is no factor yet) leaves the iterate of the unfinished step in
+    ``arr`` (x1, q1, V, λ, h Δq): the caller factors the Newton matrix there and calls again,
+    and the step resumes from that iterate.  At most ``max_iterations`` corrections per step
+    (``NO_CONVERGENCE`` otherwise).
+    ``par`` = [h, α_m, α_f, γ, β, tolerance, L, contraction, max_iterations, fresh, iterations, U,
+    resume, corrections of this step, record, t₀, n₀] (fresh: 1 the factor is new, −1 there is none yet;
+    iterations counted here; U the strain energy of the last evaluation; resume: 1 to continue
+    the interrupted step's iterate; record: 1 to first write the output record ``rec`` of the
+    current state from the last evaluation, :func:`reference.algorithms.implicit.write_record`; the
+    time after step n is ``t₀ + (n − n₀) h``, t₀ and n₀ where the step h began).
+    """
+    model = named(model, Model)
+    rec = named(rec, Record)
+    dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, psi = arr
+    S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = wt
+    h, am, af, gamma, beta, tol, L, contraction = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
+    max_it = int(par[8])
+    bp = (1.0 - am) / (h * h * beta * (1.0 - af))
+    gp = gamma / (h * beta)
+    ck = 1.0 / bp
+    N = x.shape[0]
+    m = lam.shape[0]
+    n_free = rhs.shape[0] - m
+    row_eps = model.joints.eps
+    if par[14] == 1.0:
+        par[14] = 0.0
+        _write_record(model, x, q, v, w, par[11], clock, lam, PHI, PHIt, Bl, rec)
+    for step in range(n_steps):
+        t1 = clock[0] + h
+        if not (step == 0 and par[12] == 1.0):
+            # predictor (unless resuming the iterate of an interrupted step with a new factor)
+            par[13] = 0.0
+            _predict(v, w, vd, a, lam, an, vdn, dq, Vn, lamn, h, am, gamma, beta)
+        par[12] = 1.0  # an interruption from here on keeps the iterate
+        previous = -1.0
+        converged = False
+        while par[13] < max_it:
+            for i in range(N):
+                for k in range(3):
+                    x1[i, k] = x[i, k] + h * dq[i, k]
+                    psi[i, k] = h * dq[i, 3 + k]
+            compose(q, psi, q1, tmp)
+            par[11] = _evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
+            if par[9] < 0.0:
+                return REFACTOR, step
+            size = _correction(r, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta, L)
+            if not math.isfinite(size):
+                return DIVERGED, step
+            if previous >= 0.0 and size > contraction * previous:
+                return REFACTOR, step  # a new factor at this iterate (full Newton when it keeps happening)
+            theta = size / previous if previous > 0.0 else 1.0
+            previous = size
+            par[13] += 1.0
+            for i in range(N):
+                for k in range(6):
+                    dq[i, k] += delta[i, k] / h
+                    Vn[i, k] += gp * delta[i, k]
+                    vdn[i, k] += bp * delta[i, k]
+            for k in range(m):
+                lamn[k] += bp * sol[n_free + k]
+            par[10] += 1.0
+            # the error left after this correction: about θ/(1 − θ) of it for a contraction θ
+            # (Hairer & Wanner 1996, §IV.8); the correction itself when θ is not known yet
+            if size <= tol or (theta < 1.0 and theta * size <= tol * (1.0 - theta)):
+                converged = True
+                break
+        if not converged:
+            par[12] = 0.0
+            return NO_CONVERGENCE, step
+        par[9] = 0.0
+        par[12] = 0.0
+        _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe[8], h, am, af)
+        clock[1] += 1
+        clock[0] = par[15] + (clock[1] - par[16]) * h
+    return OK, n_steps
