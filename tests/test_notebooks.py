@@ -28,8 +28,6 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.py"))
-# lesson 10 is being rewritten separately; it joins the exercise check when it has its exercises
-WITHOUT_EXERCISES_YET = {"10_modes_buckling"}
 QUOTED = re.compile(r"(?P<number>[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?)(?:\s*[^\s\d<>]+)?\s*"
                     r"<!--\s*check\s+(?P<name>\w+)\s+(?P<kind>rel|abs)\s+(?P<tolerance>\S+)\s*-->")
 
@@ -80,7 +78,7 @@ def nbformat_cell(jupytext, source: str):
     return jupytext.reads(f"# %%\n{source}\n", fmt="py:percent").cells[0]
 
 
-@pytest.mark.parametrize("notebook", [p for p in NOTEBOOKS if p.stem not in WITHOUT_EXERCISES_YET], ids=lambda p: p.stem)
+@pytest.mark.parametrize("notebook", NOTEBOOKS, ids=lambda p: p.stem)
 def test_every_lesson_asks_first_and_hides_its_answers(notebook):
     jupytext = pytest.importorskip("jupytext", reason="the test extra installs jupytext")
     cells = jupytext.read(notebook).cells
