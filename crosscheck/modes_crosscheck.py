@@ -24,7 +24,7 @@ import numpy as np
 from crosscheck.exudyn_model import Unsupported
 
 TOLERANCE = 1e-3
-"""Judged relative difference of each frequency (issue 19's 0.1 %).  With the same mass and stiffness the
+"""Judged relative difference of each frequency (0.1 %).  With the same mass and stiffness the
 two solves differ by the eigen-solvers' accuracy and the geometric stiffness of a pre-stress (second order in
 the element size, the module docstring of :mod:`crosscheck.exudyn_modes`): measured 3.5e-12 on
 ``models/cantilever_modes.toml`` (its consistent-mass frequencies: +2.0e-4 to +1.8e-2)."""

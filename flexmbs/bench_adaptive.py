@@ -1,4 +1,4 @@
-"""``make bench``: work–precision of generalized-α at a requested ``error_tolerance`` (issue 22).
+"""``make bench``: work–precision of generalized-α at a requested ``error_tolerance``.
 
 For each work–precision case of :data:`flexmbs.bench.WP_CASES`: the error of the coupler's mid-span
 deflection against the converged run of the same mesh (relative to its peak, as the fixed-step table)

@@ -31,7 +31,7 @@ The message names the likely cause: the time step, when it is above
 
 **The round-off floor.**  Without a floor the scale S of a model at rest, or at the start of a
 load ramped in from zero, is itself round-off, and the ratio of two round-off numbers trips the
-guard (issue 23: an unloaded quarter arc, kinetic + strain energy 2.7e-24 against 3.5e-27 of
+guard (an unloaded quarter arc, kinetic + strain energy 2.7e-24 against 3.5e-27 of
 work).  A model at rest is not at rest in floating point: its coordinates carry a round-off of
 ε|x| (ε = 2.2e-16), so its elements start with strains of order ε X / L_e (X the largest
 coordinate, L_e the element length) whose forces do not balance exactly, and the structure

@@ -25,7 +25,7 @@ JOINT_OFFSET = 0.25
 is warned about.  The points of a body are its node and its named points (a rigid bar's start,
 centre and end); joints sit on those in every shipped model (largest distance 0 × the model
 size), and an offset pin of a quarter of the model is no longer a detail of the drawing: the
-issue-23 reproducer, 0.3 m off both bodies of a 1 m model, moved the tip by 0.56 m."""
+reproducer of a misplaced pin, 0.3 m off both bodies of a 1 m model, moved the tip by 0.56 m."""
 
 
 class ModelWarning(UserWarning):
