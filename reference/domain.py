@@ -133,8 +133,11 @@ class Domain:
         """Mesh a straight beam, or a circular arc about ``center``, into ``n_elements`` elements of the
         family ``element`` (a name of :data:`reference.elements.families.ELEMENT_FAMILIES`, two-node).
 
-        Each element is straight in its own section frame (axis 1 along its
-        chord, axis 2 the ``axis2`` hint made orthogonal to it).  New nodes,
+        The family chooses each element's section frames at rest
+        (``formulation.rest_frames``): by default straight in its own section
+        frame (axis 1 along its chord, axis 2 the ``axis2`` hint made orthogonal
+        to it); a helicoidal ``beam2_se3`` takes the beam's triads at the nodes,
+        so its reference is the arc itself.  New nodes,
         labelled ``f"{label}:{i}"``, get the beam's section triad on the beam's
         axis (straight beam) or on the arc's tangent (:func:`reference.mesh.arc_geometry`);
         the kink between a node frame and an element's section frame is the
@@ -142,8 +145,8 @@ class Domain:
         for any angle.  ``start_node``/``end_node`` reuse existing nodes: a
         node whose frame is given (a ``[[nodes]]`` rotation, a rigid body, or
         set by an earlier beam) keeps it; otherwise it takes this beam's end
-        frame.  Arcs converge at second order in the element size to the
-        circle (chords between nodes on the arc).
+        frame.  Chord-frame arcs converge at second order in the element size
+        to the circle (chords between nodes on the arc).
         """
         start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
         if n_elements < 1:
@@ -175,7 +178,8 @@ class Domain:
                 node = self.add_node(points[i], node_q[i].copy(), f"{label}:{i}")
                 nodes.append(node)
         for i in range(n_elements):
-            self.add_element(formulation, (nodes[i], nodes[i + 1]), f"{label}/{i}", frames=(elem_q[i], elem_q[i]))
+            self.add_element(formulation, (nodes[i], nodes[i + 1]), f"{label}/{i}",
+                             frames=formulation.rest_frames(node_q, elem_q, i))
         return nodes
 
     def add_rigid_body(self, label: str, mass: float, inertia, position, rotation=None, points=None) -> Node:

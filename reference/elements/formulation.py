@@ -87,6 +87,13 @@ class ElementFormulation(ABC):
     n_nodes: int
     Data: type
 
+    @staticmethod
+    def rest_frames(node_frames: list, chord_frames: list, i: int) -> tuple:
+        """The section triads at rest (Euler parameters) of the two ends of element i of a meshed beam
+        (:meth:`reference.domain.Domain.add_beam`), given the beam's triads at its nodes and on its
+        chords: by default the chord's at both ends (an element straight in its own section frame)."""
+        return chord_frames[i], chord_frames[i]
+
     @abstractmethod
     def lumped_mass(self, x_nodes: np.ndarray) -> list: ...
 
