@@ -131,6 +131,8 @@ class Beam2SE3Formulation(Beam2Formulation):
     family = "beam2_se3"
     n_nodes = 2
     Data = Beam2SE3Data
+    exact_curvature = True
+    """Every constant-strain state (curvature included: a circle, a helix) is represented exactly."""
     assemble = staticmethod(_assemble)
     tangent_values = staticmethod(_tangent_values)
     resultants = staticmethod(_resultants)
