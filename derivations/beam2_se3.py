@@ -51,19 +51,9 @@ from __future__ import annotations
 
 import sympy as sp
 
-from derivations.beam2 import kernel_arguments
-from derivations.codegen import Coefficient, Kernel, Stager, render_coefficient, render_kernel, render_module, vector
-from derivations.rotation_maps import (
-    C,
-    USER_FUNCTIONS,
-    exp_matrix,
-    log_quaternion,
-    quat_conj,
-    quat_mul,
-    right_jacobian_inverse,
-    rotation_matrix,
-    skew,
-)
+from derivations.beam2 import kernel_arguments, two_node_start
+from derivations.codegen import Coefficient, Kernel, Stager, render_coefficient, render_kernel, render_module
+from derivations.rotation_maps import C, USER_FUNCTIONS, exp_matrix, right_jacobian_inverse, skew
 from derivations.tangents import DERIVATIVE_COEFFICIENTS, stage_sparse
 
 a = sp.Symbol("a")
@@ -102,17 +92,7 @@ def _jacobian(vec: sp.Matrix, wrt) -> sp.Matrix:
 
 def se3_quantities():
     """Inputs, element quantities (forces, strains, resultants, energy) and stages of the force kernel."""
-    x1, x2 = sp.Matrix(vector("x1", 3)), sp.Matrix(vector("x2", 3))
-    q1, q2 = vector("q1", 4), vector("q2", 4)
-    L0 = sp.Symbol("L0", positive=True)
-    psi0, gamma0 = sp.Matrix(vector("psi0", 3)), sp.Matrix(vector("gamma0", 3))
-    c = vector("c", 6)
-    CG, CK = sp.diag(*c[:3]), sp.diag(*c[3:])
-
-    st = Stager()
-    A1 = st.define("A1", rotation_matrix(q1))
-    r = st.define("r", quat_mul(quat_conj(q1), q2))
-    psi = st.define("psi", sp.Matrix(log_quaternion(r)))
+    x1, x2, q1, q2, L0, psi0, gamma0, c, CG, CK, st, A1, psi = two_node_start()
     R = st.define("R", exp_matrix(psi))
     d = st.define("d", A1.T * (x2 - x1))
     Ji_expr = right_jacobian_inverse(psi)

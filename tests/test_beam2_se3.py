@@ -117,6 +117,14 @@ def test_an_arc_is_its_exact_reference():
     assert lengths["beam2"] == pytest.approx(8 * R * math.sin(math.pi / 16), rel=1e-14)
 
 
+def test_a_beam2_model_compiles_as_before():
+    """beam2_se3 is packed only where a model uses it: a Beam2 model's family tuple, the type every
+    compiled kernel is specialised to, is Beam2's alone (no new compilation on the Beam2 path)."""
+    for family, names in (("beam2", ["Beam2Data"]), ("beam2_se3", ["Beam2Data", "Beam2SE3Data"])):
+        d = Domain.from_deck(MODELS / "embedded_beam_static.toml", overrides={"beams.0.element": family})
+        assert [type(data).__name__ for data in d.initialization().elements] == names
+
+
 def test_deck_element_key_errors():
     """A misspelt family is refused in one line naming the entry and the fix."""
     deck = MODELS / "embedded_beam_static.toml"

@@ -10,9 +10,11 @@ A family registered in :data:`reference.elements.families.ELEMENT_FAMILIES` by t
   :attr:`exact_curvature`, represented exactly); tangent against central differences;
 * :func:`locking` — a thin cantilever from L/h = 10 to 1e4 under a tip load, linear
   stiffness of 4 elements against Timoshenko's deflection: the error must not grow;
-* :func:`orders` — observed convergence orders of the static roll-up (half circle,
-  k = 1), the large-deflection cantilever (P L²/EI = 1, Bisshopp & Drucker 1945) and the
-  first cantilever frequency (Timoshenko equation), for meshes n and 2n.
+* :func:`orders` — observed convergence orders (meshes n and 2n) of the static roll-up
+  (half circle, k = 1), the quarter-arc cantilever under a small out-of-plane force, the
+  45° bend (Bathe & Bolourchi 1979, P = 600, against the next finer mesh), the
+  large-deflection cantilever (P L²/EI = 1, Bisshopp & Drucker 1945) and the first
+  cantilever frequency (Timoshenko equation).
 
 ``python -m flexmbs.verification.families [--long]`` prints the table (``make families``);
 the tests run the short version with the engine uncompiled (``tests/test_families.py``).
@@ -20,9 +22,11 @@ the tests run the short version with the engine uncompiled (``tests/test_familie
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -226,8 +230,55 @@ def frequency_error(name: str, n: int) -> float:
     return abs(2 * math.pi * float(r.data("modes/frequency")[0]) / exact - 1.0)
 
 
-STUDIES = {"roll-up": rollup_error, "large-deflection cantilever": cantilever_error,
-           "cantilever frequency": frequency_error}
+def quarter_arc_error(name: str, n: int) -> float:
+    """Quarter-circle cantilever (R = 1, clamped at (R, 0, 0), section axis 2 out of plane) under a small
+    out-of-plane tip force P = 1e-4 (linear regime), one static step: tip deflection against the
+    curved-beam value ``PR³(π/4EI + (3π/4 − 2)/GJ) + PRπ/2GA`` (EI = 2, GJ = 1.5, GA = 1e4)."""
+    from reference.algorithms import SolverSettings
+    from reference.domain import Domain
+    from reference.interactions import Clamp, NodalLoad
+
+    R, P = 1.0, 1e-4
+    sec = Section(EA=1e4, GA2=1e4, GA3=1e4, GJ=1.5, EI2=2.0, EI3=2.0, rhoA=1.0, rhoJ1=2e-3, rhoJ2=1e-3, rhoJ3=1e-3)
+    d = Domain("quarter arc")
+    arc = d.add_beam("arc", (R, 0.0, 0.0), (0.0, R, 0.0), n, sec, axis2=(0.0, 0.0, 1.0), center=(0.0, 0.0, 0.0),
+                     element=name)
+    d.add_interaction(Clamp(arc[0]))
+    d.add_interaction(NodalLoad(arc[-1], np.array([0.0, 0.0, P])))
+    d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=1, tolerance=1e-13)
+    w = d.solve().position(f"arc:{n}")[-1][2]
+    exact = P * R**3 * (math.pi / (4 * sec.EI2) + (3 * math.pi / 4 - 2) / sec.GJ) + P * R * math.pi / (2 * sec.GA3)
+    return abs(w / exact - 1.0)
+
+
+@functools.lru_cache(maxsize=None)
+def bend_tip(name: str, n: int) -> tuple:
+    """Tip of the 45° bend (Bathe & Bolourchi 1979; models/curved_cantilever.toml's data as one arc of n
+    elements) under the out-of-plane tip force P = 600, static in 10 load steps."""
+    from reference.algorithms import SolverSettings
+    from reference.domain import Domain
+    from reference.interactions import Clamp, NodalLoad, Ramp
+
+    sec = Section(EA=1e7, GA2=5e6, GA3=5e6, GJ=833333.3333333334, EI2=833333.3333333334, EI3=833333.3333333334,
+                  rhoA=1.0, rhoJ1=5.0, rhoJ2=5.0, rhoJ3=5.0)
+    d = Domain("bend")
+    end = (100.0 * math.sin(math.pi / 4), 100.0 * (1.0 - math.cos(math.pi / 4)), 0.0)
+    arc = d.add_beam("arc", (0.0, 0.0, 0.0), end, n, sec, axis2=(0.0, 0.0, 1.0), center=(0.0, 100.0, 0.0),
+                     element=name)
+    d.add_interaction(Clamp(arc[0]))
+    d.add_interaction(NodalLoad(arc[-1], np.array([0.0, 0.0, 600.0]), time_function=Ramp()))
+    d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=10, tolerance=1e-12)
+    return tuple(d.solve().position(f"arc:{n}")[-1])
+
+
+def bend_error(name: str, n: int) -> float:
+    """The 45° bend's tip change from n to 2n elements over the radius (no closed form: the difference
+    of successive meshes falls at the order of the error itself)."""
+    return float(np.linalg.norm(np.subtract(bend_tip(name, n), bend_tip(name, 2 * n)))) / 100.0
+
+
+STUDIES = {"roll-up": rollup_error, "quarter arc": quarter_arc_error, "45° bend": bend_error,
+           "large-deflection cantilever": cantilever_error, "cantilever frequency": frequency_error}
 """Convergence studies: name → error(family, n)."""
 
 
@@ -242,9 +293,13 @@ def orders(name: str, meshes=(2, 4)) -> dict:
     return out
 
 
+SHORT_MESHES = (3, 6)
+"""The meshes of the short suite (the tests'); the long one (``--long``) uses 4, 8, 16, 32."""
+
+
 def suite(long: bool = False) -> dict:
     """Every check for every engine family."""
-    meshes = (4, 8, 16, 32) if long else (2, 4)
+    meshes = (4, 8, 16, 32) if long else SHORT_MESHES
     return {name: {"element": element_checks(name), "locking": {str(k): v for k, v in locking(name).items()},
                    "orders": orders(name, meshes)} for name in engine_families()}
 
@@ -258,7 +313,7 @@ def table(results: dict) -> str:
             order = "exact" if exact else f"{o['order']:.2f}"
             rows.append(f"| {name} | {study} | {', '.join(map(str, o['meshes']))} | "
                         f"{', '.join(f'{e:.2e}' for e in o['errors'])} | {order} |")
-    rows += ["", "| family | rigid |S| | objectivity | path | patch | tangent vs CD | locking L/h 10 … 1e4 |",
+    rows += ["", "| family | rigid: max S | objectivity | path | patch | tangent vs CD | locking L/h 10 … 1e4 |",
              "|---|---|---|---|---|---|---|"]
     for name, res in results.items():
         e = res["element"]
@@ -268,9 +323,79 @@ def table(results: dict) -> str:
     return "\n".join(rows)
 
 
+WORK_PRECISION = {"roll-up": (rollup_error, 10.0), "45° bend": (bend_error, 100.0)}
+"""Work–precision studies: name → (error(family, n) [relative to the length], length [m])."""
+
+
+def work_precision(name: str, study: str, meshes) -> list[dict]:
+    """Error, degrees of freedom and warm wall time of the static solve per mesh (compiled engine; each
+    mesh is solved twice and the second timed, so compilation is excluded).  For the 45° bend the error
+    is against the next finer mesh, whose solve is not counted."""
+    error, _ = WORK_PRECISION[study]
+    rows = []
+    for n in meshes:
+        error(name, n)
+        bend_tip.cache_clear()
+        t = time.perf_counter()
+        e = error(name, n)
+        wall = time.perf_counter() - t
+        if study == "45° bend":  # the timed call solved n and 2n: time n alone
+            t = time.perf_counter()
+            bend_tip.cache_clear()
+            bend_tip(name, n)
+            wall = time.perf_counter() - t
+        rows.append({"n": n, "dofs": 6 * (n + 1), "error": e, "wall": wall})
+    return rows
+
+
+def cheapest(rows: list[dict], target: float) -> float | None:
+    """The smallest wall time [s] of a mesh whose error is at most ``target``."""
+    walls = [r["wall"] for r in rows if r["error"] <= target]
+    return min(walls) if walls else None
+
+
+def report_lines() -> list[str]:
+    """The report's section: the short suite run as plain Python in a subprocess (``NUMBA_DISABLE_JIT=1``,
+    a few seconds, instead of compiling every algorithm for each family's model), as the order table."""
+    import os
+    import subprocess
+
+    root = Path(__file__).resolve().parents[2]
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1", PYTHONPATH=str(root))
+    proc = subprocess.run([sys.executable, "-m", "flexmbs.verification.families", "--json"], env=env, cwd=root,
+                          capture_output=True, text=True, timeout=600)
+    head = ["## Element families", "",
+            "Every engine element family runs the same checks (`flexmbs/verification/families.py`, meshes "
+            f"{' and '.join(map(str, SHORT_MESHES))}; `make families` for 4 … 32): observed orders, then the "
+            "one-element checks (relative numbers) and the locking study (tip error of 4 elements, L/h = 10 … 1e4).", ""]
+    if proc.returncode != 0:
+        return head + [f"The suite failed: {proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}", ""]
+    return head + table(json.loads(proc.stdout.strip().splitlines()[-1])).splitlines() + [""]
+
+
+WORK_MESHES = {("roll-up", "beam2"): (8, 32, 128, 512), ("roll-up", "beam2_se3"): (2, 4, 8),
+               ("45° bend", "beam2"): (4, 16, 64, 256), ("45° bend", "beam2_se3"): (4, 16, 64, 256)}
+"""Meshes of the work–precision study (the helicoid is exact on the roll-up from 2 elements on)."""
+
+
+def work_precision_table(target: float = 1e-6) -> str:
+    """Error against degrees of freedom and warm wall time per family, and the cheapest mesh at ``target``."""
+    rows = ["| study | family | elements | dofs | error / L | wall [s] |", "|---|---|---|---|---|---|"]
+    best = []
+    for (study, name), meshes in WORK_MESHES.items():
+        found = work_precision(name, study, meshes)
+        rows += [f"| {study} | {name} | {r['n']} | {r['dofs']} | {r['error']:.2e} | {r['wall']:.4f} |" for r in found]
+        wall = cheapest(found, target)
+        best.append(f"{study}, {name}: " + (f"{wall:.4f} s" if wall is not None else f"not reached ({min(r['error'] for r in found):.1e})"))
+    return "\n".join(rows + ["", f"Cheapest warm solve at {target:g} L: " + "; ".join(best) + "."])
+
+
 if __name__ == "__main__":
     results = suite(long="--long" in sys.argv)
     if "--json" in sys.argv:
         print(json.dumps(results))
     else:
         print(table(results))
+    if "--long" in sys.argv:
+        print()
+        print(work_precision_table())
