@@ -53,6 +53,14 @@ def run_all() -> dict:
                                  overrides={"beams.1.element": family, "solver.t_end": 0.1,
                                             "solver.algorithm": algorithm, "solver.dt": dt}).solve()
             out[f"{algorithm}_{family}"] = {"status": r.status, "tip": r.position("coupler:4")[-1].tolist()}
+    R, section = 2.0, Section(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0)
+    for family in ("beam2", "beam2_se3"):
+        d = Domain("arc")
+        d.add_beam("arc", (R, 0.0, 0.0), (0.0, R, 0.0), 4, section, axis2=(0.0, 0.0, 1.0), center=(0.0, 0.0, 0.0),
+                   element=family)
+        elements = d.initialization().elements
+        out[f"arc_{family}"] = float(np.sum([data.L0 for data in elements if data.conn.shape[0]]))
+        out[f"types_{family}"] = [type(data).__name__ for data in elements]
     return out
 
 
@@ -100,38 +108,31 @@ def test_explicit_and_generalized_alpha_run_the_three_bar_coupler(runs):
         assert np.allclose(a["tip"], b["tip"], atol=1e-8, rtol=0.0), algorithm
 
 
-def test_an_arc_is_its_exact_reference():
+def test_an_arc_is_its_exact_reference(runs):
     """A quarter arc of radius 2 in 4 elements: beam2_se3's reference arc lengths sum to π R/2 to 1e-14
     (the helicoid through the nodes' tangent frames is the circle), Beam2's to the chord polygon
     8 R sin(π/16)."""
-    R = 2.0
-    section = Section(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0)
-    lengths = {}
-    for family in ("beam2", "beam2_se3"):
-        d = Domain("arc")
-        d.add_beam("arc", (R, 0.0, 0.0), (0.0, R, 0.0), 4, section, axis2=(0.0, 0.0, 1.0), center=(0.0, 0.0, 0.0),
-                   element=family)
-        data = [e for e in d.initialization().elements if e.conn.shape[0]][0]
-        lengths[family] = float(np.sum(data.L0))
-    assert lengths["beam2_se3"] == pytest.approx(math.pi * R / 2, rel=1e-14)
-    assert lengths["beam2"] == pytest.approx(8 * R * math.sin(math.pi / 16), rel=1e-14)
+    assert runs["arc_beam2_se3"] == pytest.approx(math.pi * 2.0 / 2, rel=1e-14)
+    assert runs["arc_beam2"] == pytest.approx(8 * 2.0 * math.sin(math.pi / 16), rel=1e-14)
 
 
-def test_a_beam2_model_compiles_as_before():
+def test_a_beam2_model_compiles_as_before(runs):
     """beam2_se3 is packed only where a model uses it: a Beam2 model's family tuple, the type every
     compiled kernel is specialised to, is Beam2's alone (no new compilation on the Beam2 path)."""
-    for family, names in (("beam2", ["Beam2Data"]), ("beam2_se3", ["Beam2Data", "Beam2SE3Data"])):
-        d = Domain.from_deck(MODELS / "embedded_beam_static.toml", overrides={"beams.0.element": family})
-        assert [type(data).__name__ for data in d.initialization().elements] == names
+    assert runs["types_beam2"] == ["Beam2Data"]
+    assert runs["types_beam2_se3"] == ["Beam2Data", "Beam2SE3Data"]
 
 
 def test_deck_element_key_errors():
-    """A misspelt family is refused in one line naming the entry and the fix."""
-    deck = MODELS / "embedded_beam_static.toml"
-    with pytest.raises(DeckError) as err:
-        Domain.from_deck(deck, overrides={"beams.0.element": "beam2_se"})
-    assert "beams[0].element" in str(err.value) and "did you mean 'beam2_se3'?" in str(err.value)
-    assert "\n" not in str(err.value)
+    """A misspelt family, a non-string and an `element` on a rigid bar are refused in one line naming the
+    entry and the fix."""
+    cases = [("embedded_beam_static.toml", "beam2_se", "did you mean 'beam2_se3'?"),
+             ("embedded_beam_static.toml", 3, "one of: beam2, beam2_se3"),
+             ("physical_pendulum.toml", "beam2_se3", "a rigid bar has no elements; remove `element` or `rigid`")]
+    for deck, value, fix in cases:
+        with pytest.raises(DeckError) as err:
+            Domain.from_deck(MODELS / deck, overrides={"beams.0.element": value})
+        assert "beams[0].element" in str(err.value) and fix in str(err.value) and "\n" not in str(err.value)
 
 
 if __name__ == "__main__":
