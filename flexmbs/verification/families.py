@@ -373,7 +373,7 @@ def report_lines() -> list[str]:
     return head + table(json.loads(proc.stdout.strip().splitlines()[-1])).splitlines() + [""]
 
 
-WORK_MESHES = {("roll-up", "beam2"): (8, 32, 128, 512), ("roll-up", "beam2_se3"): (2, 4, 8),
+WORK_MESHES = {("roll-up", "beam2"): (16, 64, 256, 1024), ("roll-up", "beam2_se3"): (2, 4, 8),
                ("45° bend", "beam2"): (4, 16, 64, 256), ("45° bend", "beam2_se3"): (4, 16, 64, 256)}
 """Meshes of the work–precision study (the helicoid is exact on the roll-up from 2 elements on)."""
 

@@ -140,7 +140,7 @@ class Beam2SE3Formulation(Beam2Formulation):
     @classmethod
     def pack(cls, placed) -> Beam2SE3Data:
         """The family's plain data: Beam2's fields, with this family's reference state."""
-        return Beam2SE3Data(*Beam2Formulation.pack.__func__(cls, placed))
+        return Beam2SE3Data(*Beam2Formulation.pack(placed))
 
     @staticmethod
     def rest_frames(node_frames, chord_frames, i):
