@@ -92,23 +92,31 @@ def _rigid(x, q, R_q, t):
     return [A @ xi + t for xi in x], [_qmul(R_q, qi) for qi in q]
 
 
+def _arc_positions(cls, L: float) -> tuple[list, list]:
+    """Arc-length positions of a family's nodes on one element of length L, in the element's order, and
+    that order (the indices along the beam)."""
+    k = cls.n_nodes
+    order = list(cls.mesh_nodes(list(range(k)), 0))
+    return [L * j / (k - 1) for j in order], order
+
+
 def element_checks(name: str, seed: int = 21) -> dict:
     """The one-element checks of a family (module docstring); every entry a measured number."""
     rng = np.random.default_rng(seed)
     f = _formulation(name)
-    L = 0.7
+    L, k = 0.7, f.n_nodes
     q0 = _qexp(rng.standard_normal(3))
-    x0 = [np.zeros(3), _matrix(q0) @ np.array([L, 0.0, 0.0])]
-    ref = f.reference_state(np.array(x0), np.array([q0, q0]))
+    x0 = [_matrix(q0) @ np.array([s, 0.0, 0.0]) for s in _arc_positions(type(f), L)[0]]
+    ref = f.reference_state(np.array(x0), np.array([q0] * k))
     out = {}
     # rigid motion of the unstrained element
-    xr, qr = _rigid(x0, [q0, q0], _qexp(rng.standard_normal(3) * 2.0), rng.standard_normal(3))
+    xr, qr = _rigid(x0, [q0] * k, _qexp(rng.standard_normal(3) * 2.0), rng.standard_normal(3))
     s, U = _forces(f, xr, qr, ref)
     out["rigid_force"] = float(np.abs(s).max()) / (SECTION.EA + SECTION.EI3 / L)
     out["rigid_energy"] = U / (0.5 * SECTION.EA * L)
     # a deformed state: stretch, shear, twist and bending
-    xd = [x0[0], x0[1] + 0.05 * rng.standard_normal(3)]
-    qd = [_qmul(q0, _qexp(0.2 * rng.standard_normal(3))), _qmul(q0, _qexp(0.4 * rng.standard_normal(3)))]
+    xd = [x0[0]] + [x + 0.05 * rng.standard_normal(3) for x in x0[1:]]
+    qd = [_qmul(q0, _qexp(0.3 * rng.standard_normal(3))) for _ in range(k)]
     strain = _strain(f, xd, qd, ref)
     xo, qo = _rigid(xd, qd, _qexp(rng.standard_normal(3) * 2.0), rng.standard_normal(3))
     out["objectivity"] = float(np.abs(_strain(f, xo, qo, ref) - strain).max() / np.abs(strain).max())
@@ -125,14 +133,14 @@ def element_checks(name: str, seed: int = 21) -> dict:
     out["patch"] = patch_test(name)
     # tangent against central differences of the forces (ε = 1e-6)
     K = f.tangent(np.array(xd), np.array(qd), ref)
-    h, Kfd = 1e-6, np.zeros((12, 12))
-    for c in range(12):
-        z = np.zeros(12)
+    h, Kfd = 1e-6, np.zeros((6 * k, 6 * k))
+    for c in range(6 * k):
+        z = np.zeros(6 * k)
         z[c] = h
         sides = []
         for sign in (1.0, -1.0):
-            xs = [xd[0] + sign * z[0:3], xd[1] + sign * z[6:9]]
-            qs = [_qmul(qd[0], _qexp(sign * z[3:6])), _qmul(qd[1], _qexp(sign * z[9:12]))]
+            xs = [xd[a] + sign * z[6 * a:6 * a + 3] for a in range(k)]
+            qs = [_qmul(qd[a], _qexp(sign * z[6 * a + 3:6 * a + 6])) for a in range(k)]
             sides.append(_forces(f, xs, qs, ref)[0])
         Kfd[:, c] = (sides[0] - sides[1]) / (2 * h)
     out["tangent"] = float(np.abs(K - Kfd).max() / np.abs(K).max())
@@ -142,19 +150,20 @@ def element_checks(name: str, seed: int = 21) -> dict:
 def patch_test(name: str) -> float:
     """Largest relative strain error over the constant-strain states the family claims: stretch,
     shear and twist for every family; with :attr:`exact_curvature`, bending and a helix too.
-    The element's ends are put on the helicoid of the state from a straight reference."""
+    The element's nodes are put on the helicoid of the state from a straight reference."""
     f = _formulation(name)
-    L = 0.6
-    x0, q0 = [np.zeros(3), np.array([L, 0.0, 0.0])], [np.array([1.0, 0, 0, 0])] * 2
-    ref = f.reference_state(np.array(x0), np.array(q0))
+    L, k = 0.6, f.n_nodes
+    arc, _ = _arc_positions(type(f), L)
+    ident = np.array([1.0, 0, 0, 0])
+    ref = f.reference_state(np.array([[s, 0.0, 0.0] for s in arc]), np.array([ident] * k))
     states = [((1.02, 0.0, 0.0), (0.0, 0.0, 0.0)), ((1.0, 0.03, -0.02), (0.0, 0.0, 0.0)),
               ((1.0, 0.0, 0.0), (0.8, 0.0, 0.0))]
     if getattr(f, "exact_curvature", False):
         states += [((1.0, 0.0, 0.0), (0.0, 1.5, 0.0)), ((0.99, 0.02, 0.01), (0.5, -0.7, 1.1))]
     worst = 0.0
     for gamma, kappa in states:
-        end = helicoid(gamma, kappa, L)
-        strain = _strain(f, [x0[0], end[0]], [q0[0], end[1]], ref)
+        placed = [helicoid(gamma, kappa, s) for s in arc]
+        strain = _strain(f, [p[0] for p in placed], [p[1] for p in placed], ref)
         expected = np.concatenate([np.asarray(gamma) - (1.0, 0.0, 0.0), kappa])
         worst = max(worst, float(np.abs(strain - expected).max() / np.abs(expected).max()))
     return worst
@@ -165,26 +174,34 @@ def locking(name: str, n: int = 4) -> dict:
     assembled linear stiffness of ``n`` elements, relative to Timoshenko's ``PL³/3EI + PL/κGA``, for
     L/h = 10 … 1e4.  Returns ``{slenderness: relative error}``."""
     out = {}
+    cls = ELEMENT_FAMILIES[name]
+    per = cls.n_nodes - 1
+    points = n * per + 1
     for slenderness in (1e1, 1e2, 1e3, 1e4):
         h, E, G = 1.0 / slenderness, 1.0, 1.0 / 2.6
         A, I = h * h, h**4 / 12
         sec = Section(EA=E * A, GA2=5 / 6 * G * A, GA3=5 / 6 * G * A, GJ=G * 0.141 * h**4, EI2=E * I, EI3=E * I,
                       rhoA=A, rhoJ1=2 * I, rhoJ2=I, rhoJ3=I)
-        f = ELEMENT_FAMILIES[name](sec)
-        le = 1.0 / n
+        f = cls(sec)
+        arc, order = _arc_positions(cls, 1.0 / n)
         ident = np.array([1.0, 0, 0, 0])
-        xe = np.array([[0.0, 0, 0], [le, 0, 0]])
-        ref = f.reference_state(xe, np.array([ident, ident]))
-        Ke = f.tangent(xe, np.array([ident, ident]), ref)
-        K = np.zeros((6 * (n + 1), 6 * (n + 1)))
+        xe = np.array([[s, 0.0, 0.0] for s in arc])
+        Ke = f.tangent(xe, np.array([ident] * cls.n_nodes), f.reference_state(xe, np.array([ident] * cls.n_nodes)))
+        K = np.zeros((6 * points, 6 * points))
         for e in range(n):
-            K[6 * e:6 * e + 12, 6 * e:6 * e + 12] += Ke
-        F = np.zeros(6 * (n + 1))
+            dofs = np.concatenate([np.arange(6 * g, 6 * g + 6) for g in cls.mesh_nodes(list(range(points)), e)])
+            K[np.ix_(dofs, dofs)] += Ke
+        F = np.zeros(6 * points)
         F[-4] = 1.0  # tip force along z
         u = np.linalg.solve(K[6:, 6:], F[6:])
         exact = 1.0 / (3 * E * I) + 1.0 / (5 / 6 * G * A)
         out[slenderness] = abs(u[-4] / exact - 1.0)
     return out
+
+
+def _tip(label: str, name: str, n: int) -> str:
+    """The label of the last node of a beam of n elements of the family (n_nodes − 1 segments each)."""
+    return f"{label}:{n * (ELEMENT_FAMILIES[name].n_nodes - 1)}"
 
 
 def _static(deck: str, overrides: dict):
@@ -199,26 +216,33 @@ def rollup_error(name: str, n: int) -> float:
 
     r = _static("embedded_beam_static.toml", {"beams.0.elements": n, "beams.0.element": name, "solver.t_end": 1.0,
                                                "solver.load_steps": 4, "solver.tolerance": 1e-12})
-    return float(np.linalg.norm(r.position(f"beam:{n}")[-1] - elastica_tip(10.0, 1.0)) / 10.0)
+    return float(np.linalg.norm(r.position(_tip("beam", name, n))[-1] - elastica_tip(10.0, 1.0)) / 10.0)
 
 
-def cantilever_error(name: str, n: int) -> float:
-    """Static large-deflection cantilever, P L²/EI = 1 (Bisshopp & Drucker 1945), L = EI = 1, EA = GA = 1e9
-    so the inextensible elastica is the exact answer: |tip − elastica|/L."""
-    from flexmbs.verification.analytic import cantilever_large_deflection
+def cantilever_tip(name: str, n: int, stiff: float = 1e9) -> np.ndarray:
+    """Tip of the static large-deflection cantilever, L = EI = 1, P L²/EI = 1 (dead, along −z), EA = GA =
+    ``stiff``, n elements of the family, 4 load steps, Newton to 1e-12."""
     from reference.algorithms import SolverSettings
     from reference.domain import Domain
     from reference.interactions import Clamp, NodalLoad, Ramp
 
     d = Domain("cantilever")
-    sec = Section(EA=1e9, GA2=1e9, GA3=1e9, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-4, rhoJ2=1e-4, rhoJ3=1e-4)
+    sec = Section(EA=stiff, GA2=stiff, GA3=stiff, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-4, rhoJ2=1e-4,
+                  rhoJ3=1e-4)
     nodes = d.add_beam("beam", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), n, sec, element=name)
     d.add_interaction(Clamp(nodes[0]))
     d.add_interaction(NodalLoad(nodes[-1], np.array([0.0, 0.0, -1.0]), time_function=Ramp()))
     d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=4, tolerance=1e-12)
-    r = d.solve()
+    return d.solve().position(_tip("beam", name, n))[-1]
+
+
+def cantilever_error(name: str, n: int) -> float:
+    """Static large-deflection cantilever, P L²/EI = 1 (Bisshopp & Drucker 1945), EA = GA = 1e9 so the
+    inextensible elastica is the exact answer: |tip − elastica|/L."""
+    from flexmbs.verification.analytic import cantilever_large_deflection
+
     x, delta, _ = cantilever_large_deflection(1.0)
-    return float(np.linalg.norm(r.position(f"beam:{n}")[-1] - np.array([x, 0.0, -delta])))
+    return float(np.linalg.norm(cantilever_tip(name, n) - np.array([x, 0.0, -delta])))
 
 
 def frequency_error(name: str, n: int) -> float:
@@ -246,7 +270,7 @@ def quarter_arc_error(name: str, n: int) -> float:
     d.add_interaction(Clamp(arc[0]))
     d.add_interaction(NodalLoad(arc[-1], np.array([0.0, 0.0, P])))
     d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=1, tolerance=1e-13)
-    w = d.solve().position(f"arc:{n}")[-1][2]
+    w = d.solve().position(_tip("arc", name, n))[-1][2]
     exact = P * R**3 * (math.pi / (4 * sec.EI2) + (3 * math.pi / 4 - 2) / sec.GJ) + P * R * math.pi / (2 * sec.GA3)
     return abs(w / exact - 1.0)
 
@@ -268,7 +292,7 @@ def bend_tip(name: str, n: int) -> tuple:
     d.add_interaction(Clamp(arc[0]))
     d.add_interaction(NodalLoad(arc[-1], np.array([0.0, 0.0, 600.0]), time_function=Ramp()))
     d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=10, tolerance=1e-12)
-    return tuple(d.solve().position(f"arc:{n}")[-1])
+    return tuple(d.solve().position(_tip("arc", name, n))[-1])
 
 
 def bend_error(name: str, n: int) -> float:
@@ -348,7 +372,7 @@ def work_precision(name: str, study: str, meshes) -> list[dict]:
     return rows
 
 
-def cheapest(rows: list[dict], target: float) -> float | None:
+def cheapest(rows: list[dict], target: float):
     """The smallest wall time [s] of a mesh whose error is at most ``target``."""
     walls = [r["wall"] for r in rows if r["error"] <= target]
     return min(walls) if walls else None
@@ -374,7 +398,9 @@ def report_lines() -> list[str]:
 
 
 WORK_MESHES = {("roll-up", "beam2"): (16, 64, 256, 1024), ("roll-up", "beam2_se3"): (2, 4, 8),
-               ("45° bend", "beam2"): (4, 16, 64, 256), ("45° bend", "beam2_se3"): (4, 16, 64, 256)}
+               ("roll-up", "beam3"): (4, 8, 16, 32, 64),
+               ("45° bend", "beam2"): (4, 16, 64, 256), ("45° bend", "beam2_se3"): (4, 16, 64, 256),
+               ("45° bend", "beam3"): (2, 4, 8, 16, 32)}
 """Meshes of the work–precision study (the helicoid is exact on the roll-up from 2 elements on)."""
 
 

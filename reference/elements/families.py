@@ -26,6 +26,7 @@ from numba.extending import overload
 
 from reference.elements.beam2 import Beam2Formulation
 from reference.elements.beam2_se3 import Beam2SE3Formulation
+from reference.elements.beam3 import Beam3Formulation
 
 ELEMENT_FAMILIES: dict[str, type] = {}
 """Element formulation classes by deck name (``ElementFormulation.family``)."""
@@ -117,5 +118,6 @@ DEFAULT_FAMILY = "beam2"
 
 register(Beam2Formulation, always=True)
 register(Beam2SE3Formulation)
+register(Beam3Formulation)
 
 __all__ = ["ALWAYS_PACKED", "DEFAULT_FAMILY", "ELEMENT_FAMILIES", "assemble_forces", "family_of", "register", "resultants", "tangent_values"]

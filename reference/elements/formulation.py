@@ -89,10 +89,18 @@ class ElementFormulation(ABC):
 
     @staticmethod
     def rest_frames(node_frames: list, chord_frames: list, i: int) -> tuple:
-        """The section triads at rest (Euler parameters) of the two ends of element i of a meshed beam
-        (:meth:`reference.domain.Domain.add_beam`), given the beam's triads at its nodes and on its
-        chords: by default the chord's at both ends (an element straight in its own section frame)."""
+        """The section triads at rest (Euler parameters) of the nodes of element i of a meshed beam
+        (:meth:`reference.domain.Domain.add_beam`), given the beam's triads at its mesh points and on
+        the chords between them: by default the chord's at both ends (an element straight in its own
+        section frame)."""
         return chord_frames[i], chord_frames[i]
+
+    @classmethod
+    def mesh_nodes(cls, nodes: list, i: int) -> tuple:
+        """The nodes of element i of a beam meshed with ``n_nodes − 1`` segments per element, from the
+        beam's nodes in order along it, in the element's order (default: as along the beam)."""
+        k = (cls.n_nodes - 1) * i
+        return tuple(nodes[k:k + cls.n_nodes])
 
     @abstractmethod
     def lumped_mass(self, x_nodes: np.ndarray) -> list: ...
