@@ -136,7 +136,7 @@ def beam3_kernels():
     R = [st.define(f"R{i}", exp_matrix(psi[i])) for i in (0, 1)]
     Z, I = sp.zeros(3, 3), sp.eye(3)
     U_total, strain, stress, gv, Hv = 0, [], [], sp.zeros(12, 1), sp.zeros(12, 12)
-    T_y, subs = [], []
+    T_y, subs, gauss_inputs = [], [], []
     for g, xi in enumerate(XI):
         N, dN = shape(xi)
         xp = sum((dN[k] * 2 / L0 * x[k] for k in range(3)), sp.zeros(3, 1))
@@ -148,6 +148,7 @@ def beam3_kernels():
         Gam = st.define(f"Gam{g}", Gamma_e.xreplace(sub))
         Kap = st.define(f"Kap{g}", Kappa_e.xreplace(sub))
         strain += list(Gam) + list(Kap)
+        gauss_inputs += list(y) + list(pg) + list(dpg)
         stress += list(sp.diag(*c[:3]) * Gam) + list(sp.diag(*c[3:]) * Kap)
         U_total += L0 / 4 * ((Gam.T * sp.diag(*c[:3]) * Gam)[0] + (Kap.T * sp.diag(*c[3:]) * Kap)[0])
         grad = st.define(f"gr{g}", grad_e.T.xreplace(sub))
@@ -178,8 +179,9 @@ def beam3_kernels():
     Ts = stage_sparse(st, "T", T)
     S = st.define("S", Ts.T * w)
     n_force = len(st.stages)
+    hess_in = vector("hg", 162)
     for g, (sub, P) in enumerate(subs):
-        Hv += P.T * stage_sparse(st, f"he{g}", hess_e.xreplace(sub)) * P
+        Hv += P.T * sp.Matrix(9, 9, hess_in[81 * g:81 * g + 81]) * P
     Hvs = stage_sparse(st, "Hv", Hv)
     K = Ts.T * Hvs * Ts
     # ∂(Tᵀ w)/∂δ with w held: the y rows
@@ -222,24 +224,39 @@ def beam3_kernels():
         "    strains and resultants at the Gauss points ξ = −1/√3 then +1/√3.",
         inputs,
         [("s", list(S), "internal forces (18,)"),
+         ("u", gauss_inputs, "y (3), ψ (3), ψ' (3) at Gauss point 1, then at Gauss point 2: the inputs of "
+                             "``gauss_hessian``"),
          ("strain", strain, "Γ (3), K (3) at Gauss point 1, then at Gauss point 2 [-, 1/m]"),
          ("stress", stress, "N (3) [N], M (3) [N m] at Gauss point 1, then at Gauss point 2, section frame")],
         (U_total, "strain energy [J]"),
         st.stages[:n_force],
     )
+    tangent_inputs = inputs + [("hg", hess_in, "the Hessians of the two Gauss terms (2 × 81, row-major), "
+                                                "``gauss_hessian`` at the two points of ``internal_forces``'s u")]
     tangent = Kernel(
         "tangent",
         "beam3 internal forces S and tangent stiffness K = ∂S/∂[δx1, δθ1, δx2, δθ2, δx3, δθ3].\n\n"
         "    Same inputs and ``s`` as ``internal_forces``; ``K`` (18 × 18, row-major) the exact derivative\n"
         "    under ``x_a → x_a + ε δx_a``, ``q_a → q_a ⊗ exp(ε δθ_a)`` (body-frame increments of the section\n"
         "    triads).  Units: N/m, N, N m.",
-        inputs,
+        tangent_inputs,
         [("s", list(S), "internal forces (18,)"),
          ("K", list(K), "tangent stiffness, row-major (18 × 18)")],
         None,
         st.stages,
     )
-    return [forces, tangent]
+    gauss = Kernel(
+        "gauss_hessian",
+        "The Hessian (9 × 9, row-major) of one Gauss term ``(L0/4)(Γᵀ C_Γ Γ + Kᵀ C_K K)`` of beam3 in\n"
+        "    ``u = (y, ψ, ψ')`` (derivations/beam3.py); the tangent kernel takes it for both points.",
+        [("u", list(ys) + list(ps) + list(dps), "y = Λ3ᵀx' (3), ψ (3), ψ' (3) at the Gauss point"),
+         ("g0", list(g0s), "Γ0 at the Gauss point"),
+         ("k0", list(k0s), "K0 at the Gauss point [1/m]"),
+         ("c", c, "section stiffness EA, GA2, GA3 [N], GJ, EI2, EI3 [N m²]"),
+         ("L0", L0, "reference length [m]")],
+        [("H", list(hess_e), "∂²U_g/∂u², row-major (9 × 9)")],
+    )
+    return [forces, gauss, tangent]
 
 
 def generate() -> str:

@@ -22,9 +22,9 @@ from reference.generated import beam3 as generated
 from reference.jit import inlined
 from reference.newton_blocks import store_block
 
-WIDTH = 76
+WIDTH = 250
 """Work row per element: forces (18), strains (12), resultants (12), section quaternions (12), node-frame
-moments (9), energy (1), scratch (12)."""
+moments (9), energy (1), scratch (6), the Gauss points' inputs u (18) and Hessians (162)."""
 GAUSS = (-1.0 / np.sqrt(3.0), 1.0 / np.sqrt(3.0))
 
 
@@ -58,7 +58,7 @@ def _element(data, x, q, e, w):
     section_quaternion(q[j], data.offset[e, 1], w[46:50])
     section_quaternion(q[m], data.offset[e, 2], w[50:54])
     w[63] = _internal_forces(x[i], x[j], x[m], w[42:46], w[46:50], w[50:54], data.L0[e], data.gamma0[e],
-                             data.kappa0[e], data.stiff[e], w[:18], w[18:30], w[30:42])
+                             data.kappa0[e], data.stiff[e], w[:18], w[70:88], w[18:30], w[30:42])
     for a in range(3):
         to_node_frame(data.offset[e, a], w[6 * a + 3:6 * a + 6], w[54 + 3 * a:57 + 3 * a])
     return w[63]
@@ -107,11 +107,13 @@ def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
         i, j, m = data.conn[e, 0], data.conn[e, 1], data.conn[e, 2]
         w = W[e]
         if ck != 0.0:
-            section_quaternion(q[i], data.offset[e, 0], w[42:46])
-            section_quaternion(q[j], data.offset[e, 1], w[46:50])
-            section_quaternion(q[m], data.offset[e, 2], w[50:54])
+            _element(data, x, q, e, w)
+            for g in range(2):
+                generated.gauss_hessian(w[70 + 9 * g:79 + 9 * g], data.gamma0[e, 3 * g:3 * g + 3],
+                                        data.kappa0[e, 3 * g:3 * g + 3], data.stiff[e], data.L0[e],
+                                        w[88 + 81 * g:169 + 81 * g])
             generated.tangent(x[i], x[j], x[m], w[42:46], w[46:50], w[50:54], data.L0[e], data.gamma0[e],
-                              data.kappa0[e], data.stiff[e], w[:18], K324)
+                              data.kappa0[e], data.stiff[e], w[88:250], w[:18], K324)
             _to_node_frames(data, e, K18, w[64:67], w[67:70])
         else:
             K18[:, :] = 0.0
@@ -202,19 +204,23 @@ class Beam3Formulation(Beam2Formulation):
         return {"L0": length, "gamma0": np.concatenate([strain[0:3], strain[6:9]]),
                 "kappa0": np.concatenate([strain[3:6], strain[9:12]])}
 
-    def _evaluate(self, x_nodes, q_nodes, reference):
-        s, strain, stress = np.empty(18), np.empty(12), np.empty(12)
+    def _evaluate(self, x_nodes, q_nodes, reference, u=None):
+        s, strain, stress, u = np.empty(18), np.empty(12), np.empty(12), np.empty(18) if u is None else u
         x, q = np.asarray(x_nodes, float), np.asarray(q_nodes, float)
         U = generated.internal_forces(x[0], x[1], x[2], q[0], q[1], q[2], reference["L0"], reference["gamma0"],
-                                      reference["kappa0"], self.section.stiffness, s, strain, stress)
+                                      reference["kappa0"], self.section.stiffness, s, u, strain, stress)
         return s, U, strain, stress
 
     def tangent(self, x_nodes, q_nodes, reference) -> np.ndarray:
         """The 18×18 tangent ``∂S/∂[δx1, δθ1, δx2, δθ2, δx3, δθ3]`` of one element, section frames."""
-        s, K = np.empty(18), np.empty(324)
+        u, hess, s, K = np.empty(18), np.empty(162), np.empty(18), np.empty(324)
+        self._evaluate(x_nodes, q_nodes, reference, u)
+        g0, k0, c = np.asarray(reference["gamma0"], float), np.asarray(reference["kappa0"], float), self.section.stiffness
+        for g in range(2):
+            generated.gauss_hessian(u[9 * g:9 * g + 9], g0[3 * g:3 * g + 3], k0[3 * g:3 * g + 3], c, reference["L0"],
+                                    hess[81 * g:81 * g + 81])
         x, q = np.asarray(x_nodes, float), np.asarray(q_nodes, float)
-        generated.tangent(x[0], x[1], x[2], q[0], q[1], q[2], reference["L0"], reference["gamma0"],
-                          reference["kappa0"], self.section.stiffness, s, K)
+        generated.tangent(x[0], x[1], x[2], q[0], q[1], q[2], reference["L0"], g0, k0, c, hess, s, K)
         return K.reshape(18, 18)
 
     def section_resultants(self, x_nodes, q_nodes, reference):
