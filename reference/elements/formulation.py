@@ -64,7 +64,9 @@ class ElementFormulation(ABC):
     - ``lumped_mass(x_nodes)`` → list of ``(mass, inertia 3×3 section frame)`` per node;
     - ``internal_forces(x, q, reference)`` → ``(S (n_nodes·6,), U)`` for one element;
     - ``reference_state(x, q)`` → what the unstrained configuration needs;
-    - ``critical_time_step(length)`` → stability limit of the explicit scheme [s].
+    - ``critical_time_step(length)`` → stability limit of the explicit scheme [s];
+    - ``rest_frames``, ``mesh_nodes`` → how :meth:`reference.domain.Domain.add_beam` meshes a beam of
+      the family (defaults: chord frames; ``n_nodes − 1`` segments per element, nodes in beam order).
 
     Per family (class attributes; the registry is :mod:`reference.elements.families`):
 
