@@ -134,7 +134,7 @@ def beam3_kernels():
     Ji_expr = [right_jacobian_inverse(p) for p in psi]
     Ji = [st.define(f"Ji{i}", Ji_expr[i]) for i in (0, 1)]
     R = [st.define(f"R{i}", exp_matrix(psi[i])) for i in (0, 1)]
-    Z, I = sp.zeros(3, 3), sp.eye(3)
+    I = sp.eye(3)
     U_total, strain, stress, gv, Hv = 0, [], [], sp.zeros(12, 1), sp.zeros(12, 12)
     T_y, subs, gauss_inputs = [], [], []
     for g, xi in enumerate(XI):
