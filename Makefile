@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: report test fuzz signals bench derive notebooks clean
+.PHONY: report test fuzz signals bench derive notebooks clean families
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
@@ -37,6 +37,10 @@ $(VENV)/.bench: $(STAMP)
 
 bench: $(VENV)/.bench
 	$(BIN)/flexmbs bench
+
+# the element-family verification suite (tests/test_families.py runs meshes 3 and 6): meshes 4 … 32, the order table
+families: $(STAMP)
+	$(BIN)/python -m flexmbs.verification.families --long
 
 derive: $(STAMP)
 	$(BIN)/flexmbs derive

@@ -66,6 +66,22 @@ from derivations.rotation_maps import (
 )
 
 
+def two_node_start():
+    """What every two-node beam derivation starts from: the kernel inputs (positions, section
+    quaternions, ``L0``, ``ψ0``, ``Γ0``, stiffness ``c``), ``C_Γ``, ``C_K``, and a :class:`Stager` with
+    the stages ``A1 = A(q1)``, ``r = q1* ⊗ q2`` and ``ψ = log r`` (shortest branch) defined."""
+    x1, x2 = sp.Matrix(vector("x1", 3)), sp.Matrix(vector("x2", 3))
+    q1, q2 = vector("q1", 4), vector("q2", 4)
+    L0 = sp.Symbol("L0", positive=True)
+    psi0, gamma0 = sp.Matrix(vector("psi0", 3)), sp.Matrix(vector("gamma0", 3))
+    c = vector("c", 6)
+    st = Stager()
+    A1 = st.define("A1", rotation_matrix(q1))
+    r = st.define("r", quat_mul(quat_conj(q1), q2))
+    psi = st.define("psi", sp.Matrix(log_quaternion(r)))
+    return x1, x2, q1, q2, L0, psi0, gamma0, c, sp.diag(*c[:3]), sp.diag(*c[3:]), st, A1, psi
+
+
 def beam2_quantities():
     """Symbolic inputs, element quantities (strains, forces, energy) and the stages.
 
@@ -73,17 +89,7 @@ def beam2_quantities():
     defined in stages, so the expressions stay small and the emitted code reads
     like the derivation above.
     """
-    x1, x2 = sp.Matrix(vector("x1", 3)), sp.Matrix(vector("x2", 3))
-    q1, q2 = vector("q1", 4), vector("q2", 4)
-    L0 = sp.Symbol("L0", positive=True)
-    psi0, gamma0 = sp.Matrix(vector("psi0", 3)), sp.Matrix(vector("gamma0", 3))
-    c = vector("c", 6)
-    CG, CK = sp.diag(*c[:3]), sp.diag(*c[3:])
-
-    st = Stager()
-    A1 = st.define("A1", rotation_matrix(q1))
-    r = st.define("r", quat_mul(quat_conj(q1), q2))
-    psi = st.define("psi", sp.Matrix(log_quaternion(r)))
+    x1, x2, q1, q2, L0, psi0, gamma0, c, CG, CK, st, A1, psi = two_node_start()
     E = st.define("E", exp_matrix(psi / 2))
     R = st.define("R", E * E)
     Am = st.define("Am", A1 * E)

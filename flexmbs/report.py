@@ -431,7 +431,9 @@ def main(args=None) -> int:
               "| run | engine | steps | solve [s] | µs per step |", "|---|---|---|---|---|"]
     timing += [f"| {label} | {engine} | {steps} | {wall:.3f} | {1e6 * wall / max(steps, 1):.1f} |"
                for label, engine, steps, wall in timings]
-    body = head + lines + timing + [""] + LIMITATIONS + ["## All checks", ""] + _table(checks)
+    from flexmbs.verification.families import report_lines
+
+    body = head + lines + report_lines() + timing + [""] + LIMITATIONS + ["## All checks", ""] + _table(checks)
     body += ["", f"Report generated in {time.perf_counter() - t0:.1f} s."]
     name = "verification_quick.md" if quick else "verification.md"
     (reports / name).write_text("\n".join(body) + "\n", encoding="utf-8")

@@ -134,8 +134,12 @@ class Domain:
         """Mesh a straight beam, or a circular arc about ``center``, into ``n_elements`` elements of the
         family ``element`` (a name of :data:`reference.elements.families.ELEMENT_FAMILIES`, two-node).
 
-        Each element is straight in its own section frame (axis 1 along its
-        chord, axis 2 the ``axis2`` hint made orthogonal to it).  New nodes,
+        The family chooses each element's section frames at rest
+        (``formulation.rest_frames``): by default straight in its own section
+        frame (axis 1 along its chord, axis 2 the ``axis2`` hint made orthogonal
+        to it); a helicoidal ``beam2_se3`` takes the beam's triads at the nodes,
+        so its reference is the arc itself; a three-node family (``beam3``)
+        gets a middle node per element (2 n_elements segments).  New nodes,
         labelled ``f"{label}:{i}"``, get the beam's section triad on the beam's
         axis (straight beam) or on the arc's tangent (:func:`reference.mesh.arc_geometry`);
         the kink between a node frame and an element's section frame is the
@@ -143,8 +147,8 @@ class Domain:
         for any angle.  ``start_node``/``end_node`` reuse existing nodes: a
         node whose frame is given (a ``[[nodes]]`` rotation, a rigid body, or
         set by an earlier beam) keeps it; otherwise it takes this beam's end
-        frame.  Arcs converge at second order in the element size to the
-        circle (chords between nodes on the arc).
+        frame.  Chord-frame arcs converge at second order in the element size
+        to the circle (chords between nodes on the arc).
         """
         start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
         if n_elements < 1:
@@ -156,18 +160,19 @@ class Domain:
         for node, point in ((start_node, start), (end_node, end)):
             if node is not None and np.linalg.norm(node.position - point) > 1e-12 * max(1.0, np.linalg.norm(point)):
                 raise ValueError(f"beam {label!r}: node {node.label!r} is not at the beam's end point {point.tolist()}")
+        formulation = ELEMENT_FAMILIES[element](section)
+        segments = n_elements * (formulation.n_nodes - 1)
         if center is None:
-            points, tangents = straight_line(start, end, n_elements)
+            points, tangents = straight_line(start, end, segments)
         else:
-            points, tangents = arc_geometry(start, end, center, n_elements)
+            points, tangents = arc_geometry(start, end, center, segments)
         try:
             node_q, elem_q = section_frames(points, tangents, axis2)
         except ValueError as exc:
             raise ValueError(f"beam {label!r}: {exc}; choose another axis2") from None
-        formulation = ELEMENT_FAMILIES[element](section)
         nodes = []
-        for i in range(n_elements + 1):
-            reuse = start_node if i == 0 else end_node if i == n_elements else None
+        for i in range(segments + 1):
+            reuse = start_node if i == 0 else end_node if i == segments else None
             if reuse is not None:
                 if not reuse.frame_given:
                     reuse.rotation, reuse.frame_given = node_q[i].copy(), True
@@ -176,7 +181,8 @@ class Domain:
                 node = self.add_node(points[i], node_q[i].copy(), f"{label}:{i}")
                 nodes.append(node)
         for i in range(n_elements):
-            self.add_element(formulation, (nodes[i], nodes[i + 1]), f"{label}/{i}", frames=(elem_q[i], elem_q[i]))
+            self.add_element(formulation, formulation.mesh_nodes(nodes, i), f"{label}/{i}",
+                             frames=formulation.rest_frames(node_q, elem_q, i))
         return nodes
 
     def add_rigid_body(self, label: str, mass: float, inertia, position, rotation=None, points=None) -> Node:
@@ -329,7 +335,7 @@ class Domain:
         return mass, inertia, placed
 
     def _length(self, element: Element) -> float:
-        a, b = (self.nodes[i].position for i in element.nodes)
+        a, b = (self.nodes[i].position for i in element.nodes[:2])
         return float(np.linalg.norm(b - a))
 
     def _element_families(self, placed) -> tuple:

@@ -243,6 +243,9 @@ class Beam2Formulation(ElementFormulation):
     family = "beam2"
     n_nodes = 2
     Data = Beam2Data
+    exact_curvature = False
+    """Constant-strain states represented exactly: stretch, shear and twist; a constant curvature only
+    as the polygon of chords (second order)."""
     assemble = staticmethod(_family_assemble)
     tangent_values = staticmethod(_family_tangent_values)
     resultants = staticmethod(_family_resultants)
@@ -313,6 +316,14 @@ class Beam2Formulation(ElementFormulation):
     def internal_forces(self, x_nodes, q_nodes, reference):
         s, U, _, _ = self._evaluate(x_nodes, q_nodes, reference)
         return s, U
+
+    def tangent(self, x_nodes, q_nodes, reference) -> np.ndarray:
+        """The 12×12 tangent ``∂S/∂[δx1, δθ1, δx2, δθ2]`` of one element in its section frames
+        (the generated ``beam2_tangent``)."""
+        s, K = np.empty(12), np.empty(144)
+        generated_tangents.beam2_tangent(x_nodes[0], x_nodes[1], q_nodes[0], q_nodes[1], reference["L0"],
+                                         reference["psi0"], reference["gamma0"], self.section.stiffness, s, K)
+        return K.reshape(12, 12)
 
     def section_resultants(self, x_nodes, q_nodes, reference):
         """Strains ``(Γ, K)`` and resultants ``(N, M)`` at the midpoint, section frame."""

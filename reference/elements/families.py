@@ -25,6 +25,8 @@ from __future__ import annotations
 from numba.extending import overload
 
 from reference.elements.beam2 import Beam2Formulation
+from reference.elements.beam2_se3 import Beam2SE3Formulation
+from reference.elements.beam3 import Beam3Formulation
 
 ELEMENT_FAMILIES: dict[str, type] = {}
 """Element formulation classes by deck name (``ElementFormulation.family``)."""
@@ -115,5 +117,7 @@ DEFAULT_FAMILY = "beam2"
 """The family of a beam that names none (``[[beams]] element``)."""
 
 register(Beam2Formulation, always=True)
+register(Beam2SE3Formulation)
+register(Beam3Formulation)
 
 __all__ = ["ALWAYS_PACKED", "DEFAULT_FAMILY", "ELEMENT_FAMILIES", "assemble_forces", "family_of", "register", "resultants", "tangent_values"]

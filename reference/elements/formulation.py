@@ -64,7 +64,9 @@ class ElementFormulation(ABC):
     - ``lumped_mass(x_nodes)`` → list of ``(mass, inertia 3×3 section frame)`` per node;
     - ``internal_forces(x, q, reference)`` → ``(S (n_nodes·6,), U)`` for one element;
     - ``reference_state(x, q)`` → what the unstrained configuration needs;
-    - ``critical_time_step(length)`` → stability limit of the explicit scheme [s].
+    - ``critical_time_step(length)`` → stability limit of the explicit scheme [s];
+    - ``rest_frames``, ``mesh_nodes`` → how :meth:`reference.domain.Domain.add_beam` meshes a beam of
+      the family (defaults: chord frames; ``n_nodes − 1`` segments per element, nodes in beam order).
 
     Per family (class attributes; the registry is :mod:`reference.elements.families`):
 
@@ -86,6 +88,21 @@ class ElementFormulation(ABC):
     family: str
     n_nodes: int
     Data: type
+
+    @staticmethod
+    def rest_frames(node_frames: list, chord_frames: list, i: int) -> tuple:
+        """The section triads at rest (Euler parameters) of the nodes of element i of a meshed beam
+        (:meth:`reference.domain.Domain.add_beam`), given the beam's triads at its mesh points and on
+        the chords between them: by default the chord's at both ends (an element straight in its own
+        section frame)."""
+        return chord_frames[i], chord_frames[i]
+
+    @classmethod
+    def mesh_nodes(cls, nodes: list, i: int) -> tuple:
+        """The nodes of element i of a beam meshed with ``n_nodes − 1`` segments per element, from the
+        beam's nodes in order along it, in the element's order (default: as along the beam)."""
+        k = (cls.n_nodes - 1) * i
+        return tuple(nodes[k:k + cls.n_nodes])
 
     @abstractmethod
     def lumped_mass(self, x_nodes: np.ndarray) -> list: ...

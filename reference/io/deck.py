@@ -30,6 +30,7 @@ import numpy as np
 
 from reference.domain import Domain
 from reference.elements import Section
+from reference.elements.families import DEFAULT_FAMILY, ELEMENT_FAMILIES
 from reference.expressions import ExpressionError
 from reference.interactions import (
     Clamp, Constant, Expression, FixedCoordinates, Gravity, LineLoad, NodalLoad, PiecewiseLinear, Ramp, Sine,
@@ -310,7 +311,7 @@ def _beams(rd: Reader, deck: dict, domain: Domain, refs: _References, sections: 
         entry = f"beams[{i}]"
         rigid = isinstance(bm, dict) and bm.get("rigid", False) is True  # a rigid bar has no elements
         rd.keys(bm, entry, required=["label", "section"] if rigid else ["label", "elements", "section"],
-                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center", "elements"])
+                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center", "elements", "element"])
         label = rd.label(bm["label"], f"{entry}.label")
         if label in beams:
             raise rd.fail(f"{entry}.label", f"duplicate beam label {show(label)}")
@@ -340,6 +341,9 @@ def _beams(rd: Reader, deck: dict, domain: Domain, refs: _References, sections: 
         center = rd.vector(bm["center"], f"{entry}.center") if "center" in bm else None
         if center is not None and rigid:
             raise rd.fail(f"{entry}.center", "a rigid bar is straight", "remove `center` or `rigid`")
+        family = rd.choice(bm.get("element", DEFAULT_FAMILY), f"{entry}.element", ELEMENT_FAMILIES, "element family")
+        if rigid and "element" in bm:
+            raise rd.fail(f"{entry}.element", "a rigid bar has no elements", "remove `element` or `rigid`")
         try:
             if rigid:
                 if ends[0][1] is not None or ends[1][1] is not None:
@@ -348,7 +352,8 @@ def _beams(rd: Reader, deck: dict, domain: Domain, refs: _References, sections: 
                 domain.add_rigid_bar(label, ends[0][0], ends[1][0], sections[sec_name], axis2)
             else:
                 beams[label] = domain.add_beam(label, ends[0][0], ends[1][0], n, sections[sec_name], axis2,
-                                               start_node=ends[0][1], end_node=ends[1][1], center=center)
+                                               start_node=ends[0][1], end_node=ends[1][1], center=center,
+                                               element=family)
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
 

@@ -1,0 +1,180 @@
+"""The two-node helicoidal beam (SE(3) interpolation, Sonneville, Cardona & Brüls 2014): element family ``"beam2_se3"``.
+
+The ends' section frames ``H_a = (Λ_a, x_a)`` are joined by the helicoid
+``H(s) = H_1 exp(s ε̂)``: the strains ``ε = log(H_1⁻¹H_2)/L0`` are constant on the
+element, so every constant-strain state (a straight beam, the roll-up circle, a
+helix) is represented exactly with any number of elements (docs/formulation.md §3.4).
+The per-element arithmetic is the sympy-generated code of
+``reference/generated/beam2_se3.py`` (``derivations/beam2_se3.py``): forces, energy,
+resultants and the tangent.  Like Beam2 it works in its section frames
+``p_a = q_a ⊗ o_a`` and maps its rotational forces and tangent back to the node frames.
+
+Beside the kernels the family differs from Beam2 in its reference only: its section
+frames at rest are the beam's own frames at its nodes (on the arc's tangent for an arc),
+not the chord frames, so an arc is meshed as the exact circle (:meth:`Beam2SE3Formulation.rest_frames`).
+Mass lumping and the critical step are Beam2's: linearised about a straight state the two
+elements are the same (``B(ψ) d/L0 ≈ (d − ψ × d/2)/L0``, Beam2's midpoint-triad shear).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from reference.elements.beam2 import Beam2Formulation
+from reference.elements.formulation import section_quaternion, tangent_to_node_frame, to_node_frame
+from reference.generated import beam2_se3 as generated
+from reference.jit import inlined
+from reference.newton_blocks import store_block
+
+
+class Beam2SE3Data(NamedTuple):
+    """The beam2_se3 elements of a model (E elements): the fields of
+    :class:`~reference.elements.beam2.Beam2Data`, with ``L0`` the helicoid's arc length,
+    ``psi0`` the relative rotation of the section frames at rest and ``gamma0`` ``B(ψ0) d0/L0``."""
+
+    conn: np.ndarray
+    index: np.ndarray
+    offset: np.ndarray
+    L0: np.ndarray
+    psi0: np.ndarray
+    gamma0: np.ndarray
+    stiff: np.ndarray
+
+
+_internal_forces = inlined(generated.internal_forces)
+
+
+@inlined
+def _element(data, x, q, e, w):
+    """Forces of element e into ``w`` (40,) in Beam2's layout (``beam2.beam2_element``): node-frame
+    moments in ``w[32:38]``, the section quaternions in ``w[24:32]``; returns the strain energy."""
+    i, j = data.conn[e, 0], data.conn[e, 1]
+    o1, o2 = data.offset[e, 0], data.offset[e, 1]
+    section_quaternion(q[i], o1, w[24:28])
+    section_quaternion(q[j], o2, w[28:32])
+    w[39] = _internal_forces(x[i], x[j], w[24:28], w[28:32], data.L0[e], data.psi0[e], data.gamma0[e],
+                             data.stiff[e], w[:12], w[12:18], w[18:24])
+    to_node_frame(o1, w[3:6], w[32:35])
+    to_node_frame(o2, w[9:12], w[35:38])
+    return w[39]
+
+
+@inlined
+def _assemble(data, W, x, q, S):
+    """:meth:`Beam2SE3Formulation.assemble`: the internal forces added into ``S`` (N, 6) element by
+    element; returns the strain energy [J]."""
+    U = 0.0
+    for e in range(data.conn.shape[0]):
+        w = W[e]
+        U += _element(data, x, q, e, w)
+        i, j = data.conn[e, 0], data.conn[e, 1]
+        for k in range(3):
+            S[i, k] += w[k]
+            S[i, 3 + k] += w[32 + k]
+            S[j, k] += w[6 + k]
+            S[j, 3 + k] += w[35 + k]
+    return U
+
+
+@inlined
+def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
+    """:meth:`Beam2SE3Formulation.tangent_values`: each element's 12×12 tangent (the generated
+    ``tangent``, section frames taken back to the node frames) times ``ck``."""
+    K144 = K[:144]
+    K12 = K144.reshape((12, 12))
+    for e in range(data.conn.shape[0]):
+        i, j = data.conn[e, 0], data.conn[e, 1]
+        w = W[e]
+        if ck != 0.0:
+            section_quaternion(q[i], data.offset[e, 0], w[24:28])
+            section_quaternion(q[j], data.offset[e, 1], w[28:32])
+            generated.tangent(x[i], x[j], w[24:28], w[28:32], data.L0[e], data.psi0[e], data.gamma0[e],
+                              data.stiff[e], w[:12], K144)
+            tangent_to_node_frame(data.offset[e, 0], data.offset[e, 1], K12, w[32:35], w[35:38])
+        else:
+            K12[:, :] = 0.0
+        p = store_block(K12, data.conn[e], 2, psi, Jr, ck, values, p)
+    return p
+
+
+@inlined
+def _resultants(data, W, x, q, N, M):
+    """:meth:`Beam2SE3Formulation.resultants`: the element's constant section resultants ``N = C_Γ Γ``
+    [N] (1 axial, 2, 3 shear) and ``M = C_K K`` [N m] (1 torsion, 2, 3 bending) in section-frame
+    components, the same at every section of the helicoid (constant strains), into the rows ``data.index``."""
+    for e in range(data.conn.shape[0]):
+        w = W[e]
+        _element(data, x, q, e, w)
+        r = data.index[e]
+        for k in range(3):
+            N[r, k] = w[18 + k]
+            M[r, k] = w[21 + k]
+    return 0.0
+
+
+class Beam2SE3Formulation(Beam2Formulation):
+    """Two-node beam with the helicoidal (SE(3)) interpolation: exact for every constant-strain state.
+
+    Energy ``½ L0 (ε − ε0)ᵀ C (ε − ε0)`` with ``ε = (Γ, K) = log(H_1⁻¹H_2)/L0`` in the section frame
+    (no quadrature: the strains are constant on the element), forces its exact gradient and the
+    tangent its exact derivative (``derivations/beam2_se3.py``).  Lumped mass and critical step:
+    :class:`~reference.elements.beam2.Beam2Formulation`'s (the chord length for an arc, a second-order
+    difference in the mass only).
+
+    Parameters
+    ----------
+    section : Section
+    """
+
+    family = "beam2_se3"
+    n_nodes = 2
+    Data = Beam2SE3Data
+    exact_curvature = True
+    """Every constant-strain state (curvature included: a circle, a helix) is represented exactly."""
+    assemble = staticmethod(_assemble)
+    tangent_values = staticmethod(_tangent_values)
+    resultants = staticmethod(_resultants)
+
+    @classmethod
+    def pack(cls, placed) -> Beam2SE3Data:
+        """The family's plain data: Beam2's fields, with this family's reference state."""
+        return Beam2SE3Data(*Beam2Formulation.pack(placed))
+
+    @staticmethod
+    def rest_frames(node_frames, chord_frames, i):
+        """The section triads at rest of element i's two ends: the beam's own triads at its nodes
+        (the arc's tangent frames), so the reference helicoid is the arc itself."""
+        return node_frames[i], node_frames[i + 1]
+
+    def reference_state(self, x_nodes, q_nodes):
+        """``L0 = |U0|`` (the helicoid's arc length, the chord for a straight element),
+        ``ψ0 = log(Λ1ᵀΛ2)`` and ``Γ0 = U0/L0`` with ``U0 = B(ψ0) Λ1ᵀ(x2 − x1)`` at rest."""
+        _, _, strain, _ = self._evaluate(x_nodes, q_nodes, {"L0": 1.0, "psi0": np.zeros(3), "gamma0": np.zeros(3)})
+        length = float(np.linalg.norm(strain[:3]))
+        if length <= 0.0:
+            raise ValueError("beam2_se3 element of zero length")
+        return {"L0": length, "psi0": strain[3:].copy(), "gamma0": strain[:3] / length}
+
+    def _evaluate(self, x_nodes, q_nodes, reference):
+        s, strain, stress = np.empty(12), np.empty(6), np.empty(6)
+        U = generated.internal_forces(
+            np.asarray(x_nodes[0], float), np.asarray(x_nodes[1], float), np.asarray(q_nodes[0], float),
+            np.asarray(q_nodes[1], float), reference["L0"], reference["psi0"], reference["gamma0"],
+            self.section.stiffness, s, strain, stress,
+        )
+        return s, U, strain, stress
+
+    def tangent(self, x_nodes, q_nodes, reference) -> np.ndarray:
+        """The 12×12 tangent ``∂S/∂[δx1, δθ1, δx2, δθ2]`` of one element in its section frames."""
+        s, K = np.empty(12), np.empty(144)
+        generated.tangent(np.asarray(x_nodes[0], float), np.asarray(x_nodes[1], float), np.asarray(q_nodes[0], float),
+                          np.asarray(q_nodes[1], float), reference["L0"], reference["psi0"], reference["gamma0"],
+                          self.section.stiffness, s, K)
+        return K.reshape(12, 12)
+
+    def section_resultants(self, x_nodes, q_nodes, reference):
+        """Strains ``(Γ, K)`` and resultants ``(N, M)`` of the element (constant on it), section frame."""
+        _, _, strain, stress = self._evaluate(x_nodes, q_nodes, reference)
+        return strain, stress
