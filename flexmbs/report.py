@@ -417,12 +417,15 @@ def main(args=None) -> int:
         failed_here = [c for c in more_checks if not c.passed]
         print(f"[{number}/{len(decks)}] {deck.name}: {len(more_checks) - len(failed_here)}/{len(more_checks)} checks pass",
               file=sys.stderr)
+    from flexmbs.verification.families import report_lines
+
+    families = report_lines()
     failed = [c for c in checks if not c.passed]
     head = header + [
         f"**{len(checks) - len(failed)} of {len(checks)} checks pass** over {len(decks)} decks." + (
             "  Failed: " + "; ".join(c.name for c in failed) if failed else ""),
         "",
-        *contents(lines + ["## Solve times"] + LIMITATIONS + ["## All checks"]),
+        *contents(lines + families + ["## Solve times"] + LIMITATIONS + ["## All checks"]),
     ]
     timing = ["## Solve times", "",
               "Warm solve times (the solve call only; numba's compilation is excluded: every deck first runs two "
@@ -431,9 +434,7 @@ def main(args=None) -> int:
               "| run | engine | steps | solve [s] | µs per step |", "|---|---|---|---|---|"]
     timing += [f"| {label} | {engine} | {steps} | {wall:.3f} | {1e6 * wall / max(steps, 1):.1f} |"
                for label, engine, steps, wall in timings]
-    from flexmbs.verification.families import report_lines
-
-    body = head + lines + report_lines() + timing + [""] + LIMITATIONS + ["## All checks", ""] + _table(checks)
+    body = head + lines + families + timing + [""] + LIMITATIONS + ["## All checks", ""] + _table(checks)
     body += ["", f"Report generated in {time.perf_counter() - t0:.1f} s."]
     name = "verification_quick.md" if quick else "verification.md"
     (reports / name).write_text("\n".join(body) + "\n", encoding="utf-8")

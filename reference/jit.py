@@ -165,11 +165,29 @@ _NAMED_TYPES: dict = {}
 (two classes may have the same plain type)."""
 
 
+TAG = "_plain_tag"
+"""A named tuple class with this attribute set (to a unique name) keeps a tag in its plain copy."""
+
+
+def _tag(cls) -> np.ndarray:
+    """An empty array whose record dtype carries the class's tag: it makes the plain type unique."""
+    return np.empty(0, dtype=np.dtype([(getattr(cls, TAG), np.uint8)]))
+
+
 def _plain(obj):
-    """``obj`` with every (named) tuple in it a plain tuple, and a key of its numba type."""
+    """``obj`` with every (named) tuple in it a plain tuple, and a key of its numba type.
+
+    Two named tuple classes of the same field types have the same plain type, so a kernel compiled for
+    one would be taken for the other (in the process and from the on-disk cache): the element families'
+    data are such classes (``conn``, ``index``, ``offset``, … of the same dimensions).  A class with
+    :data:`TAG` set gets, as its first item, an empty array whose record dtype is named by the tag.
+    """
     if isinstance(obj, tuple):
         parts = [_plain(e) for e in obj]
-        return tuple(p for p, _ in parts), (type(obj), tuple(k for _, k in parts))
+        plain = tuple(p for p, _ in parts)
+        if getattr(type(obj), TAG, None):
+            plain = (_tag(type(obj)),) + plain
+        return plain, (type(obj), tuple(k for _, k in parts))
     if isinstance(obj, np.ndarray):
         f = obj.flags
         return obj, (obj.dtype.str, obj.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
@@ -195,8 +213,10 @@ def boundary(obj):
 
 def _rebuild(context, builder, plain_type, named_type, value):
     if isinstance(named_type, types.BaseTuple):
-        items = [_rebuild(context, builder, p, n, builder.extract_value(value, i))
-                 for i, (p, n) in enumerate(zip(plain_type, named_type))]
+        plain_items = tuple(plain_type)
+        skip = len(plain_items) - len(named_type)  # 1: the tag of a tagged class (:func:`_plain`)
+        items = [_rebuild(context, builder, p, n, builder.extract_value(value, i + skip))
+                 for i, (p, n) in enumerate(zip(plain_items[skip:], named_type))]
         return context.make_tuple(builder, named_type, items)
     return value
 

@@ -70,6 +70,47 @@ def test_boundary_copies_are_plain_and_named_again_inside_a_kernel():
     assert pair.b.tolist() == [0.5, 2.5, 4.5, 6.5]
 
 
+class _FamilyA(NamedTuple):
+    conn: np.ndarray
+    L0: np.ndarray
+
+
+class _FamilyB(NamedTuple):  # the same field types as _FamilyA
+    conn: np.ndarray
+    L0: np.ndarray
+
+
+class _Holder(NamedTuple):
+    elements: tuple
+
+
+_FamilyA._plain_tag, _FamilyB._plain_tag = "test_family_a", "test_family_b"
+
+
+@numba.njit
+def _family_length(holder):
+    holder = jit.named(holder, _Holder)
+    return holder.elements[0].L0.sum()
+
+
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="plain copies are made for compiled kernels only")
+def test_two_classes_of_the_same_field_types_stay_apart_in_their_plain_copies():
+    """Before: beam2_se3's and beam3's data (seven arrays of the same dimensions) had one plain type, so a
+    kernel compiled for a beam3 model (in the process or in the on-disk cache) ran beam3's kernels on
+    beam2_se3's arrays: out of bounds (caught with NUMBA_BOUNDSCHECK=1), a corrupted heap without it.
+    A tagged class (the element families' data) carries its tag into the plain type."""
+    a = _Holder((_FamilyA(np.zeros((2, 2), dtype=np.int64), np.ones(2)),))
+    b = _Holder((_FamilyB(np.zeros((2, 2), dtype=np.int64), np.full(2, 3.0)),))
+    plain_a, plain_b = jit.boundary(a), jit.boundary(b)
+    assert numba.typeof(plain_a) != numba.typeof(plain_b)
+    assert _family_length(plain_a) == 2.0 and _family_length(plain_b) == 6.0  # the tag skipped in the view
+    assert len(_family_length.signatures) == 2
+    from reference.elements.families import ELEMENT_FAMILIES, family_of
+
+    tags = {getattr(cls.Data, jit.TAG, None) for name, cls in ELEMENT_FAMILIES.items() if name != "beam2"}
+    assert None not in tags and len(tags) == len(ELEMENT_FAMILIES) - 1 and family_of
+
+
 def test_a_run_makes_the_plain_copy_of_its_record_once():
     """The generalized-α steps take the output record at every output: the Newton system keeps its plain
     copy (a dictionary of copies in reference.jit kept up to 64 models and their arrays alive)."""

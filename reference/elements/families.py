@@ -27,6 +27,7 @@ from numba.extending import overload
 from reference.elements.beam2 import Beam2Formulation
 from reference.elements.beam2_se3 import Beam2SE3Formulation
 from reference.elements.beam3 import Beam3Formulation
+from reference.jit import TAG
 
 ELEMENT_FAMILIES: dict[str, type] = {}
 """Element formulation classes by deck name (``ElementFormulation.family``)."""
@@ -52,6 +53,10 @@ def register(formulation: type, always: bool = False) -> type:
     _BY_DATA[formulation.Data] = formulation
     if always:
         ALWAYS_PACKED.add(name)
+    else:
+        # two families' data of the same field types must not pass for each other in a compiled kernel
+        # (reference.jit.boundary): the families a model carries only where it uses them are tagged
+        setattr(formulation.Data, TAG, f"flexmbs_family_{name}")
     return formulation
 
 
