@@ -14,9 +14,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +22,8 @@ import pytest
 from reference.domain import Domain
 from reference.elements import Section
 from reference.io.deck_reader import DeckError
+
+from test_families import uncompiled_json
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
@@ -72,10 +71,7 @@ def run_all() -> dict:
 
 @pytest.fixture(scope="module")
 def runs():
-    env = dict(os.environ, NUMBA_DISABLE_JIT="1", PYTHONPATH=os.pathsep.join([str(ROOT), str(ROOT / "tests")]))
-    proc = subprocess.run([sys.executable, __file__], env=env, cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return uncompiled_json(__file__)
 
 
 @pytest.mark.parametrize("n", [3, 12])

@@ -10,13 +10,12 @@ convergence orders are the family suite's (tests/test_families.py), the compiled
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from test_families import uncompiled_json
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
@@ -88,10 +87,7 @@ def euler_columns() -> dict:
 
 @pytest.fixture(scope="module")
 def runs():
-    env = dict(os.environ, NUMBA_DISABLE_JIT="1", PYTHONPATH=os.pathsep.join([str(ROOT), str(ROOT / "tests")]))
-    proc = subprocess.run([sys.executable, __file__], env=env, cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return uncompiled_json(__file__)
 
 
 def test_eight_beam3_elements_beat_64_beam2(runs):

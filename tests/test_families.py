@@ -1,4 +1,4 @@
-"""The verification suite of every engine element family (issue 21; flexmbs/verification/families.py).
+"""The verification suite of every engine element family (flexmbs/verification/families.py).
 
 A family the engine registers gets these checks by registration: the parametrisation is over
 :func:`flexmbs.verification.families.engine_families`.  The suite's short version (meshes 3 and 6)
@@ -23,13 +23,18 @@ from flexmbs.verification.families import engine_families
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.fixture(scope="module")
-def suite():
-    env = dict(os.environ, NUMBA_DISABLE_JIT="1", PYTHONPATH=str(ROOT))
-    proc = subprocess.run([sys.executable, "-m", "flexmbs.verification.families", "--json"], env=env, cwd=ROOT,
-                          capture_output=True, text=True, timeout=300)
+def uncompiled_json(*args: str, timeout: float = 600) -> dict:
+    """Run ``python ARGS`` with the engine uncompiled (``NUMBA_DISABLE_JIT=1``, ``tests/`` importable) and
+    return the JSON of its last line of output."""
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1", PYTHONPATH=os.pathsep.join([str(ROOT), str(ROOT / "tests")]))
+    proc = subprocess.run([sys.executable, *args], env=env, cwd=ROOT, capture_output=True, text=True, timeout=timeout)
     assert proc.returncode == 0, proc.stderr[-2000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def suite():
+    return uncompiled_json("-m", "flexmbs.verification.families", "--json", timeout=300)
 
 
 def test_every_engine_family_is_in_the_suite(suite):
