@@ -15,8 +15,8 @@
 # $(\mathbf u, \lambda)$: the **equilibrium paths**. We draw them as the load factor against one observable (a
 # displacement). Along a path the tangent stiffness $\mathbf K = \partial\mathbf S/\partial\mathbf u$ (reduced to the
 # motions the joints allow) is positive definite while the equilibrium is stable; it becomes singular at a **critical
-# point**, $\mathbf K\boldsymbol\varphi = 0$. Differentiating $R = 0$ along the path, $\mathbf K\,\dot{\mathbf u} =
-# \dot\lambda\,\mathbf F$, and multiplying by $\boldsymbol\varphi^{\mathsf T}$ gives
+# point**, $\mathbf K\boldsymbol\varphi = 0$. Differentiating $R = 0$ along the path,
+# $\mathbf K\,\dot{\mathbf u} = \dot\lambda\,\mathbf F$, and multiplying by $\boldsymbol\varphi^{\mathsf T}$ gives
 # $\dot\lambda\,\boldsymbol\varphi^{\mathsf T}\mathbf F = 0$ — two kinds of critical point:
 #
 # * a **limit point**: $\boldsymbol\varphi^{\mathsf T}\mathbf F \ne 0$, so $\dot\lambda = 0$: the load passes through a
@@ -32,7 +32,6 @@
 # path with the Southwell plot.
 
 # %%
-import os
 import tempfile
 import warnings
 from pathlib import Path
@@ -49,7 +48,6 @@ from reference.interactions import Clamp, FixedCoordinates, NodalLoad, Ramp
 from reference.io.results import load_results
 from reference.validation import ModelWarning
 
-QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
 # the repository, wherever the notebook runs from (the editable install points here)
 MODELS = Path(reference.__file__).resolve().parents[1] / "models"
 SCRATCH = Path(tempfile.mkdtemp(prefix="lesson11_"))  # results files of the runs that stop
@@ -132,7 +130,9 @@ print(f"rise H = {RISE} m, a = {A_HALF} m: limit point at h* = {h_star:.5f} m, P
 # ## 2. Load control fails at a limit point
 #
 # `algorithm = "static"` raises the load factor in fixed steps (here 0.15) and solves each level by Newton from the
-# previous equilibrium. Above $P_\text{max}$ there is no equilibrium near the last one. What happens then depends on
+# previous equilibrium. At the limit point the tangent is singular ($\mathrm dP/\mathrm dh = 0$): close to it a
+# Newton correction $\delta h = \Delta P/(\mathrm dP/\mathrm dh)$ grows without bound, and above $P_\text{max}$ the
+# equation $P(h) = \lambda P_\text{max}$ has no root near the last equilibrium. What happens then depends on
 # Newton's luck. With Newton allowed 10 iterations per level the run **stops**: the step is halved 8 times, the last
 # converged level, $\lambda$ = 0.9996<!-- check stopped_at abs 1e-4 -->, is kept in the results file, and the message
 # names the likely cause. With the default 25 iterations Newton wanders off and converges on a *distant* equilibrium
@@ -310,6 +310,7 @@ for eps in sizes:
     run, _, lines = solve_quietly(d)
     assert not lines and not np.any(run.data("path/negative_eigenvalues")), "no critical point on an imperfect path"
     imperfect[eps] = (4.0 * run.data("path/load_factor"), run.position("beam:end")[:, 1])
+    assert np.all(np.diff(imperfect[eps][0]) > 0.0) and np.all(np.diff(imperfect[eps][1]) > 0.0)  # no limit point
 at_tenth = {eps: float(np.interp(0.1, y, P)) for eps, (P, y) in imperfect.items()}
 for eps in sizes:
     print(f"ε = {eps:g}: P = {at_tenth[eps]:.4f} N with the tip 0.1 L aside "
@@ -408,9 +409,9 @@ fig.tight_layout()
 # %% [markdown]
 # The straight line's slope gives $P_\text{cr}$ = 2.4724<!-- check P_southwell abs 1e-3 --> N,
 # 0.20<!-- check southwell_error_percent abs 0.02 --> % above $\pi^2EI/(4L^2)$ — from points that never pass
-# $0.95\,P_\text{cr}$. Most of that is the model's own error, not the method's: Beam2's 16-element column buckles 0.16
-# % high (lesson 10), and `algorithm = "buckling"` lies only 0.04<!-- check southwell_vs_buckling_percent abs 0.02 -->
-# % below the Southwell estimate.
+# $0.95\,P_\text{cr}$. Most of that is the model's own error, not the method's: Beam2's 16-element column buckles
+# 0.16 % high (lesson 10), and `algorithm = "buckling"` lies only
+# 0.04<!-- check southwell_vs_buckling_percent abs 0.02 --> % below the Southwell estimate.
 #
 # ## Exercises
 #
@@ -421,15 +422,14 @@ fig.tight_layout()
 #
 # **Exercise 2 (change the model and rerun).** Make the truss steep, $H = 3a$ (`truss(3.0, ...)`), and rerun the
 # arc-length of part 3 to $\lambda = 1.2$. *What you should see:* a **bifurcation** comes before the limit point. The
-# apex may also move sideways; its stiffness that way is $k_{xx} = 2\,(EA/\ell_0)\,(a^2/\ell^2 + (\ell -
-# \ell_0)\,h^2/\ell^3)$ (the axial stiffness and the compressive force's geometric term), which vanishes where
-# $a^2\ell = (\ell_0 - \ell)\,h^2$. Find that $\ell$ and compare its load with the one flexmbs reports. Why does the
-# shallow truss of part 3 have no such bifurcation?
+# apex may also move sideways; its stiffness that way is
+# $k_{xx} = 2\,(EA/\ell_0)\,(a^2/\ell^2 + (\ell - \ell_0)\,h^2/\ell^3)$ (the axial stiffness and the compressive
+# force's geometric term), which vanishes where $a^2\ell = (\ell_0 - \ell)\,h^2$. Find that $\ell$ and compare its
+# load with the one flexmbs reports. Why does the shallow truss of part 3 have no such bifurcation?
 #
 # **Exercise 3.** Draw the Southwell plot of the imperfect lateral–torsional cantilever of part 5
 # ($\varepsilon = 10^{-3}$, the static algorithm to $0.95\,P_\text{cr}$), once with the tip's lateral displacement
-# and once with its twist as $\delta$.
-# Are the points on a straight line? What does each fit estimate?
+# and once with its twist as $\delta$. Are the points on a straight line? What does each fit estimate?
 #
 # Try them before you open the answers below (click the collapsed cells to show them).
 #
