@@ -50,7 +50,6 @@ from reference.validation import ModelWarning
 
 # the repository, wherever the notebook runs from (the editable install points here)
 MODELS = Path(reference.__file__).resolve().parents[1] / "models"
-SCRATCH = Path(tempfile.mkdtemp(prefix="lesson11_"))  # results files of the runs that stop
 
 
 def solve_quietly(d, results_path=None):
@@ -143,11 +142,14 @@ print(f"rise H = {RISE} m, a = {A_HALF} m: limit point at h* = {h_star:.5f} m, P
 
 # %%
 load_control = dict(algorithm="static", t_end=1.5, load_steps=10, dt=0.15)
-stopping, message, _ = solve_quietly(truss(RISE, max_iterations=10, **load_control), results_path=SCRATCH / "stops.h5")
+with tempfile.TemporaryDirectory() as scratch:  # a run that stops keeps every converged level in its results file
+    stopping, message, _ = solve_quietly(truss(RISE, max_iterations=10, **load_control),
+                                         results_path=Path(scratch) / "stops.h5")
+    stopped = load_results(Path(scratch) / "stops.h5")
+    stopped_levels, stopped_apex, stopped_status = stopped.time.copy(), stopped.position("left:1")[:, 2], stopped.status
 print(message)
-stopped = load_results(SCRATCH / "stops.h5")  # every converged level, the last sub-level too
-stopped_at = float(stopped.time[-1])
-assert stopping is None and "limit (buckling) point" in message and stopped.status.startswith("Newton did not converge")
+stopped_at = float(stopped_levels[-1])  # the last sub-level of the cut step
+assert stopping is None and "limit (buckling) point" in message and stopped_status.startswith("Newton did not converge")
 # the step of 0.15 from 0.9 halved 8 times: the last converged level within 0.15/256 below the limit
 assert 1.0 - 0.15 / 256 - 1e-9 <= stopped_at < 1.0
 
@@ -193,7 +195,7 @@ h = np.linspace(1.2 * RISE, -1.25 * RISE, 400)
 ax.plot(h, truss_load(h, RISE) / P_max, "k-", lw=0.8, label="closed form P(h)")
 ax.plot(apex[~unstable], lam[~unstable], "o", ms=3.5, label="arc length: stable points")
 ax.plot(apex[unstable], lam[unstable], "o", ms=3.5, color="C3", label="arc length: 1 negative eigenvalue")
-ax.plot(stopped.position("left:1")[:, 2], stopped.time, "s", mfc="none", ms=7, color="C2",
+ax.plot(stopped_apex, stopped_levels, "s", mfc="none", ms=7, color="C2",
         label="load control, 10 iterations: stops")
 ax.plot(apex_static, jumping.time, "^:", ms=6, color="C1", label="load control, 25 iterations: jumps")
 ax.plot([h_star, -h_star], [1.0, -1.0], "k*", ms=11, label="limit points (closed form)")
