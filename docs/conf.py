@@ -17,8 +17,15 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT))
-# the build reads decks and imports modules but solves nothing: no numba compilation (about a minute)
-os.environ.setdefault("NUMBA_DISABLE_JIT", "1")
+# the build reads decks and imports modules but solves nothing: no numba compilation (about a minute) in
+# this process; the kernels executing the lessons do not inherit the setting (numba reads it on import)
+_JIT = os.environ.pop("NUMBA_DISABLE_JIT", None)
+os.environ["NUMBA_DISABLE_JIT"] = "1"
+import numba  # noqa: E402,F401
+
+os.environ.pop("NUMBA_DISABLE_JIT")
+if _JIT is not None:
+    os.environ["NUMBA_DISABLE_JIT"] = _JIT
 
 from flexmbs.site import write_generated_pages  # noqa: E402
 
@@ -31,7 +38,7 @@ extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "sphinx.ex
 exclude_patterns = ["_build", "conf.py", "Thumbs.db", ".DS_Store"]
 source_suffix = {".md": "myst-nb", ".ipynb": "myst-nb"}
 nb_custom_formats = {".py": "flexmbs.site.read_lesson"}
-nb_execution_mode = "force" if EXECUTE else "off"
+nb_execution_mode = "cache" if EXECUTE else "off"  # a lesson is executed again only when it changed
 nb_execution_timeout = 900
 nb_execution_raise_on_error = True
 nb_execution_show_tb = True

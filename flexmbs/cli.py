@@ -515,7 +515,8 @@ def parser() -> argparse.ArgumentParser:
     pl.add_argument("--mode", type=number(int, 1, low_ok=True, example="--mode 1"), metavar="K",
                     help="mode K (from 1) of a modes or buckling results file as an animated ParaView file "
                     "NAME_modeK.vtkhdf (with --animate: the GIF shows the mode)")
-    pl.add_argument("--out", help="folder for the figures (default: next to the results file)")
+    pl.add_argument("--out", help="folder for the figures (default: the results file's path without .h5, "
+                    "e.g. out/three_bar/results/ for out/three_bar/results.h5)")
     pl.set_defaults(func=cmd_plot)
     rep = sub.add_parser("report", help="the verification report → reports/")
     rep.add_argument("--quick", action="store_true", help="reduced version (for the tests)")

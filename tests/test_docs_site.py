@@ -57,3 +57,19 @@ def test_getting_started_examples_run():
                           str(ROOT / "docs" / "getting_started.md")],
                          cwd=ROOT, env=_env(), capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+
+
+def test_docstring_examples_of_the_public_modules_run():
+    """The examples in the docstrings of the modules exported from ``reference`` run as doctests (JIT off)."""
+    modules = ["reference", "reference.domain", "reference.interactions", "reference.forces", "reference.joints.joint",
+               "reference.elements.section", "reference.algorithms.base", "reference.io.deck"]
+    code = ("import doctest, importlib, sys\n"
+            "failed = attempted = 0\n"
+            f"for name in {modules!r}:\n"
+            "    r = doctest.testmod(importlib.import_module(name))\n"
+            "    failed, attempted = failed + r.failed, attempted + r.attempted\n"
+            "print(attempted)\n"
+            "sys.exit(1 if failed else 0)\n")
+    run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=_env(), capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
+    assert int(run.stdout.split()[-1]) >= 10  # the package's and NodalLoad's examples at least
