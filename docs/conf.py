@@ -30,6 +30,8 @@ if _JIT is not None:
 from flexmbs.site import write_generated_pages  # noqa: E402
 
 EXECUTE = os.environ.get("FLEXMBS_DOCS_EXECUTE") == "1"
+if EXECUTE:  # the kernels inherit this: their figures are captured as outputs (not so under MPLBACKEND=Agg)
+    os.environ["MPLBACKEND"] = "module://matplotlib_inline.backend_inline"
 write_generated_pages(HERE / "_generated", execute=EXECUTE)
 
 project = "flexmbs"

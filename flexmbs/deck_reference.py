@@ -8,7 +8,8 @@ value the reader used when a deck left a key out (its default), and which keys n
 functions.  The keys of the kinds (time functions, springs) and of the algorithms come from the
 registries the reader looks them up in (``TIME_FUNCTIONS``, ``SPRING_KEYS``, ``ALGORITHMS``).  The
 message column is the reader's own message for a wrong value of that key.  A key the reader
-accepts but no gallery deck uses is listed with its type left blank.
+accepts but no gallery deck uses is listed with its type left blank, and a table no gallery deck has is
+only named among the deck's tables.
 
 ``python -m flexmbs.deck_reference`` prints the Markdown; the documentation build writes it into
 the deck reference page (``docs/conf.py``).
@@ -142,22 +143,30 @@ class _Book:
 
     def __init__(self):
         self.tables: dict[str, dict] = {}
-        self.order: list[str] = []
-        self.previous = None
+        self.sequences: list[list[str]] = []
         self.kind: dict[str, str] = {}
 
     def start(self):
-        """A new deck: its tables are placed after those the reader read before them in other decks."""
-        self.previous = None
+        """A new deck: the order of its tables is noted apart."""
+        self.sequences.append([])
 
-    def _place(self, pattern):
-        if pattern not in self.order:
-            at = self.order.index(self.previous) + 1 if self.previous in self.order else 0
-            self.order.insert(at, pattern)
-        self.previous = pattern
+    @property
+    def order(self) -> list[str]:
+        """The tables in the reader's order: every deck's order of its tables merged (a topological sort)."""
+        after = {p: set() for p in self.tables}
+        for seq in self.sequences:
+            for first, then in zip(seq, seq[1:]):
+                after[then].add(first)
+        order, left = [], list(self.tables)
+        while left:
+            ready = next((p for p in left if after[p] <= set(order)), left[0])
+            order.append(ready)
+            left.remove(ready)
+        return order
 
     def table(self, pattern, required, optional, table):
-        self._place(pattern)
+        if self.sequences and pattern not in self.sequences[-1]:
+            self.sequences[-1].append(pattern)
         t = self.tables.setdefault(pattern, {})
         for key in list(required) + list(optional):
             t.setdefault(key, {"required": set(), "checks": {}, "defaults": []})["required"].add(key in required)
@@ -302,6 +311,11 @@ def markdown(book: _Book | None = None, deck_page: str = "docs/deck.md") -> str:
                    "[[springs]]": {k: (req, opt, {}) for k, (req, opt) in SPRING_KEYS.items()},
                    "[solver]": {name: (list(cls.deck_required), list(cls.deck_optional), {})
                                 for name, cls in ALGORITHMS.items()}}
+    seen = {p.strip("[]").split(".")[0] for p in book.tables}
+    unseen = [key for key in book.tables.get("[deck]", {}) if key not in seen]
+    if unseen:
+        out += ["Tables the reader accepts whose keys no gallery deck shows (they are read by the reader's "
+                "own checks, described on the deck page): " + ", ".join(f"`{k}`" for k in unseen) + ".", ""]
     for pattern in book.order:
         info = book.tables[pattern]
         out += [f"## `{pattern}`" if pattern != "[deck]" else "## The deck's tables", ""]

@@ -114,4 +114,8 @@ def read_lesson(text: str):
 
     nb = jupytext.reads(text, fmt="py:percent")
     nb.metadata.setdefault("language_info", {"name": "python", "pygments_lexer": "ipython3"})
+    for cell in nb.cells:  # an exercise's answer (collapsed in Jupyter) is collapsed on the page too
+        tags = cell.metadata.get("tags", [])
+        if "solution" in tags and "hide-cell" not in tags:
+            cell.metadata["tags"] = [*tags, "hide-cell"]
     return nb

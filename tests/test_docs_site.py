@@ -50,26 +50,19 @@ def test_quick_site_builds_without_warnings(tmp_path):
     assert len(re.findall(r"<img ", gallery)) >= len(decks)
 
 
-def test_getting_started_examples_run():
-    """Its first model in Python solves a pendulum and checks the angular velocity against α t."""
-    run = subprocess.run([sys.executable, "-c", "import doctest, sys; r = doctest.testfile(sys.argv[1], "
-                          "module_relative=False); sys.exit(1 if r.failed or not r.attempted else 0)",
-                          str(ROOT / "docs" / "getting_started.md")],
-                         cwd=ROOT, env=_env(), capture_output=True, text=True, timeout=300)
-    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
-
-
-def test_docstring_examples_of_the_public_modules_run():
-    """The examples in the docstrings of the modules exported from ``reference`` run as doctests (JIT off)."""
+def test_examples_run_as_doctests():
+    """The getting-started page's first model in Python (a pendulum whose angular velocity after 10 ms is
+    checked against α t) and the examples in the docstrings of the modules exported from ``reference`` run
+    as doctests, in one process with the JIT off."""
     modules = ["reference", "reference.domain", "reference.interactions", "reference.forces", "reference.joints.joint",
                "reference.elements.section", "reference.algorithms.base", "reference.io.deck"]
     code = ("import doctest, importlib, sys\n"
-            "failed = attempted = 0\n"
-            f"for name in {modules!r}:\n"
-            "    r = doctest.testmod(importlib.import_module(name))\n"
-            "    failed, attempted = failed + r.failed, attempted + r.attempted\n"
-            "print(attempted)\n"
-            "sys.exit(1 if failed else 0)\n")
-    run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=_env(), capture_output=True, text=True, timeout=300)
+            "results = [doctest.testfile(sys.argv[1], module_relative=False)]\n"
+            f"results += [doctest.testmod(importlib.import_module(name)) for name in {modules!r}]\n"
+            "print(results[0].attempted, sum(r.attempted for r in results[1:]))\n"
+            "sys.exit(1 if any(r.failed for r in results) else 0)\n")
+    run = subprocess.run([sys.executable, "-c", code, str(ROOT / "docs" / "getting_started.md")], cwd=ROOT,
+                         env=_env(), capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
-    assert int(run.stdout.split()[-1]) >= 10  # the package's and NodalLoad's examples at least
+    page, docstrings = map(int, run.stdout.split()[-2:])
+    assert page >= 10 and docstrings >= 10  # the page's pendulum; the package's and NodalLoad's examples
