@@ -507,7 +507,8 @@ def parser() -> argparse.ArgumentParser:
                     "limit and bifurcation points marked (repeatable)")
     pl.add_argument("--drift", action="store_true", help="constraint violation history")
     pl.add_argument("--energy", action="store_true", help="energy histories")
-    pl.add_argument("--animate", metavar="NAME.gif", type=animation_name, help="animation of the motion")
+    pl.add_argument("--animate", metavar="NAME.gif", type=animation_name,
+                    help="animation of the motion: bodies, springs, dampers, joints and the ground, fitted to it")
     pl.add_argument("--every", type=number(int, 1, low_ok=True, example="--every 5"), default=1,
                     help="animate every n-th output")
     pl.add_argument("--magnify", type=number(example="--magnify 50"), default=1.0,

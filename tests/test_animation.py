@@ -84,3 +84,12 @@ def test_animation_draws_springs_joints_and_ground_fitted_to_the_motion():
     # the limits follow the motion: the nodes' end positions (moved 0.8 m along x) are inside
     assert x0 <= m["nodes"][0] and m["nodes"][1] <= x1
     assert m["aspect"] == 1.0
+
+
+def test_plot_help_names_the_default_folder():
+    """``plot --out``'s help names the folder the figures go to without it (the results file's path less .h5)."""
+    from flexmbs.cli import parser
+
+    plot = parser()._subparsers._group_actions[0].choices["plot"]
+    text = " ".join(plot.format_help().split())
+    assert "default: the results file's path without .h5, e.g. out/three_bar/results/ for out/three_bar/results.h5" in text
