@@ -5,7 +5,8 @@ drawing of a configuration (:func:`configuration`) is the one used everywhere:
 beams as polylines through their nodes, a rigid body as segments through its
 named points and the joint points it carries (a rigid bar is its segment),
 the flexible beams' deflection from their chord optionally magnified — the
-report's model sketches, its Fig. 14 and ``plot --animate`` all draw with it.
+report's model sketches, its Fig. 14 and ``plot --animate`` all draw with it; the animation adds the
+springs, dampers, joints and the ground (:func:`animation_figure`), fitted to the whole motion.
 """
 
 from __future__ import annotations
