@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: report test fuzz signals bench derive notebooks clean families
+.PHONY: report test fuzz signals bench derive notebooks clean families docs
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
@@ -44,6 +44,14 @@ families: $(STAMP)
 
 derive: $(STAMP)
 	$(BIN)/flexmbs derive
+
+$(VENV)/.docs: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[crosscheck,vtk,sweep,test,docs]"
+	touch $(VENV)/.docs
+
+# the documentation site → build/docs/index.html: executes the lessons, embeds reports/verification.md
+docs: $(VENV)/.docs
+	FLEXMBS_DOCS_EXECUTE=1 $(BIN)/python -m sphinx -W --keep-going -b html docs build/docs
 
 # JupyterLab on the lessons: right-click notebooks/NN_*.py → Open With → Jupytext Notebook
 notebooks: $(VENV)/.notebooks

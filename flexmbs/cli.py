@@ -507,7 +507,8 @@ def parser() -> argparse.ArgumentParser:
                     "limit and bifurcation points marked (repeatable)")
     pl.add_argument("--drift", action="store_true", help="constraint violation history")
     pl.add_argument("--energy", action="store_true", help="energy histories")
-    pl.add_argument("--animate", metavar="NAME.gif", type=animation_name, help="animation of the motion")
+    pl.add_argument("--animate", metavar="NAME.gif", type=animation_name,
+                    help="animation of the motion: bodies, springs, dampers, joints and the ground, fitted to it")
     pl.add_argument("--every", type=number(int, 1, low_ok=True, example="--every 5"), default=1,
                     help="animate every n-th output")
     pl.add_argument("--magnify", type=number(example="--magnify 50"), default=1.0,
@@ -515,7 +516,8 @@ def parser() -> argparse.ArgumentParser:
     pl.add_argument("--mode", type=number(int, 1, low_ok=True, example="--mode 1"), metavar="K",
                     help="mode K (from 1) of a modes or buckling results file as an animated ParaView file "
                     "NAME_modeK.vtkhdf (with --animate: the GIF shows the mode)")
-    pl.add_argument("--out", help="folder for the figures (default: next to the results file)")
+    pl.add_argument("--out", help="folder for the figures (default: the results file's path without .h5, "
+                    "e.g. out/three_bar/results/ for out/three_bar/results.h5)")
     pl.set_defaults(func=cmd_plot)
     rep = sub.add_parser("report", help="the verification report → reports/")
     rep.add_argument("--quick", action="store_true", help="reduced version (for the tests)")

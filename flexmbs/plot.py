@@ -5,7 +5,8 @@ drawing of a configuration (:func:`configuration`) is the one used everywhere:
 beams as polylines through their nodes, a rigid body as segments through its
 named points and the joint points it carries (a rigid bar is its segment),
 the flexible beams' deflection from their chord optionally magnified — the
-report's model sketches, its Fig. 14 and ``plot --animate`` all draw with it.
+report's model sketches, its Fig. 14 and ``plot --animate`` all draw with it; the animation adds the
+springs, dampers, joints and the ground (:func:`animation_figure`), fitted to the whole motion.
 """
 
 from __future__ import annotations
@@ -312,39 +313,179 @@ def plot_path(r, source, text: str, out: Path, plt) -> Path:
     return save_figure(fig, out / f"path_{safe}.png")
 
 
-def animate(r, path: Path, every: int = 1, magnify: float = 1.0, progress=None) -> Path:
-    """A GIF of the motion in its plane of largest extent: every body drawn by :func:`configuration`."""
-    import matplotlib.pyplot as plt
-    from matplotlib.animation import FuncAnimation, PillowWriter
+def connectors(domain) -> list[tuple[str, str, list]]:
+    """What the animation draws besides the bodies: ``(kind, label, ends)`` for every force element and joint.
 
-    domain = domain_of(r)
+    ``kind`` is ``"spring"`` (a point-to-point element with a stiffness), ``"damper"`` (one without),
+    ``"torsion spring"``, ``"bushing"`` or ``"joint"``; ``ends`` are ``(node label, body-frame offset [m])``
+    pairs, the label ``None`` for the ground, whose offset is then the inertial point.  A rotational
+    element is drawn at its body i's node, a joint at its point on body i.
+    """
+    from reference.forces import Bushing, PointToPoint, Rotational
+
+    def end(node, point):
+        if node is None:
+            return None, np.asarray(point, dtype=float)
+        return node.label, _rotation_matrix(node.rotation).T @ (np.asarray(point, dtype=float) - node.position)
+
+    out = []
+    for element in domain.force_elements:
+        if isinstance(element, PointToPoint):
+            kind = "spring" if element.stiffness > 0.0 else "damper"
+            out.append((kind, element.label, [end(element.body_i, element.point_i),
+                                              end(element.body_j, element.point_j)]))
+        elif isinstance(element, Rotational):
+            out.append(("torsion spring", element.label, [end(element.body_i, element.body_i.position)]))
+        elif isinstance(element, Bushing):
+            out.append(("bushing", element.label, [end(element.body_i, element.point), end(element.body_j, element.point)]))
+    for joint in domain.joints:
+        out.append(("joint", joint.label, [end(joint.body_i, joint.point)]))
+    return out
+
+
+def grounds(domain) -> list[np.ndarray]:
+    """Inertial points where the model is held by the ground: joints and force elements with a ground end,
+    and fixed (clamped) nodes."""
+    from reference.interactions import FixedCoordinates
+
+    points = [np.asarray(c.point, dtype=float) for c in domain.joints if c.body_i is None or c.body_j is None]
+    for element in domain.force_elements:
+        if element.body_j is None:
+            points.append(np.asarray(getattr(element, "point_j", getattr(element, "point", element.body_i.position)),
+                                     dtype=float))
+    points += [np.asarray(bc.node.position, dtype=float) for bc in domain.boundary_conditions
+               if isinstance(bc, FixedCoordinates)]
+    unique = []
+    for p in points:
+        if not any(np.allclose(p, q) for q in unique):
+            unique.append(p)
+    return unique
+
+
+def _placed(r, i: int, ends) -> np.ndarray:
+    """The inertial points of connector ends at output ``i`` (body-fixed offsets turned with their body)."""
+    pts = []
+    for label, offset in ends:
+        if label is None:
+            pts.append(offset)
+        else:
+            k = r.index(label)
+            pts.append(r.positions[i, k] + _rotation_matrix(r.rotations[i, k]) @ offset)
+    return np.array(pts)
+
+
+def _zigzag(P: np.ndarray, Q: np.ndarray, width: float, teeth: int = 6) -> np.ndarray:
+    """A spring's zigzag from P to Q in the drawing plane (2D points), ``width`` its amplitude."""
+    d = Q - P
+    length = float(np.hypot(*d))
+    if length <= 0.0:
+        return np.array([P, Q])
+    n = np.array([-d[1], d[0]]) / length
+    s = np.concatenate([[0.0, 0.15], 0.15 + 0.7 * (np.arange(2 * teeth) + 0.5) / (2 * teeth), [0.85, 1.0]])
+    side = np.concatenate([[0.0, 0.0], np.where(np.arange(2 * teeth) % 2 == 0, 1.0, -1.0), [0.0, 0.0]])
+    return P + s[:, None] * d + (min(width, 0.25 * length) * side)[:, None] * n
+
+
+STYLE = {"spring": dict(color="tab:green", lw=1.2), "damper": dict(color="tab:purple", lw=2.0, ls="--"),
+         "torsion spring": dict(color="tab:green", ls="none", marker=r"$\circlearrowleft$", ms=14),
+         "bushing": dict(color="tab:brown", lw=2.0, marker="s", ms=6, mfc="none"),
+         "joint": dict(color="k", ls="none", marker="o", ms=7, mfc="white", mew=1.5, zorder=5)}
+"""How the animation draws each kind of connector (matplotlib line properties)."""
+
+
+def animation_figure(r, domain=None, every: int = 1, magnify: float = 1.0):
+    """The animation's figure: ``(fig, artists, draw, frames)``.
+
+    Bodies are drawn by :func:`configuration`; springs as zigzags, dampers dashed, torsion springs and
+    joints as markers, bushings as squares (:func:`connectors`), the ground as hatched bases under the
+    points it holds (:func:`grounds`).  ``artists`` maps each kind (``"body"``, ``"spring"``, …,
+    ``"ground"``) to its matplotlib artists; ``draw(k)`` shows frame ``k`` of ``frames`` (output indices).
+    The axes are fitted to the whole motion: their limits are the bounding box of everything drawn over
+    all frames plus 5 %, at equal scale, in a figure of the box's proportions.
+    """
+    import matplotlib.pyplot as plt
+
+    domain = domain_of(r) if domain is None else domain
     shapes, beams = (geometry(domain), chains(domain)) if domain is not None else ({}, None)
+    links = connectors(domain) if domain is not None else []
+    fixed = grounds(domain) if domain is not None else []
     a, b = plane(r)
     frames = list(range(0, len(r.time), max(int(every), 1)))
     drawn = [configuration(r, i, shapes, magnify, beams) for i in frames]
-    allp = np.concatenate([p for lines in drawn for _, p in lines])
-    fig, ax = plt.subplots(figsize=(5.4, 5.4))
-    ax.set_aspect("equal")
-    spread = max(float(np.ptp(allp[:, a])), float(np.ptp(allp[:, b])), 1e-9)
-    pad = 0.05 * spread
-    ax.set_xlim(allp[:, a].min() - pad, allp[:, a].max() + pad)
-    ax.set_ylim(allp[:, b].min() - pad, allp[:, b].max() + pad)
+    placed = [[_placed(r, i, ends) for _, _, ends in links] for i in frames]
+    allp = np.concatenate([p for lines in drawn for _, p in lines] + [p for ps in placed for p in ps]
+                          + [np.array(fixed).reshape(-1, 3)])
+    lo, hi = allp[:, [a, b]].min(axis=0), allp[:, [a, b]].max(axis=0)
+    span = max(float((hi - lo).max()), 1e-9)
+    base = 0.06 * span  # the ground symbol's half-width, drawn below the held point
+    for p in fixed:  # the symbol's corners
+        lo = np.minimum(lo, [p[a] - 1.3 * base, p[b] - base])
+        hi = np.maximum(hi, [p[a] + base, p[b]])
+    pad = 0.05 * np.maximum(hi - lo, 0.1 * span)  # a motion along one line still gets some height
+    lo, hi = lo - pad, hi + pad
+    ratio = float((hi - lo)[0] / (hi - lo)[1])
+    shown = float(np.clip(ratio, 0.4, 2.5))  # the figure's proportions: those of the box, within reason
+    if shown != ratio:  # a box too flat for a figure: its short side widened, centred
+        centre, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        half = np.array([half[0], half[0] / shown]) if ratio > shown else np.array([half[1] * shown, half[1]])
+        lo, hi = centre - half, centre + half
+    legend = 1.6 if len(drawn[0]) <= 8 else 0.0  # room for the legend, right of the axes
+    fig, ax = plt.subplots(figsize=(6.0 * min(shown, 1.0) + 1.0 + legend, 6.0 / max(shown, 1.0) + 0.8))
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal", adjustable="box")  # equal scale: the axes box takes the limits' proportions
     ax.set_xlabel(f"{'xyz'[a]} [m]")
     ax.set_ylabel(f"{'xyz'[b]} [m]")
-    artists = [ax.plot([], [], "o-", ms=3, lw=2 if len(p) <= 3 else 1.2, label=label)[0] for label, p in drawn[0]]
-    if len(artists) <= 8:
-        ax.legend(fontsize=7, loc="upper right")
-    title = ax.set_title("")
+    artists = {"body": [ax.plot([], [], "o-", ms=3, lw=2 if len(p) <= 3 else 1.2, label=label)[0]
+                        for label, p in drawn[0]]}
+    for kind, label, _ in links:
+        artists.setdefault(kind, []).append(ax.plot([], [], **STYLE[kind])[0])
+    for p in fixed:
+        x, y = p[a], p[b]
+        hatch = [[x - base + 0.4 * base * t, y - 0.6 * base, x - base + 0.4 * base * t - 0.3 * base, y - base]
+                 for t in range(6)]
+        artists.setdefault("ground", []).extend(
+            ax.plot([x, x - 0.5 * base, x + 0.5 * base, x], [y, y - 0.6 * base, y - 0.6 * base, y], color="k", lw=1)
+            + ax.plot([x - base, x + base], [y - 0.6 * base, y - 0.6 * base], color="k", lw=1.5)
+            + [ax.plot([h[0], h[2]], [h[1], h[3]], color="k", lw=0.8)[0] for h in hatch])
+    bodies = artists["body"]
+    if len(bodies) <= 8:
+        ax.legend(bodies, [label for label, _ in drawn[0]], fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    title = ax.set_title("t = 0.000 s")
+    fig.tight_layout()
     note = f"; beam deflection ×{magnify:g}" if magnify != 1.0 else ""
+    counters = {}
 
     def draw(k):
-        for artist, (_, P) in zip(artists, drawn[k]):
+        for artist, (_, P) in zip(bodies, drawn[k]):
             artist.set_data(P[:, a], P[:, b])
+        counters.clear()
+        for (kind, _, _), P in zip(links, placed[k]):
+            artist = artists[kind][counters.setdefault(kind, 0)]
+            counters[kind] += 1
+            xy = P[:, [a, b]]
+            if kind == "spring":
+                xy = _zigzag(xy[0], xy[1], 0.02 * span)
+            artist.set_data(xy[:, 0], xy[:, 1])
         title.set_text(f"t = {r.time[frames[k]]:.3f} s{note}")
+        return [x for group in artists.values() for x in group]
+
+    return fig, artists, draw, frames
+
+
+def animate(r, path: Path, every: int = 1, magnify: float = 1.0, progress=None, domain=None) -> Path:
+    """A GIF of the motion in its plane of largest extent (:func:`animation_figure`)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    fig, _, draw, frames = animation_figure(r, domain, every, magnify)
+
+    def frame(k):
+        drawn = draw(k)
         if progress is not None:
             progress((k + 1) / len(frames), r.time[frames[k]])
-        return artists
+        return drawn
 
-    FuncAnimation(fig, draw, frames=len(frames)).save(path, writer=PillowWriter(fps=20))
+    FuncAnimation(fig, frame, frames=len(frames)).save(path, writer=PillowWriter(fps=20))
     plt.close(fig)
     return path

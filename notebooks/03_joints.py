@@ -69,7 +69,7 @@ d = Domain("spherical pendulum")
 th = np.radians(60.0)
 com = 0.5 * np.array([np.sin(th), 0.0, -np.cos(th)])
 R = RotationVector([0.0, np.pi / 2 - th, 0.0])
-bar = d.add_rigid_body("bar", 1.0, [1e-3, 1 / 12, 1 / 12], com, R.to_euler_parameters().q)
+bar = d.add_rigid_body("bar", 1.0, [1e-3, 1 / 12, 1 / 12], com, rotation=R.to_euler_parameters().q)
 d.add_joint("spherical", bar, None, [0.0, 0.0, 0.0])
 d.add_interaction(Gravity(np.array([0.0, 0.0, -9.81])))
 bar.velocity = np.cross([0.0, 0.0, 2.0], com)
@@ -129,7 +129,7 @@ print("exercise 1: the dot-1 row for ω_i is (a'_i × A_iᵀ a_j)ᵀ = (a_i × a
 peaks = []
 for h in (1e-3, 5e-4):
     d2 = Domain("spherical pendulum")
-    b2 = d2.add_rigid_body("bar", 1.0, [1e-3, 1 / 12, 1 / 12], com, R.to_euler_parameters().q)
+    b2 = d2.add_rigid_body("bar", 1.0, [1e-3, 1 / 12, 1 / 12], com, rotation=R.to_euler_parameters().q)
     d2.add_joint("spherical", b2, None, [0.0, 0.0, 0.0])
     d2.add_interaction(Gravity(np.array([0.0, 0.0, -9.81])))
     b2.velocity = np.cross([0.0, 0.0, 2.0], com)

@@ -61,7 +61,7 @@ def kink_ratio(kink_deg, delta=1e-6):
     a = math.radians(kink_deg)
     q1 = RotationVector([0, 0, -a / 2]).to_euler_parameters().q
     q2 = RotationVector([0, 0, a / 2]).to_euler_parameters().q
-    n1, n2 = d.add_node([0.0, 0, 0], q1), d.add_node([0.5, 0, 0], q2)
+    n1, n2 = d.add_node([0.0, 0, 0], rotation=q1), d.add_node([0.5, 0, 0], rotation=q2)
     d.add_element(Beam2Formulation(section), (n1, n2), frames=([1.0, 0, 0, 0], [1.0, 0, 0, 0]))
     m = d.initialization()
     x = np.array([n1.position, n2.position])

@@ -65,7 +65,8 @@ g = 9.81
 
 # %%
 m, ell = 1.0, 1.0
-bar_section = Section(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, rhoA=m / ell, rhoJ1=1e-4, rhoJ2=1e-4, rhoJ3=1e-4)
+bar_section = Section(EA=1.0, GA2=1.0, GA3=1.0, GJ=1.0, EI2=1.0, EI3=1.0,
+                      rhoA=m / ell, rhoJ1=1e-4, rhoJ2=1e-4, rhoJ3=1e-4)
 pendulum = Domain("falling pendulum")
 bar = pendulum.add_rigid_bar("bar", [0.0, 0.0, 0.0], [ell, 0.0, 0.0], bar_section)
 pendulum.add_joint("revolute", bar, None, [0.0, 0.0, 0.0], axis=[0.0, 1.0, 0.0], label="pin")

@@ -216,7 +216,7 @@ k_exercise = 4 * np.pi**2 * 2.0 / 0.5**2  # the solution: k = 4π² J / T²
 d = Domain("torsional pendulum")
 disc = d.add_rigid_body("disc", 1.0, [1.0, 1.0, 2.0], [0.0, 0.0, 0.0])
 disc.angular_velocity = np.array([0.0, 0.0, 1.0])
-d.add_force_element(Rotational(disc, None, [0.0, 0.0, 1.0], stiffness=k_exercise))
+d.add_force_element(Rotational(disc, None, axis=[0.0, 0.0, 1.0], stiffness=k_exercise))
 d.solver = SolverSettings(dt=1e-4, t_end=1.2)
 res = d.solve()
 wz = res.angular_velocity("disc")[:, 2]

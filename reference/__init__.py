@@ -7,6 +7,30 @@ follow the deck's words: ``[sections.NAME]`` → :class:`Section`, ``[[loads]]``
 :class:`Bushing`, ``[solver]`` → :class:`SolverSettings`, time functions by their deck names
 (:class:`Ramp`, :class:`Step`, …).  Lesson 6 (``notebooks/06_implicit_explicit.py``) builds a model
 this way.
+Arguments whose meaning a position would hide (flags, stiffnesses, settings) are keyword-only.
+
+Examples
+--------
+A cantilever of ten Beam2 elements under a tip force that steps on at t = 0:
+
+>>> from reference import Clamp, Domain, NodalLoad, Section, SolverSettings, Step
+>>> d = Domain("cantilever")
+>>> section = Section(EA=1e3, GA2=1e3, GA3=1e3, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-2, rhoJ2=1e-2,
+...                   rhoJ3=1e-2)
+>>> nodes = d.add_beam("beam", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 10, section)
+>>> clamp = d.add_interaction(Clamp(nodes[0]))
+>>> tip = d.add_interaction(NodalLoad(nodes[-1], [0.0, 0.0, 1e-2], time_function=Step(0.0, 0.0, 1.0)))
+>>> d.solver = SolverSettings(algorithm="generalized_alpha", dt=1e-2, t_end=0.1)
+>>> len(nodes), d.node("beam:10") is nodes[-1]
+(11, True)
+
+Gravity is a vector, as in the deck's ``[gravity] g``:
+
+>>> from reference import Gravity
+>>> Gravity(-9.81)  # doctest: +ELLIPSIS
+Traceback (most recent call last):
+...
+ValueError: Gravity g [m/s²]: expected a vector of 3 finite numbers, got -9.81; give a vector, e.g. ...
 """
 
 from reference.algorithms.base import SolverSettings

@@ -92,7 +92,7 @@ class Domain:
 
         return load_deck(path, overrides=overrides).domain
 
-    def add_node(self, position, rotation=None, label=None, velocity=(0.0, 0.0, 0.0),
+    def add_node(self, position, *, rotation=None, label=None, velocity=(0.0, 0.0, 0.0),
                  angular_velocity=(0.0, 0.0, 0.0)) -> Node:
         """Add a node; ``rotation`` are its Euler parameters (identity if omitted)."""
         node_id = len(self.nodes)
@@ -128,7 +128,7 @@ class Domain:
         self._model = None
         return element
 
-    def add_beam(self, label: str, start, end, n_elements: int, section: Section, axis2=(0.0, 1.0, 0.0),
+    def add_beam(self, label: str, start, end, n_elements: int, section: Section, *, axis2=(0.0, 1.0, 0.0),
                  start_node: Node | None = None, end_node: Node | None = None, center=None,
                  element: str = DEFAULT_FAMILY) -> list[Node]:
         """Mesh a straight beam, or a circular arc about ``center``, into ``n_elements`` elements of the
@@ -178,14 +178,14 @@ class Domain:
                     reuse.rotation, reuse.frame_given = node_q[i].copy(), True
                 nodes.append(reuse)
             else:
-                node = self.add_node(points[i], node_q[i].copy(), f"{label}:{i}")
+                node = self.add_node(points[i], rotation=node_q[i].copy(), label=f"{label}:{i}")
                 nodes.append(node)
         for i in range(n_elements):
             self.add_element(formulation, formulation.mesh_nodes(nodes, i), f"{label}/{i}",
                              frames=formulation.rest_frames(node_q, elem_q, i))
         return nodes
 
-    def add_rigid_body(self, label: str, mass: float, inertia, position, rotation=None, points=None) -> Node:
+    def add_rigid_body(self, label: str, mass: float, inertia, position, *, rotation=None, points=None) -> Node:
         """Add a rigid body: one node at its centre of mass with ``S = 0`` (paper §3.1).
 
         Parameters
@@ -205,12 +205,12 @@ class Domain:
         inertia = np.diag(inertia) if inertia.shape == (3,) else inertia.reshape(3, 3)
         if not mass > 0.0 or not np.all(np.linalg.eigvalsh(0.5 * (inertia + inertia.T)) > 0.0):
             raise ValueError(f"rigid body {label!r}: mass and inertia must be positive")
-        node = self.add_node(position, rotation, label)
+        node = self.add_node(position, rotation=rotation, label=label)
         node.mass, node.inertia, node.frame_given = float(mass), inertia, True
         node.points = {name: np.asarray(p, dtype=float) for name, p in (points or {}).items()}
         return node
 
-    def add_rigid_bar(self, label: str, start, end, section: Section, axis2=(0.0, 1.0, 0.0)) -> Node:
+    def add_rigid_bar(self, label: str, start, end, section: Section, *, axis2=(0.0, 1.0, 0.0)) -> Node:
         """A beam declared rigid: one rigid body with the bar's mass distribution.
 
         Mass ``ρA L``; inertia about the centre in the section frame
@@ -228,9 +228,10 @@ class Domain:
         J = np.diag([section.rhoJ1 * length, section.rhoJ2 * length + m * length**2 / 12.0,
                      section.rhoJ3 * length + m * length**2 / 12.0])
         centre = 0.5 * (start + end)
-        return self.add_rigid_body(label, m, J, centre, q, {"start": start, "end": end, "centre": centre})
+        return self.add_rigid_body(label, m, J, centre, rotation=q,
+                                   points={"start": start, "end": end, "centre": centre})
 
-    def add_joint(self, kind: str, body_i, body_j, point, axis=(0.0, 0.0, 1.0), reference=None, frame=None,
+    def add_joint(self, kind: str, body_i, body_j, point, *, axis=(0.0, 0.0, 1.0), reference=None, frame=None,
                   formulation=None, time_function: TimeFunction | None = None, mode: str = "position",
                   label: str = "") -> Joint:
         """Join ``body_i`` to ``body_j`` (a node, its id or label; ``"ground"`` or ``None``: the ground) at
@@ -254,9 +255,9 @@ class Domain:
         frame = joint_frame(axis, reference) if frame is None else np.asarray(frame, dtype=float)
         ends = [None if body is None or (isinstance(body, str) and body == GROUND) else self.node(body)
                 for body in (body_i, body_j)]
-        joint = Joint(kind, *ends,
-                      point, frame, formulation or Jacobian(), time_function or Constant(0.0), mode,
-                      label or f"{kind}:{len(self.joints)}")
+        joint = Joint(kind, *ends, point, frame, formulation=formulation or Jacobian(),
+                      time_function=time_function or Constant(0.0), mode=mode,
+                      label=label or f"{kind}:{len(self.joints)}")
         self.joints.append(joint)
         self._model = None
         return joint
@@ -416,7 +417,7 @@ class Domain:
             setup.project_initial_velocities(self._model or self.initialization(), self.state)
         return self.state
 
-    def algorithm(self, dt: float | None = None) -> Algorithm:
+    def algorithm(self, *, dt: float | None = None) -> Algorithm:
         """The solver's algorithm, looked up by name in :data:`reference.algorithms.ALGORITHMS`."""
         if self.solver.algorithm not in ALGORITHMS:
             raise ValueError(f"unknown algorithm {self.solver.algorithm!r}; available: {', '.join(ALGORITHMS)}")
@@ -432,7 +433,7 @@ class Domain:
             raise SolverDiverged(f"the solution became non-finite before t = {time}")
         return state
 
-    def solve(self, t_end: float | None = None, dt: float | None = None, results_path=None,
+    def solve(self, *, t_end: float | None = None, dt: float | None = None, results_path=None,
               progress=None, monitor: bool = True, deck=None) -> Results:
         """Run from t = 0 to ``t_end`` (paper: Solve, Fig. 9) and return the time histories.
 
@@ -467,7 +468,7 @@ class Domain:
             monitor sees a blow-up; records up to then are kept.
         """
         t_end = self.solver.t_end if t_end is None else float(t_end)
-        algo = self.algorithm(dt)
+        algo = self.algorithm(dt=dt)
         n_total = algo.n_steps(t_end)
         self.last_run = {"path": None, "status": "not started", "t": 0.0}
         joint_offsets(self)

@@ -53,7 +53,7 @@ lays the elements out in the Model.
 from __future__ import annotations
 
 from abc import ABC
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 
 import numpy as np
 
@@ -166,6 +166,7 @@ class PointToPoint(ForceElement):
     point_i: np.ndarray
     body_j: object = None
     point_j: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    _: KW_ONLY
     stiffness: float = 0.0
     damping: float = 0.0
     rest_length: float | None = None
@@ -227,6 +228,7 @@ class Rotational(ForceElement):
 
     body_i: object
     body_j: object = None
+    _: KW_ONLY
     axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
     stiffness: float = 0.0
     damping: float = 0.0
@@ -278,6 +280,7 @@ class Bushing(ForceElement):
 
     body_i: object
     body_j: object = None
+    _: KW_ONLY
     point: np.ndarray = field(default_factory=lambda: np.zeros(3))
     axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
     reference: np.ndarray | None = None

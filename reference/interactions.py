@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 
 import numpy as np
 
@@ -286,6 +286,7 @@ class Expression(TimeFunction):
     (:mod:`reference.expressions`; refused with :class:`~reference.expressions.ExpressionError`)."""
 
     expr: str = "0"
+    _: KW_ONLY
     with_integral: bool = False
     kind = EXPRESSION
 
@@ -335,10 +336,25 @@ class NodalLoad(Interaction):
         Point of application of a force, inertial at t = 0 [m] and fixed in
         the node's body frame after (a point of a rigid body); the moment of
         the force about the node follows.  Default: the node.
+
+    Examples
+    --------
+    Everything after the vector is keyword-only, so a flag cannot be mistaken for another:
+
+    >>> from reference import Domain, NodalLoad, Ramp
+    >>> node = Domain().add_node((1.0, 0.0, 0.0), label="tip")
+    >>> load = NodalLoad(node, [0.0, 0.0, -5.0], follower=True, time_function=Ramp(0.0, 1.0))
+    >>> load.code  # a follower force
+    1
+    >>> NodalLoad(node, [0.0, 0.0, 1.0], True)
+    Traceback (most recent call last):
+    ...
+    TypeError: NodalLoad.__init__() takes 3 positional arguments but 4 were given
     """
 
     node: object
     vector: np.ndarray
+    _: KW_ONLY
     moment: bool = False
     follower: bool = False
     time_function: TimeFunction = field(default_factory=Constant)
@@ -381,6 +397,7 @@ class LineLoad(Interaction):
 
     nodes: list
     force_per_length: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    _: KW_ONLY
     moment_per_length: np.ndarray = field(default_factory=lambda: np.zeros(3))
     follower: bool = False
     time_function: TimeFunction = field(default_factory=Constant)
@@ -401,7 +418,8 @@ class LineLoad(Interaction):
             for vec, moment in ((self.force_per_length, False), (self.moment_per_length, True)):
                 vec = np.asarray(vec, dtype=float)
                 if np.any(vec != 0.0):
-                    loads.append(NodalLoad(node, vec * length, moment, self.follower, self.time_function))
+                    loads.append(NodalLoad(node, vec * length, moment=moment, follower=self.follower,
+                                            time_function=self.time_function))
         return loads
 
 

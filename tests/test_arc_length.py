@@ -32,7 +32,7 @@ def truss(**solver) -> Domain:
     and to each other at the apex (a spherical joint; out-of-plane coordinates fixed), a unit downward
     load at the apex.  With free end rotations a single element stays straight and carries only
     ``N = EA (ℓ/ℓ0 − 1)`` (its strain at the midpoint), so the discrete model is the pin-jointed truss."""
-    sec = Section(EA, EA, EA, 1.0, 1.0, 1.0, rhoA=1.0, rhoJ1=1e-3, rhoJ2=1e-3, rhoJ3=1e-3)
+    sec = Section(EA=EA, GA2=EA, GA3=EA, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=1e-3, rhoJ2=1e-3, rhoJ3=1e-3)
     d = Domain("von_mises")
     left = d.add_beam("left", (-A_HALF, 0.0, 0.0), (0.0, 0.0, RISE), 1, sec)
     right = d.add_beam("right", (A_HALF, 0.0, 0.0), (0.0, 0.0, RISE), 1, sec)
@@ -236,7 +236,7 @@ def test_one_sign_rule_for_both_drives():
     ground here): the root of a free beam on a translational joint along x driven by s = 0.3 sits at
     x = +0.3; the root of a beam on a revolute joint about z driven by θ = 0.3 turns its tip to
     (cos 0.3, 2 + sin 0.3, 0) (static algorithm, exact to Newton's tolerance)."""
-    sec = Section(1e4, 1e4, 1e4, 10.0, 10.0, 10.0, rhoA=1.0, rhoJ1=2e-3, rhoJ2=1e-3, rhoJ3=1e-3)
+    sec = Section(EA=1e4, GA2=1e4, GA3=1e4, GJ=10.0, EI2=10.0, EI3=10.0, rhoA=1.0, rhoJ1=2e-3, rhoJ2=1e-3, rhoJ3=1e-3)
     d = Domain("drives")
     slider = d.add_beam("slider", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 1, sec)
     crank = d.add_beam("crank", (0.0, 2.0, 0.0), (1.0, 2.0, 0.0), 1, sec)

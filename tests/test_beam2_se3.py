@@ -58,7 +58,8 @@ def run_all() -> dict:
     from flexmbs.verification.families import bend_tip
 
     out["bend"] = list(bend_tip("beam2_se3", 8))
-    R, section = 2.0, Section(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0)
+    R, section = 2.0, Section(EA=1.0, GA2=1.0, GA3=1.0, GJ=1.0, EI2=1.0, EI3=1.0,
+                              rhoA=1.0, rhoJ1=1.0, rhoJ2=1.0, rhoJ3=1.0)
     for family in ("beam2", "beam2_se3"):
         d = Domain("arc")
         d.add_beam("arc", (R, 0.0, 0.0), (0.0, R, 0.0), 4, section, axis2=(0.0, 0.0, 1.0), center=(0.0, 0.0, 0.0),

@@ -88,7 +88,7 @@ def test_every_joint_kind_translates(kind):
     from reference.interactions import Gravity
     from reference.domain import SolverSettings
 
-    sec = Section(1, 1, 1, 1, 1, 1, rhoA=1.0, rhoJ1=1e-2, rhoJ2=1e-2, rhoJ3=1e-2)
+    sec = Section(EA=1, GA2=1, GA3=1, GJ=1, EI2=1, EI3=1, rhoA=1.0, rhoJ1=1e-2, rhoJ2=1e-2, rhoJ3=1e-2)
     d = Domain(kind)
     end = np.array([np.cos(np.radians(30)), 0.0, -np.sin(np.radians(30))])
     bar = d.add_rigid_bar("bar", (0.0, 0.0, 0.0), end, sec, axis2=(0.0, 1.0, 0.0))

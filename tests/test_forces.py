@@ -230,8 +230,8 @@ def test_expression_derivative_and_integral_are_the_symbolic_ones():
 def _spin_up_body(tf, mode="position"):
     d = Domain()
     disc = d.add_rigid_body("disc", 1.0, [1.0, 1.0, 2.0], [0.0, 0.0, 0.0])
-    d.add_joint("revolute", disc, None, [0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
-    d.add_joint("rotation_drive", disc, None, [0.0, 0.0, 0.0], [0.0, 0.0, 1.0], time_function=tf, mode=mode)
+    d.add_joint("revolute", disc, None, [0.0, 0.0, 0.0], axis=[0.0, 0.0, 1.0])
+    d.add_joint("rotation_drive", disc, None, [0.0, 0.0, 0.0], axis=[0.0, 0.0, 1.0], time_function=tf, mode=mode)
     d.solver = SolverSettings(dt=1e-3, t_end=1.0, output_every=10)
     return d
 
@@ -347,9 +347,10 @@ def test_energy_balance_with_springs_dampers_and_actuator(algorithm, dt):
     b = d.add_rigid_body("b", 2.0, [0.5, 0.4, 0.3], [1.0, 0.2, 0.0])
     d.add_force_element(PointToPoint(a, [0.1, 0.1, 0.0], b, [0.9, 0.3, 0.1], stiffness=50.0, damping=0.5,
                                      rest_length=0.7, force_function=Sine(2.0, 3.0)))
-    d.add_force_element(Rotational(a, None, [0.0, 1.0, 1.0], stiffness=5.0, damping=0.05))
-    d.add_force_element(Bushing(b, a, [0.5, 0.1, 0.0], [0.0, 0.0, 1.0], None, [80, 60, 40, 3, 4, 5],
-                                [0.2, 0.2, 0.2, 0.01, 0.01, 0.01]))
+    d.add_force_element(Rotational(a, None, axis=[0.0, 1.0, 1.0], stiffness=5.0, damping=0.05))
+    d.add_force_element(Bushing(b, a, point=[0.5, 0.1, 0.0], axis=[0.0, 0.0, 1.0], reference=None,
+                                stiffness=[80, 60, 40, 3, 4, 5],
+                                damping=[0.2, 0.2, 0.2, 0.01, 0.01, 0.01]))
     d.add_interaction(NodalLoad(b, np.array([0.0, 0.0, 1.0]), time_function=Sine(1.0, 5.0), point=[1.2, 0.2, 0.0]))
     d.solver = SolverSettings(dt=dt, t_end=3.0, output_every=int(round(0.01 / dt)), algorithm=algorithm,
                               rho_inf=1.0)
@@ -371,8 +372,9 @@ def test_force_element_forces_are_the_energy_gradient():
     a = d.add_rigid_body("a", 1.0, [0.2, 0.3, 0.4], [0.0, 0.0, 0.0])
     b = d.add_rigid_body("b", 2.0, [0.5, 0.4, 0.3], [1.0, 0.2, 0.0])
     d.add_force_element(PointToPoint(a, [0.1, 0.1, 0.0], b, [0.9, 0.3, 0.1], stiffness=50.0, rest_length=0.5))
-    d.add_force_element(Rotational(a, b, [0.0, 1.0, 1.0], stiffness=5.0, rest_angle=0.3))
-    d.add_force_element(Bushing(b, a, [0.5, 0.1, 0.0], [0.0, 0.0, 1.0], None, [80, 60, 40, 3, 4, 5]))
+    d.add_force_element(Rotational(a, b, axis=[0.0, 1.0, 1.0], stiffness=5.0, rest_angle=0.3))
+    d.add_force_element(Bushing(b, a, point=[0.5, 0.1, 0.0], axis=[0.0, 0.0, 1.0], reference=None,
+                                stiffness=[80, 60, 40, 3, 4, 5]))
     model = d.initialization()
     rng = np.random.default_rng(1)
     x = np.array([n.position for n in d.nodes]) + 0.05 * rng.standard_normal((2, 3))
@@ -501,9 +503,10 @@ def _tangent_check(kind):
     b = d.add_rigid_body("b", 2.0, [0.5, 0.4, 0.3], [1.0, 0.2, 0.0])
     element = {"point_to_point": PointToPoint(a, [0.1, 0.1, 0.0], b, [0.9, 0.3, 0.1], stiffness=50.0, damping=3.0,
                                               rest_length=0.5),
-               "rotational": Rotational(a, b, [0.0, 1.0, 1.0], stiffness=5.0, damping=0.7, rest_angle=0.3),
-               "bushing": Bushing(b, a, [0.5, 0.1, 0.0], [0.0, 0.0, 1.0], None, [80, 60, 40, 3, 4, 5],
-                                  [1, 2, 3, 0.1, 0.2, 0.3])}[kind]
+               "rotational": Rotational(a, b, axis=[0.0, 1.0, 1.0], stiffness=5.0, damping=0.7, rest_angle=0.3),
+               "bushing": Bushing(b, a, point=[0.5, 0.1, 0.0], axis=[0.0, 0.0, 1.0], reference=None,
+                                  stiffness=[80, 60, 40, 3, 4, 5],
+                                  damping=[1, 2, 3, 0.1, 0.2, 0.3])}[kind]
     d.add_force_element(element)
     model = d.initialization()
     rng = np.random.default_rng(7)
@@ -667,7 +670,8 @@ def test_static_bushing_deflection_is_k_inverse_F():
     for with_moment in (False, True):
         d = Domain()
         b = d.add_rigid_body("b", 1.0, [1.0, 1.0, 1.0], [0.5, 0.0, 0.0])
-        d.add_force_element(Bushing(b, None, [0.5, 0.0, 0.0], axis, ref, k, np.zeros(6)))
+        d.add_force_element(Bushing(b, None, point=[0.5, 0.0, 0.0], axis=axis, reference=ref, stiffness=k,
+                                    damping=np.zeros(6)))
         d.add_interaction(NodalLoad(b, F, time_function=_ramp()))
         if with_moment:
             d.add_interaction(NodalLoad(b, M, moment=True, time_function=_ramp()))
@@ -757,7 +761,7 @@ def test_generalized_alpha_torsional_pendulum_beyond_pi():
     d = Domain()
     disc = d.add_rigid_body("disc", 1.0, [1.0, 1.0, 2.0], [0.0, 0.0, 0.0])
     disc.angular_velocity = np.array([0.0, 0.0, 20.0])
-    d.add_force_element(Rotational(disc, None, [0.0, 0.0, 1.0], stiffness=50.0))
+    d.add_force_element(Rotational(disc, None, axis=[0.0, 0.0, 1.0], stiffness=50.0))
     d.solver.algorithm, d.solver.dt, d.solver.t_end, d.solver.rho_inf = "generalized_alpha", 2e-3, 2.6, 1.0
     r = d.solve()
     wz = r.angular_velocity("disc")[:, 2]

@@ -28,7 +28,7 @@ from reference.observables import wrap
 from reference.rotation import RotationVector
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
-SOFT = Section(1e4, 1e4, 1e4, 10.0, 10.0, 10.0, rhoA=1.0, rhoJ1=2e-3, rhoJ2=1e-3, rhoJ3=1e-3)
+SOFT = Section(EA=1e4, GA2=1e4, GA3=1e4, GJ=10.0, EI2=10.0, EI3=10.0, rhoA=1.0, rhoJ1=2e-3, rhoJ2=1e-3, rhoJ3=1e-3)
 
 
 def rollup(load_steps=20, **solver):
@@ -129,9 +129,9 @@ def test_newton_matrix_matches_finite_differences():
                                      rest_length=0.5, force_function=Ramp(0.0, 1.0, 0.0, 8.0)))
     d.add_force_element(PointToPoint(body, (1.5, 0.3, 0.2), None, (1.0, 1.0, 1.0), stiffness=0.0,
                                      force_function=Ramp(0.0, 1.0, 0.0, 5.0)))
-    d.add_force_element(Rotational(nodes[0], body, (0.2, 0.0, 1.0), stiffness=7.0, rest_angle=0.3))
-    d.add_force_element(Bushing(body, None, (1.4, 0.2, 0.0), (0.3, 1.0, 0.2), (1.0, 0.0, 0.0),
-                                [40.0, 50.0, 60.0, 4.0, 5.0, 6.0], np.zeros(6)))
+    d.add_force_element(Rotational(nodes[0], body, axis=(0.2, 0.0, 1.0), stiffness=7.0, rest_angle=0.3))
+    d.add_force_element(Bushing(body, None, point=(1.4, 0.2, 0.0), axis=(0.3, 1.0, 0.2), reference=(1.0, 0.0, 0.0),
+                                stiffness=[40.0, 50.0, 60.0, 4.0, 5.0, 6.0], damping=np.zeros(6)))
     model = d.initialization()
     rng = np.random.default_rng(7)
     x = np.array([n.position for n in d.nodes]) + 0.05 * rng.normal(size=(4, 3))
@@ -205,7 +205,7 @@ def heavy_top(dt, t_end=1.0):
     th = np.radians(60.0)
     com = 0.5 * np.array([np.sin(th), 0.0, -np.cos(th)])
     R = RotationVector([0.0, np.pi / 2 - th, 0.0])
-    bar = d.add_rigid_body("bar", 1.0, [1e-3, 1 / 12, 1 / 12], com, R.to_euler_parameters().q)
+    bar = d.add_rigid_body("bar", 1.0, [1e-3, 1 / 12, 1 / 12], com, rotation=R.to_euler_parameters().q)
     d.add_joint("spherical", bar, None, [0.0, 0.0, 0.0])
     d.add_interaction(Gravity(np.array([0.0, 0.0, -9.81])))
     bar.velocity = np.cross([0.0, 0.0, 2.0], com)

@@ -20,8 +20,8 @@ def random_q(rng):
 
 def setup(kind, rng, ground):
     d = Domain()
-    bi = d.add_rigid_body("i", 1.0, [1.0, 2.0, 3.0], rng.normal(size=3), random_q(rng))
-    bj = None if ground else d.add_rigid_body("j", 2.0, [2.0, 1.0, 1.0], rng.normal(size=3), random_q(rng))
+    bi = d.add_rigid_body("i", 1.0, [1.0, 2.0, 3.0], rng.normal(size=3), rotation=random_q(rng))
+    bj = None if ground else d.add_rigid_body("j", 2.0, [2.0, 1.0, 1.0], rng.normal(size=3), rotation=random_q(rng))
     frame = joint_frame(rng.normal(size=3), rng.normal(size=3))
     joint = Joint(kind, bi, bj, rng.normal(size=3), frame, time_function=Sine(0.7, 2.0, 0.3, 0.1),
                   mode="velocity" if kind.endswith("drive") and rng.random() < 0.5 else "position")

@@ -59,8 +59,8 @@ def kinked_element(kink_deg, L=0.7):
     """
     d = Domain()
     a = math.radians(kink_deg)
-    n1 = d.add_node([0.0, 0, 0], quat([0.3, 0.2, 1.0], -a / 2))
-    n2 = d.add_node([L, 0, 0], quat([0, 0, 1.0], a / 2))
+    n1 = d.add_node([0.0, 0, 0], rotation=quat([0.3, 0.2, 1.0], -a / 2))
+    n2 = d.add_node([L, 0, 0], rotation=quat([0, 0, 1.0], a / 2))
     d.add_element(Beam2Formulation(section()), (n1, n2), frames=(np.array([1.0, 0, 0, 0]), np.array([1.0, 0, 0, 0])))
     return d
 
@@ -161,7 +161,7 @@ def test_elbow_inertia_is_the_sum_of_both_legs():
     # the same with the elbow frame turned arbitrarily: the tensor turns with it, trace unchanged
     d2 = Domain()
     r = quat([1.0, 2.0, 3.0], 0.8)
-    elbow_node = d2.add_node([L, 0, 0], r, "elbow")
+    elbow_node = d2.add_node([L, 0, 0], rotation=r, label="elbow")
     d2.add_beam("leg1", [0.0, 0, 0], [L, 0, 0], n, sec, end_node=elbow_node)
     d2.add_beam("leg2", [L, 0, 0], [L, L, 0], n, sec, axis2=(-1.0, 0, 0), start_node=elbow_node)
     model2 = d2.initialization()
@@ -321,7 +321,7 @@ def test_node_rotation_is_kept_by_the_beams_that_use_it():
     # the node keeps its given frame; never reset (was: silently overwritten by add_beam)
     d = Domain()
     r = quat([0.2, 0.5, 1.0], 2.0)
-    n = d.add_node([1.0, 0, 0], r, "corner")
+    n = d.add_node([1.0, 0, 0], rotation=r, label="corner")
     d.add_beam("a", [0.0, 0, 0], [1.0, 0, 0], 2, section(), end_node=n)
     d.add_beam("b", [1.0, 0, 0], [1.0, 0, 1.0], 2, section(), start_node=n)
     assert np.array_equal(n.rotation, r)

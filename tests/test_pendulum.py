@@ -13,7 +13,7 @@ from reference.joints import Jacobian
 from reference.rotation import RotationVector
 
 G = 9.81
-BAR = Section(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, rhoA=1.0, rhoJ1=1e-3, rhoJ2=1e-3, rhoJ3=1e-3)
+BAR = Section(EA=1.0, GA2=1.0, GA3=1.0, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=1e-3, rhoJ2=1e-3, rhoJ3=1e-3)
 
 
 def physical_energy(r, domain):
@@ -32,7 +32,7 @@ def test_spherical_pendulum_energy_and_drift_over_100_periods():
     com = 0.5 * np.array([np.sin(th), 0.0, -np.cos(th)])
     R = RotationVector([0.0, np.pi / 2 - th, 0.0])  # body axis 1 along the bar, pointing away from the pivot
     assert np.allclose(R.matrix()[:, 0], com / np.linalg.norm(com))
-    bar = d.add_rigid_body("bar", 1.0, [1e-3, 1 / 12, 1 / 12], com, R.to_euler_parameters().q)
+    bar = d.add_rigid_body("bar", 1.0, [1e-3, 1 / 12, 1 / 12], com, rotation=R.to_euler_parameters().q)
     d.add_joint("spherical", bar, None, [0.0, 0.0, 0.0])
     d.add_interaction(Gravity(np.array([0.0, 0.0, -G])))
     bar.velocity = np.cross([0.0, 0.0, 2.0], com)

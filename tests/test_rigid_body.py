@@ -48,7 +48,7 @@ def test_intermediate_axis_flips_and_major_axis_is_stable():
 def test_rigid_bar_has_the_mass_distribution_of_the_bar():
     """A rigid bar of length L: mass ρA L; inertia ρJ1 L about its axis and
     ρJ L + ρA L³/12 about the transverse axes through its centre."""
-    sec = Section(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, rhoA=2.0, rhoJ1=0.04, rhoJ2=0.02, rhoJ3=0.03)
+    sec = Section(EA=1.0, GA2=1.0, GA3=1.0, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=2.0, rhoJ1=0.04, rhoJ2=0.02, rhoJ3=0.03)
     d = Domain()
     bar = d.add_rigid_bar("bar", (0.0, 0.0, 0.0), (0.0, 3.0, 0.0), sec, axis2=(0.0, 0.0, 1.0))
     assert bar.mass == pytest.approx(6.0)

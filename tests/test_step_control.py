@@ -174,12 +174,12 @@ def test_redundancy_message_counts_what_regularisation_leaves_loop_by_loop():
     """Three rigid four-bars (3 redundant equations each): with none regularised the message counts 9
     and names a fix per loop; with ε on two loops it counts the 3 left and names that loop only; one
     line of at most 200 characters; with ε on all three the model runs."""
-    bar = (1.0, 1.0, 1.0, 1.0, 1.0, 1.0)
+    bar = dict(EA=1.0, GA2=1.0, GA3=1.0, GJ=1.0, EI2=1.0, EI3=1.0)
 
     def build(regularised):
         from reference.elements import Section
 
-        section = Section(*bar, rhoA=1.0, rhoJ1=1e-3, rhoJ2=1e-3, rhoJ3=1e-3)
+        section = Section(**bar, rhoA=1.0, rhoJ1=1e-3, rhoJ2=1e-3, rhoJ3=1e-3)
         d = Domain("three four-bars")
         for k in range(3):
             z = 10.0 * k

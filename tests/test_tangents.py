@@ -156,9 +156,9 @@ def joint_setup(kind, rng, ground):
     from reference.joints import Joint, joint_frame
 
     d = Domain()
-    bi = d.add_rigid_body("i", 1.0, [1.0, 2.0, 3.0], rng.normal(size=3), qexp(rng.normal(size=3) * 1.5))
+    bi = d.add_rigid_body("i", 1.0, [1.0, 2.0, 3.0], rng.normal(size=3), rotation=qexp(rng.normal(size=3) * 1.5))
     bj = None if ground else d.add_rigid_body("j", 2.0, [2.0, 1.0, 1.0], rng.normal(size=3),
-                                              qexp(rng.normal(size=3) * 1.5))
+                                              rotation=qexp(rng.normal(size=3) * 1.5))
     joint = Joint(kind, bi, bj, rng.normal(size=3), joint_frame(rng.normal(size=3), rng.normal(size=3)),
                   time_function=Sine(0.7, 2.0, 0.3, 0.1),
                   mode="velocity" if kind.endswith("drive") and rng.random() < 0.5 else "position")
@@ -218,7 +218,7 @@ def test_load_tangents_are_the_derivatives_of_the_external_forces(seed):
 
     rng = np.random.default_rng(seed)
     d = Domain()
-    body = d.add_rigid_body("b", 2.0, [1.0, 2.0, 3.0], rng.normal(size=3), qexp(rng.normal(size=3) * 2.0))
+    body = d.add_rigid_body("b", 2.0, [1.0, 2.0, 3.0], rng.normal(size=3), rotation=qexp(rng.normal(size=3) * 2.0))
     tf = Sine(0.5, 1.3, 0.2, 0.4)
     b, m = rng.normal(size=3) * 3.0, rng.normal(size=3) * 2.0
     d.add_interaction(NodalLoad(body, b, follower=True, time_function=tf))

@@ -113,7 +113,7 @@ class Algorithm(ABC):
         return {}
 
 
-@dataclass
+@dataclass(kw_only=True)
 class SolverSettings:
     """Algorithm settings.
 

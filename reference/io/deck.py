@@ -301,7 +301,7 @@ def _nodes(rd: Reader, deck: dict, domain: Domain) -> None:
         label = rd.label(nd["label"], f"{entry}.label")
         if label in domain._labels:
             raise rd.fail(f"{entry}.label", f"duplicate node label {show(label)}")
-        domain.add_node(rd.vector(nd["position"], f"{entry}.position"), rot, label)
+        domain.add_node(rd.vector(nd["position"], f"{entry}.position"), rotation=rot, label=label)
 
 
 def _beams(rd: Reader, deck: dict, domain: Domain, refs: _References, sections: dict, refine: int) -> None:
@@ -349,9 +349,9 @@ def _beams(rd: Reader, deck: dict, domain: Domain, refs: _References, sections: 
                 if ends[0][1] is not None or ends[1][1] is not None:
                     raise ValueError("a rigid bar is a body of its own: give start/end coordinates, "
                                      "and join it to other bodies with [[joints]]")
-                domain.add_rigid_bar(label, ends[0][0], ends[1][0], sections[sec_name], axis2)
+                domain.add_rigid_bar(label, ends[0][0], ends[1][0], sections[sec_name], axis2=axis2)
             else:
-                beams[label] = domain.add_beam(label, ends[0][0], ends[1][0], n, sections[sec_name], axis2,
+                beams[label] = domain.add_beam(label, ends[0][0], ends[1][0], n, sections[sec_name], axis2=axis2,
                                                start_node=ends[0][1], end_node=ends[1][1], center=center,
                                                element=family)
         except ValueError as exc:
@@ -385,7 +385,7 @@ def _rigid_bodies(rd: Reader, deck: dict, domain: Domain) -> None:
                   for name, p in rd.tables(rb, "points", f"{entry}.points").items()}
         position = rd.vector(rb["position"], f"{entry}.position")
         try:
-            domain.add_rigid_body(label, mass, J, position, rot, points)
+            domain.add_rigid_body(label, mass, J, position, rotation=rot, points=points)
         except ValueError as exc:
             raise rd.fail(entry, str(exc), "mass > 0 and a positive definite inertia") from None
 
@@ -429,8 +429,8 @@ def _loads(rd: Reader, deck: dict, domain: Domain, refs: _References) -> None:
                 raise rd.fail(f"{entry}.point", "a moment has no point of application",
                               "give 'point' with a force only (a moment acts on the whole body)")
             point = rd.vector(ld["point"], f"{entry}.point")
-        domain.add_interaction(NodalLoad(refs.node(ld["node"], f"{entry}.node"), vec, moment, frame == "body", tf,
-                                         point))
+        domain.add_interaction(NodalLoad(refs.node(ld["node"], f"{entry}.node"), vec, moment=moment,
+                                         follower=frame == "body", time_function=tf, point=point))
     for i, ll in enumerate(rd.items(deck, "line_loads")):
         entry = f"line_loads[{i}]"
         rd.keys(ll, entry, required=["beam"], optional=["force_per_length", "moment_per_length", "frame",
@@ -447,8 +447,8 @@ def _loads(rd: Reader, deck: dict, domain: Domain, refs: _References) -> None:
         domain.add_interaction(LineLoad(
             beams[beam],
             rd.vector(ll.get("force_per_length", [0.0, 0.0, 0.0]), f"{entry}.force_per_length"),
-            rd.vector(ll.get("moment_per_length", [0.0, 0.0, 0.0]), f"{entry}.moment_per_length"),
-            frame == "body", refs.time_function(ll, entry) or Constant(1.0)))
+            moment_per_length=rd.vector(ll.get("moment_per_length", [0.0, 0.0, 0.0]), f"{entry}.moment_per_length"),
+            follower=frame == "body", time_function=refs.time_function(ll, entry) or Constant(1.0)))
     if "gravity" in deck:
         rd.keys(deck["gravity"], "gravity", required=["g"])
         domain.add_interaction(Gravity(rd.vector(deck["gravity"]["g"], "gravity.g")))

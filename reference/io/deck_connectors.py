@@ -80,7 +80,7 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
         if reference is not None:
             reference = rd.direction(jt["reference"], f"{entry}.reference")
         try:
-            domain.add_joint(kind, body_i, body_j, point, axis, reference,
+            domain.add_joint(kind, body_i, body_j, point, axis=axis, reference=reference,
                              formulation=Jacobian(eps) if formulation == "jacobian" else MasterSlave(),
                              time_function=tf, mode=mode, label=label)
         except ValueError as exc:
@@ -116,20 +116,23 @@ def read_springs(rd: Reader, deck: dict, domain: Domain, refs) -> None:
                 rest = sp.get("rest_length")
                 element = PointToPoint(
                     body_i, rd.vector(sp["point_i"], f"{entry}.point_i"), body_j,
-                    rd.vector(sp.get("point_j", [0.0, 0.0, 0.0]), f"{entry}.point_j"), stiffness, damping,
-                    None if rest is None else rd.number(rest, f"{entry}.rest_length", positive=True),
-                    refs.time_function(sp, entry), label)
+                    rd.vector(sp.get("point_j", [0.0, 0.0, 0.0]), f"{entry}.point_j"), stiffness=stiffness,
+                    damping=damping,
+                    rest_length=None if rest is None else rd.number(rest, f"{entry}.rest_length", positive=True),
+                    force_function=refs.time_function(sp, entry), label=label)
             elif kind == "rotational":
                 element = Rotational(
-                    body_i, body_j, rd.vector(sp.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis"), stiffness, damping,
-                    rd.number(sp.get("rest_angle", 0.0), f"{entry}.rest_angle"),
-                    rd.vector(sp["reference"], f"{entry}.reference") if "reference" in sp else None, label)
+                    body_i, body_j, axis=rd.vector(sp.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis"),
+                    stiffness=stiffness, damping=damping,
+                    rest_angle=rd.number(sp.get("rest_angle", 0.0), f"{entry}.rest_angle"),
+                    reference=rd.vector(sp["reference"], f"{entry}.reference") if "reference" in sp else None,
+                    label=label)
             else:
                 element = Bushing(
-                    body_i, body_j, rd.vector(sp["point"], f"{entry}.point"),
-                    rd.vector(sp.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis"),
-                    rd.vector(sp["reference"], f"{entry}.reference") if "reference" in sp else None,
-                    stiffness, damping, label)
+                    body_i, body_j, point=rd.vector(sp["point"], f"{entry}.point"),
+                    axis=rd.vector(sp.get("axis", [0.0, 0.0, 1.0]), f"{entry}.axis"),
+                    reference=rd.vector(sp["reference"], f"{entry}.reference") if "reference" in sp else None,
+                    stiffness=stiffness, damping=damping, label=label)
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
         domain.add_force_element(element)

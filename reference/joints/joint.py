@@ -29,7 +29,7 @@ the angular velocity / sliding speed).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 
 import numpy as np
 
@@ -89,6 +89,7 @@ class Joint(Connector):
     body_j: object
     point: np.ndarray
     frame: np.ndarray
+    _: KW_ONLY
     formulation: object = None
     time_function: TimeFunction = field(default_factory=lambda: Constant(0.0))
     mode: str = "position"
