@@ -71,6 +71,9 @@ def check_supported(domain) -> None:
             raise Unsupported(f"element {e.label!r} is of the family {e.formulation.family!r}, which has no Exudyn "
                               f"counterpart (translated: {', '.join(EXUDYN_ELEMENTS)}); compare converged meshes instead")
     for j in domain.joints:
+        if j.kind == "prescribed_displacement":
+            raise Unsupported(f"prescribed displacement {j.label!r} is not translated to Exudyn; cross-check its path "
+                              "with flexmbs' arc-length run under load instead")
         if j.formulation.epsilon > 0.0:
             raise Unsupported(f"joint {j.label!r} is regularised (epsilon = {j.formulation.epsilon:g}): redundant "
                               "constraints cannot be expressed in Exudyn, whose constraint Jacobian would be singular")
