@@ -66,6 +66,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from reference.joints.joint import PRESCRIBED
 from reference.rotation import EulerParameters
 
 
@@ -303,7 +304,7 @@ def parse(text, domain) -> Observable:
     if kind == "prescribed_reaction":
         label = names.joint(rest.strip())
         kinds = {j.label: j.kind for j in getattr(domain, "joints", [])}
-        if kinds and kinds[label] != "prescribed_displacement":
+        if kinds and kinds[label] != PRESCRIBED:
             raise ObservableError(f"joint {label!r} is a {kinds[label]}, not a prescribed displacement; "
                                   "prescribed_reaction names a [[prescribed_displacements]] entry")
         return Observable(text, kind, component, (label,))
