@@ -47,6 +47,7 @@ from crosscheck.exudyn_items import (
 )
 from reference.forces import ROTATIONAL
 from reference.interactions import Gravity, LineLoad, NodalLoad
+from reference.joints.joint import PRESCRIBED
 from reference.rotation import EulerParameters
 from reference.solution import SolverDiverged
 
@@ -71,6 +72,9 @@ def check_supported(domain) -> None:
             raise Unsupported(f"element {e.label!r} is of the family {e.formulation.family!r}, which has no Exudyn "
                               f"counterpart (translated: {', '.join(EXUDYN_ELEMENTS)}); compare converged meshes instead")
     for j in domain.joints:
+        if j.kind == PRESCRIBED:
+            raise Unsupported(f"prescribed displacement {j.label!r} is not translated to Exudyn; cross-check its path "
+                              "with flexmbs' arc-length run under load instead")
         if j.formulation.epsilon > 0.0:
             raise Unsupported(f"joint {j.label!r} is regularised (epsilon = {j.formulation.epsilon:g}): redundant "
                               "constraints cannot be expressed in Exudyn, whose constraint Jacobian would be singular")

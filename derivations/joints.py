@@ -22,7 +22,9 @@ Joint kinds select rows (``JOINT_ROWS``); the driving constraints combine rows
 5, 8 and 9 with a time function at run time (``reference/joints``):
 ``Φ = row5 cos θ(t) − row9 sin θ(t) = sin(θ − θ(t))`` for a rotation drive,
 ``Φ = row8 + s(t)`` for a displacement drive: body i turns by +θ and slides by +s relative to
-body j (one sign rule for both drives).
+body j (one sign rule for both drives).  A prescribed displacement (body j the ground, whose frame is
+inertial) weights the spherical rows by the ground-fixed u3: ``Φ = u3 · (rows 0–2) + s(t)``, the point
+P_i moved by +s along a fixed inertial direction.
 
 The velocity-level Jacobian ``B`` (columns ``[v_i | ω_i | v_j | ω_j]``, ω in
 the body frames) is obtained **by differentiation**, not by hand: the

@@ -505,6 +505,9 @@ def parser() -> argparse.ArgumentParser:
     pl.add_argument("--path", action="append", metavar="EXPR",
                     help="arc-length runs: the load factor against a scalar observable, e.g. 'position.z:apex', "
                     "limit and bifurcation points marked (repeatable)")
+    pl.add_argument("--load", metavar="EXPR",
+                    help="--path's load axis: a scalar observable in place of the load factor, e.g. "
+                    "'prescribed_reaction:push' (a static run under displacement control)")
     pl.add_argument("--drift", action="store_true", help="constraint violation history")
     pl.add_argument("--energy", action="store_true", help="energy histories")
     pl.add_argument("--animate", metavar="NAME.gif", type=animation_name,

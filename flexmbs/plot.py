@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 WHAT = ("--node LABEL (position and velocity histories), --observable EXPR (any observable, docs/observables.md), "
-        "--path EXPR (an arc-length run's load factor against an observable), "
+        "--path EXPR (an arc-length run's load factor, or --load EXPR, against an observable), "
         "--drift (constraint violation), --energy, --animate NAME.gif, --mode K (a mode as a ParaView animation)")
 
 
@@ -184,6 +184,8 @@ def main(args) -> int:
     if not (args.node or getattr(args, "observable", None) or getattr(args, "path", None) or args.drift
             or args.energy or args.animate or mode):
         raise OSError(f"{args.results}: nothing to plot; choose one or more of {WHAT}")
+    if getattr(args, "load", None) and not getattr(args, "path", None):
+        raise OSError(f"{args.results}: --load is the load axis of --path; give --path OBSERVABLE too")
     r = _load(args.results)
     if len(r.time) == 0:
         raise OSError(f"{args.results}: the file has no records (status {r.status!r}): its run ended before the "
@@ -244,7 +246,7 @@ def main(args) -> int:
     for text in getattr(args, "observable", None) or []:
         written.append(plot_observable(r, text, out, plt))
     for text in getattr(args, "path", None) or []:
-        written.append(plot_path(r, args.results, text, out, plt))
+        written.append(plot_path(r, args.results, text, out, plt, getattr(args, "load", None)))
     if args.animate:
         from flexmbs.progress import ProgressBar
 
@@ -283,30 +285,51 @@ def plot_observable(r, text: str, out: Path, plt) -> Path:
     return save_figure(fig, out / f"observable_{safe}.png")
 
 
-def plot_path(r, source, text: str, out: Path, plt) -> Path:
+def _scalar(r, source, text: str, option: str):
+    """A scalar observable's history and the parsed observable; a vector one is refused, naming a component."""
+    from reference.observables import ObservableError, parse
+
+    try:
+        obs = parse(text, r)
+        values = obs.evaluate(r)
+    except ObservableError as exc:
+        raise OSError(f"{source}: {option}: {exc}") from None
+    if values.ndim != 1:
+        raise OSError(f"{source}: {option} {text!r}: the observable has {values.shape[1]} components; pick one, e.g. "
+                      f"'{obs.kind}.z:{','.join(obs.args)}'")
+    return values, obs
+
+
+def plot_path(r, source, text: str, out: Path, plt, load: str | None = None) -> Path:
     """The equilibrium path of an arc-length run: the load factor (``/path/load_factor``) against a scalar
     observable or a component (``position.z:apex``), the unstable points (negative eigenvalues) drawn
-    hollow, the limit and bifurcation points marked on the load factor they were interpolated to."""
-    from reference.observables import parse
-
-    lam = r.data("path/load_factor")
-    if not np.all(np.isfinite(lam)):
-        raise OSError(f"{source}: no /path/load_factor: --path plots the results of an arc_length run")
-    obs = parse(text, r)
-    values = obs.evaluate(r)
-    if values.ndim != 1:
-        raise OSError(f"{source}: --path {text!r}: the observable has {values.shape[1]} components; pick one, e.g. "
-                         f"'{obs.kind}.z:{','.join(obs.args)}'")
-    unstable = r.data("path/negative_eigenvalues") > 0
+    hollow, the limit and bifurcation points marked on the load factor they were interpolated to.
+    ``load``: a scalar observable drawn in place of the load factor (``prescribed_reaction:push``, the
+    reaction of a static run under displacement control; any run), its unstable points those of
+    ``/stability/negative_eigenvalues`` when there is no ``/path``."""
+    values, obs = _scalar(r, source, text, "--path")
+    if load is None:
+        lam = r.data("path/load_factor")
+        if not np.all(np.isfinite(lam)):
+            raise OSError(f"{source}: no /path/load_factor: --path plots the results of an arc_length run (or give "
+                          "--load, e.g. the reaction of a prescribed displacement)")
+        count, events, ylabel = r.data("path/negative_eigenvalues"), r.data("path/critical_load_factor"), "load factor λ"
+    else:
+        lam, load_obs = _scalar(r, source, load, "--load")
+        count = r.data("path/negative_eigenvalues")
+        if not np.all(np.isfinite(count)):
+            count = r.data("stability/negative_eigenvalues")
+        events, ylabel = [], f"{load_obs.text} [{load_obs.unit}]"
+    unstable = count > 0
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     ax.plot(values, lam, "-", lw=0.8, color="C0")
     ax.plot(values[~unstable], lam[~unstable], "o", ms=3, color="C0", label="stable")
     ax.plot(values[unstable], lam[unstable], "o", ms=3, mfc="none", color="C3", label="unstable")
-    for load, kind in zip(r.data("path/critical_load_factor"), r.data("path/critical_kind")):
-        ax.axhline(load, lw=0.6, ls="--" if kind == "limit point" else ":", color="k")
-        ax.annotate(f"{kind} {load:.5g}", (ax.get_xlim()[0], load), fontsize=7, va="bottom")
+    for level, kind in zip(events, r.data("path/critical_kind") if len(events) else []):
+        ax.axhline(level, lw=0.6, ls="--" if kind == "limit point" else ":", color="k")
+        ax.annotate(f"{kind} {level:.5g}", (ax.get_xlim()[0], level), fontsize=7, va="bottom")
     ax.set_xlabel(f"{obs.text} [{obs.unit}]", fontsize=8)
-    ax.set_ylabel("load factor λ")
+    ax.set_ylabel(ylabel, fontsize=8 if load else None)
     ax.legend(fontsize=8)
     ax.set_title(textwrap.fill(f"equilibrium path ({r.attrs.get('engine', '')})", 80), fontsize=8)
     safe = "".join(c if c.isalnum() or c in "._-" else "_" for c in text)

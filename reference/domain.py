@@ -240,7 +240,8 @@ class Domain:
         ``reference`` fixes the joint frame's u1 (see :func:`reference.joints.joint_frame`);
         a full ``frame`` (columns u1, u2, u3) may be given instead.  For a universal
         joint ``axis`` is the pin on body i (u1) and ``reference`` the pin on body j (u2).
-        Drives take a ``time_function`` (θ(t) or s(t), or their rates with ``mode="velocity"``).
+        Drives take a ``time_function`` (θ(t) or s(t), or their rates with ``mode="velocity"``); so does a
+        ``"prescribed_displacement"`` (s(t) [m] of ``point`` along ``axis``, inertial; ``body_j`` the ground).
         """
         what = f"joint {label or kind!r}"
         point, axis = vector(point, f"{what}: point"), direction(axis, f"{what}: axis")

@@ -208,7 +208,7 @@ def nonfinite_load(domain, times) -> str:
                     return (f"the load on {'node' if isinstance(load, NodalLoad) else 'the beam at'} {node.label!r} "
                             f"is not finite at t = {t:.6g} (its time function gives {f:g})")
             for joint in domain.joints:
-                if joint.kind.endswith("_drive"):
+                if joint.drive_code:
                     f = joint.time_function(t)
                     if not math.isfinite(f):
                         return f"the drive {joint.label!r} is not finite at t = {t:.6g} (its time function gives {f:g})"

@@ -23,6 +23,9 @@ text                          meaning                          shape       compo
                               inertial [N]
 ``reaction_moment:JOINT``     moment of JOINT on its body_i    (n, 3)      x y z norm
                               about the joint point [N m]
+``prescribed_reaction:JOINT`` force of the prescribed          (n,)        —
+                              displacement JOINT along its
+                              direction: the load [N]
 ``section_force:ELEMENT``     N at the element's midpoint,     (n, 3)      1 2 3 norm
                               section frame [N]
 ``section_moment:ELEMENT``    M, section frame [N m]           (n, 3)      1 2 3 norm
@@ -63,6 +66,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from reference.joints.joint import PRESCRIBED
 from reference.rotation import EulerParameters
 
 
@@ -83,6 +87,7 @@ KINDS = {
     "deflection": ("node,node,node", VECTOR, "m", "deflection of {0} from the chord {1}–{2}"),
     "reaction_force": ("joint", VECTOR, "N", "force of joint '{0}' on its body_i, inertial"),
     "reaction_moment": ("joint", VECTOR, "N m", "moment of joint '{0}' on its body_i about the joint point, inertial"),
+    "prescribed_reaction": ("joint", (), "N", "force of prescribed displacement '{0}' along its direction"),
     "section_force": ("element", SECTION, "N", "section force of element {0}, section frame"),
     "section_moment": ("element", SECTION, "N m", "section moment of element {0}, section frame"),
     "energy": ("which", (), "J", "{0} energy"),
@@ -209,6 +214,12 @@ class Observable:
             return _present(r.reaction(a[0])[0], self.text)
         if k == "reaction_moment":
             return _present(r.reaction(a[0])[1], self.text)
+        if k == "prescribed_reaction":
+            values = np.asarray(r.data("joints/prescribed_reaction", r.joint_index(a[0])), dtype=float)
+            if not np.any(np.isfinite(values)):
+                raise ObservableError(f"{self.text}: the results have no reaction of a prescribed displacement "
+                                      f"{a[0]!r}; name a [[prescribed_displacements]] entry")
+            return values
         if k == "section_force":
             return _present(r.section_force(a[0]), self.text)
         if k == "section_moment":
@@ -290,6 +301,13 @@ def parse(text, domain) -> Observable:
         return Observable(text, kind, component, (rest.strip(),))
     if kind in ("reaction_force", "reaction_moment"):
         return Observable(text, kind, component, (names.joint(rest.strip()),))
+    if kind == "prescribed_reaction":
+        label = names.joint(rest.strip())
+        kinds = {j.label: j.kind for j in getattr(domain, "joints", [])}
+        if kinds and kinds[label] != PRESCRIBED:
+            raise ObservableError(f"joint {label!r} is a {kinds[label]}, not a prescribed displacement; "
+                                  "prescribed_reaction names a [[prescribed_displacements]] entry")
+        return Observable(text, kind, component, (label,))
     if kind in ("section_force", "section_moment"):
         return Observable(text, kind, component, (names.element(rest.strip()),))
     if kind == "energy":

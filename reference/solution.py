@@ -25,6 +25,7 @@ from reference.algorithms import Algorithm
 from reference.elements.families import resultants
 from reference.io.results import MemoryRecorder, Results
 from reference.jit import boundary, inlined, kernel, named
+from reference.joints.joint import PRESCRIBED
 from reference.joints.reactions import joint_reactions
 from reference.joints.reactions import scratch as reaction_scratch
 from reference.monitor import BlowUpMonitor, nonfinite_load
@@ -56,7 +57,9 @@ class Outputs:
     multipliers; :func:`reference.joints.reactions.joint_reactions`) and the
     section resultants N, M at every element's midpoint
     (:func:`reference.elements.families.resultants`), both computed by one
-    compiled call (:func:`derived_outputs`) into arrays allocated once.
+    compiled call (:func:`derived_outputs`) into arrays allocated once; with prescribed
+    displacements, each one's reaction along its direction (``prescribed_reaction``, NaN for the
+    other joints).
 
     Parameters
     ----------
@@ -88,6 +91,10 @@ class Outputs:
         }
         """Record key (:data:`reference.io.results.DATASETS`) → value; views of arrays that every
         :meth:`record` overwrites (a sink copies them)."""
+        # prescribed displacements: their reaction along the direction (the force on body i is u λ)
+        self.prescribed = [(k, j.frame[:, 2]) for k, j in enumerate(joints) if j.kind == PRESCRIBED]
+        if self.prescribed:
+            self.entry["prescribed_reaction"] = self.prescribed_reaction = np.full(J, np.nan)
 
     def record(self, t: float) -> dict:
         """Complete the record at time ``t`` with the derived outputs; returns :attr:`entry`."""
@@ -95,6 +102,8 @@ class Outputs:
         self.time[()] = t
         derived_outputs(self.arrays, rec.x, rec.q, rec.lam, float(t), self.slot, self.force, self.moment,
                         self.section_force, self.section_moment, self.element_work, *self.scratch)
+        for k, u in self.prescribed:
+            self.prescribed_reaction[k] = self.force[k] @ u
         return self.entry
 
 

@@ -85,6 +85,11 @@ t1 = 0.01
 [time_functions.ex]
 kind = "expression"
 expr = "1 - exp(-100*t)"
+[time_functions.tiny]
+kind = "ramp"
+t0 = 0.0
+t1 = 0.02
+v1 = 1e-4
 
 [[nodes]]
 label = "hub"
@@ -203,6 +208,12 @@ axis = [0.0, 0.0, 1.0]
 time_function = "sn"
 mode = "velocity"
 
+[[prescribed_displacements]]
+label = "push"
+node = "b:2"
+direction = [0.0, 0.0, 1.0]
+time_function = "tiny"
+
 [[initial_velocities]]
 node = "rb"
 velocity = [0.0, 0.0, 0.0]
@@ -259,12 +270,16 @@ VOCABULARY = {
                        "position": [[0.0, 0.0, 3.0]], "rotation": [[0.0, 0.0, 0.0, 1.0]],
                        "points": [{"p": [0.0, 0.0, 0.0]}, {}]},
     "joints[]": {"kind": ["spherical", "revolute", "universal", "cylindrical", "translational", "fixed",
-                          "rotation_drive", "displacement_drive"],
+                          "rotation_drive", "displacement_drive", "prescribed_displacement"],
                  "label": ["j", "pin"], "body_i": ["rb", "bar", "b:end", "b:start", "hub", "ground"],
                  "body_j": ["ground", "rb", "b:end", "bar"], "point": [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]],
                  "axis": [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]], "reference": [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
                  "epsilon": [0.0, 1e-8], "formulation": ["jacobian", "master_slave"],
                  "time_function": ["sn", "r", "up"], "mode": ["position", "velocity"]},
+    "prescribed_displacements[]": {"label": ["push", "pin"], "node": ["b:end", "rb", "bar", "hub", "b:1"],
+                                   "direction": [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]],
+                                   "point": [[1.0, 0.0, 0.0], [0.0, 2.5, 0.0]],
+                                   "time_function": ["tiny", "sn", "up"]},
     "clamps[]": {"node": ["hub", "b:start", "rb", "bar"]},
     "fixed[]": {"node": ["bar", "rb", "b:1"], "dofs": [["x"], ["x", "y", "z"], ["rz", "rx"]]},
     "loads[]": {"node": ["b:end", "rb", "bar"], "force": [[0.0, 0.0, 1.0]], "moment": [[0.0, 1.0, 0.0]],

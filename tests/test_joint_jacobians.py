@@ -8,7 +8,7 @@ import pytest
 from reference.domain import Domain
 from reference.interactions import Sine
 from reference.joints import Joint, joint_frame
-from reference.joints.joint import ROWS
+from reference.joints.joint import PRESCRIBED, ROWS
 from reference.rotation import EulerParameters, RotationVector
 
 KINDS = list(ROWS)
@@ -48,6 +48,10 @@ def test_jacobian_matches_finite_differences(kind, ground):
     q → q ⊗ exp(ε e_k) (body-frame rotation).  ε = 1e-6: truncation ~1e-12, round-off ~1e-10
     of |Φ| ~ 1, so 1e-7 absolute; Φ_t against central differences in time (same reasoning)."""
     rng = np.random.default_rng(hash((kind, ground)) % 2**32)
+    if kind == PRESCRIBED and not ground:  # its direction is inertial: body_j is the ground
+        with pytest.raises(ValueError, match="fixed on the ground"):
+            setup(kind, rng, ground)
+        return
     for _ in range(20):
         joint, x0, q0 = setup(kind, rng, ground)
         x = x0 + rng.normal(size=x0.shape) * 0.3
@@ -76,9 +80,9 @@ def test_joint_equations_vanish_as_assembled_and_have_full_rank(kind):
     velocity mode), and B has full row rank at generic configurations."""
     rng = np.random.default_rng(3)
     for _ in range(10):
-        joint, x0, q0 = setup(kind, rng, ground=False)
+        joint, x0, q0 = setup(kind, rng, ground=kind == PRESCRIBED)  # a prescribed displacement: to the ground
         t = 0.0
-        if kind.endswith("drive") and joint.mode == "position":
+        if (kind.endswith("drive") or kind == PRESCRIBED) and joint.mode == "position":
             joint.time_function = Sine(0.7, 2.0, 0.0, 0.0)  # zero at t = 0
         phi, B, _ = joint.evaluate(x0, q0, t)
         assert np.max(np.abs(phi)) < 1e-13

@@ -102,7 +102,8 @@ class Static(ImplicitAlgorithm):
     deck_optional = ("tolerance", "max_iterations", "output_every", "max_steps")
     progress_name = "load factor"
     no_convergence_fix = ("The structure may have reached a limit (buckling) point or the load step is too large: "
-                          "raise load_steps or max_iterations, or stop t_end below the limit load.")
+                          "raise load_steps or max_iterations, or stop t_end below the limit load; past a limit "
+                          "point, push the load point instead ([[prescribed_displacements]]) or use arc_length.")
 
     def __init__(self, dt: float, tolerance: float = 1e-10, max_iterations: int = 25):
         super().__init__(dt, tolerance, max_iterations)

@@ -36,12 +36,13 @@ from reference.interactions import (
     Clamp, Constant, Expression, FixedCoordinates, Gravity, LineLoad, NodalLoad, PiecewiseLinear, Ramp, Sine,
     SmoothStep, Step,
 )
-from reference.io.deck_connectors import read_joints, read_springs
+from reference.io.deck_connectors import read_joints, read_prescribed_displacements, read_springs
 from reference.io.deck_reader import DeckError, Reader, override_value, read_toml, show
 from reference.io.deck_solution import read_checks, read_solver
 
 TOP_LEVEL = {"meta", "sections", "time_functions", "nodes", "beams", "rigid_bodies", "joints", "clamps", "fixed",
-             "loads", "line_loads", "springs", "gravity", "initial_velocities", "solver", "checks", "crosscheck"}
+             "loads", "line_loads", "springs", "gravity", "initial_velocities", "solver", "checks", "crosscheck",
+             "prescribed_displacements"}
 SECTION_KEYS = ["EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ1", "rhoJ2", "rhoJ3"]
 TIME_FUNCTIONS = {
     "constant": (Constant, ["value"], {}),
@@ -132,6 +133,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     _boundary_conditions(rd, deck, domain, refs)
     _loads(rd, deck, domain, refs)
     read_joints(rd, deck, domain, refs)
+    read_prescribed_displacements(rd, deck, domain, refs)
     read_springs(rd, deck, domain, refs)
     _initial_velocities(rd, deck, refs)
     algorithm, algo_cls = read_solver(rd, deck, domain, overrides, refine)

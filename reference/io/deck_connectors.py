@@ -1,4 +1,4 @@
-"""Model decks: the connector tables, ``[[joints]]`` and ``[[springs]]``.
+"""Model decks: the connector tables, ``[[joints]]``, ``[[prescribed_displacements]]`` and ``[[springs]]``.
 
 Joints and force elements both connect two bodies (:class:`reference.connector.Connector`); their
 tables are read here for :func:`reference.io.deck.load_deck`, with its :class:`~reference.io.deck_reader.Reader`
@@ -19,6 +19,7 @@ from reference.forces import Bushing, PointToPoint, Rotational
 from reference.interactions import Expression
 from reference.io.deck_reader import Reader, show
 from reference.joints import Jacobian, MasterSlave
+from reference.joints.joint import PRESCRIBED
 from reference.joints.joint import ROWS as JOINT_KINDS
 
 SPRING_KEYS = {
@@ -37,6 +38,9 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
         rd.keys(jt, entry, required=["kind", "body_i", "point"],
                 optional=["label", "body_j", "axis", "reference", "epsilon", "formulation", "time_function", "mode"])
         kind = rd.string(jt["kind"], f"{entry}.kind")
+        if kind == PRESCRIBED:
+            raise rd.fail(f"{entry}.kind", "a prescribed displacement is not a [[joints]] kind",
+                          "write it as a [[prescribed_displacements]] entry (node, direction, time_function)")
         if kind not in JOINT_KINDS:
             close = difflib.get_close_matches(kind, list(JOINT_KINDS), n=1)
             raise rd.fail(f"{entry}.kind", f"unknown joint kind {show(kind)}",
@@ -83,6 +87,33 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
             domain.add_joint(kind, body_i, body_j, point, axis=axis, reference=reference,
                              formulation=Jacobian(eps) if formulation == "jacobian" else MasterSlave(),
                              time_function=tf, mode=mode, label=label)
+        except ValueError as exc:
+            raise rd.fail(entry, str(exc)) from None
+
+
+def read_prescribed_displacements(rd: Reader, deck: dict, domain: Domain, refs) -> None:
+    """``[[prescribed_displacements]]``: displacement control, a one-row joint to the ground
+    (:data:`reference.joints.joint.PRESCRIBED`) that moves ``point`` (default the node) by the time
+    function's value along the inertial ``direction``; refused along a fixed coordinate of the node."""
+    fixed: dict = {}
+    for bc in domain.boundary_conditions:
+        fixed.setdefault(id(bc.node), set()).update(d for d in bc.dofs if d < 3)
+    for i, pd in enumerate(rd.items(deck, "prescribed_displacements")):
+        entry = f"prescribed_displacements[{i}]"
+        rd.keys(pd, entry, required=["node", "direction", "time_function"], optional=["label", "point"])
+        node = refs.node(pd["node"], f"{entry}.node")
+        direction = rd.direction(pd["direction"], f"{entry}.direction")
+        direction = direction / np.linalg.norm(direction)
+        along = [k for k in sorted(fixed.get(id(node), ())) if abs(direction[k]) > 1e-12]
+        if along:
+            names = ", ".join("xyz"[k] for k in along)
+            raise rd.fail(f"{entry}.direction", f"has a component along {names}, fixed on node {node.label!r} "
+                          "([[fixed]]/[[clamps]])", "give a direction across its free coordinates, or free them")
+        point = rd.vector(pd["point"], f"{entry}.point") if "point" in pd else node.position
+        label = rd.label(pd.get("label", f"{PRESCRIBED}:{i}"), f"{entry}.label")
+        tf = refs.time_function(pd, entry)
+        try:
+            domain.add_joint(PRESCRIBED, node, None, point, direction, time_function=tf, label=label)
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
 

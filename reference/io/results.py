@@ -11,6 +11,7 @@ Layout::
     /constraints/multipliers (n,m)           Lagrange multipliers, M a + Bᵀλ = Q
     /joints/label (J,)   /joints/reaction_force (n,J,3)   /joints/reaction_moment (n,J,3)
                                              on body_i, about the joint point, inertial
+    /joints/prescribed_reaction (n,J)        a prescribed displacement's force along its direction
     /elements/label (E,) /elements/section_force (n,E,3)  /elements/section_moment (n,E,3)
                                              midpoint, section frame
 
@@ -62,6 +63,7 @@ DATASETS = {
     "dissipated": "energy/dissipated",
     "reaction_force": "joints/reaction_force",
     "reaction_moment": "joints/reaction_moment",
+    "prescribed_reaction": "joints/prescribed_reaction",
     "section_force": "elements/section_force",
     "section_moment": "elements/section_moment",
     "negative_eigenvalues": "stability/negative_eigenvalues",

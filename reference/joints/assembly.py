@@ -50,7 +50,8 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
 
     ``j = -1`` is the ground (x = 0, identity rotation; its columns are zero).
     ``drive`` 0 none; 1/2 rotation drive with θ = f(t) / θ = ∫f; 3/4 displacement
-    drive with s = f(t) / s = ∫f.
+    drive with s = f(t) / s = ∫f; 5 prescribed displacement, s = f(t) along the ground-fixed
+    u3 (``par[15:24]``, the ground's frame, is inertial).
     """
     if j >= 0:
         generated.joint_primitives(x[i], q[i], x[j], q[j], par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
@@ -74,7 +75,7 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
         phit[0] = -(prim_phi[5] * s + prim_phi[9] * c) * thd
         for k in range(12):
             B[0, k] = prim_B[60 + k] * c - prim_B[108 + k] * s
-    else:
+    elif drive <= 4:
         if drive == 3:
             sv, sd = tf_value(tf_kind, tf_par, t), tf_derivative(tf_kind, tf_par, t)
         else:
@@ -83,6 +84,13 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
         phit[0] = sd
         for k in range(12):
             B[0, k] = prim_B[96 + k]
+    else:
+        # prescribed displacement: u · (P − P_i) = −s with u = u3 of the ground's frame (inertial, fixed)
+        u0, u1, u2 = par[17], par[20], par[23]
+        phi[0] = u0 * prim_phi[0] + u1 * prim_phi[1] + u2 * prim_phi[2] + tf_value(tf_kind, tf_par, t)
+        phit[0] = tf_derivative(tf_kind, tf_par, t)
+        for k in range(12):
+            B[0, k] = u0 * prim_B[k] + u1 * prim_B[12 + k] + u2 * prim_B[24 + k]
     if j < 0:
         for r in range(phi.shape[0]):
             for k in range(6, 12):

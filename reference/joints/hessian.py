@@ -9,7 +9,8 @@ is the joint's geometric stiffness (docs/tangents.md).  A joint's row r uses
 primitive ``rows[r]`` (``reference/generated/joints.py``), so
 ``K_c = Σ_p w_p H_p`` with the weight ``w_p`` the multiplier of the row that uses
 primitive p; a rotation drive's row is ``row5 cos θ(t) − row9 sin θ(t)``
-(weights ``λ cos θ``, ``−λ sin θ``), a displacement drive's row is ``row8 + s(t)``.
+(weights ``λ cos θ``, ``−λ sin θ``), a displacement drive's row is ``row8 + s(t)``, a prescribed
+displacement's ``u · rows 0–2 + s(t)`` (weights ``λ u``, u the inertial direction).
 The weighted sum of the primitive Hessians is the generated
 ``tangents.joint_primitive_hessian``.  With the ground (``j = −1``) the rows and
 columns of body j are zero.
@@ -26,10 +27,10 @@ from reference.joints.assembly import GROUND_Q, GROUND_X, joint_rows
 
 
 @kernel
-def primitive_weights(rows, drive, tf_kind, tf_par, t, lam, w):
+def primitive_weights(par, rows, drive, tf_kind, tf_par, t, lam, w):
     """Weights ``w`` (10,) of the primitives for the joint multipliers ``lam`` (m,).
 
-    ``rows``, ``drive``, ``tf_kind``, ``tf_par``, ``t`` as in
+    ``par``, ``rows``, ``drive``, ``tf_kind``, ``tf_par``, ``t`` as in
     :func:`reference.joints.assembly.joint_rows`.
     """
     w[:] = 0.0
@@ -40,8 +41,10 @@ def primitive_weights(rows, drive, tf_kind, tf_par, t, lam, w):
         th = tf_value(tf_kind, tf_par, t) if drive == 1 else tf_integral(tf_kind, tf_par, t)
         w[5] = lam[0] * math.cos(th)
         w[9] = -lam[0] * math.sin(th)
-    else:
+    elif drive <= 4:
         w[8] = lam[0]
+    else:
+        w[0], w[1], w[2] = lam[0] * par[17], lam[0] * par[20], lam[0] * par[23]
 
 
 @kernel
@@ -60,7 +63,7 @@ def joint_rows_hessian(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, lam, ph
     rows : int array (6,)
         Primitive rows of the joint kind (``-1`` padded).
     drive : int
-        0 none, 1/2 rotation drive (θ = f(t) / ∫f), 3/4 displacement drive.
+        0 none, 1/2 rotation drive (θ = f(t) / ∫f), 3/4 displacement drive, 5 prescribed displacement.
     tf_kind, tf_par, t
         The drive's time function and the time [s].
     lam : array (m,)
@@ -74,7 +77,7 @@ def joint_rows_hessian(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, lam, ph
         Scratch.
     """
     joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, prim_phi, prim_B)
-    primitive_weights(rows, drive, tf_kind, tf_par, t, lam, w)
+    primitive_weights(par, rows, drive, tf_kind, tf_par, t, lam, w)
     Hf = H.reshape(144)
     if j >= 0:
         generated.joint_primitive_hessian(x[i], q[i], x[j], q[j], par[0:3], par[3:6], par[6:15], par[15:24], w, Hf)

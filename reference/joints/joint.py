@@ -18,6 +18,8 @@ translational     cylindrical + rotation about u3 locked      5
 fixed             P coincident, frames aligned                6
 rotation_drive    relative rotation about u3 = θ(t)           1
 displacement_drive  sliding along u3 = s(t)                   1
+prescribed_displacement  P_i moves by s(t) along a fixed        1
+                  inertial direction u3 (body_j the ground)
 ================  ==========================================  =========
 
 A drive prescribes the rotation (or sliding) of body i relative to body j about (along) u3,
@@ -37,10 +39,14 @@ from reference.connector import Connector, body_or_ground
 from reference.generated import joints as generated
 from reference.interactions import Constant, TimeFunction
 
-ROWS = {**generated.JOINT_ROWS, "rotation_drive": (5, 9), "displacement_drive": (8,)}
-EQUATIONS = {**{k: len(v) for k, v in generated.JOINT_ROWS.items()}, "rotation_drive": 1, "displacement_drive": 1}
+PRESCRIBED = "prescribed_displacement"
+"""The joint kind of a prescribed displacement (the deck's ``[[prescribed_displacements]]``)."""
+ROWS = {**generated.JOINT_ROWS, "rotation_drive": (5, 9), "displacement_drive": (8,), PRESCRIBED: (0, 1, 2)}
+EQUATIONS = {**{k: len(v) for k, v in generated.JOINT_ROWS.items()}, "rotation_drive": 1, "displacement_drive": 1,
+             PRESCRIBED: 1}
 DRIVE_CODES = {("rotation_drive", "position"): 1, ("rotation_drive", "velocity"): 2,
-               ("displacement_drive", "position"): 3, ("displacement_drive", "velocity"): 4}
+               ("displacement_drive", "position"): 3, ("displacement_drive", "velocity"): 4,
+               (PRESCRIBED, "position"): 5}
 
 
 def joint_frame(axis, reference=None) -> np.ndarray:
@@ -78,7 +84,8 @@ class Joint(Connector):
         How the constraint enters the equations of motion (default: Lagrange
         multipliers, :class:`~reference.joints.formulation.Jacobian`).
     time_function : TimeFunction
-        For drives: θ(t) or s(t) (``mode = "position"``), or their rates (``"velocity"``).
+        For drives: θ(t) or s(t) (``mode = "position"``), or their rates (``"velocity"``); for a
+        prescribed displacement s(t) [m].
     mode : str
         ``"position"`` or ``"velocity"`` (drives only).
     label : str
@@ -113,6 +120,9 @@ class Joint(Connector):
         self.formulation = self.formulation or Jacobian()
         if self.mode not in ("position", "velocity"):
             raise ValueError(f"joint {self.label!r}: mode must be 'position' or 'velocity'")
+        if self.kind == PRESCRIBED and (self.body_j is not None or self.mode != "position"):
+            raise ValueError(f"prescribed displacement {self.label!r}: it moves one body along a direction fixed "
+                             "on the ground (body_j the ground, mode 'position')")
 
     @property
     def n_equations(self) -> int:
