@@ -27,10 +27,11 @@ A_HALF, RISE, EA = 1.0, 0.1, 1.0e3
 """The truss: supports at x = ±a, apex at height H, axial stiffness EA of each bar."""
 
 
-def truss(load: bool = True, **solver) -> Domain:
+def truss(*, load: bool = True, **solver) -> Domain:
     """Shallow von Mises truss in the x–z plane: two bars, one Beam2 element each, pinned at the supports
     and to each other at the apex (a spherical joint; out-of-plane coordinates fixed), a unit downward
-    load at the apex (``load``; tests/test_prescribed_displacement.py pushes the apex instead).  With free end rotations a single element stays straight and carries only
+    load at the apex (``load``; tests/test_prescribed_displacement.py pushes the apex instead).  With free
+    end rotations a single element stays straight and carries only
     ``N = EA (ℓ/ℓ0 − 1)`` (its strain at the midpoint), so the discrete model is the pin-jointed truss."""
     sec = Section(EA=EA, GA2=EA, GA3=EA, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=1e-3, rhoJ2=1e-3, rhoJ3=1e-3)
     d = Domain("von_mises")

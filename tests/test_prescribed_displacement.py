@@ -29,7 +29,7 @@ def pushed_truss(direction=DOWN, s_end: float = 0.29, steps: int = 29) -> Domain
     """The truss of tests/test_arc_length.py without its load, the apex moved by ``s`` along ``direction``
     (s from 0 to ``s_end`` over the load factor 0…1, ``steps`` static load steps)."""
     d = truss(load=False, algorithm="static", t_end=1.0, load_steps=steps, dt=1.0 / steps)
-    d.add_joint("prescribed_displacement", "left:1", None, (0.0, 0.0, RISE), direction,
+    d.add_joint("prescribed_displacement", "left:1", None, (0.0, 0.0, RISE), axis=direction,
                 time_function=Ramp(0.0, 1.0, 0.0, s_end), label="push")
     return d
 
@@ -85,11 +85,11 @@ def cantilever_tip(kind: str):
     """A clamped 1 m cantilever (4 elements along x) whose tip is moved by s = 0.4 along z: by a
     prescribed displacement (inertial z) or by a ``displacement_drive`` of the tip node against the
     ground (its axis z turns with the node)."""
-    sec = Section(1e4, 1e4, 1e4, 1.0, 1.0, 1.0, rhoA=1.0, rhoJ1=2e-3, rhoJ2=1e-3, rhoJ3=1e-3)
+    sec = Section(EA=1e4, GA2=1e4, GA3=1e4, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-3, rhoJ2=1e-3, rhoJ3=1e-3)
     d = Domain("tip")
     nodes = d.add_beam("beam", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 4, sec)
     d.add_interaction(Clamp(nodes[0]))
-    d.add_joint(kind, nodes[-1], None, (1.0, 0.0, 0.0), (0.0, 0.0, 1.0), time_function=Ramp(0.0, 1.0, 0.0, 0.4),
+    d.add_joint(kind, nodes[-1], None, (1.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0), time_function=Ramp(0.0, 1.0, 0.0, 0.4),
                 label="tip")
     d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=4, dt=0.25)
     r = d.solve()
@@ -131,7 +131,7 @@ def test_dynamic_algorithms_apply_it(algorithm):
     body = d.add_rigid_body("body", 2.0, [0.1, 0.2, 0.3], [0.0, 0.0, 0.0])
     direction = np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)
     omega, amplitude = 2.0 * np.pi, 0.1
-    d.add_joint("prescribed_displacement", body, None, (0.0, 0.0, 0.0), direction,
+    d.add_joint("prescribed_displacement", body, None, (0.0, 0.0, 0.0), axis=direction,
                 time_function=Sine(-amplitude, omega, np.pi / 2.0, amplitude), label="shaker")
     d.solver = SolverSettings(algorithm=algorithm, dt=1e-3, t_end=0.5, output_every=25)
     r = d.solve()

@@ -113,7 +113,7 @@ def read_prescribed_displacements(rd: Reader, deck: dict, domain: Domain, refs) 
         label = rd.label(pd.get("label", f"{PRESCRIBED}:{i}"), f"{entry}.label")
         tf = refs.time_function(pd, entry)
         try:
-            domain.add_joint(PRESCRIBED, node, None, point, direction, time_function=tf, label=label)
+            domain.add_joint(PRESCRIBED, node, None, point, axis=direction, time_function=tf, label=label)
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
 
