@@ -327,6 +327,9 @@ def cmd_crosscheck(args) -> int:
     out = Path(args.out) if args.out else Path("out") / default
     if _linearised(args.deck):
         return _crosscheck_modes(args, out, refine, exudyn_model)
+    path = _module("crosscheck.path_crosscheck", "crosscheck")
+    if path.is_path(_domain(args.deck)):
+        return _crosscheck_path(args, out, refine, exudyn_model, path)
     try:
         harness.check_refine(args.deck, refine)  # before anything runs
         cmp = harness.run(args.deck, out, refine=refine, exudyn_dt=args.exudyn_dt, t_end=args.t_end,
@@ -349,9 +352,29 @@ def cmd_crosscheck(args) -> int:
 
 
 def _linearised(deck) -> bool:
+    return bool(_domain(deck).algorithm().linearised)
+
+
+def _domain(deck):
     from reference.io.deck import load_deck
 
-    return bool(load_deck(deck).domain.algorithm().linearised)
+    return load_deck(deck).domain
+
+
+def _crosscheck_path(args, out: Path, refine: int, exudyn_model, path) -> int:
+    """An arc-length deck: its pre-limit path against Exudyn's static solver (:mod:`crosscheck.path_crosscheck`)."""
+    from flexmbs.progress import ProgressBar
+
+    try:
+        cmp = path.run(args.deck, out, overrides={"refine": refine} if refine != 1 else None,
+                       progress=ProgressBar("reference"), exudyn_progress=ProgressBar("Exudyn   "))
+    except exudyn_model.Unsupported as exc:
+        raise CommandError(f"{args.deck}: cannot be cross-checked in Exudyn: {exc}") from None
+    except exudyn_model.ExudynFailed as exc:
+        raise RunFailed(f"{args.deck}: {exc}") from None
+    for line in cmp["lines"]:
+        print(line)
+    return 0 if cmp["passed"] else 1
 
 
 def _crosscheck_modes(args, out: Path, refine: int, exudyn_model) -> int:

@@ -294,6 +294,20 @@ def test_lateral_torsional_buckling_and_the_stability_indicator_of_the_static_pa
     assert negative_eigenvalues(red.K)[0] == 1 and lin.t == pytest.approx(1.5)
 
 
+def test_the_dense_inertia_count_from_ldlt_pivots_equals_the_eigenvalue_count(rng):
+    """The dense symmetric count (reference.modal._ldl_negatives: the 1×1 and 2×2 pivot blocks of Bunch–Kaufman
+    LDLᵀ, Sylvester's law) against the signs of the eigenvalues, on random indefinite and shifted definite
+    matrices, and on the zero-diagonal 2×2 block that forces a 2×2 pivot."""
+    from reference.modal import _ldl_negatives
+
+    for n in (1, 2, 3, 12, 60):
+        for _ in range(20):
+            A = rng.standard_normal((n, n))
+            S = A + A.T if rng.random() < 0.5 else A @ A.T - rng.random() * n * np.eye(n)
+            assert _ldl_negatives(S) == int(np.sum(np.linalg.eigvalsh(S) < 0.0))
+    assert _ldl_negatives(np.array([[0.0, 1.0], [1.0, 0.0]])) == 1
+
+
 def test_the_state_api_unstable_modes_and_sylvesters_law():
     """``at_state`` (consistent multipliers) about the hanging pendulum is the reference analysis; standing,
     its two modes are unstable (ω² < 0).  A pinned column (a spherical joint at its root) under a constant
