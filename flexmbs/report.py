@@ -26,6 +26,7 @@ import platform
 import subprocess
 import sys
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -182,9 +183,16 @@ def deck_data(deck) -> list[str]:
         lines.append(f"- rigid body `{n.label}`: mass {n.mass:g} kg, inertia about the centre of mass (body frame) "
                      f"diag {np.round(np.diag(n.inertia), 6).tolist()} kg m², centre {np.round(n.position, 6).tolist()} m")
     steps = int(round(domain.solver.t_end / domain.solver.dt))
-    counts = (f"{len(domain.nodes)} nodes, {len(domain.elements)} Beam2 elements, {len(domain.joints)} joints "
+    families = Counter(e.formulation.family for e in domain.elements)
+    elements = ", ".join(f"{n} {family} element{'s' * (n != 1)}" for family, n in families.items()) or "no elements"
+    counts = (f"{len(domain.nodes)} nodes, {elements}, {len(domain.joints)} joints "
               f"({domain.model.n_constraints} constraint equations)")
     algo = domain.algorithm()
+    if algo.name == "arc_length":  # no time step: the load factor follows the path
+        s = domain.solver
+        return lines + ["", f"{counts}; `{algo.name}`: the loads at t = {s.t_end:g} times a load factor, "
+                            f"initial arc length {s.arc_length:g}, at most {s.max_points} points, "
+                            f"|λ| up to {s.max_load_factor:g}.", ""]
     if algo.linearised:  # no time step: what is linearised, and how many modes
         where = (f"the static equilibrium at t = {domain.solver.t_end:g} ({domain.solver.load_steps} load steps)"
                  if algo.n_steps(domain.solver.t_end) else "the initial state")
