@@ -106,6 +106,20 @@ def displacement_control(ctx, domain, stop: float):
     return ctx.solve(domain, "displacement control", results_file=True)
 
 
+def pushed(ctx, domain, depth: float, steps: int = 60):
+    """The frame without its load, the load point pushed down by ``depth`` in ``steps`` equal static steps
+    (a ``[[prescribed_displacements]]`` boundary condition along −z): its reaction, the force that holds the
+    point there, is the load of the equilibrium path — a third method, on the static algorithm."""
+    from reference.algorithms import SolverSettings
+    from reference.interactions import Ramp
+
+    domain.loading.clear()
+    domain.add_joint("prescribed_displacement", LOAD_NODE, None, domain.node(LOAD_NODE).position,
+                     axis=(0.0, 0.0, -1.0), time_function=Ramp(0.0, 1.0, 0.0, depth), label="push")
+    domain.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=steps, dt=1.0 / steps)
+    return ctx.solve(domain, "prescribed displacement", results_file=True)
+
+
 def exudyn_lines(ctx, checks: list) -> list[str]:
     """Exudyn's static solver on the path up to 0.9 of the first limit load (:mod:`crosscheck.path_crosscheck`),
     judged against the arc-length points at the same loads."""
@@ -191,6 +205,15 @@ def evaluate(ctx):
                                 "arc length, the same discrete frame", same))
         checks.append(ctx.check("displacement_control_path", "arc-length points off the displacement-control path / P1",
                                 "cubic spline through the displacement-control points", gap))
+        bc = pushed(ctx, ctx.domain(), float(vd[-1]))
+        xb = bc.position(LOAD_NODE)
+        Pb = bc.data("joints/prescribed_reaction")[:, 0] * L**2 / domain.elements[0].formulation.section.EI2
+        vb = xb[0, 2] - xb[:, 2]
+        off = float(np.max(np.abs(Pb[vb >= 0.05 * L] - along(vb[vb >= 0.05 * L]))) / P1)
+        checks.append(ctx.check("prescribed_displacement_path",
+                                "reactions of the pushed load point off the displacement-control path / P1",
+                                "cubic spline through the displacement-control points", off))
+        axes[1].plot(vb[::3], Pb[::3], "+", ms=5, color="C2", label="[[prescribed_displacements]], static")
         axes[0].plot(ud[::4], Pd[::4], "x", ms=4, color="C1", label="displacement control of v (every fourth point)")
         axes[1].plot(vd[::4], Pd[::4], "x", ms=4, color="C1")
         lines += [f"**Displacement control** of v (`control = \"position.z:load\"`, {len(Pd) - 1} points to v = "
@@ -200,7 +223,11 @@ def evaluate(ctx):
                   "displacement-control points. v turns back after the first limit point (a snap-back in v), so "
                   "displacement control of v ends there; u, which grows through both limit points, starts almost "
                   "flat, and a fixed first step of it jumps to the branch of negative loads: the second limit point "
-                  "is the arc length's alone here.", ""]
+                  "is the arc length's alone here.", "",
+                  f"**Prescribed displacement**: the frame without its load, its load point pushed down to v = "
+                  f"{vb[-1]:.1f} in {len(vb) - 1} static steps (`[[prescribed_displacements]]`, a boundary "
+                  f"condition; solve {bc.wall_time:.2f} s): the reactions lie within {off:.1e} P1 of the same "
+                  "spline.", ""]
         lines += exudyn_lines(ctx, checks)
     axes[0].set_ylabel("P L²/EI")
     axes[0].legend(fontsize=7)
