@@ -26,7 +26,6 @@ import functools
 import json
 import math
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -277,7 +276,12 @@ def quarter_arc_error(name: str, n: int) -> float:
 
 @functools.lru_cache(maxsize=None)
 def bend_tip(name: str, n: int) -> tuple:
-    """Tip of the 45° bend (Bathe & Bolourchi 1979; models/curved_cantilever.toml's data as one arc of n
+    """Tip of the 45° bend (:func:`bend_domain`), static."""
+    return tuple(bend_domain(name, n).solve().position(_tip("arc", name, n))[-1])
+
+
+def bend_domain(name: str, n: int):
+    """The 45° bend (Bathe & Bolourchi 1979; models/curved_cantilever.toml's data as one arc of n
     elements) under the out-of-plane tip force P = 600, static in 3 load steps."""
     from reference.algorithms import SolverSettings
     from reference.domain import Domain
@@ -292,7 +296,7 @@ def bend_tip(name: str, n: int) -> tuple:
     d.add_interaction(Clamp(arc[0]))
     d.add_interaction(NodalLoad(arc[-1], np.array([0.0, 0.0, 600.0]), time_function=Ramp()))
     d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=3, tolerance=1e-12)
-    return tuple(d.solve().position(_tip("arc", name, n))[-1])
+    return d
 
 
 def bend_error(name: str, n: int) -> float:
@@ -347,37 +351,6 @@ def table(results: dict) -> str:
     return "\n".join(rows)
 
 
-WORK_PRECISION = {"roll-up": (rollup_error, 10.0), "45° bend": (bend_error, 100.0)}
-"""Work–precision studies: name → (error(family, n) [relative to the length], length [m])."""
-
-
-def work_precision(name: str, study: str, meshes) -> list[dict]:
-    """Error, degrees of freedom and warm wall time of the static solve per mesh (compiled engine; each
-    mesh is solved twice and the second timed, so compilation is excluded).  For the 45° bend the error
-    is against the next finer mesh, whose solve is not counted."""
-    error, _ = WORK_PRECISION[study]
-    rows = []
-    for n in meshes:
-        error(name, n)
-        bend_tip.cache_clear()
-        t = time.perf_counter()
-        e = error(name, n)
-        wall = time.perf_counter() - t
-        if study == "45° bend":  # the timed call solved n and 2n: time n alone
-            t = time.perf_counter()
-            bend_tip.cache_clear()
-            bend_tip(name, n)
-            wall = time.perf_counter() - t
-        rows.append({"n": n, "dofs": 6 * (n + 1), "error": e, "wall": wall})
-    return rows
-
-
-def cheapest(rows: list[dict], target: float):
-    """The smallest wall time [s] of a mesh whose error is at most ``target``."""
-    walls = [r["wall"] for r in rows if r["error"] <= target]
-    return min(walls) if walls else None
-
-
 def report_lines() -> list[str]:
     """The report's section: the short suite run as plain Python in a subprocess (``NUMBA_DISABLE_JIT=1``,
     a few seconds, instead of compiling every algorithm for each family's model), as the order table."""
@@ -397,31 +370,9 @@ def report_lines() -> list[str]:
     return head + table(json.loads(proc.stdout.strip().splitlines()[-1])).splitlines() + [""]
 
 
-WORK_MESHES = {("roll-up", "beam2"): (16, 64, 256, 1024), ("roll-up", "beam2_se3"): (2, 4, 8),
-               ("roll-up", "beam3"): (4, 8, 16, 32, 64),
-               ("45° bend", "beam2"): (4, 16, 64, 256), ("45° bend", "beam2_se3"): (4, 16, 64, 256),
-               ("45° bend", "beam3"): (2, 4, 8, 16, 32)}
-"""Meshes of the work–precision study (the helicoid is exact on the roll-up from 2 elements on)."""
-
-
-def work_precision_table(target: float = 1e-6) -> str:
-    """Error against degrees of freedom and warm wall time per family, and the cheapest mesh at ``target``."""
-    rows = ["| study | family | elements | dofs | error / L | wall [s] |", "|---|---|---|---|---|---|"]
-    best = []
-    for (study, name), meshes in WORK_MESHES.items():
-        found = work_precision(name, study, meshes)
-        rows += [f"| {study} | {name} | {r['n']} | {r['dofs']} | {r['error']:.2e} | {r['wall']:.4f} |" for r in found]
-        wall = cheapest(found, target)
-        best.append(f"{study}, {name}: " + (f"{wall:.4f} s" if wall is not None else f"not reached ({min(r['error'] for r in found):.1e})"))
-    return "\n".join(rows + ["", f"Cheapest warm solve at {target:g} L: " + "; ".join(best) + "."])
-
-
 if __name__ == "__main__":
     results = suite(long="--long" in sys.argv)
     if "--json" in sys.argv:
         print(json.dumps(results))
     else:
         print(table(results))
-    if "--long" in sys.argv:
-        print()
-        print(work_precision_table())

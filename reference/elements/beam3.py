@@ -173,6 +173,16 @@ class Beam3Formulation(Beam2Formulation):
     def work(data: Beam3Data) -> np.ndarray:
         return np.zeros((data.conn.shape[0], WIDTH))
 
+    curve_segments = 8
+    node_xi = (0.0, 1.0, 0.5)
+
+    def curve(self, x_nodes, p_nodes, xi):
+        """Centre-line points at ``xi`` ∈ [0, 1]: the quadratic Lagrange interpolation of the nodes (end, end,
+        middle at ξ = 0, 1, ½), the element's own position interpolation."""
+        x = np.asarray(x_nodes, dtype=float)
+        t = np.asarray(xi, dtype=float)[:, None]
+        return (1 - t) * (1 - 2 * t) * x[0] + t * (2 * t - 1) * x[1] + 4 * t * (1 - t) * x[2]
+
     @staticmethod
     def mesh_nodes(nodes: list, i: int) -> tuple:
         """Element i of a beam meshed with 2 segments per element: (end, end, middle)."""
