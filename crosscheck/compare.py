@@ -131,8 +131,11 @@ def compare(a, b, checks: dict | None = None) -> dict:
             parsed_a, parsed_b = parse(obs, a), parse(obs, b)
         except ObservableError as exc:
             raise ObservableError(f"crosscheck.{name}.observable: {exc}") from None
-        va = parsed_a.evaluate(a)
-        vb = _on_times(parsed_b.evaluate(b), b.time, a.time)
+        if obs == "position:*":  # every node: the paired ones (two meshes of one model have other node counts)
+            va, vb = a.positions[:, ia], _on_times(b.positions[:, ib], b.time, a.time)
+        else:
+            va = parsed_a.evaluate(a)
+            vb = _on_times(parsed_b.evaluate(b), b.time, a.time)
         diff = va - vb
         if parsed_a.is_angle:
             diff = wrap(diff)

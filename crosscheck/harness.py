@@ -82,7 +82,7 @@ def element_overrides(deck, element: str | None) -> dict:
 
 
 CONVERGED_REFINE = 8
-"""Exudyn's refinement of the beams whose family it lacks, where the deck's tables name none."""
+"""Exudyn's least refinement of a model with beams of a family it lacks (:func:`exudyn_overrides`)."""
 
 
 def exudyn_overrides(read, refine: int) -> tuple[dict, int | None]:
@@ -91,9 +91,9 @@ def exudyn_overrides(read, refine: int) -> tuple[dict, int | None]:
 
     Exudyn has no element of the families outside :data:`~crosscheck.exudyn_model.EXUDYN_ELEMENTS`: a beam
     of such a family becomes Exudyn's two-node beam (``beams.K.element = "beam2"``), and every flexible beam
-    is refined by the deck's finest ``[crosscheck]`` refinement (8 for models/three_bar.toml: 32 coupler
-    elements, 2 % of the deflection's peak from 16 elements; :data:`CONVERGED_REFINE` without tables) times
-    ``refine``, so that both engines give their converged answers and the finest tables judge them.
+    is refined by the deck's finest ``[crosscheck]`` refinement, at least :data:`CONVERGED_REFINE` (8 for
+    models/three_bar.toml: 32 coupler elements, 2 % of the deflection's peak from 16 elements), times
+    ``refine``, so that both engines give their converged answers; the deck's finest tables judge them.
     """
     beams = {}
     for e in read.domain.elements:
@@ -105,7 +105,7 @@ def exudyn_overrides(read, refine: int) -> tuple[dict, int | None]:
 
     deck_beams = read_toml(Path(read.path))[1].get("beams", [])
     finest = max((int(spec.get("refine", 1)) for spec in read.crosscheck.values()), default=CONVERGED_REFINE)
-    overrides = {"refine": refine * finest}
+    overrides = {"refine": refine * max(finest, CONVERGED_REFINE)}
     for k, beam in enumerate(deck_beams):
         if isinstance(beam, dict) and beam.get("label") in beams:
             overrides[f"beams.{k}.element"] = "beam2"
@@ -151,7 +151,7 @@ def run_engines(deck, out, refine: int = 1, exudyn_dt: float | None = None, t_en
     return {"deck": read, "checks": checks if read.crosscheck else default_crosscheck(),
             "default": not read.crosscheck, "refine": refine,
             "reference": ref, "exudyn": ex["results"], "exudyn_run": ex, "dt_exudyn": dt_ex, "algorithm": algo,
-            "converged": None if converged is None else refine * converged}
+            "converged": None if converged is None else ex_overrides["refine"]}
 
 
 def compare_runs(runs: dict) -> dict:

@@ -209,3 +209,13 @@ def figure(rows: list[dict], path: Path) -> Path:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def coupler_crosscheck(out: Path, t_end: float | None = None) -> list[str]:
+    """``flexmbs crosscheck models/three_bar.toml --element beam3`` (10 s): the beam3 coupler (4 elements)
+    against Exudyn's own beam refined ×8, the deck's refine-8 tables judging (converged meshes).  Returns
+    the Markdown lines (the harness's report: a verdict per table)."""
+    from crosscheck.harness import run
+
+    cmp = run(ROOT / "models" / "three_bar.toml", out, t_end=t_end, element="beam3")
+    return ["### Three-bar with a beam3 coupler against Exudyn (converged meshes)", "", *cmp["markdown"]]

@@ -26,6 +26,7 @@ import functools
 import json
 import math
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -367,7 +368,20 @@ def report_lines() -> list[str]:
             "one-element checks (relative numbers) and the locking study (tip error of 4 elements, L/h = 10 … 1e4).", ""]
     if proc.returncode != 0:
         return head + [f"The suite failed: {proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}", ""]
-    return head + table(json.loads(proc.stdout.strip().splitlines()[-1])).splitlines() + [""]
+    return head + table(json.loads(proc.stdout.strip().splitlines()[-1])).splitlines() + [""] + work_precision_lines(root)
+
+
+def work_precision_lines(root: Path) -> list[str]:
+    """The work–precision table across families of the last ``flexmbs bench`` (``out/bench/
+    work_precision_families.md``, :mod:`flexmbs.bench_families`; timed compiled, so not rerun here), dated."""
+    path = root / "out" / "bench" / "work_precision_families.md"
+    if not path.exists():
+        return ["Work–precision across families (error against degrees of freedom and solve time): `make bench` "
+                "(`flexmbs/bench_families.py`); the report shows its table once `out/bench/work_precision_families.md` "
+                "exists.", ""]
+    when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(path.stat().st_mtime))
+    lines = [ln for ln in path.read_text(encoding="utf-8").splitlines() if not ln.startswith("![")]
+    return [f"From the last `flexmbs bench` ({when}, `{path.relative_to(root)}`):", "", *lines, ""]
 
 
 if __name__ == "__main__":
