@@ -83,22 +83,23 @@ def paired_nodes(a, b) -> tuple[list, list]:
     initial position, or, where the meshes differ (a converged-mesh comparison: beam ``B`` in n and in 8n
     elements), a node ``B:i`` of ``a`` and the node ``B:j`` of ``b`` at its initial position (1e-9 of the
     model's size)."""
-    xa, xb = a.positions[0], b.positions[0]
+    xa, xb = np.asarray(a.positions[0]), np.asarray(b.positions[0])
     tol = 1e-9 * max(float(np.ptp(xa, axis=0).max()), 1.0)
+    index_b = {lbl: j for j, lbl in enumerate(b.labels)}
     by_beam: dict = {}
     for j, lbl in enumerate(b.labels):
         by_beam.setdefault(lbl.rpartition(":")[0], []).append(j)
     ia, ib = [], []
     for i, lbl in enumerate(a.labels):
-        beam = lbl.rpartition(":")[0]
-        near = [j for j in (by_beam.get(beam, []) if beam else [])
-                if np.linalg.norm(xb[j] - xa[i]) <= tol]
-        if lbl in b.labels and np.linalg.norm(xb[b.labels.index(lbl)] - xa[i]) <= tol:
+        j = index_b.get(lbl)
+        if j is None or np.linalg.norm(xb[j] - xa[i]) > tol:
+            beam = lbl.rpartition(":")[0]
+            candidates = np.array(by_beam.get(beam, []) if beam else [], dtype=int)
+            distance = np.linalg.norm(xb[candidates] - xa[i], axis=1) if len(candidates) else np.array([np.inf])
+            j = int(candidates[np.argmin(distance)]) if distance.min() <= tol else None
+        if j is not None:
             ia.append(i)
-            ib.append(b.labels.index(lbl))
-        elif near:
-            ia.append(i)
-            ib.append(near[0])
+            ib.append(j)
     return ia, ib
 
 
