@@ -14,7 +14,9 @@ A family registered in :data:`reference.elements.families.ELEMENT_FAMILIES` by t
   (half circle, k = 1), the quarter-arc cantilever under a small out-of-plane force, the
   45° bend (Bathe & Bolourchi 1979, P = 600, against the next finer mesh), the
   large-deflection cantilever (P L²/EI = 1, Bisshopp & Drucker 1945) and the first
-  cantilever frequency (Timoshenko equation).
+  cantilever frequency (Timoshenko equation);
+* :func:`integration_point_moments` — the section moments at each family's integration points
+  against the statics of a cantilever under a tip force.
 
 ``python -m flexmbs.verification.families [--long]`` prints the table (``make families``);
 the tests run the short version with the engine uncompiled (``tests/test_families.py``).
@@ -199,6 +201,30 @@ def locking(name: str, n: int = 4) -> dict:
     return out
 
 
+def integration_point_moments(name: str, n: int = 4) -> float:
+    """A cantilever (L = 1, EI = 1, EA = GA = 1e6) under a small tip force P = 1e-6 along z, static: the bending
+    moment at every integration point (:func:`reference.elements.families.integration_point_resultants`)
+    against the statics' ``M₂ = −P (L − s)``; returns the largest difference over P L."""
+    from reference.algorithms import SolverSettings
+    from reference.domain import Domain
+    from reference.elements.families import integration_point_resultants
+    from reference.interactions import Clamp, NodalLoad
+
+    P, L = 1e-6, 1.0
+    sec = Section(EA=1e6, GA2=1e6, GA3=1e6, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-4, rhoJ2=1e-4, rhoJ3=1e-4)
+    d = Domain("cantilever")
+    nodes = d.add_beam("beam", (0.0, 0.0, 0.0), (L, 0.0, 0.0), n, sec, element=name)
+    d.add_interaction(Clamp(nodes[0]))
+    d.add_interaction(NodalLoad(nodes[-1], np.array([0.0, 0.0, P])))
+    d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=1, tolerance=1e-14)
+    r = d.solve()
+    worst = 0.0
+    for e, (xi, _, M) in enumerate(integration_point_resultants(d, r.positions[-1], r.rotations[-1])):
+        s_points = (e + xi) * L / n
+        worst = max(worst, float(np.max(np.abs(M[:, 1] + P * (L - s_points)))) / (P * L))
+    return worst
+
+
 def _tip(label: str, name: str, n: int) -> str:
     """The label of the last node of a beam of n elements of the family (n_nodes − 1 segments each)."""
     return f"{label}:{n * (ELEMENT_FAMILIES[name].n_nodes - 1)}"
@@ -330,7 +356,8 @@ def suite(long: bool = False) -> dict:
     """Every check for every engine family."""
     meshes = (4, 8, 16, 32) if long else SHORT_MESHES
     return {name: {"element": element_checks(name), "locking": {str(k): v for k, v in locking(name).items()},
-                   "orders": orders(name, meshes)} for name in engine_families()}
+                   "orders": orders(name, meshes), "integration_points": integration_point_moments(name)}
+            for name in engine_families()}
 
 
 def table(results: dict) -> str:
@@ -342,13 +369,13 @@ def table(results: dict) -> str:
             order = "exact" if exact else f"{o['order']:.2f}"
             rows.append(f"| {name} | {study} | {', '.join(map(str, o['meshes']))} | "
                         f"{', '.join(f'{e:.2e}' for e in o['errors'])} | {order} |")
-    rows += ["", "| family | rigid: max S | objectivity | path | patch | tangent vs CD | locking L/h 10 … 1e4 |",
-             "|---|---|---|---|---|---|---|"]
+    rows += ["", "| family | rigid: max S | objectivity | path | patch | tangent vs CD | locking L/h 10 … 1e4 | "
+             "M at integration points |", "|---|---|---|---|---|---|---|---|"]
     for name, res in results.items():
         e = res["element"]
         rows.append(f"| {name} | {e['rigid_force']:.1e} | {e['objectivity']:.1e} | {e['path_force']:.1e} | "
                     f"{e['patch']:.1e} | {e['tangent']:.1e} | "
-                    f"{', '.join(f'{v:.2e}' for v in res['locking'].values())} |")
+                    f"{', '.join(f'{v:.2e}' for v in res['locking'].values())} | {res['integration_points']:.1e} |")
     return "\n".join(rows)
 
 

@@ -238,6 +238,12 @@ class Beam3Formulation(Beam2Formulation):
         _, _, strain, stress = self._evaluate(x_nodes, q_nodes, reference)
         return 0.5 * (strain[:6] + strain[6:]), 0.5 * (stress[:6] + stress[6:])
 
+    def integration_points(self, x_nodes, q_nodes, reference):
+        """The two Gauss points ``ξ = ½ ∓ ½/√3`` (along the element from its first end) and their strains and
+        resultants (2, 6), section frame, each at its own point (:meth:`section_resultants` gives their mean)."""
+        _, _, strain, stress = self._evaluate(x_nodes, q_nodes, reference)
+        return 0.5 + 0.5 * np.array(GAUSS), strain.reshape(2, 6), stress.reshape(2, 6)
+
     def critical_time_step(self, length):
         """``2/√λ_max`` of one free straight lumped element of this length (its 18×18 tangent at rest
         against the lumped masses and rotary inertias): the stability limit of central differences [s]."""

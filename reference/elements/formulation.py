@@ -142,6 +142,16 @@ def section_quaternion(q_node, o, out):
     rm.quat_product(q_node, o, out)
 
 
+def end_offsets(q_nodes, p_nodes) -> np.ndarray:
+    """The constant offsets ``o_a = q_a⁰* ⊗ p_a⁰`` (n, 4) of an element's ends from their nodes' Euler
+    parameters ``q_nodes`` and section triads ``p_nodes`` (n, 4) at rest (:class:`reference.state.Model`)."""
+    out = np.empty((len(q_nodes), 4))
+    for a, (qa, pa) in enumerate(zip(q_nodes, p_nodes)):
+        rm.quat_product(np.asarray(qa, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0]),
+                        np.asarray(pa, dtype=float), out[a])
+    return out
+
+
 @kernel
 def to_node_frame(o, v, out):
     """Body-frame moment of an element end from its section frame to the node frame: ``A(o) v``.

@@ -37,6 +37,7 @@ import h5py
 import numpy as np
 
 from reference.elements.families import resultants
+from reference.elements.formulation import end_offsets
 from reference.state import element_work
 from reference.generated import rotation_maps as rm
 from reference.jit import inlined, kernel
@@ -127,11 +128,8 @@ class Layout:
             line[int(round(xi * segments))] = point_of[element.nodes[a]]
         inner = [k for k in range(segments + 1) if line[k] < 0]
         if inner:
-            q0 = [np.asarray(domain.node(i).rotation, dtype=float) for i in element.nodes]
-            frames = q0 if element.frames is None else [np.asarray(p, dtype=float) for p in element.frames]
-            offsets = np.empty((len(q0), 4))
-            for a, (qa, pa) in enumerate(zip(q0, frames)):
-                rm.quat_product(qa * np.array([1.0, -1.0, -1.0, -1.0]), pa, offsets[a])
+            q0 = [domain.node(i).rotation for i in element.nodes]
+            offsets = end_offsets(q0, q0 if element.frames is None else element.frames)
             xi = np.array(inner, dtype=float) / segments
             nearest = [element.nodes[int(np.argmin(np.abs(np.array(node_xi) - t)))] for t in xi]
             self.curves.append({"element": len(self._lines_seen), "formulation": f, "nodes": list(element.nodes),
