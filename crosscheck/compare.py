@@ -2,7 +2,7 @@
 
 ``compare(a, b, deck_checks)`` returns the differences of
 
-- every common node's trajectory: positions (max and RMS, absolute and relative
+- every common node's trajectory (:func:`paired_nodes`): positions (max and RMS, absolute and relative
   to the model's characteristic length, the diagonal of its initial bounding
   box) and rotations (the angle of ``q_a* ⊗ q_b``);
 - the observables the deck names in ``[crosscheck]`` (see below), absolute and
@@ -78,11 +78,34 @@ def _on_times(values, t_from, t_to):
     return out.reshape((len(t_to),) + values.shape[1:])
 
 
+def paired_nodes(a, b) -> tuple[list, list]:
+    """Indices ``(ia, ib)`` of the nodes of ``a`` and ``b`` that are one point: the same label at the same
+    initial position, or, where the meshes differ (a converged-mesh comparison: beam ``B`` in n and in 8n
+    elements), a node ``B:i`` of ``a`` and the node ``B:j`` of ``b`` at its initial position (1e-9 of the
+    model's size)."""
+    xa, xb = np.asarray(a.positions[0]), np.asarray(b.positions[0])
+    tol = 1e-9 * max(float(np.ptp(xa, axis=0).max()), 1.0)
+    index_b = {lbl: j for j, lbl in enumerate(b.labels)}
+    by_beam: dict = {}
+    for j, lbl in enumerate(b.labels):
+        by_beam.setdefault(lbl.rpartition(":")[0], []).append(j)
+    ia, ib = [], []
+    for i, lbl in enumerate(a.labels):
+        j = index_b.get(lbl)
+        if j is None or np.linalg.norm(xb[j] - xa[i]) > tol:
+            beam = lbl.rpartition(":")[0]
+            candidates = np.array(by_beam.get(beam, []) if beam else [], dtype=int)
+            distance = np.linalg.norm(xb[candidates] - xa[i], axis=1) if len(candidates) else np.array([np.inf])
+            j = int(candidates[np.argmin(distance)]) if distance.min() <= tol else None
+        if j is not None:
+            ia.append(i)
+            ib.append(j)
+    return ia, ib
+
+
 def compare(a, b, checks: dict | None = None) -> dict:
     """Differences between results ``a`` and ``b`` (see the module docstring)."""
-    common = [lbl for lbl in a.labels if lbl in b.labels]
-    ia = [a.labels.index(lbl) for lbl in common]
-    ib = [b.labels.index(lbl) for lbl in common]
+    ia, ib = paired_nodes(a, b)
     pos_b = _on_times(b.positions[:, ib], b.time, a.time)
     rot_b = _on_times(b.rotations[:, ib], b.time, a.time)
     x0 = a.positions[0, ia]
@@ -94,7 +117,7 @@ def compare(a, b, checks: dict | None = None) -> dict:
             qa = EulerParameters(a.rotations[t, ia[k]])
             angles[t, k] = qa.conjugate().product(EulerParameters(rot_b[t, k])).angle()
     out = {
-        "nodes": len(common), "length": length,
+        "nodes": len(ia), "length": length,
         "position_max": float(dpos.max()), "position_rms": float(np.sqrt(np.mean(dpos**2))),
         "position_max_relative": float(dpos.max() / length),
         "rotation_max": float(angles.max()), "rotation_rms": float(np.sqrt(np.mean(angles**2))),
@@ -109,8 +132,11 @@ def compare(a, b, checks: dict | None = None) -> dict:
             parsed_a, parsed_b = parse(obs, a), parse(obs, b)
         except ObservableError as exc:
             raise ObservableError(f"crosscheck.{name}.observable: {exc}") from None
-        va = parsed_a.evaluate(a)
-        vb = _on_times(parsed_b.evaluate(b), b.time, a.time)
+        if obs == "position:*":  # every node: the paired ones (two meshes of one model have other node counts)
+            va, vb = a.positions[:, ia], _on_times(b.positions[:, ib], b.time, a.time)
+        else:
+            va = parsed_a.evaluate(a)
+            vb = _on_times(parsed_b.evaluate(b), b.time, a.time)
         diff = va - vb
         if parsed_a.is_angle:
             diff = wrap(diff)

@@ -634,6 +634,21 @@ def main(args=None) -> int:
                                            encoding="utf-8")
     print(f"figure and tables: {figure}, {out / 'work_precision.md'}")
     print()
+    from flexmbs import bench_families
+
+    families = bench_families.work_precision(quick)
+    lines = bench_families.table(families)
+    print("\n".join(lines))
+    figure = bench_families.figure(families, out / "work_precision_families.png")
+    (out / "work_precision_families.md").write_text("\n".join(lines + [f"![work-precision]({figure.name})", ""]),
+                                                    encoding="utf-8")
+    ratio = bench_families.target_lines(families)[1]
+    targets.append(Target("element families at 1e-6 L, best / Beam2 solve time", 1.0 / ratio, 0.1, "{:.3f}"))
+    coupler, worst = bench_families.coupler_crosscheck(out / "three_bar_beam3_crosscheck", t_end=1.0 if quick else None)
+    print("\n".join(coupler))
+    targets.append(Target("three-bar, beam3 coupler against Exudyn (converged meshes): worst verdict / tolerance",
+                          worst, 1.0, "{:.3f}"))
+    print()
     closing, status = target_summary(targets)
     print("\n".join(closing))
     return status

@@ -73,6 +73,25 @@ def test_compare_works_on_any_two_results_files(tmp_path):
     assert 3.0 <= coarse / fine <= 5.5
 
 
+def test_two_meshes_of_one_model_pair_their_nodes_by_initial_position():
+    """A converged-mesh comparison (beam ``b`` in 2 elements against 4): ``b:i`` of the coarse mesh pairs with
+    the fine mesh's node at its initial point (``b:2i``), a label at another point is not paired, and a
+    rigid body pairs by its label."""
+    from types import SimpleNamespace
+
+    from crosscheck.compare import paired_nodes
+
+    coarse = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 2.0, 2.0]])
+    fine = np.array([[0.0, 0.0, 0.0], [0.25, 0.0, 0.0], [0.5, 0.0, 0.0], [0.75, 0.0, 0.0], [1.0, 0.0, 0.0],
+                     [2.0, 2.0, 2.0]])
+    a = SimpleNamespace(positions=coarse[None], labels=["b:0", "b:1", "b:2", "body"])
+    b = SimpleNamespace(positions=fine[None], labels=["b:0", "b:1", "b:2", "b:3", "b:4", "body"])
+    assert paired_nodes(a, b) == ([0, 1, 2, 3], [0, 2, 4, 5])
+    assert paired_nodes(a, a) == ([0, 1, 2, 3], [0, 1, 2, 3])
+    moved = SimpleNamespace(positions=(fine + [0.1, 0.0, 0.0])[None], labels=b.labels)
+    assert paired_nodes(a, moved) == ([], [])
+
+
 G = 9.81
 
 

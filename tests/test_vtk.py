@@ -11,7 +11,7 @@ from reference.domain import Domain, SolverSettings
 from reference.elements import Section
 from reference.interactions import Gravity, NodalLoad, Ramp
 from reference.io.vtk import rotation_matrices, safe_name, write_vtk
-from reference.rotation import EulerParameters
+from reference.rotation import EulerParameters, RotationVector
 
 from conftest import cantilever
 
@@ -85,3 +85,58 @@ def test_rigid_body_only_model_and_every(tmp_path):
     assert list(times) == list(r.time[::5]) and poly.GetNumberOfPoints() == 3
     assert poly.GetNumberOfVerts() == 1 and poly.GetNumberOfLines() == 1
     assert poly.GetPoints().GetPoint(0)[2] == pytest.approx(-0.5 * 9.81 * r.time[10] ** 2, rel=1e-6)
+
+
+@pytest.mark.parametrize("family", ["beam3", "beam2_se3"])
+def test_curved_families_draw_their_own_interpolation(tmp_path, family):
+    """A quarter arc (R = 2) of 2 elements, at rest and then turned and shifted rigidly: each element is one
+    polyline of 9 points; the inner points lie on the element's own curve, not on its chords — beam2_se3's
+    helicoid is the exact circle (to 1e-6 R, single precision), beam3's the quadratic through its three nodes
+    (to 1e-6 R against the shape functions evaluated here; its largest distance from the circle, 3e-4 R here,
+    is the quadratic's error, while a chord's mid-point lies 0.076 R inside) — and they move with the nodes
+    (a superposed rigid motion moves them rigidly, to 1e-6 R)."""
+    from reference.io.results import Results
+
+    R = 2.0
+    d = Domain("arc")
+    d.add_beam("arc", (R, 0.0, 0.0), (0.0, R, 0.0), 2, SEC, axis2=(0.0, 0.0, 1.0), center=(0.0, 0.0, 0.0),
+               element=family)
+    x0 = np.array([n.position for n in d.nodes])
+    q0 = np.array([n.rotation for n in d.nodes])
+    turn = RotationVector(np.array([0.3, -0.2, 0.9])).to_euler_parameters()
+    A, shift = turn.matrix(), np.array([0.5, -1.0, 2.0])
+    x1 = x0 @ A.T + shift
+    q1 = np.array([turn.product(EulerParameters(q)).q for q in q0])
+    zeros = np.zeros((2, len(d.nodes), 3))
+    r = Results(time=np.array([0.0, 1.0]), labels=[n.label for n in d.nodes], positions=np.array([x0, x1]),
+                rotations=np.array([q0, q1]), velocities=zeros, angular_velocities=zeros,
+                element_labels=[e.label for e in d.elements], section_forces=np.zeros((2, 2, 3)),
+                section_moments=np.zeros((2, 2, 3)))
+    path = write_vtk(d, r, tmp_path, family)
+    at_rest, _ = read(path, 0)
+    moved, _ = read(path, 1)
+    assert at_rest.GetNumberOfLines() == 2
+    lines = at_rest.GetLines()
+    ids, cells = vtk.vtkIdList(), []
+    lines.InitTraversal()
+    while lines.GetNextCell(ids):
+        cells.append([ids.GetId(k) for k in range(ids.GetNumberOfIds())])
+    assert [len(c) for c in cells] == [9, 9]
+    pts0 = np.array([at_rest.GetPoints().GetPoint(k) for k in range(at_rest.GetNumberOfPoints())])
+    pts1 = np.array([moved.GetPoints().GetPoint(k) for k in range(moved.GetNumberOfPoints())])
+    for e, cell in enumerate(cells):
+        element = d.elements[e]
+        ends = x0[list(element.nodes[:2])]
+        inner = pts0[cell[1:-1]]
+        xi = np.arange(1, 8) / 8.0
+        if family == "beam2_se3":
+            assert np.allclose(np.linalg.norm(inner, axis=1), R, atol=1e-6 * R, rtol=0)
+        else:
+            mid = x0[element.nodes[2]]
+            t = xi[:, None]
+            quadratic = (1 - t) * (1 - 2 * t) * ends[0] + t * (2 * t - 1) * ends[1] + 4 * t * (1 - t) * mid
+            assert np.allclose(inner, quadratic, atol=1e-6 * R, rtol=0)
+            assert np.max(np.abs(np.linalg.norm(inner, axis=1) - R)) < 1e-3 * R
+        chord = (1 - xi[:, None]) * ends[0] + xi[:, None] * ends[1]
+        assert np.linalg.norm(inner[3] - chord[3]) > 0.07 * R  # the element's middle is not on its chord
+        assert np.allclose(pts1[cell], pts0[cell] @ A.T + shift, atol=1e-6 * R, rtol=0)

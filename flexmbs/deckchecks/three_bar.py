@@ -32,6 +32,18 @@ def rigid_coupler_deck(deck: Path, path: Path, extra_solver: str = "") -> Path:
     return path
 
 
+def quasi_static_deck(deck: Path, path: Path, load_steps: int = 4) -> Path:
+    """The three-bar deck solved by the static algorithm (``[solver]`` replaced): the load factor λ ∈ [0, 1]
+    is the time, so the crank drive turns the crank quasi-statically by its angle at t = 1 s (0.1875 Ω rad).
+    Without inertia or loads the coupler stays unstrained and the rocker angle is the four-bar's position
+    analysis: the static solve of a mechanism is its kinematics."""
+    text = re.sub(r"\[solver\][^\[]*", f'[solver]\nalgorithm = "static"\nt_end = 1.0\nload_steps = {load_steps}\n\n',
+                  deck.read_text())
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    return path
+
+
 def fig14(ctx, domain, r, magnify: float = 50.0) -> str:
     """Paper Fig. 14: successive configurations, coupler deflection magnified, coloured by time."""
     import matplotlib.pyplot as plt

@@ -14,7 +14,9 @@ A family registered in :data:`reference.elements.families.ELEMENT_FAMILIES` by t
   (half circle, k = 1), the quarter-arc cantilever under a small out-of-plane force, the
   45° bend (Bathe & Bolourchi 1979, P = 600, against the next finer mesh), the
   large-deflection cantilever (P L²/EI = 1, Bisshopp & Drucker 1945) and the first
-  cantilever frequency (Timoshenko equation).
+  cantilever frequency (Timoshenko equation);
+* :func:`integration_point_moments` — the section moments at each family's integration points
+  against the statics of a cantilever under a tip force.
 
 ``python -m flexmbs.verification.families [--long]`` prints the table (``make families``);
 the tests run the short version with the engine uncompiled (``tests/test_families.py``).
@@ -199,6 +201,30 @@ def locking(name: str, n: int = 4) -> dict:
     return out
 
 
+def integration_point_moments(name: str, n: int = 4) -> float:
+    """A cantilever (L = 1, EI = 1, EA = GA = 1e6) under a small tip force P = 1e-6 along z, static: the bending
+    moment at every integration point (:func:`reference.elements.families.integration_point_resultants`)
+    against the statics' ``M₂ = −P (L − s)``; returns the largest difference over P L."""
+    from reference.algorithms import SolverSettings
+    from reference.domain import Domain
+    from reference.elements.families import integration_point_resultants
+    from reference.interactions import Clamp, NodalLoad
+
+    P, L = 1e-6, 1.0
+    sec = Section(EA=1e6, GA2=1e6, GA3=1e6, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-4, rhoJ2=1e-4, rhoJ3=1e-4)
+    d = Domain("cantilever")
+    nodes = d.add_beam("beam", (0.0, 0.0, 0.0), (L, 0.0, 0.0), n, sec, element=name)
+    d.add_interaction(Clamp(nodes[0]))
+    d.add_interaction(NodalLoad(nodes[-1], np.array([0.0, 0.0, P])))
+    d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=1, tolerance=1e-14)
+    r = d.solve()
+    worst = 0.0
+    for e, (xi, _, M) in enumerate(integration_point_resultants(d, r.positions[-1], r.rotations[-1])):
+        s_points = (e + xi) * L / n
+        worst = max(worst, float(np.max(np.abs(M[:, 1] + P * (L - s_points)))) / (P * L))
+    return worst
+
+
 def _tip(label: str, name: str, n: int) -> str:
     """The label of the last node of a beam of n elements of the family (n_nodes − 1 segments each)."""
     return f"{label}:{n * (ELEMENT_FAMILIES[name].n_nodes - 1)}"
@@ -277,7 +303,12 @@ def quarter_arc_error(name: str, n: int) -> float:
 
 @functools.lru_cache(maxsize=None)
 def bend_tip(name: str, n: int) -> tuple:
-    """Tip of the 45° bend (Bathe & Bolourchi 1979; models/curved_cantilever.toml's data as one arc of n
+    """Tip of the 45° bend (:func:`bend_domain`), static."""
+    return tuple(bend_domain(name, n).solve().position(_tip("arc", name, n))[-1])
+
+
+def bend_domain(name: str, n: int):
+    """The 45° bend (Bathe & Bolourchi 1979; models/curved_cantilever.toml's data as one arc of n
     elements) under the out-of-plane tip force P = 600, static in 3 load steps."""
     from reference.algorithms import SolverSettings
     from reference.domain import Domain
@@ -292,7 +323,7 @@ def bend_tip(name: str, n: int) -> tuple:
     d.add_interaction(Clamp(arc[0]))
     d.add_interaction(NodalLoad(arc[-1], np.array([0.0, 0.0, 600.0]), time_function=Ramp()))
     d.solver = SolverSettings(algorithm="static", t_end=1.0, load_steps=3, tolerance=1e-12)
-    return tuple(d.solve().position(_tip("arc", name, n))[-1])
+    return d
 
 
 def bend_error(name: str, n: int) -> float:
@@ -325,7 +356,8 @@ def suite(long: bool = False) -> dict:
     """Every check for every engine family."""
     meshes = (4, 8, 16, 32) if long else SHORT_MESHES
     return {name: {"element": element_checks(name), "locking": {str(k): v for k, v in locking(name).items()},
-                   "orders": orders(name, meshes)} for name in engine_families()}
+                   "orders": orders(name, meshes), "integration_points": integration_point_moments(name)}
+            for name in engine_families()}
 
 
 def table(results: dict) -> str:
@@ -337,45 +369,14 @@ def table(results: dict) -> str:
             order = "exact" if exact else f"{o['order']:.2f}"
             rows.append(f"| {name} | {study} | {', '.join(map(str, o['meshes']))} | "
                         f"{', '.join(f'{e:.2e}' for e in o['errors'])} | {order} |")
-    rows += ["", "| family | rigid: max S | objectivity | path | patch | tangent vs CD | locking L/h 10 … 1e4 |",
-             "|---|---|---|---|---|---|---|"]
+    rows += ["", "| family | rigid: max S | objectivity | path | patch | tangent vs CD | locking L/h 10 … 1e4 | "
+             "M at integration points |", "|---|---|---|---|---|---|---|---|"]
     for name, res in results.items():
         e = res["element"]
         rows.append(f"| {name} | {e['rigid_force']:.1e} | {e['objectivity']:.1e} | {e['path_force']:.1e} | "
                     f"{e['patch']:.1e} | {e['tangent']:.1e} | "
-                    f"{', '.join(f'{v:.2e}' for v in res['locking'].values())} |")
+                    f"{', '.join(f'{v:.2e}' for v in res['locking'].values())} | {res['integration_points']:.1e} |")
     return "\n".join(rows)
-
-
-WORK_PRECISION = {"roll-up": (rollup_error, 10.0), "45° bend": (bend_error, 100.0)}
-"""Work–precision studies: name → (error(family, n) [relative to the length], length [m])."""
-
-
-def work_precision(name: str, study: str, meshes) -> list[dict]:
-    """Error, degrees of freedom and warm wall time of the static solve per mesh (compiled engine; each
-    mesh is solved twice and the second timed, so compilation is excluded).  For the 45° bend the error
-    is against the next finer mesh, whose solve is not counted."""
-    error, _ = WORK_PRECISION[study]
-    rows = []
-    for n in meshes:
-        error(name, n)
-        bend_tip.cache_clear()
-        t = time.perf_counter()
-        e = error(name, n)
-        wall = time.perf_counter() - t
-        if study == "45° bend":  # the timed call solved n and 2n: time n alone
-            t = time.perf_counter()
-            bend_tip.cache_clear()
-            bend_tip(name, n)
-            wall = time.perf_counter() - t
-        rows.append({"n": n, "dofs": 6 * (n + 1), "error": e, "wall": wall})
-    return rows
-
-
-def cheapest(rows: list[dict], target: float):
-    """The smallest wall time [s] of a mesh whose error is at most ``target``."""
-    walls = [r["wall"] for r in rows if r["error"] <= target]
-    return min(walls) if walls else None
 
 
 def report_lines() -> list[str]:
@@ -394,26 +395,20 @@ def report_lines() -> list[str]:
             "one-element checks (relative numbers) and the locking study (tip error of 4 elements, L/h = 10 … 1e4).", ""]
     if proc.returncode != 0:
         return head + [f"The suite failed: {proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}", ""]
-    return head + table(json.loads(proc.stdout.strip().splitlines()[-1])).splitlines() + [""]
+    return head + table(json.loads(proc.stdout.strip().splitlines()[-1])).splitlines() + [""] + work_precision_lines(root)
 
 
-WORK_MESHES = {("roll-up", "beam2"): (16, 64, 256, 1024), ("roll-up", "beam2_se3"): (2, 4, 8),
-               ("roll-up", "beam3"): (4, 8, 16, 32, 64),
-               ("45° bend", "beam2"): (4, 16, 64, 256), ("45° bend", "beam2_se3"): (4, 16, 64, 256),
-               ("45° bend", "beam3"): (2, 4, 8, 16, 32)}
-"""Meshes of the work–precision study (the helicoid is exact on the roll-up from 2 elements on)."""
-
-
-def work_precision_table(target: float = 1e-6) -> str:
-    """Error against degrees of freedom and warm wall time per family, and the cheapest mesh at ``target``."""
-    rows = ["| study | family | elements | dofs | error / L | wall [s] |", "|---|---|---|---|---|---|"]
-    best = []
-    for (study, name), meshes in WORK_MESHES.items():
-        found = work_precision(name, study, meshes)
-        rows += [f"| {study} | {name} | {r['n']} | {r['dofs']} | {r['error']:.2e} | {r['wall']:.4f} |" for r in found]
-        wall = cheapest(found, target)
-        best.append(f"{study}, {name}: " + (f"{wall:.4f} s" if wall is not None else f"not reached ({min(r['error'] for r in found):.1e})"))
-    return "\n".join(rows + ["", f"Cheapest warm solve at {target:g} L: " + "; ".join(best) + "."])
+def work_precision_lines(root: Path) -> list[str]:
+    """The work–precision table across families of the last ``flexmbs bench`` (``out/bench/
+    work_precision_families.md``, :mod:`flexmbs.bench_families`; timed compiled, so not rerun here), dated."""
+    path = root / "out" / "bench" / "work_precision_families.md"
+    if not path.exists():
+        return ["Work–precision across families (error against degrees of freedom and solve time): `make bench` "
+                "(`flexmbs/bench_families.py`); the report shows its table once `out/bench/work_precision_families.md` "
+                "exists.", ""]
+    when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(path.stat().st_mtime))
+    lines = [ln for ln in path.read_text(encoding="utf-8").splitlines() if not ln.startswith("![")]
+    return [f"From the last `flexmbs bench` ({when}, `{path.relative_to(root)}`):", "", *lines, ""]
 
 
 if __name__ == "__main__":
@@ -422,6 +417,3 @@ if __name__ == "__main__":
         print(json.dumps(results))
     else:
         print(table(results))
-    if "--long" in sys.argv:
-        print()
-        print(work_precision_table())

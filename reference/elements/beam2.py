@@ -330,6 +330,13 @@ class Beam2Formulation(ElementFormulation):
         _, _, strain, stress = self._evaluate(x_nodes, q_nodes, reference)
         return strain, stress
 
+    def integration_points(self, x_nodes, q_nodes, reference):
+        """The integration points' parameters ξ (G,) ∈ [0, 1] along the element and their strains and
+        resultants (G, 6), section frame (``q_nodes`` the section triads): Beam2's one point at the
+        midpoint; a family whose strains are constant on the element (beam2_se3) has the same one row."""
+        strain, stress = self.section_resultants(x_nodes, q_nodes, reference)
+        return np.array([0.5]), np.asarray(strain, float)[None, :6], np.asarray(stress, float)[None, :6]
+
     def critical_time_step(self, length):
         """Stability limit of central differences for one lumped element [s].
 

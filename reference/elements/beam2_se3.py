@@ -25,6 +25,7 @@ import numpy as np
 from reference.elements.beam2 import Beam2Formulation
 from reference.elements.formulation import section_quaternion, tangent_to_node_frame, to_node_frame
 from reference.generated import beam2_se3 as generated
+from reference.generated import rotation_maps as rm
 from reference.jit import inlined
 from reference.newton_blocks import store_block
 
@@ -136,6 +137,27 @@ class Beam2SE3Formulation(Beam2Formulation):
     assemble = staticmethod(_assemble)
     tangent_values = staticmethod(_tangent_values)
     resultants = staticmethod(_resultants)
+
+    curve_segments = 8
+
+    def curve(self, x_nodes, p_nodes, xi):
+        """Centre-line points at ``xi`` ∈ [0, 1] on the element's helicoid ``H(ξ) = H_1 exp(ξ η)``,
+        ``η = (U, ψ) = log(H_1⁻¹H_2)``: ``ψ = log(Λ1ᵀΛ2)``, ``U = J_r(ψ)⁻ᵀ Λ1ᵀ(x2 − x1)`` and
+        ``x(ξ) = x1 + Λ1 J_r(ξψ)ᵀ ξU`` (docs/formulation.md §3.4; ``p_nodes`` the section triads)."""
+        x1, x2 = (np.asarray(v, dtype=float) for v in x_nodes)
+        p1, p2 = (np.asarray(v, dtype=float) for v in p_nodes)
+        A1, rel, psi, jr = np.empty(9), np.empty(4), np.empty(3), np.empty(9)
+        rm.rotation_matrix(p1, A1)
+        rm.quat_product(p1 * np.array([1.0, -1.0, -1.0, -1.0]), p2, rel)
+        rm.log_quaternion(rel, psi)
+        rm.right_jacobian(psi, jr)
+        A1 = A1.reshape(3, 3)
+        U = np.linalg.solve(jr.reshape(3, 3).T, A1.T @ (x2 - x1))
+        out = np.empty((len(xi), 3))
+        for k, t in enumerate(np.asarray(xi, dtype=float)):
+            rm.right_jacobian(t * psi, jr)
+            out[k] = x1 + A1 @ (jr.reshape(3, 3).T @ (t * U))
+        return out
 
     @classmethod
     def pack(cls, placed) -> Beam2SE3Data:

@@ -173,6 +173,16 @@ class Beam3Formulation(Beam2Formulation):
     def work(data: Beam3Data) -> np.ndarray:
         return np.zeros((data.conn.shape[0], WIDTH))
 
+    curve_segments = 8
+    node_xi = (0.0, 1.0, 0.5)
+
+    def curve(self, x_nodes, p_nodes, xi):
+        """Centre-line points at ``xi`` ∈ [0, 1]: the quadratic Lagrange interpolation of the nodes (end, end,
+        middle at ξ = 0, 1, ½), the element's own position interpolation."""
+        x = np.asarray(x_nodes, dtype=float)
+        t = np.asarray(xi, dtype=float)[:, None]
+        return (1 - t) * (1 - 2 * t) * x[0] + t * (2 * t - 1) * x[1] + 4 * t * (1 - t) * x[2]
+
     @staticmethod
     def mesh_nodes(nodes: list, i: int) -> tuple:
         """Element i of a beam meshed with 2 segments per element: (end, end, middle)."""
@@ -227,6 +237,12 @@ class Beam3Formulation(Beam2Formulation):
         """Strains ``(Γ, K)`` and resultants ``(N, M)``: the means of the two Gauss points, section frame."""
         _, _, strain, stress = self._evaluate(x_nodes, q_nodes, reference)
         return 0.5 * (strain[:6] + strain[6:]), 0.5 * (stress[:6] + stress[6:])
+
+    def integration_points(self, x_nodes, q_nodes, reference):
+        """The two Gauss points ``ξ = ½ ∓ ½/√3`` (along the element from its first end) and their strains and
+        resultants (2, 6), section frame, each at its own point (:meth:`section_resultants` gives their mean)."""
+        _, _, strain, stress = self._evaluate(x_nodes, q_nodes, reference)
+        return 0.5 + 0.5 * np.array(GAUSS), strain.reshape(2, 6), stress.reshape(2, 6)
 
     def critical_time_step(self, length):
         """``2/√λ_max`` of one free straight lumped element of this length (its 18×18 tangent at rest

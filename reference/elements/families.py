@@ -22,11 +22,13 @@ What a family provides is listed in
 
 from __future__ import annotations
 
+import numpy as np
 from numba.extending import overload
 
 from reference.elements.beam2 import Beam2Formulation
 from reference.elements.beam2_se3 import Beam2SE3Formulation
 from reference.elements.beam3 import Beam3Formulation
+from reference.elements.formulation import end_offsets, section_quaternion
 from reference.jit import TAG
 
 ELEMENT_FAMILIES: dict[str, type] = {}
@@ -118,6 +120,31 @@ resultants = _calls("resultants", "x, q, N, M")
 """``resultants(elements, works, x, q, N, M)``: section resultants of every element into the rows
 ``data.index`` of ``N``, ``M`` (E, 3), in its section frame (returns 0)."""
 
+def integration_point_resultants(domain, x, q) -> list:
+    """Section resultants at every element's integration points, every family (plain Python; a results
+    file stores one row per element: the midpoint's, or beam3's mean of its two Gauss points).
+
+    ``x`` (N, 3), ``q`` (N, 4): a configuration of ``domain``'s nodes (e.g. ``results.positions[k]``,
+    ``results.rotations[k]``).  Returns per element ``(s, N, M)``: the points' arc-length parameters ξ (G,)
+    ∈ [0, 1] from the element's first end, and the force and moment resultants (G, 3) [N, N m] in the
+    section frame (the family's ``integration_points``, at the section triads ``q ⊗ o``).
+    """
+    out = []
+    for element in domain.elements:
+        ids = list(element.nodes)
+        q0 = [domain.nodes[i].rotation for i in ids]
+        p0 = np.array(q0 if element.frames is None else element.frames, dtype=float)
+        offsets = end_offsets(q0, p0)
+        f = element.formulation
+        reference = f.reference_state(np.array([domain.nodes[i].position for i in ids], dtype=float), p0)
+        triads = np.empty((len(ids), 4))
+        for a, i in enumerate(ids):
+            section_quaternion(np.asarray(q[i], dtype=float), offsets[a], triads[a])
+        xi, _, stress = f.integration_points(np.asarray(x, dtype=float)[ids], triads, reference)
+        out.append((xi, stress[:, :3], stress[:, 3:]))
+    return out
+
+
 DEFAULT_FAMILY = "beam2"
 """The family of a beam that names none (``[[beams]] element``)."""
 
@@ -125,4 +152,5 @@ register(Beam2Formulation, always=True)
 register(Beam2SE3Formulation)
 register(Beam3Formulation)
 
-__all__ = ["ALWAYS_PACKED", "DEFAULT_FAMILY", "ELEMENT_FAMILIES", "assemble_forces", "family_of", "register", "resultants", "tangent_values"]
+__all__ = ["ALWAYS_PACKED", "DEFAULT_FAMILY", "ELEMENT_FAMILIES", "assemble_forces", "family_of",
+           "integration_point_resultants", "register", "resultants", "tangent_values"]

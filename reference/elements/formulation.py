@@ -104,6 +104,20 @@ class ElementFormulation(ABC):
         k = (cls.n_nodes - 1) * i
         return tuple(nodes[k:k + cls.n_nodes])
 
+    curve_segments: int = 1
+    """Segments per element of the centre line the ParaView output draws (:meth:`curve`)."""
+    node_xi: tuple = (0.0, 1.0)
+    """Each node's parameter ξ on the centre line (0 at the first end, 1 at the second), element order."""
+
+    def curve(self, x_nodes: np.ndarray, p_nodes: np.ndarray, xi: np.ndarray) -> np.ndarray:
+        """Centre-line points (k, 3) [m] at the parameters ``xi`` (k,) ∈ [0, 1] from the element's own
+        interpolation, given its nodes' positions ``x_nodes`` (n, 3) and section triads ``p_nodes`` (n, 4)
+        (Euler parameters).  Default: the straight chord between the two ends (Beam2's linear
+        interpolation, docs/formulation.md §3)."""
+        x = np.asarray(x_nodes, dtype=float)
+        xi = np.asarray(xi, dtype=float)[:, None]
+        return (1.0 - xi) * x[0] + xi * x[1]
+
     @abstractmethod
     def lumped_mass(self, x_nodes: np.ndarray) -> list: ...
 
@@ -126,6 +140,16 @@ def section_quaternion(q_node, o, out):
     :class:`reference.state.Model`), ``out`` (4,).
     """
     rm.quat_product(q_node, o, out)
+
+
+def end_offsets(q_nodes, p_nodes) -> np.ndarray:
+    """The constant offsets ``o_a = q_a⁰* ⊗ p_a⁰`` (n, 4) of an element's ends from their nodes' Euler
+    parameters ``q_nodes`` and section triads ``p_nodes`` (n, 4) at rest (:class:`reference.state.Model`)."""
+    out = np.empty((len(q_nodes), 4))
+    for a, (qa, pa) in enumerate(zip(q_nodes, p_nodes)):
+        rm.quat_product(np.asarray(qa, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0]),
+                        np.asarray(pa, dtype=float), out[a])
+    return out
 
 
 @kernel

@@ -148,14 +148,14 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     return Deck(domain, str(path), text, metadata, checks, crosscheck)
 
 
-def warm_up(path, dt: float) -> float:
-    """Solve the deck at ``path`` for two steps of ``dt``; return the seconds it took.
+def warm_up(path, dt: float, overrides: dict | None = None) -> float:
+    """Solve the deck at ``path`` (with ``overrides``) for two steps of ``dt``; return the seconds it took.
 
     A process's first solve loads (or compiles) the engine's numba kernels: a solve
     timed after this one measures the solve alone.
     """
     t0 = time.perf_counter()
-    load_deck(path, overrides={"t_end": 2 * dt, "dt": dt}).domain.solve()
+    load_deck(path, overrides={**(overrides or {}), "t_end": 2 * dt, "dt": dt}).domain.solve()
     return time.perf_counter() - t0
 
 

@@ -4,9 +4,14 @@ Each output step holds
 
 - points: the beam nodes, and for every rigid body its centre of mass and its
   named points (the rigid bar's ends);
-- line cells: one per Beam2 element (the beam centrelines) and one segment per
+- line cells: one polyline per beam element (the beam centrelines) and one segment per
   rigid body from its centre to each named point (its axis); a rigid body without
-  named points is a vertex cell;
+  named points is a vertex cell.  A Beam2 element is its chord; an element of a family
+  that draws more (``curve_segments`` > 1: ``beam3``, ``beam2_se3``) is sub-sampled at
+  equal steps of its parameter, the points placed by the element's own interpolation
+  (``ElementFormulation.curve``: beam3's quadratic shape functions, beam2_se3's
+  helicoid), not on chords; such a point carries the velocity and triad of the
+  element's node nearest to it;
 - point data: ``displacement`` and ``velocity`` (inertial), the nodal triad as
   ``triad_1``, ``triad_2``, ``triad_3`` (inertial components of the body axes);
 - cell data: section forces ``N`` and moments ``M`` (section frame) of each
@@ -32,6 +37,7 @@ import h5py
 import numpy as np
 
 from reference.elements.families import resultants
+from reference.elements.formulation import end_offsets
 from reference.state import element_work
 from reference.generated import rotation_maps as rm
 from reference.jit import inlined, kernel
@@ -72,13 +78,14 @@ class Layout:
     """
 
     def __init__(self, domain, x0=None, q0=None):
+        self.curves, self._lines_seen = [], []
         beam = sorted({i for e in domain.elements for i in e.nodes})
         in_beam = set(beam)
         self.rigid = [n for n in domain.nodes if n.id not in in_beam]
         point_of = {nid: k for k, nid in enumerate(beam)}
         self.node_of_point = list(beam)  # node whose motion carries each point
         self.offsets = [np.zeros(3)] * len(beam)  # body-frame offset of each point
-        lines = [(point_of[e.nodes[0]], point_of[e.nodes[1]]) for e in domain.elements]
+        lines = [self._element_line(domain, e, point_of) for e in domain.elements]
         vertices = []
         for body in self.rigid:
             centre = len(self.node_of_point)
@@ -92,15 +99,56 @@ class Layout:
                 lines.append((centre, len(self.node_of_point) - 1))
             if not points:
                 vertices.append(centre)
+        self.node_points = len(self.node_of_point)  # the points the compiled loop fills; the curves' follow
+        for curve in self.curves:  # an inner curve point moves in the output as its nearest node (velocity, triad)
+            curve["first"] = len(self.node_of_point)
+            for k, j in zip(curve["points"], curve["nearest"]):
+                lines[curve["element"]][k] = len(self.node_of_point)
+                self.node_of_point.append(j)
+                self.offsets.append(np.zeros(3))
         self.node_of_point = np.array(self.node_of_point, dtype=np.int64)
         self.offsets = np.array(self.offsets, dtype=float).reshape(-1, 3)
-        self.lines = np.array(lines, dtype=np.int64).reshape(-1, 2)
+        self.lines = [np.array(line, dtype=np.int64) for line in lines]
         self.vertices = np.array(vertices, dtype=np.int64)
         self.n_elements = len(domain.elements)
         x0 = np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3) if x0 is None else x0
         q0 = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4) if q0 is None else q0
         A = rotation_matrices(np.asarray(q0, dtype=float)[self.node_of_point])
         self.p0 = np.asarray(x0, dtype=float)[self.node_of_point] + np.einsum("pij,pj->pi", A, self.offsets)
+        self.curve_points(np.asarray(x0, dtype=float), np.asarray(q0, dtype=float), self.p0)
+
+    def _element_line(self, domain, element, point_of) -> list:
+        """The point ids of an element's polyline, first end to second: its nodes at their parameters
+        ``node_xi`` and, for ``curve_segments`` > 1, placeholders (−1) for the inner points, recorded in
+        :attr:`curves` with the element's nodes, their section-frame offsets and each point's parameter."""
+        f = element.formulation
+        segments, node_xi = int(f.curve_segments), list(f.node_xi)
+        line = [-1] * (segments + 1)
+        for a, xi in enumerate(node_xi):
+            line[int(round(xi * segments))] = point_of[element.nodes[a]]
+        inner = [k for k in range(segments + 1) if line[k] < 0]
+        if inner:
+            q0 = [domain.node(i).rotation for i in element.nodes]
+            offsets = end_offsets(q0, q0 if element.frames is None else element.frames)
+            xi = np.array(inner, dtype=float) / segments
+            nearest = [element.nodes[int(np.argmin(np.abs(np.array(node_xi) - t)))] for t in xi]
+            self.curves.append({"element": len(self._lines_seen), "formulation": f, "nodes": list(element.nodes),
+                                "offsets": offsets, "xi": xi, "points": inner, "nearest": nearest})
+        self._lines_seen.append(line)
+        return line
+
+    def curve_points(self, X: np.ndarray, Q: np.ndarray, out: np.ndarray) -> None:
+        """Place the inner curve points of one configuration (node positions X (N, 3), Euler parameters Q
+        (N, 4)) into ``out`` (P, 3) from each element's interpolation (section triads ``q ⊗ o``)."""
+        p = np.empty(4)
+        for curve in self.curves:
+            nodes = curve["nodes"]
+            triads = np.empty((len(nodes), 4))
+            for a, i in enumerate(nodes):
+                rm.quat_product(Q[i], curve["offsets"][a], p)
+                triads[a] = p
+            first = curve["first"]
+            out[first:first + len(curve["xi"])] = curve["formulation"].curve(X[nodes], triads, curve["xi"])
 
     @property
     def n_points(self) -> int:
@@ -200,13 +248,15 @@ def _write_vtk(f, lay: Layout, history: _History, times: np.ndarray, every: int,
     root.attrs["Version"] = np.array([2, 1], dtype=np.int64)
     root.attrs.create("Type", np.bytes_("PolyData"), dtype=h5py.string_dtype("ascii", len("PolyData")))
     root.create_dataset("NumberOfPoints", data=np.array([P], dtype=np.int64))
-    for group, conn in (("Vertices", lay.vertices.reshape(-1, 1)), ("Lines", lay.lines),
-                        ("Polygons", np.zeros((0, 3), dtype=np.int64)), ("Strips", np.zeros((0, 3), dtype=np.int64))):
+    empty = []
+    for group, cells in (("Vertices", [np.array([v]) for v in lay.vertices]), ("Lines", lay.lines),
+                         ("Polygons", empty), ("Strips", empty)):
+        conn = np.concatenate(cells).astype(np.int64) if cells else np.zeros(0, dtype=np.int64)
         g = root.create_group(group)
-        g.create_dataset("NumberOfCells", data=np.array([len(conn)], dtype=np.int64))
+        g.create_dataset("NumberOfCells", data=np.array([len(cells)], dtype=np.int64))
         g.create_dataset("NumberOfConnectivityIds", data=np.array([conn.size], dtype=np.int64))
-        g.create_dataset("Offsets", data=np.arange(0, conn.size + 1, max(conn.shape[1], 1), dtype=np.int64))
-        g.create_dataset("Connectivity", data=conn.reshape(-1).astype(np.int64))
+        g.create_dataset("Offsets", data=np.concatenate([[0], np.cumsum([len(c) for c in cells])]).astype(np.int64))
+        g.create_dataset("Connectivity", data=conn)
     names = ("displacement", "velocity", "triad_1", "triad_2", "triad_3")
     points = root.create_dataset("Points", shape=(n * P, 3), dtype="f4")
     pd, cd = root.create_group("PointData"), root.create_group("CellData")
@@ -233,6 +283,13 @@ def _write_vtk(f, lay: Layout, history: _History, times: np.ndarray, every: int,
         out = buffers[:, :k]
         point_arrays(X, Q, h["velocities"], h["angular_velocities"], lay.node_of_point, lay.offsets, lay.p0,
                      *out)
+        if lay.curves:
+            curve = np.empty((P, 3))
+            for s in range(k):
+                lay.curve_points(X[s], Q[s], curve)
+                inner = slice(lay.node_points, P)
+                out[0, s, inner] = curve[inner]
+                out[1, s, inner] = curve[inner] - lay.p0[inner]
         rows = slice(b0 * P, (b0 + k) * P)
         points[rows] = out[0].reshape(-1, 3)
         for name, values in zip(names, out[1:]):
