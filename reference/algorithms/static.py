@@ -51,12 +51,6 @@ from reference.validation import ModelWarning
 
 MAX_CUTS = 8
 """Halvings of a load step before the run stops (smallest step 1/256 of the nominal)."""
-JUMP = 10.0
-"""A load step that moves the structure this many times further per unit load than the step before is
-announced as a jump to another branch (a smooth path near a limit point grows its rate by ~2× a step at
-the steps a limit point allows; the von Mises truss's snap-through at load steps of 0.15 P_max: 19×)."""
-VISIBLE = 1e-3
-"""…and moves some node by more than this fraction of the model size (a jump worth a warning)."""
 BIFURCATION = 1e-3
 """A change of stability is a bifurcation when the load increment's component along the critical mode is
 below this fraction of its size (mass metric): exactly zero on a perfect symmetric structure (the
@@ -84,7 +78,6 @@ class StaticRun:
     history: list = field(default_factory=list)
     negative: int = -1
     sign: int = 0
-    moved: float = 0.0
     recorded: int = -1
     recorded_at: float | None = None
     previous: tuple | None = None
@@ -245,7 +238,6 @@ class Static(ImplicitAlgorithm):
                 warnings.warn(f"the equilibrium at load factor {t:.6g} is unstable: {_eigenvalues(count)} of the "
                               "tangent", ModelWarning, stacklevel=2)
             return
-        _jump(run, before, x, t)
         if count == old or count < 0 or old < 0:
             return
         x0, q0, lam0, t0, F0 = before
@@ -264,22 +256,6 @@ class Static(ImplicitAlgorithm):
         warnings.warn(f"{change} between load factor {t0:.6g} and {t:.6g}: {kind}, {_eigenvalues(count)} "
                       f"(critical load factor {t_cr:.6g}, interpolated from the lowest eigenvalue)",
                       ModelWarning, stacklevel=2)
-
-
-def _jump(run, before, x, t) -> None:
-    """One warning line when the equilibrium moved :data:`JUMP` times further per unit of load factor than
-    on the step before (and by more than :data:`VISIBLE` of the model size): load control past a limit
-    point lands on another branch without a change of stability (a snap-through between two stable
-    equilibria), which Newton reports as converged.  ``run.moved`` keeps the last step's rate."""
-    x0, t0 = before[0], before[3]
-    step = float(np.max(np.abs(x - x0))) if x.size else 0.0
-    rate = step / max(abs(t - t0), 1e-300)
-    previous, run.moved = run.moved, rate
-    if previous > 0.0 and rate > JUMP * previous and step > VISIBLE * run.L:
-        warnings.warn(f"the equilibrium jumped between load factor {t0:.6g} and {t:.6g} ({rate / previous:.0f}× the "
-                      "motion per unit load of the step before): past a limit point onto another branch? Trace it "
-                      "with arc_length or [[prescribed_displacements]]",
-                      ModelWarning, stacklevel=3)
 
 
 def _eigenvalues(count: int) -> str:
