@@ -1,4 +1,4 @@
-"""``make bench``: work–precision across element families (issue 21, item 5).
+"""``make bench``: work–precision across element families.
 
 For the static roll-up, the static 45° bend and the three-bar mechanism's coupler, each element
 family on a series of meshes: the error against an analytic or converged reference, the degrees of
@@ -16,7 +16,7 @@ fastest kept: numba's compilation and the model's set-up are excluded).  The ref
   spatial one alone.
 
 Errors are the tip's distance (the deflection's largest difference over the run) over the
-length of the beam (10 m, 100 m, 5 m).  The target (issue 21): at 1e-6 L on the roll-up or the
+length of the beam (10 m, 100 m, 5 m).  The target: at 1e-6 L on the roll-up or the
 45° bend the best family is at least 10 times cheaper in wall time than Beam2.
 
 :func:`coupler_crosscheck` is the three-bar with a beam3 coupler against Exudyn over the full 10 s,
@@ -34,7 +34,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 TARGET = 1e-6
-"""The error [fraction of the length] of the issue's target."""
+"""The error [fraction of the length] of the target."""
 BEND_REFERENCE = 128
 COUPLER_REFERENCE = 32
 COUPLER = {"dt": 2e-3, "t_end": 4.0}

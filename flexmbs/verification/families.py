@@ -1,4 +1,4 @@
-"""The verification suite every registered element family runs (issue 21).
+"""The verification suite every registered element family runs.
 
 A family registered in :data:`reference.elements.families.ELEMENT_FAMILIES` by the engine
 (its class defined under ``reference.``) gets every check here by registration:
