@@ -2,7 +2,16 @@
 
 from __future__ import annotations
 
-import numpy as np
+import os
+
+# One BLAS thread per test process: `make test` runs one pytest-xdist worker per core, and BLAS threads on top
+# of them oversubscribe the cores (a 198-coordinate static path's dense stability counts, LDLᵀ of the
+# tangent at every load level, ran 0.7–1.3 s instead of 0.02 s on a loaded two-core machine).  Set before
+# numpy loads OpenBLAS; the subprocesses the tests start inherit it.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
 import pytest
 
 from reference.domain import Domain
