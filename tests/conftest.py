@@ -9,7 +9,6 @@ import os
 # tangent at every load level, ran 0.7–1.3 s instead of 0.02 s on a loaded two-core machine).  Set before
 # numpy loads OpenBLAS; the subprocesses the tests start inherit it.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 import pytest
