@@ -226,8 +226,11 @@ def _client(workers: int | None, scheduler: str | None):
     # not shown: a case that fails is its row's status.
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
+        # no dashboard; the scheduler's HTTP server (health, metrics) on a free port, not on 8787, which a
+        # second study (or a test worker beside this one) would hold: "Port 8787 is already in use" otherwise
         cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.CRITICAL)
+                               dashboard_address=None, scheduler_kwargs={"dashboard_address": ":0"},
+                               silence_logs=logging.CRITICAL)
     finally:
         signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
@@ -322,7 +325,8 @@ def write_summary(path, study: Study, rows: list) -> None:
 def main(args) -> int:
     """The ``flexmbs sweep`` command; a Ctrl-C or SIGTERM ends it in order: the cases not finished are
     dropped, the summary keeps the finished ones, and one line says how many."""
-    from flexmbs.cli import CommandError, Stopped, deferred_signals
+    from flexmbs.cli import CommandError
+    from flexmbs.signals import Stopped, deferred_signals
 
     study = load_study(args.study)
     summary = Path(args.out) / "summary.csv"

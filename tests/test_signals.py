@@ -80,22 +80,22 @@ class _Releaser:
 def test_a_ctrl_c_landing_in_a_del_is_not_lost(capsys):
     """The issue's lost Ctrl-C (3 in 109 trials): the stop raised inside a ``__del__`` is dropped by
     Python; it is not printed, and it is raised again — the signal sent anew, and at the next safe point."""
-    from flexmbs import cli
+    from flexmbs import signals
 
-    saved = {sig: signal.getsignal(sig) for sig in cli.SIGNAL_NAMES}
+    saved = {sig: signal.getsignal(sig) for sig in signals.SIGNAL_NAMES}
     hook = sys.unraisablehook
     try:
-        cli.install_signal_handlers()
+        signals.install_signal_handlers()
         with pytest.raises(KeyboardInterrupt):
             _Releaser()
             deadline = time.monotonic() + 5.0
             while time.monotonic() < deadline:  # the signal sent again ends this wait
                 time.sleep(0.001)
-        assert cli.STOP.signum == signal.SIGINT and not cli.STOP.lost
+        assert signals.STOP.signum == signal.SIGINT and not signals.STOP.lost
         with pytest.raises(KeyboardInterrupt):  # a safe point raises a stop that was recorded
-            cli.check_signals()
-        cli.STOP.__init__()
-        cli.check_signals()  # nothing recorded: nothing raised
+            signals.check_signals()
+        signals.STOP.__init__()
+        signals.check_signals()  # nothing recorded: nothing raised
     finally:
         for sig, handler in saved.items():
             signal.signal(sig, handler)
