@@ -98,7 +98,7 @@ def near_singular_rows(targets: list | None = None, quick: bool = False) -> list
         return [title, "", "not run with --quick (a converged reference takes millions of steps)", ""]
 
     def run(**solver):
-        d = Domain.from_deck(deck)
+        d = Domain.from_deck(deck, overrides={"t_end": t_end})
         for key, value in solver.items():
             setattr(d.solver, key, value)
         d.solve(t_end=20 * every)  # warm-up
