@@ -625,7 +625,7 @@ def main(args=None) -> int:
     print("\n".join(table))
     from flexmbs.bench_adaptive import tolerance_table
 
-    adaptive = tolerance_table(data, quick)
+    adaptive = tolerance_table(data, quick, targets)
     print("\n".join(adaptive))
     table = table + adaptive
     out = Path(getattr(args, "out", None) or ROOT / "out" / "bench")

@@ -9,6 +9,7 @@ steps landing on them), beside the time Exudyn's generalized-α at a fixed step 
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -45,9 +46,10 @@ def tolerance_rows(deck, t_end: float, every: float, dt_ref: float, tolerances=T
     return rows, peak
 
 
-def tolerance_table(data: dict, quick: bool = False) -> list[str]:
+def tolerance_table(data: dict, quick: bool = False, targets: list | None = None) -> list[str]:
     """Markdown lines of the tolerance rows of every case, with Exudyn's fixed-step time at each achieved
-    error from the fixed-step work–precision ``data`` (:func:`flexmbs.bench.work_precision`)."""
+    error from the fixed-step work–precision ``data`` (:func:`flexmbs.bench.work_precision`), then the
+    mechanism with near-singular passages (:func:`near_singular_rows`, its targets into ``targets``)."""
     from flexmbs.bench import ROOT, WP_CASES, matched_time
 
     lines = ["### generalized-α at a requested error (error_tolerance, no dt)", "",
@@ -62,4 +64,79 @@ def tolerance_table(data: dict, quick: bool = False) -> list[str]:
             exu = f"{t_exu:.3g} ({how})" if t_exu is not None else how
             lines.append(f"| {name} | {tol:g} | {err:.3g} | {err / tol:.3g} | {wall:.3f} | {steps:,} | {again:,} | {exu} |")
     lines.append("")
-    return lines
+    return lines + near_singular_rows(targets, quick)
+
+
+FOUR_BAR = ("bench_decks/bauchau_four_bar.toml", 12.0, 1e-2)
+"""The mechanism with near-singular passages: deck (below flexmbs/), t_end [s], output interval [s]."""
+FOUR_BAR_REFERENCE = 2.5e-6
+"""The four-bar's reference step [s]: fixed-step generalized-α (4.8 million steps).  Its own error is shown
+beside it: the difference to the run at twice its step (the last of :data:`FOUR_BAR_FIXED`)."""
+FOUR_BAR_FIXED = (1e-2, 2.5e-3, 6.25e-4, 1.6e-4, 4e-5, 1e-5, 5e-6)
+"""Fixed steps [s] beside the controlled run, from the output interval to twice the reference step."""
+FOUR_BAR_TOLERANCE, FOUR_BAR_ERROR, FOUR_BAR_SPEED = 1e-3, 2e-3, 0.5
+"""The target: at error_tolerance 1e-3 the achieved error ≤ 2e-3 of the peak over the whole run, in at most
+half the time of the fixed-step run that reaches the same error."""
+
+
+def near_singular_rows(targets: list | None = None, quick: bool = False) -> list[str]:
+    """Markdown lines of the four-bar with near-singular passages (:data:`FOUR_BAR`): the error of the
+    coupler's mid-span deflection vector (its largest norm over the run, relative to the peak norm of the
+    reference) and the solve time of generalized-α at ``error_tolerance`` = :data:`FOUR_BAR_TOLERANCE`
+    and at the fixed steps :data:`FOUR_BAR_FIXED`; the targets (``targets``, :class:`flexmbs.bench.Target`)
+    on the error and on the time ratio to the first fixed step within the same error.  ``quick``: not run."""
+    from pathlib import Path
+
+    from flexmbs.bench import Target
+    from reference.domain import Domain
+    from reference.observables import parse
+
+    deck_name, t_end, every = FOUR_BAR
+    deck = Path(__file__).resolve().parent / deck_name
+    title = f"### A mechanism with near-singular passages: {deck_name} ({t_end:g} s)"
+    if quick:
+        return [title, "", "not run with --quick (a converged reference takes millions of steps)", ""]
+
+    def run(**solver):
+        d = Domain.from_deck(deck, overrides={"t_end": t_end})
+        for key, value in solver.items():
+            setattr(d.solver, key, value)
+        d.solve(t_end=20 * every)  # warm-up
+        t0 = time.perf_counter()
+        r = d.solve()
+        wall = time.perf_counter() - t0
+        return wall, parse("midspan_deflection:coupler", r).evaluate(r), d.last_run["solver"].stats
+
+    def every_steps(dt):
+        return max(int(round(every / dt)), 1)
+
+    _, ref, _ = run(dt=FOUR_BAR_REFERENCE, output_every=every_steps(FOUR_BAR_REFERENCE))
+    peak = float(np.max(np.linalg.norm(ref, axis=1)))
+
+    def error(defl):
+        return float(np.max(np.linalg.norm(defl - ref, axis=1)) / peak)
+
+    wall, defl, stats = run(dt=every, output_every=1, error_tolerance=FOUR_BAR_TOLERANCE)
+    achieved = error(defl)
+    lines = [title, "",
+             f"Reference: fixed-step generalized-α at dt = {FOUR_BAR_REFERENCE:g}; peak mid-span deflection of the "
+             f"coupler {peak:.3e} m; error = largest deflection difference over the run / peak.", "",
+             "| run | solve [s] | steps | error / peak |", "|---|---|---|---|",
+             f"| error_tolerance = {FOUR_BAR_TOLERANCE:g} | {wall:.2f} | {stats.steps:,} | {achieved:.3g} |"]
+    matched = None
+    for dt in FOUR_BAR_FIXED:
+        w, d, s = run(dt=dt, output_every=every_steps(dt))
+        e = error(d)
+        lines.append(f"| fixed dt = {dt:g} | {w:.2f} | {s.steps:,} | {e:.3g} |")
+        if matched is None and e <= achieved:
+            matched = (dt, w)
+    lines.append(f"| (the reference's own error is about the last row's / 3 if second order: {e / 3:.2g}) | | | |")
+    ratio = wall / matched[1] if matched else math.nan
+    found = (f"the first fixed step within the same error: dt = {matched[0]:g}, {matched[1]:.2f} s" if matched
+             else "no fixed step of the list reaches the same error")
+    checks = [Target(f"four-bar, error_tolerance {FOUR_BAR_TOLERANCE:g}: error / peak", achieved, FOUR_BAR_ERROR),
+              Target(f"four-bar, error_tolerance {FOUR_BAR_TOLERANCE:g}: solve time / fixed step's at the same error "
+                     f"({found})", ratio, FOUR_BAR_SPEED)]
+    if targets is not None:
+        targets.extend(checks)
+    return lines + [""] + [f"{t.describe()} {t.mark}" for t in checks] + [""]

@@ -175,6 +175,16 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         return ("t_end",) if "error_tolerance" in solver else ("dt", "t_end"), cls.deck_optional
 
     @classmethod
+    def deck_settings(cls, rd, solver: dict, domain) -> dict:
+        """``error_tolerance`` (> 0), ``dt_min`` and ``dt_max`` (> 0, ``dt_min ≤ dt_max``) [s]."""
+        settings = {key: rd.number(solver[key], f"solver.{key}", positive=True)
+                    for key in ("error_tolerance", "dt_min", "dt_max") if key in solver}
+        if settings.get("dt_min", 0.0) > settings.get("dt_max", math.inf):
+            raise rd.fail("solver.dt_min", f"dt_min = {settings['dt_min']:g} is above dt_max = {settings['dt_max']:g}",
+                          "give dt_min ≤ dt_max")
+        return settings
+
+    @classmethod
     def from_settings(cls, settings, dt=None):
         return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or 1e-10, settings.max_iterations or 15,
                    settings.error_tolerance, settings.dt_min, settings.dt_max, settings.first_step)

@@ -16,7 +16,9 @@ derivative under the update ``x ← x + δx``, ``q ← q ⊗ exp(δθ)`` (body-f
 Methods*, §5.1).  When Newton fails (no convergence in ``max_iterations``, a
 non-finite or singular iterate) the step is halved, up to ``MAX_CUTS`` times;
 the next steps grow back to the nominal step.  If the smallest step still
-fails the run stops with the load level reached.
+fails the run stops with the load level reached.  The solver statistics (load steps, Newton
+iterations, factorisations, step cuts: :class:`reference.algorithms.step_control.SolverStatistics`)
+go to ``/solver/…`` at every output and into the run's summary line, as generalized-α's.
 
 Records: velocities and kinetic energy 0; strain energy; external work by the
 trapezoidal rule along the load path, ``½(F_old + F_new)·(Δx, Δθ)``, plus the
@@ -44,6 +46,7 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
+from reference.algorithms.step_control import SolverStatistics
 from reference.linalg import SingularMatrix, null_space
 from reference.modal import SMALL, nearest_zero, negative_eigenvalues
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
@@ -65,7 +68,9 @@ class StaticRun:
     ``P`` (N, 6) its joint forces ``Bᵀλ`` and ``U`` its strain energy (for the work increments and
     records); ``started`` whether the equilibrium at the starting load level is solved;
     ``stopped_at`` the load factor where a failed step stopped; ``history`` the residual norms of
-    the Newton iterations of the last load level solved (or tried).
+    the Newton iterations of the last load level solved (or tried); ``stats`` the solver statistics
+    (a step is a converged load level, a factorisation a Newton iteration: full Newton); ``h`` the
+    last converged load step; ``row`` the statistics' record of the last output.
     """
 
     system: NewtonSystem
@@ -82,6 +87,9 @@ class StaticRun:
     recorded_at: float | None = None
     previous: tuple | None = None
     events: list = field(default_factory=list)
+    stats: SolverStatistics = field(default_factory=SolverStatistics)
+    h: float = 0.0
+    row: dict = field(default_factory=dict)
 
 
 class Static(ImplicitAlgorithm):
@@ -143,6 +151,7 @@ class Static(ImplicitAlgorithm):
             compose(q, np.ascontiguousarray(delta[:, 3:]), q_new, tmp)
             q[:] = q_new
             lam += mu
+            run.stats.iterations += 1
         return NO_CONVERGENCE
 
     def balanced(self, system, lam, L) -> bool:
@@ -178,6 +187,9 @@ class Static(ImplicitAlgorithm):
             U = run.U = float(system.evaluate(x, q, x, x, x, lam, clock[0], False))
             system.write_record(record, x, q, v, w, U, clock, lam)
             run.recorded, run.recorded_at = run.negative, float(clock[0])
+            r = system.work.r[system.free]
+            run.stats.factorizations = run.stats.iterations  # full Newton: a factor every iteration
+            run.row = run.stats.output(run.h, float(np.sqrt(r @ r)))
         for _ in range(n_steps):
             t0, target = clock[0], clock[0] + self.dt
             sub, t = self.dt, t0
@@ -190,11 +202,14 @@ class Static(ImplicitAlgorithm):
                     clock[2] += dW
                     f_prev[:] = system.work.F
                     self._stability(run, x, q, lam, t_try)
+                    run.h = t_try - t
+                    run.stats.step(run.h)
                     t = t_try
                     sub = min(2.0 * sub, self.dt)
                     continue
                 x[:], q[:], lam[:] = saved
                 sub *= 0.5
+                run.stats.cuts += 1
                 if sub < self.dt / 2**MAX_CUTS:
                     state.angle[:] = system.work.angle
                     run.stopped_at = t
@@ -214,8 +229,12 @@ class Static(ImplicitAlgorithm):
         return True
 
     def recorded(self, run) -> dict:
-        """The number of negative eigenvalues of the reduced tangent at the recorded equilibrium."""
-        return {"negative_eigenvalues": float(run.recorded)}
+        """The number of negative eigenvalues of the reduced tangent at the recorded equilibrium, and the
+        solver statistics of the load steps up to it (:meth:`advance`)."""
+        return {**run.row, "negative_eigenvalues": float(run.recorded)}
+
+    def summary(self, run) -> str:
+        return run.stats.summary(steps="load steps", dt="load step")
 
     def finish(self, model, state, run, completed: bool) -> dict:
         """The changes of stability along the path (none: empty datasets)."""

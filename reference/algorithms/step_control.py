@@ -65,7 +65,8 @@ def next_step(h: float, err: float) -> float:
 
 @dataclass
 class SolverStatistics:
-    """Counts of a generalized-α run, in total and since the last output (``/solver/…`` of the results).
+    """Counts of an implicit run (generalized-α, static), in total and since the last output (``/solver/…``
+    of the results).
 
     ``steps`` accepted steps, ``iterations`` Newton corrections, ``cuts`` steps cut after a Newton
     failure, ``rejected`` steps taken again for their error estimate, ``factorizations`` Newton
@@ -103,14 +104,16 @@ class SolverStatistics:
         self.error = np.nan
         return row
 
-    def summary(self) -> str:
-        """One line: steps, step range, Newton iterations a step, step cuts, factorisations."""
+    def summary(self, steps: str = "steps", dt: str = "dt") -> str:
+        """One line: steps, step range, Newton iterations a step, step cuts, factorisations (``steps``,
+        ``dt`` the words for a step and its size: "load steps", "load step" in a static run)."""
         if self.steps == 0:
-            return "no steps taken"
-        span = (f"dt {self.h_min:.3g}" if self.h_max <= self.h_min * (1.0 + 1e-9)
-                else f"dt {self.h_min:.3g}…{self.h_max:.3g}")
+            return f"no {steps} taken"
+        span = (f"{dt} {self.h_min:.3g}" if self.h_max <= self.h_min * (1.0 + 1e-9)
+                else f"{dt} {self.h_min:.3g}…{self.h_max:.3g}")
         cuts = f"{self.cuts:,} step cut{'s' * (self.cuts != 1)}"
         if self.rejected:
             cuts += f", {self.rejected:,} step{'s' * (self.rejected != 1)} rejected for their error"
-        return (f"{self.steps:,} steps, {span}, {self.iterations / self.steps:.1f} Newton iterations a step, "
+        noun = steps if self.steps != 1 else steps[:-1]
+        return (f"{self.steps:,} {noun}, {span}, {self.iterations / self.steps:.1f} Newton iterations a step, "
                 f"{cuts}, {self.factorizations:,} factorisations")

@@ -87,15 +87,9 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
                                   fix="Newton converges in a few iterations or not at all; use a smaller step")
         if "max_iterations" in sv else None,
         modes=modes, about=about,
-        error_tolerance=rd.number(sv["error_tolerance"], "solver.error_tolerance", positive=True) if adaptive else None,
-        dt_min=rd.number(sv["dt_min"], "solver.dt_min", positive=True) if "dt_min" in sv else None,
-        dt_max=rd.number(sv["dt_max"], "solver.dt_max", positive=True) if "dt_max" in sv else None,
         first_step=dt if adaptive and ("dt" in sv or "dt" in overrides) else None,
         **algo_cls.deck_settings(rd, sv, domain),
     )
-    if adaptive and (domain.solver.dt_min or 0.0) > (domain.solver.dt_max or math.inf):
-        raise rd.fail("solver.dt_min", f"dt_min = {domain.solver.dt_min:g} is above dt_max = {domain.solver.dt_max:g}",
-                      "give dt_min ≤ dt_max")
     max_steps = rd.integer(sv.get("max_steps", MAX_STEPS), "solver.max_steps", maximum=MAX_STEPS_LIMIT,
                            fix="a run of more steps would take weeks")
     unsafe = rd.boolean(sv.get("allow_unsafe_dt", False), "solver.allow_unsafe_dt")
