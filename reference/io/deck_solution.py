@@ -90,6 +90,14 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
         first_step=dt if adaptive and ("dt" in sv or "dt" in overrides) else None,
         **algo_cls.deck_settings(rd, sv, domain),
     )
+    _check_step(rd, sv, domain, algo_cls, overrides, dt_entry, t_entry)
+    return algorithm, algo_cls
+
+
+def _check_step(rd: Reader, sv: dict, domain: Domain, algo_cls, overrides: dict, dt_entry: str, t_entry: str):
+    """The step of ``domain.solver`` against the explicit scheme's critical step (and its damping limit),
+    the step limit ``max_steps`` and a whole number of steps to ``t_end``; refused in one line each."""
+    dt, t_end = domain.solver.dt, domain.solver.t_end
     max_steps = rd.integer(sv.get("max_steps", MAX_STEPS), "solver.max_steps", maximum=MAX_STEPS_LIMIT,
                            fix="a run of more steps would take weeks")
     unsafe = rd.boolean(sv.get("allow_unsafe_dt", False), "solver.allow_unsafe_dt")
@@ -120,7 +128,6 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
         steps = t_end / dt
         raise rd.fail(t_entry, f"t_end = {t_end:g} is not a whole number of steps dt = {dt:g} ({steps:.6g} steps)",
                       f"use t_end = {max(round(steps), 1) * dt:.10g} or {_suggest_dt(t_end, dt)}")
-    return algorithm, algo_cls
 
 
 def _whole_steps(t_end: float, dt: float) -> bool:
