@@ -19,7 +19,7 @@ import numpy as np
 
 from reference.elements.element_type import Beam2, ElementType
 from reference.elements.formulation import (
-    ElementFormulation, PlacedElement, is_identity, section_quaternion, tangent_to_node_frame, to_node_frame,
+    ElementFormulation, PlacedElement, is_identity, section_quaternion, tangent_to_node_frames, to_node_frame,
 )
 from reference.elements.section import Section
 from reference.generated import beam2 as generated_beam2
@@ -189,7 +189,7 @@ def _family_tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
             section_quaternion(q[j], offset[e, 1], p2)
             generated_tangents.beam2_tangent(x[i], x[j], p1, p2, L0[e], psi0[e], gamma0[e], stiff[e], s_el[:12],
                                              K144)
-            tangent_to_node_frame(offset[e, 0], offset[e, 1], K12, s_el[32:35], s_el[35:38])
+            tangent_to_node_frames(offset[e], K12, s_el[32:35], s_el[35:38])
         else:
             K12[:, :] = 0.0
         p = store_block(K12, conn[e], 2, psi, Jr, ck, values, p)

@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from reference.elements.beam2 import Beam2Formulation
-from reference.elements.formulation import section_quaternion, tangent_to_node_frame, to_node_frame
+from reference.elements.formulation import section_quaternion, tangent_to_node_frames, to_node_frame
 from reference.generated import beam2_se3 as generated
 from reference.generated import rotation_maps as rm
 from reference.jit import inlined
@@ -93,7 +93,7 @@ def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
             section_quaternion(q[j], data.offset[e, 1], w[28:32])
             generated.tangent(x[i], x[j], w[24:28], w[28:32], data.L0[e], data.psi0[e], data.gamma0[e],
                               data.stiff[e], w[:12], K144)
-            tangent_to_node_frame(data.offset[e, 0], data.offset[e, 1], K12, w[32:35], w[35:38])
+            tangent_to_node_frames(data.offset[e], K12, w[32:35], w[35:38])
         else:
             K12[:, :] = 0.0
         p = store_block(K12, data.conn[e], 2, psi, Jr, ck, values, p)

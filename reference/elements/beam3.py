@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from reference.elements.beam2 import Beam2Formulation
-from reference.elements.formulation import PlacedElement, section_quaternion, to_node_frame
+from reference.elements.formulation import PlacedElement, section_quaternion, tangent_to_node_frames, to_node_frame
 from reference.generated import beam3 as generated
 from reference.jit import inlined
 from reference.newton_blocks import store_block
@@ -80,24 +80,6 @@ def _assemble(data, W, x, q, S):
 
 
 @inlined
-def _to_node_frames(data, e, K, v, out):
-    """``K ← T K Tᵀ`` in place, ``T = blockdiag(I, A(o1), I, A(o2), I, A(o3))`` (``tangent_to_node_frame``
-    for three ends); ``v``, ``out`` (3,) scratch."""
-    for pass_ in range(2):
-        for c in range(18):
-            for blk in range(3):
-                r0 = 6 * blk + 3
-                for k in range(3):
-                    v[k] = K[r0 + k, c] if pass_ == 0 else K[c, r0 + k]
-                to_node_frame(data.offset[e, blk], v, out)
-                for k in range(3):
-                    if pass_ == 0:
-                        K[r0 + k, c] = out[k]
-                    else:
-                        K[c, r0 + k] = out[k]
-
-
-@inlined
 def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
     """:meth:`Beam3Formulation.tangent_values`: each element's 18×18 tangent (the generated ``tangent``,
     taken to the node frames) times ``ck``; ``K`` at least 324 entries."""
@@ -114,7 +96,7 @@ def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
                                         w[88 + 81 * g:169 + 81 * g])
             generated.tangent(x[i], x[j], x[m], w[42:46], w[46:50], w[50:54], data.L0[e], data.gamma0[e],
                               data.kappa0[e], data.stiff[e], w[88:250], w[:18], K324)
-            _to_node_frames(data, e, K18, w[64:67], w[67:70])
+            tangent_to_node_frames(data.offset[e], K18, w[64:67], w[67:70])
         else:
             K18[:, :] = 0.0
         p = store_block(K18, data.conn[e], 3, psi, Jr, ck, values, p)

@@ -11,7 +11,7 @@ the first is :class:`reference.elements.beam2.Beam2Formulation`.
 Beside the base, the section-frame offsets every family with section frames uses:
 an element end's section triad ``p_a = q_a ⊗ o_a`` (:func:`section_quaternion`),
 and body-frame moments and tangents from the section frames back to the nodes'
-(:func:`to_node_frame`, :func:`tangent_to_node_frame`).
+(:func:`to_node_frame`, :func:`tangent_to_node_frames`).
 """
 
 from __future__ import annotations
@@ -169,21 +169,21 @@ def to_node_frame(o, v, out):
 
 
 @kernel
-def tangent_to_node_frame(o1, o2, K, v, out):
-    """A section-frame element tangent (12×12) to the node frames, in place: ``K ← T K Tᵀ``.
+def tangent_to_node_frames(offsets, K, v, out):
+    """A section-frame element tangent (6n×6n, n ends) to the node frames, in place: ``K ← T K Tᵀ``.
 
-    ``T = blockdiag(I, A(o1), I, A(o2))``: ``S_node = T s_sec`` and
-    ``δθ_section = A(o_a)ᵀ δθ_node`` exactly, so ``∂S_node/∂δ_node = T K_sec Tᵀ``.
-    ``v``, ``out`` (3,) scratch.
+    ``T = blockdiag(I, A(o_1), …, I, A(o_n))`` with ``o_a = offsets[a]`` ((n, 4): the element's end
+    offsets): ``S_node = T s_sec`` and ``δθ_section = A(o_a)ᵀ δθ_node`` exactly, so
+    ``∂S_node/∂δ_node = T K_sec Tᵀ``.  ``v``, ``out`` (3,) scratch.
     """
+    ends = offsets.shape[0]
     for pass_ in range(2):
-        for c in range(12):
-            for blk in range(2):
-                o = o1 if blk == 0 else o2
+        for c in range(6 * ends):
+            for blk in range(ends):
                 r0 = 3 + 6 * blk
                 for k in range(3):
                     v[k] = K[r0 + k, c] if pass_ == 0 else K[c, r0 + k]
-                to_node_frame(o, v, out)
+                to_node_frame(offsets[blk], v, out)
                 for k in range(3):
                     if pass_ == 0:
                         K[r0 + k, c] = out[k]
