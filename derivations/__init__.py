@@ -21,6 +21,7 @@ def generators():
     return {
         "rotation_maps.py": rotation_maps.generate,
         "beam2.py": beam2.generate,
+        "beam2_soa.py": beam2.generate_soa,
         "joints.py": joints.generate,
         "forces.py": forces.generate,
         "tangents.py": tangents.generate,

@@ -54,6 +54,7 @@ from __future__ import annotations
 import sympy as sp
 
 from derivations.codegen import Kernel, Stager, render_kernel, render_module, vector
+from derivations.soa import render_series, render_soa_kernel
 from derivations.rotation_maps import (
     USER_FUNCTIONS,
     exp_matrix,
@@ -157,5 +158,40 @@ def generate() -> str:
             "",
             "from reference.generated.rotation_maps import branch_sign, c_asinc, c_cosc, c_jinv, c_sinc, c_sinc3",
             "from reference.jit import kernel",
+        ),
+    )
+
+
+SOA_BLOCK = 64
+"""Elements per call of the structure-of-arrays kernel (:func:`generate_soa`): its rows of 64 values
+(~27 kB for all of them) stay in the first-level cache."""
+
+
+def generate_soa() -> str:
+    """Source of ``reference/generated/beam2_soa.py``: :func:`kernels`' ``internal_forces`` as a
+    structure-of-arrays kernel over blocks of :data:`SOA_BLOCK` elements (derivations/soa.py)."""
+    from derivations.rotation_maps import COEFFICIENTS
+
+    (k,) = kernels()
+    coefficients = {c.name: c for c in COEFFICIENTS if c.name in USER_FUNCTIONS}
+    source, layout = render_soa_kernel(k, coefficients, SOA_BLOCK, USER_FUNCTIONS)
+    constants = [f"BLOCK = {SOA_BLOCK}", '"""Elements per call of :func:`internal_forces_soa` at most."""',
+                 f"ROWS = {layout['rows']}", '"""Rows of its array ``v`` (each ``BLOCK`` long)."""']
+    for name, first, _ in layout["inputs"] + layout["outputs"]:
+        constants += [f"ROW_{name.upper()} = {first}", f'"""First row of ``{name}``."""']
+    series = [render_series(c) for c in COEFFICIENTS if c.name in source]
+    select = ('@inlined\ndef branch_sign_select(x):\n    """``branch_sign`` inlined: a select in a vector loop."""\n'
+              "    if x >= 0.0:\n        return 1.0\n    return -1.0\n")
+    return render_module(
+        "derivations/beam2.py",
+        "Beam2 internal forces as a structure-of-arrays kernel: the arithmetic of ``beam2.internal_forces``\n"
+        "over a block of elements in loops the compiler vectorises across the elements.\n\n"
+        "See derivations/beam2.py for the derivation and derivations/soa.py for the loops.",
+        ["\n".join(constants) + "\n"] + series + [select, source],
+        imports=(
+            "import math",
+            "",
+            "from reference.generated.rotation_maps import branch_sign, c_asinc, c_cosc, c_jinv, c_sinc, c_sinc3",
+            "from reference.jit import inlined, vector_kernel",
         ),
     )

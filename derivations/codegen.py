@@ -156,16 +156,21 @@ def short_threshold(coef: Coefficient) -> float:
     return short_series_threshold(series, a, coef.short_order)
 
 
-def render_coefficient(coef: Coefficient) -> str:
-    """Source of one coefficient function: short series, long series below the threshold, exact form."""
+def coefficient_series(coef: Coefficient) -> tuple[float, str, str]:
+    """``coef``'s two series as source in ``a``: (the short series' threshold, the short series, the long
+    series), exactly as :func:`render_coefficient` writes them."""
     a = sp.Symbol("a")
     series = sp.nsimplify(sp.expand(sp.series(coef.expr, a, 0, coef.order).removeO()))
     short = sp.nsimplify(sp.expand(sp.series(coef.expr, a, 0, coef.short_order).removeO()))
-    small = short_threshold(coef)
     printer = _printer([])
-    exact = printer.doprint(coef.expr)
     approx = printer.doprint(sp.horner(series, a)) if series.has(a) else printer.doprint(series)
-    first = printer.doprint(sp.horner(short, a))
+    return short_threshold(coef), printer.doprint(sp.horner(short, a)), approx
+
+
+def render_coefficient(coef: Coefficient) -> str:
+    """Source of one coefficient function: short series, long series below the threshold, exact form."""
+    small, first, approx = coefficient_series(coef)
+    exact = _printer([]).doprint(coef.expr)
     return (
         f"{DECORATOR}\n"
         f"def {coef.name}(a):\n"

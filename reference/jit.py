@@ -56,7 +56,7 @@ from numba.core.imputils import impl_ret_borrowed
 from numba.extending import intrinsic
 
 __all__ = ["CompileTimer", "boundary", "kernel", "inlined", "named", "parallel_kernel", "prange", "threads", "use_threads",
-           "source_digest"]
+           "source_digest", "vector_kernel"]
 
 THREADS_ENV = "FLEXMBS_THREADS"
 ENGINE = Path(__file__).resolve().parent
@@ -124,6 +124,14 @@ def inlined(func):
     if numba.config.DISABLE_JIT:
         return py_func
     return numba.njit(cache=True, fastmath=False, inline="always")(py_func)
+
+
+def vector_kernel(func):
+    """:func:`kernel` for loops the compiler is to vectorise across elements (``generated/beam2_soa.py``):
+    numpy's error model, so that a float division carries no zero-divisor check and exception branch
+    (which keeps LLVM from vectorising the loop); x/0 gives inf or nan instead of raising. The same
+    IEEE arithmetic otherwise: results are bit for bit those of :func:`kernel`."""
+    return numba.njit(cache=True, fastmath=False, error_model="numpy")(func)
 
 
 def parallel_kernel(func):

@@ -23,6 +23,7 @@ from reference.elements.formulation import (
 )
 from reference.elements.section import Section
 from reference.generated import beam2 as generated_beam2
+from reference.generated import beam2_soa as soa
 from reference.generated import rotation_maps as rm
 from reference.generated import tangents as generated_tangents
 from reference.jit import inlined, kernel, parallel_kernel, prange
@@ -57,6 +58,7 @@ class Beam2Data(NamedTuple):
 
 
 _internal_forces = inlined(generated_beam2.internal_forces)
+assert soa.ROW_STRAIN == soa.ROW_S + 12 and soa.ROW_STRESS == soa.ROW_STRAIN + 6  # _scatter_block's copy
 _section_quaternion = inlined(section_quaternion)
 _to_node_frame = inlined(to_node_frame)
 
@@ -122,10 +124,67 @@ def beam2_assemble(x, q, conn, offset, L0, psi0, gamma0, stiff, S, s_el):
     return U
 
 
+@inlined
+def _gather_block(x, q, conn, offset, L0, psi0, gamma0, stiff, W, e0, n, v):
+    """The inputs of elements ``e0 … e0+n−1`` into the rows of ``v`` (``generated.beam2_soa``'s layout):
+    positions, section quaternions (composed ``p_a = q_a ⊗ o_a`` into ``W[e, 24:32]`` as
+    :func:`beam2_element` does, unless both offsets are the identity), reference values, stiffness."""
+    B = soa.BLOCK
+    for k in range(n):
+        e = e0 + k
+        i, j = conn[e, 0], conn[e, 1]
+        for c in range(3):
+            v[(soa.ROW_X1 + c) * B + k] = x[i, c]
+            v[(soa.ROW_X2 + c) * B + k] = x[j, c]
+            v[(soa.ROW_PSI0 + c) * B + k] = psi0[e, c]
+            v[(soa.ROW_GAMMA0 + c) * B + k] = gamma0[e, c]
+        if is_identity(offset[e, 0]) and is_identity(offset[e, 1]):
+            for c in range(4):
+                v[(soa.ROW_Q1 + c) * B + k] = q[i, c]
+                v[(soa.ROW_Q2 + c) * B + k] = q[j, c]
+        else:
+            _section_quaternion(q[i], offset[e, 0], W[e, 24:28])
+            _section_quaternion(q[j], offset[e, 1], W[e, 28:32])
+            for c in range(4):
+                v[(soa.ROW_Q1 + c) * B + k] = W[e, 24 + c]
+                v[(soa.ROW_Q2 + c) * B + k] = W[e, 28 + c]
+        v[soa.ROW_L0 * B + k] = L0[e]
+        for c in range(6):
+            v[(soa.ROW_C + c) * B + k] = stiff[e, c]
+
+
+@inlined
+def _scatter_block(offset, W, e0, n, v):
+    """The outputs of elements ``e0 … e0+n−1`` from the rows of ``v`` into their rows of ``W`` (the
+    layout of :func:`beam2_element`), the moments taken back to the node frames."""
+    B = soa.BLOCK
+    for k in range(n):
+        e = e0 + k
+        for c in range(24):  # s (12), strain (6), stress (6): consecutive rows (checked on import)
+            W[e, c] = v[(soa.ROW_S + c) * B + k]
+        W[e, 39] = v[soa.ROW_RETURNS * B + k]
+        if is_identity(offset[e, 0]) and is_identity(offset[e, 1]):
+            for c in range(3):
+                W[e, 32 + c] = W[e, 3 + c]
+                W[e, 35 + c] = W[e, 9 + c]
+        else:
+            _to_node_frame(offset[e, 0], W[e, 3:6], W[e, 32:35])
+            _to_node_frame(offset[e, 1], W[e, 9:12], W[e, 35:38])
+
+
 @parallel_kernel
 def _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W):
-    for e in prange(conn.shape[0]):
-        beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, W[e])
+    """Every element's row of ``W`` (E, 40), bit for bit :func:`beam2_element`'s: blocks of
+    ``soa.BLOCK`` elements gathered into a structure of arrays, the generated
+    ``internal_forces_soa`` (vectorised across the elements), scattered back."""
+    E = conn.shape[0]
+    for b in prange((E + soa.BLOCK - 1) // soa.BLOCK):
+        v = np.empty(soa.ROWS * soa.BLOCK)
+        e0 = b * soa.BLOCK
+        n = min(soa.BLOCK, E - e0)
+        _gather_block(x, q, conn, offset, L0, psi0, gamma0, stiff, W, e0, n, v)
+        soa.internal_forces_soa(n, v)
+        _scatter_block(offset, W, e0, n, v)
 
 
 @kernel
