@@ -12,8 +12,8 @@ A loop the compiler can vectorise may hold arithmetic, ``sqrt``, ``abs`` and sel
 the C maths library (``atan2``, ``sin``, ``cos``: LLVM has no vector form of them here).  So the
 statements are split into rounds; round r is a vector loop then a scalar loop:
 
-* a statement with ``atan2`` is computed in the scalar loop of the first round its inputs are ready
-  in (with the scalar coefficient functions, branches and all);
+* ``atan2`` is computed in the scalar loop of the first round its arguments are ready in (the
+  call alone: its arguments and what uses the angle are other statements);
 * a statement with a coefficient function ``c_*(a)`` (a removable singularity at 0: Taylor series
   below a threshold, the closed form with ``sin``/``cos`` above) is computed in the vector loop
   with the series only (the two series joined by a select, ``c_*_series``), and the scalar loop
@@ -51,6 +51,28 @@ def render_series(coef: Coefficient) -> str:
 
 def _calls(expr, names) -> list:
     return [f for f in expr.atoms(AppliedUndef) if f.func.__name__ in names]
+
+
+def _isolate_atan2(stmts):
+    """Each ``atan2(y, x)`` as a statement of its own, its arguments as statements before it: only the
+    call itself is left to a scalar loop (the arguments, and a coefficient function of the angle,
+    go to the vector loops)."""
+    out, k = [], 0
+    for sym, expr in stmts:
+        for call in sorted(expr.atoms(sp.atan2), key=sp.default_sort_key):
+            args = []
+            for arg in call.args:
+                if not arg.is_Symbol:
+                    name = sp.Symbol(f"atan2_arg{k}_{len(args)}", real=True)
+                    out.append((name, arg))
+                    arg = name
+                args.append(arg)
+            angle = sp.Symbol(f"atan2_{k}", real=True)
+            out.append((angle, sp.atan2(*args)))
+            expr = expr.subs(call, angle)
+            k += 1
+        out.append((sym, expr))
+    return out
 
 
 def _plan(stmts, inputs, coefficients):
@@ -111,7 +133,7 @@ def render_soa_kernel(kernel: Kernel, coefficients: dict, block: int, user_funct
         outputs.append(("returns", 1))
     staged, rest, reduced = _shared_subexpressions(kernel.stages, exprs, sp.numbered_symbols("t"))
     out_syms = [sp.Symbol(f"out_{k}", real=True) for k in range(len(reduced))]
-    stmts = list(staged) + list(rest) + list(zip(out_syms, reduced))
+    stmts = _isolate_atan2(list(staged) + list(rest) + list(zip(out_syms, reduced)))
 
     layout, row = {"inputs": [], "outputs": []}, 0
     input_row = {}

@@ -125,6 +125,16 @@ def beam2_assemble(x, q, conn, offset, L0, psi0, gamma0, stiff, S, s_el):
 
 
 @inlined
+def _straight(offset, e):
+    """Both end offsets of element e are the identity (:func:`is_identity`), read without array views
+    (a view costs atomic reference-count updates inside a parallel loop)."""
+    for a in range(2):
+        if offset[e, a, 0] != 1.0 or offset[e, a, 1] != 0.0 or offset[e, a, 2] != 0.0 or offset[e, a, 3] != 0.0:
+            return False
+    return True
+
+
+@inlined
 def _gather_block(x, q, conn, offset, L0, psi0, gamma0, stiff, W, e0, n, v):
     """The inputs of elements ``e0 … e0+n−1`` into the rows of ``v`` (``generated.beam2_soa``'s layout):
     positions, section quaternions (composed ``p_a = q_a ⊗ o_a`` into ``W[e, 24:32]`` as
@@ -138,7 +148,7 @@ def _gather_block(x, q, conn, offset, L0, psi0, gamma0, stiff, W, e0, n, v):
             v[(soa.ROW_X2 + c) * B + k] = x[j, c]
             v[(soa.ROW_PSI0 + c) * B + k] = psi0[e, c]
             v[(soa.ROW_GAMMA0 + c) * B + k] = gamma0[e, c]
-        if is_identity(offset[e, 0]) and is_identity(offset[e, 1]):
+        if _straight(offset, e):
             for c in range(4):
                 v[(soa.ROW_Q1 + c) * B + k] = q[i, c]
                 v[(soa.ROW_Q2 + c) * B + k] = q[j, c]
@@ -163,7 +173,7 @@ def _scatter_block(offset, W, e0, n, v):
         for c in range(24):  # s (12), strain (6), stress (6): consecutive rows (checked on import)
             W[e, c] = v[(soa.ROW_S + c) * B + k]
         W[e, 39] = v[soa.ROW_RETURNS * B + k]
-        if is_identity(offset[e, 0]) and is_identity(offset[e, 1]):
+        if _straight(offset, e):
             for c in range(3):
                 W[e, 32 + c] = W[e, 3 + c]
                 W[e, 35 + c] = W[e, 9 + c]

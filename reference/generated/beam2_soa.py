@@ -14,7 +14,7 @@ from reference.jit import inlined, vector_kernel
 
 BLOCK = 64
 """Elements per call of :func:`internal_forces_soa` at most."""
-ROWS = 70
+ROWS = 72
 """Rows of its array ``v`` (each ``BLOCK`` long)."""
 ROW_X1 = 0
 """First row of ``x1``."""
@@ -121,13 +121,13 @@ def internal_forces_soa(n, v):
     39–44: output ``strain``
     45–50: output ``stress``
     51: output ``returns``
-    52–69: values passed between the loops.
+    52–71: values passed between the loops.
 
     Parameters (in this order)
     ----------
     n : int
         elements in this call (≤ 64)
-    v : array (4480,)
+    v : array (4608,)
         the rows above: inputs read, outputs written
     """
     for e in range(n):
@@ -140,63 +140,73 @@ def internal_forces_soa(n, v):
         q2_2 = v[768 + e]
         q2_3 = v[832 + e]
         r_0 = q1_0*q2_0 + q1_1*q2_1 + q1_2*q2_2 + q1_3*q2_3
-        v[3328 + e] = r_0
         r_1 = q1_0*q2_1 - q1_1*q2_0 - q1_2*q2_3 + q1_3*q2_2
-        v[3392 + e] = r_1
+        v[3328 + e] = r_1
         r_2 = q1_0*q2_2 + q1_1*q2_3 - q1_2*q2_0 - q1_3*q2_1
-        v[3456 + e] = r_2
+        v[3392 + e] = r_2
         r_3 = q1_0*q2_3 - q1_1*q2_2 + q1_2*q2_1 - q1_3*q2_0
-        v[3520 + e] = r_3
+        v[3456 + e] = r_3
         t4 = branch_sign_select(r_0)
-        v[3584 + e] = t4
+        v[3520 + e] = t4
+        atan2_arg0_0 = math.sqrt(r_1**2 + r_2**2 + r_3**2)
+        v[3584 + e] = atan2_arg0_0
+        atan2_arg0_1 = r_0*t4
+        v[3648 + e] = atan2_arg0_1
     for e in range(n):
-        r_0 = v[3328 + e]
-        r_1 = v[3392 + e]
-        r_2 = v[3456 + e]
-        r_3 = v[3520 + e]
-        t4 = v[3584 + e]
-        t5 = 2*t4*c_asinc(math.atan2(math.sqrt(r_1**2 + r_2**2 + r_3**2), r_0*t4))
-        v[3648 + e] = t5
+        atan2_arg0_0 = v[3584 + e]
+        atan2_arg0_1 = v[3648 + e]
+        atan2_0 = math.atan2(atan2_arg0_0, atan2_arg0_1)
+        v[3712 + e] = atan2_0
     for e in range(n):
-        r_1 = v[3392 + e]
-        r_2 = v[3456 + e]
-        r_3 = v[3520 + e]
-        t5 = v[3648 + e]
+        t4 = v[3520 + e]
+        atan2_0 = v[3712 + e]
+        t5 = 2*t4*c_asinc_series(atan2_0)
+        v[3776 + e] = t5
+    for e in range(n):
+        t4 = v[3520 + e]
+        atan2_0 = v[3712 + e]
+        if abs(atan2_0) >= 0.1:
+            v[3776 + e] = 2*t4*c_asinc(atan2_0)
+    for e in range(n):
+        r_1 = v[3328 + e]
+        r_2 = v[3392 + e]
+        r_3 = v[3456 + e]
+        t5 = v[3776 + e]
         psi_0 = r_1*t5
-        v[3712 + e] = psi_0
+        v[3840 + e] = psi_0
         psi_1 = r_2*t5
-        v[3776 + e] = psi_1
+        v[3904 + e] = psi_1
         psi_2 = r_3*t5
-        v[3840 + e] = psi_2
+        v[3968 + e] = psi_2
         t6 = psi_1**2
-        v[3904 + e] = t6
+        v[4032 + e] = t6
         t7 = psi_0**2
-        v[3968 + e] = t7
+        v[4096 + e] = t7
         t8 = psi_2**2
-        v[4032 + e] = t8
+        v[4160 + e] = t8
         t9 = math.sqrt(t6 + t7 + t8)
-        v[4096 + e] = t9
+        v[4224 + e] = t9
         t10 = (1/2)*t9
-        v[4160 + e] = t10
+        v[4288 + e] = t10
         t11 = c_cosc_series(t10)
-        v[4224 + e] = t11
+        v[4352 + e] = t11
         t15 = 2*c_sinc_series(t10)
-        v[4288 + e] = t15
+        v[4416 + e] = t15
         t34 = c_sinc3_series(t10)
-        v[4352 + e] = t34
+        v[4480 + e] = t34
         t48 = c_jinv_series(t9)
-        v[4416 + e] = t48
+        v[4544 + e] = t48
     for e in range(n):
-        t9 = v[4096 + e]
-        t10 = v[4160 + e]
+        t9 = v[4224 + e]
+        t10 = v[4288 + e]
         if abs(t10) >= 1.0:
-            v[4224 + e] = c_cosc(t10)
+            v[4352 + e] = c_cosc(t10)
         if abs(t10) >= 0.1:
-            v[4288 + e] = 2*c_sinc(t10)
+            v[4416 + e] = 2*c_sinc(t10)
         if abs(t10) >= 1.0:
-            v[4352 + e] = c_sinc3(t10)
+            v[4480 + e] = c_sinc3(t10)
         if abs(t9) >= 1.0:
-            v[4416 + e] = c_jinv(t9)
+            v[4544 + e] = c_jinv(t9)
     for e in range(n):
         x1_0 = v[e]
         x1_1 = v[64 + e]
@@ -221,16 +231,16 @@ def internal_forces_soa(n, v):
         c_3 = v[1536 + e]
         c_4 = v[1600 + e]
         c_5 = v[1664 + e]
-        psi_0 = v[3712 + e]
-        psi_1 = v[3776 + e]
-        psi_2 = v[3840 + e]
-        t6 = v[3904 + e]
-        t7 = v[3968 + e]
-        t8 = v[4032 + e]
-        t11 = v[4224 + e]
-        t15 = v[4288 + e]
-        t34 = v[4352 + e]
-        t48 = v[4416 + e]
+        psi_0 = v[3840 + e]
+        psi_1 = v[3904 + e]
+        psi_2 = v[3968 + e]
+        t6 = v[4032 + e]
+        t7 = v[4096 + e]
+        t8 = v[4160 + e]
+        t11 = v[4352 + e]
+        t15 = v[4416 + e]
+        t34 = v[4480 + e]
+        t48 = v[4544 + e]
         t0 = 2*q1_0**2 - 1
         t1 = q1_0*q1_3
         t2 = q1_0*q1_2
