@@ -6,7 +6,10 @@ The per-element arithmetic is the sympy-generated code of
 works in its section frames ``p_a = q_a ⊗ o_a``
 (:func:`~reference.elements.formulation.section_quaternion`); its rotational forces
 and tangent go back to the node frames.  :func:`beam2_assemble` runs it over all
-elements at once (compiled, allocation-free); the family's compiled calls
+elements at once (compiled, allocation-free); from :data:`PARALLEL_ELEMENTS` elements on, the element loop runs the
+structure-of-arrays form of the same generated arithmetic (``reference/generated/beam2_soa.py``,
+``derivations/soa.py``: blocks of 64 elements, loops vectorised across the elements) and gives every
+element's row bit for bit as the per-element kernel does.  The family's compiled calls
 (:meth:`Beam2Formulation.assemble`, ``tangent_values``, ``resultants``) are what the
 algorithms reach through :mod:`reference.elements.families`.
 """
@@ -208,7 +211,9 @@ def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
     This is the algorithms' path also on one thread: measured at 768 elements,
     0.08 µs per element against 0.21 µs for the serial :func:`beam2_assemble`,
     whose loop spends the difference on atomic reference-count updates of the
-    element's array views (``perf``; numba removes fewer of them there).
+    element's array views (``perf``; numba removes fewer of them there); the
+    structure-of-arrays loop of :func:`_beam2_elements` then halved the 0.08 µs
+    (docs/benchmarks.md §5).
     """
     _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
     S[:, :] = 0.0
