@@ -156,9 +156,21 @@ def short_threshold(coef: Coefficient) -> float:
     return short_series_threshold(series, a, coef.short_order)
 
 
+_SERIES: dict = {}
+""":func:`coefficient_series` of the coefficients seen in this process (a series of order 26 takes sympy
+about a second; ``rotation_maps.py`` and ``beam2_soa.py`` both print the same ones)."""
+
+
 def coefficient_series(coef: Coefficient) -> tuple[float, str, str]:
     """``coef``'s two series as source in ``a``: (the short series' threshold, the short series, the long
     series), exactly as :func:`render_coefficient` writes them."""
+    key = (coef.name, sp.srepr(coef.expr), coef.order, coef.short_order)
+    if key not in _SERIES:
+        _SERIES[key] = _coefficient_series(coef)
+    return _SERIES[key]
+
+
+def _coefficient_series(coef: Coefficient) -> tuple[float, str, str]:
     a = sp.Symbol("a")
     series = sp.nsimplify(sp.expand(sp.series(coef.expr, a, 0, coef.order).removeO()))
     short = sp.nsimplify(sp.expand(sp.series(coef.expr, a, 0, coef.short_order).removeO()))
