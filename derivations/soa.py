@@ -75,7 +75,7 @@ def _isolate_atan2(stmts):
     return out
 
 
-def _plan(stmts, inputs, coefficients):
+def _plan(stmts, coefficients):
     """Loop index of every statement: vector loop of round r = 2r, scalar loop = 2r + 1."""
     defined = {s for s, _ in stmts}
     kind, deps, ready, loop = {}, {}, {}, {}
@@ -151,7 +151,7 @@ def render_soa_kernel(kernel: Kernel, coefficients: dict, block: int, user_funct
             out_row[out_syms[k]] = row
             row, k = row + 1, k + 1
 
-    kind, loop, stored = _plan(stmts, set(input_row), set(coefficients))
+    kind, loop, stored = _plan(stmts, set(coefficients))
     temp_row = {}
     for sym, _ in stmts:
         if sym in stored and sym not in out_row:
