@@ -93,6 +93,12 @@ class BlockPattern:
         self._matrix.data[:] = np.bincount(self.slot, weights=values[self.keep], minlength=self.nnz)
         return self._matrix
 
+    @property
+    def assembled(self) -> sps.csc_matrix:
+        """The matrix object of :meth:`matrix` with its data as last written (by :meth:`matrix` or by a
+        compiled loop that scatters the values itself, ``data[slot[k]] += values[keep[k]]``)."""
+        return self._matrix
+
 
 def factorize(matrix: sps.csc_matrix):
     """SuperLU factor of ``matrix`` (column approximate minimum degree ordering).

@@ -45,11 +45,13 @@ import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
-from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
+from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, relative_rotation
+from reference.algorithms.newton_steps import (CORRECTIONS, ENERGY, FACTORED, LENGTH, MAX_ITERATIONS, NO_FACTOR,
+                                               RESUME, THRESHOLD, TOLERANCE, static_newton)
 from reference.algorithms.step_control import SolverStatistics
 from reference.linalg import SingularMatrix, null_space
 from reference.modal import SMALL, nearest_zero, negative_eigenvalues
-from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
+from reference.status import OK, REFACTOR, SINGULAR
 from reference.validation import ModelWarning
 
 MAX_CUTS = 8
@@ -90,6 +92,12 @@ class StaticRun:
     stats: SolverStatistics = field(default_factory=SolverStatistics)
     h: float = 0.0
     row: dict = field(default_factory=dict)
+    par: np.ndarray | None = None
+    csc: tuple = ()
+    scatter: tuple = ()
+    tangent_work: tuple = ()
+    arrays: tuple = ()
+    hist: np.ndarray | None = None
 
 
 class Static(ImplicitAlgorithm):
@@ -123,36 +131,53 @@ class Static(ImplicitAlgorithm):
         return cls(step, settings.tolerance or 1e-10, settings.max_iterations or 25)
 
     def start(self, model, state, critical_step=None, guard=None) -> StaticRun:
-        """A run from ``state`` (its load level ``state.t``): the Newton system and zero multipliers."""
-        return StaticRun(self.newton_system(model), np.zeros(model.n_constraints), self.length_scale(state.x))
+        """A run from ``state`` (its load level ``state.t``): the Newton system, zero multipliers and the
+        compiled Newton loop's arrays."""
+        system = self.newton_system(model)
+        run = StaticRun(system, np.zeros(model.n_constraints), self.length_scale(state.x))
+        n, N = system.pattern.n, state.x.shape[0]
+        run.par = np.zeros(8)
+        run.par[TOLERANCE], run.par[LENGTH], run.par[MAX_ITERATIONS] = self.tolerance, run.L, self.max_iterations
+        run.par[THRESHOLD] = system.slu.PIVOT_THRESHOLD
+        A = system.pattern.assembled
+        run.csc = (A.indptr, A.indices, A.data)
+        run.scatter = (system.pattern.slot, system.pattern.keep, system.work.values)
+        wk = system.work
+        run.tangent_work = (wk.small, wk.K12, wk.Kel, system.zero_psi)
+        run.arrays = (np.zeros(n), np.zeros(n), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4),
+                      np.zeros((N, 6)))
+        run.hist = np.zeros(self.max_iterations + 1)
+        return run
 
     def _equilibrium(self, run, x, q, lam, t):
-        """Newton at load level t from (x, q, λ), in place; returns a status code."""
-        system, L = run.system, run.L
-        hist = run.history = []
-        q_new = np.empty_like(q)
-        tmp = np.empty(4)
-        for it in range(self.max_iterations + 1):
-            U = system.evaluate(x, q, x, x, x, lam, t, False)
-            hist.append(system.residual_norm(1.0, lam))
-            if not np.isfinite(hist[-1]):
-                return DIVERGED
-            if self.balanced(system, lam, L) or (it > 0 and self.converged(delta, L)):
-                run.U = U
-                return OK
-            if it == self.max_iterations:
+        """Newton at load level t from (x, q, λ), in place; returns a status code.
+
+        The iterations run compiled (:func:`reference.algorithms.newton_steps.static_newton`); Python
+        makes only the SuperLU factorisations the kernel asks for (the first, and any after the kept
+        pivots went bad) and resumes it."""
+        system, par = run.system, run.par
+        slu = system.slu
+        par[CORRECTIONS], par[RESUME] = 0.0, 0.0
+        while True:
+            par[FACTORED] = 0.0 if slu.f is None else 1.0
+            code = static_newton(system.arg, x, q, lam, t, system.dof, NO_FACTOR if slu.f is None else slu.f,
+                                 (*run.csc, slu.inv_perm_c if slu.f is not None else NO_FACTOR[6], slu.w, slu.work,
+                                  slu.rs, slu.cs, *run.scatter), system.wt, run.tangent_work, run.arrays, par,
+                                 run.hist)
+            if code != REFACTOR:
                 break
             try:
-                lu = system.factor(x, q, x, t, lam, 0.0, 0.0, 1.0)
-                delta, mu = system.newton_correction(lu, 1.0, lam)
+                slu.factor(system.pattern.assembled)
             except SingularMatrix:
-                return SINGULAR
-            x += delta[:, :3]
-            compose(q, np.ascontiguousarray(delta[:, 3:]), q_new, tmp)
-            q[:] = q_new
-            lam += mu
-            run.stats.iterations += 1
-        return NO_CONVERGENCE
+                code = SINGULAR
+                break
+            par[RESUME] = 1.0
+        corrections = int(par[CORRECTIONS])
+        run.stats.iterations += corrections
+        run.history = list(run.hist[: corrections + 1])
+        if code == OK:
+            run.U = par[ENERGY]
+        return code
 
     def balanced(self, system, lam, L) -> bool:
         """Equilibrium reached: every residual force below ``tolerance`` times the largest

@@ -1,0 +1,181 @@
+"""The compiled full-Newton loop of the static algorithm (:mod:`reference.algorithms.static`).
+
+One call of :func:`static_newton` solves a load level: evaluate the residual, test it, assemble the
+Newton matrix's values, scatter them into the CSC data of its fixed pattern
+(:class:`reference.linalg.BlockPattern`), refactor numerically with the kept permutations
+(:func:`reference.linalg.refactor`), solve (:func:`reference.linalg.lu_solve`) and update the
+configuration (``x ← x + δx``, ``q ← q ⊗ exp(δθ)``, ``λ ← λ + μ``) — no Python per iteration.
+Python only makes the factorisations that need SuperLU: the first one (its ordering and row
+pivots) and any whose kept pivots go bad (the kernel returns :data:`reference.status.REFACTOR`;
+the caller factors the matrix it left assembled and calls again, and the iteration resumes with
+the correction from that factor).
+
+The arithmetic is that of the Python loop it replaces, operation for operation (the scatter sums
+the block values in the order ``numpy.bincount`` does), so the iterates are the same bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from reference.algorithms.implicit import compose, evaluate
+from reference.evaluation.tangent import tangent_values
+from reference.jit import kernel, named
+from reference.linalg import lu_solve, refactor
+from reference.state import Model
+from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR
+
+NO_FACTOR = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
+             np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
+"""Empty factor arrays, passed before the first factorisation (the kernel asks for one at once)."""
+
+TOLERANCE, LENGTH, MAX_ITERATIONS, CORRECTIONS, RESUME, ENERGY, THRESHOLD, FACTORED = range(8)
+"""Slots of :func:`static_newton`'s ``par``: the Newton tolerance, the model size L [m], the iteration
+limit, the corrections made at this level (in/out), 1 to resume with a fresh factor of the matrix left
+assembled (in; cleared), the strain energy of the last evaluation (out), the pivot threshold of the kept
+pivot order (:attr:`reference.linalg.SparseLU.PIVOT_THRESHOLD`), 1 when a factor exists (in)."""
+
+
+@kernel
+def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr, par, hist):
+    """Full Newton–Raphson at load level t from ``(x, q, λ)``, in place (docs/formulation.md §10).
+
+    Converged when the residual is balanced (every residual force below ``tolerance`` times the largest
+    internal, external or joint force, and ``|Φ − ελ|`` below ``tolerance × L``) or, after a correction,
+    when the correction is below ``tolerance`` (translations over L, rotations in rad).  ``csc`` =
+    ``(indptr, indices, data, inv_perm_c, w, work, rs, cs, slot, keep, values)``: the Newton matrix's
+    CSC arrays and the factor's scratch (``w`` the refactorisation's, zero between calls; ``work`` the solve's) (:class:`reference.linalg.SparseLU`), the pattern's scatter
+    (:class:`reference.linalg.BlockPattern`) and the block values; ``tangent_work`` = ``(small, K12,
+    Kel, ψ = 0)``; ``arr`` = ``(rhs, sol, δ (N, 6), δθ (N, 3), q_new, tmp4, row forces (N, 6))``; ``hist`` the
+    residual norms ``‖[r; Φ − ελ]‖`` of the evaluations (one per correction, plus the last).
+
+    Returns OK, DIVERGED (non-finite residual), SINGULAR (a pivot below the equilibrated threshold or a
+    non-finite correction), NO_CONVERGENCE (``max_iterations`` corrections) or REFACTOR (the kept pivot
+    order failed, or there is no factor yet: the matrix at the iterate is assembled in ``data``; factor
+    it with SuperLU and call again with ``par[RESUME] = 1``).
+    """
+    mdl = named(model, Model)
+    Ap, Ai, Ax, inv_perm_c, w_lu, work, rs, cs, slot, keep, values = csc
+    small, K12, Kel, psi = tangent_work
+    rhs, sol, delta, dth, q_new, tmp, rows = arr
+    S, F, r, PHI = wt[0], wt[1], wt[2], wt[3]
+    Bl = wt[5]
+    eps = mdl.joints.eps
+    jt_i, jt_j, jt_row0, jt_neq = mdl.joints.i, mdl.joints.j, mdl.joints.row0, mdl.joints.neq
+    tol, L, max_it = par[TOLERANCE], par[LENGTH], int(par[MAX_ITERATIONS])
+    N, m = x.shape[0], lam.shape[0]
+    n_free = rhs.shape[0] - m
+    while True:
+        it = int(par[CORRECTIONS])
+        if par[RESUME] != 1.0:
+            par[ENERGY] = evaluate(model, x, q, x, x, x, lam, t, False, wt)
+            size2 = 0.0
+            for i in range(N):
+                for k in range(6):
+                    if dof[i, k] >= 0:
+                        size2 += r[i, k] * r[i, k]
+            for k in range(m):
+                size2 += (PHI[k] - eps[k] * lam[k]) ** 2
+            hist[it] = math.sqrt(size2)
+            if not math.isfinite(hist[it]):
+                return DIVERGED
+            if _balanced(S, F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L) or \
+                    (it > 0 and _correction_size(delta, L) <= tol):
+                return OK
+            if it == max_it:
+                return NO_CONVERGENCE
+            tangent_values(model, x, q, x, psi, t, lam, 0.0, 0.0, 1.0, 1.0, values, wt, small, K12, Kel)
+            for p in range(Ax.shape[0]):
+                Ax[p] = 0.0
+            for p in range(slot.shape[0]):
+                Ax[slot[p]] += values[keep[p]]
+            if par[FACTORED] != 1.0:
+                return REFACTOR
+            code = refactor(factors, Ap, Ai, Ax, inv_perm_c, w_lu, par[THRESHOLD], rs, cs)
+            if code == 1:
+                return REFACTOR
+            if code == 2:
+                return SINGULAR
+        par[RESUME] = 0.0
+        for i in range(N):
+            for k in range(6):
+                if dof[i, k] >= 0:
+                    rhs[dof[i, k]] = -r[i, k]
+        for k in range(m):
+            rhs[n_free + k] = -(PHI[k] - eps[k] * lam[k])
+        lu_solve(factors, rhs, work, sol)
+        for k in range(sol.shape[0]):
+            if not math.isfinite(sol[k]):
+                return SINGULAR
+        for i in range(N):
+            for k in range(6):
+                delta[i, k] = sol[dof[i, k]] if dof[i, k] >= 0 else 0.0
+            for k in range(3):
+                x[i, k] += delta[i, k]
+                dth[i, k] = delta[i, 3 + k]
+        compose(q, dth, q_new, tmp)
+        for i in range(N):
+            for k in range(4):
+                q[i, k] = q_new[i, k]
+        for k in range(m):
+            lam[k] += sol[n_free + k]
+        par[CORRECTIONS] = it + 1
+
+
+@kernel
+def _balanced(S, F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L):
+    """Equilibrium: every free residual force below ``tol`` times the largest internal, external or joint
+    force ``Bᵀλ`` (into ``rows``), and ``|Φ − ελ|`` below ``tol × L``."""
+    scale = 0.0
+    big_F = 0.0
+    for i in range(S.shape[0]):
+        for k in range(6):
+            scale = max(scale, abs(S[i, k]))
+            big_F = max(big_F, abs(F[i, k]))
+    scale = max(scale, big_F, 1e-300)
+    m = lam.shape[0]
+    if m > 0:
+        for i in range(rows.shape[0]):
+            for k in range(6):
+                rows[i, k] = 0.0
+        for j in range(jt_i.shape[0]):
+            r0, neq, a, b = jt_row0[j], jt_neq[j], jt_i[j], jt_j[j]
+            for k in range(6):
+                acc = 0.0
+                for rr in range(neq):
+                    acc += Bl[r0 + rr, k] * lam[r0 + rr]
+                rows[a, k] += acc
+                if b >= 0:
+                    acc = 0.0
+                    for rr in range(neq):
+                        acc += Bl[r0 + rr, 6 + k] * lam[r0 + rr]
+                    rows[b, k] += acc
+        big = 0.0
+        for i in range(rows.shape[0]):
+            for k in range(6):
+                big = max(big, abs(rows[i, k]))
+        scale = max(scale, big)
+    res = 0.0
+    for i in range(r.shape[0]):
+        for k in range(6):
+            if dof[i, k] >= 0:
+                res = max(res, abs(r[i, k]))
+    phi = 0.0
+    for k in range(m):
+        phi = max(phi, abs(PHI[k] - eps[k] * lam[k]))
+    return res <= tol * scale and phi <= tol * L
+
+
+@kernel
+def _correction_size(delta, L):
+    """Largest correction: translations over the model size L, rotations in rad (the order of
+    :meth:`reference.algorithms.implicit.ImplicitAlgorithm.correction_size`: the largest translation, then /L)."""
+    big_x = 0.0
+    big_t = 0.0
+    for i in range(delta.shape[0]):
+        for k in range(3):
+            big_x = max(big_x, abs(delta[i, k]))
+            big_t = max(big_t, abs(delta[i, 3 + k]))
+    return max(big_x / L, big_t)
