@@ -24,6 +24,7 @@ from reference.algorithms.implicit import compose, evaluate
 from reference.evaluation.tangent import tangent_values
 from reference.jit import kernel, named
 from reference.linalg import lu_solve, refactor
+from reference.modal import SYMMETRY
 from reference.state import Model
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR
 
@@ -31,11 +32,13 @@ NO_FACTOR = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros
              np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
 """Empty factor arrays, passed before the first factorisation (the kernel asks for one at once)."""
 
-TOLERANCE, LENGTH, MAX_ITERATIONS, CORRECTIONS, RESUME, ENERGY, THRESHOLD, FACTORED = range(8)
+TOLERANCE, LENGTH, MAX_ITERATIONS, CORRECTIONS, RESUME, ENERGY, THRESHOLD, FACTORED, TANGENT, SIGN = range(10)
 """Slots of :func:`static_newton`'s ``par``: the Newton tolerance, the model size L [m], the iteration
 limit, the corrections made at this level (in/out), 1 to resume with a fresh factor of the matrix left
 assembled (in; cleared), the strain energy of the last evaluation (out), the pivot threshold of the kept
-pivot order (:attr:`reference.linalg.SparseLU.PIVOT_THRESHOLD`), 1 when a factor exists (in)."""
+pivot order (:attr:`reference.linalg.SparseLU.PIVOT_THRESHOLD`), 1 when a factor exists (in), what to
+leave at the equilibrium for its stability count (in: 0 nothing, 1 the tangent, 2 the tangent and the
+sign of its determinant, :func:`tangent_sign`), that sign (out)."""
 
 
 @kernel
@@ -48,7 +51,7 @@ def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr,
     ``(indptr, indices, data, inv_perm_c, w, work, rs, cs, slot, keep, values)``: the Newton matrix's
     CSC arrays and the factor's scratch (``w`` the refactorisation's, zero between calls; ``work`` the solve's) (:class:`reference.linalg.SparseLU`), the pattern's scatter
     (:class:`reference.linalg.BlockPattern`) and the block values; ``tangent_work`` = ``(small, K12,
-    Kel, ψ = 0)``; ``arr`` = ``(rhs, sol, δ (N, 6), δθ (N, 3), q_new, tmp4, row forces (N, 6))``; ``hist`` the
+    Kel, ψ = 0 (N, 3), dense (n, n) for par[TANGENT] = 2)``; ``arr`` = ``(rhs, sol, δ (N, 6), δθ (N, 3), q_new, tmp4, row forces (N, 6))``; ``hist`` the
     residual norms ``‖[r; Φ − ελ]‖`` of the evaluations (one per correction, plus the last).
 
     Returns OK, DIVERGED (non-finite residual), SINGULAR (a pivot below the equilibrated threshold or a
@@ -58,7 +61,7 @@ def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr,
     """
     mdl = named(model, Model)
     Ap, Ai, Ax, inv_perm_c, w_lu, work, rs, cs, slot, keep, values = csc
-    small, K12, Kel, psi = tangent_work
+    small, K12, Kel, psi, dense = tangent_work
     rhs, sol, delta, dth, q_new, tmp, rows = arr
     S, F, r, PHI = wt[0], wt[1], wt[2], wt[3]
     Bl = wt[5]
@@ -83,14 +86,17 @@ def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr,
                 return DIVERGED
             if _balanced(S, F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L) or \
                     (it > 0 and _correction_size(delta, L) <= tol):
+                if par[TANGENT] > 0.0:
+                    # the stability count's tangent at the equilibrium: [K Bᵀ; B 0] (c_e = 0) at zero velocity
+                    tangent_values(model, x, q, psi, psi, t, lam, 0.0, 0.0, 1.0, 0.0, values, wt, small, K12, Kel)
+                    _scatter(Ax, slot, keep, values)
+                    if par[TANGENT] == 2.0:
+                        par[SIGN] = tangent_sign(Ap, Ai, Ax, dense)
                 return OK
             if it == max_it:
                 return NO_CONVERGENCE
             tangent_values(model, x, q, x, psi, t, lam, 0.0, 0.0, 1.0, 1.0, values, wt, small, K12, Kel)
-            for p in range(Ax.shape[0]):
-                Ax[p] = 0.0
-            for p in range(slot.shape[0]):
-                Ax[slot[p]] += values[keep[p]]
+            _scatter(Ax, slot, keep, values)
             if par[FACTORED] != 1.0:
                 return REFACTOR
             code = refactor(factors, Ap, Ai, Ax, inv_perm_c, w_lu, par[THRESHOLD], rs, cs)
@@ -179,3 +185,37 @@ def _correction_size(delta, L):
             big_x = max(big_x, abs(delta[i, k]))
             big_t = max(big_t, abs(delta[i, 3 + k]))
     return max(big_x / L, big_t)
+
+
+@kernel
+def _scatter(Ax, slot, keep, values):
+    """The CSC data of the block values: ``Ax[slot[k]] += values[keep[k]]`` in order, from zero (the sums of
+    :meth:`reference.linalg.BlockPattern.matrix`'s ``numpy.bincount``, term for term)."""
+    for p in range(Ax.shape[0]):
+        Ax[p] = 0.0
+    for p in range(slot.shape[0]):
+        Ax[slot[p]] += values[keep[p]]
+
+
+@kernel
+def tangent_sign(Ap, Ai, Ax, dense):
+    """The sign of ``det K`` (−1, 0 or 1) of the square CSC matrix K, or 2 when K is symmetric (to
+    :data:`reference.modal.SYMMETRY`): what :func:`reference.modal.negative_eigenvalues` compares with the
+    previous state's sign for a non-symmetric K below :data:`reference.modal.SMALL` coordinates, computed
+    the same way (the dense K; LAPACK's ``getrf``, through ``slogdet``); ``dense`` (n, n) is overwritten."""
+    n = dense.shape[0]
+    for i in range(n):
+        for j in range(n):
+            dense[i, j] = 0.0
+    for j in range(n):
+        for p in range(Ap[j], Ap[j + 1]):
+            dense[Ai[p], j] += Ax[p]
+    skew, big = 0.0, 0.0
+    for i in range(n):
+        for j in range(n):
+            skew = max(skew, abs(dense[i, j] - dense[j, i]))
+            big = max(big, abs(dense[i, j]))
+    if skew <= SYMMETRY * big:
+        return 2.0
+    sign, _ = np.linalg.slogdet(dense)
+    return sign

@@ -47,7 +47,7 @@ import scipy.sparse.linalg as spla
 
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, relative_rotation
 from reference.algorithms.newton_steps import (CORRECTIONS, ENERGY, FACTORED, LENGTH, MAX_ITERATIONS, NO_FACTOR,
-                                               RESUME, THRESHOLD, TOLERANCE, static_newton)
+                                               RESUME, SIGN, TANGENT, THRESHOLD, TOLERANCE, static_newton)
 from reference.algorithms.step_control import SolverStatistics
 from reference.linalg import SingularMatrix, null_space
 from reference.modal import SMALL, nearest_zero, negative_eigenvalues
@@ -98,6 +98,7 @@ class StaticRun:
     tangent_work: tuple = ()
     arrays: tuple = ()
     hist: np.ndarray | None = None
+    dense: bool = False
 
 
 class Static(ImplicitAlgorithm):
@@ -136,14 +137,15 @@ class Static(ImplicitAlgorithm):
         system = self.newton_system(model)
         run = StaticRun(system, np.zeros(model.n_constraints), self.length_scale(state.x))
         n, N = system.pattern.n, state.x.shape[0]
-        run.par = np.zeros(8)
+        run.par = np.zeros(10)
         run.par[TOLERANCE], run.par[LENGTH], run.par[MAX_ITERATIONS] = self.tolerance, run.L, self.max_iterations
         run.par[THRESHOLD] = system.slu.PIVOT_THRESHOLD
         A = system.pattern.assembled
         run.csc = (A.indptr, A.indices, A.data)
         run.scatter = (system.pattern.slot, system.pattern.keep, system.work.values)
         wk = system.work
-        run.tangent_work = (wk.small, wk.K12, wk.Kel, system.zero_psi)
+        run.dense = n == system.n_free and n <= SMALL  # the stability count's dense path (no constraints)
+        run.tangent_work = (wk.small, wk.K12, wk.Kel, system.zero_psi, np.zeros((n, n) if run.dense else (0, 0)))
         run.arrays = (np.zeros(n), np.zeros(n), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4),
                       np.zeros((N, 6)))
         run.hist = np.zeros(self.max_iterations + 1)
@@ -158,6 +160,9 @@ class Static(ImplicitAlgorithm):
         system, par = run.system, run.par
         slu = system.slu
         par[CORRECTIONS], par[RESUME] = 0.0, 0.0
+        # the stability count's tangent is assembled at the equilibrium, and the sign of its determinant
+        # computed there when that is all the count needs (negative_eigenvalues' known-count path)
+        par[TANGENT], par[SIGN] = (2.0 if run.dense and run.negative >= 0 else 1.0), 3.0
         while True:
             par[FACTORED] = 0.0 if slu.f is None else 1.0
             code = static_newton(system.arg, x, q, lam, t, system.dof, NO_FACTOR if slu.f is None else slu.f,
@@ -272,8 +277,14 @@ class Static(ImplicitAlgorithm):
         """The inertia of the reduced tangent at the equilibrium just reached (the last evaluation is at it);
         a change from the previous equilibrium becomes an event and a warning."""
         system = run.system
-        (count, sign), K, Z, _ = reduced_tangent(system, x, q, lam, t, known=(run.negative, run.sign),
-                                                 evaluate=False)
+        sign = run.par[SIGN]
+        if sign in (-1.0, 0.0, 1.0) and int(sign) == run.sign:
+            # a non-symmetric tangent whose determinant kept its sign: the count is the previous one
+            # (negative_eigenvalues with known = (count, sign), its sign from the compiled loop)
+            count, sign, K, Z = run.negative, run.sign, None, None
+        else:
+            (count, sign), K, Z, _ = reduced_tangent(system, x, q, lam, t, known=(run.negative, run.sign),
+                                                     evaluate=False, assembled=True)
         F = system.work.F.copy()
         before, run.previous = run.previous, (x.copy(), q.copy(), lam.copy(), t, F)
         (old, run.negative), run.sign = (run.negative, count), sign
@@ -306,16 +317,17 @@ def _eigenvalues(count: int) -> str:
     return f"{count} negative eigenvalue{'s' if count != 1 else ''}"
 
 
-def reduced_tangent(system, x, q, lam, t, Z=None, known=None, evaluate=True):
+def reduced_tangent(system, x, q, lam, t, Z=None, known=None, evaluate=True, assembled=False):
     """``((negative eigenvalues, sign of det), K_r, Z, rank B)`` of the static tangent at ``(x, q, λ, t)``
     reduced to the null space of B (Z given, or from :func:`reference.linalg.null_space`; None without
     constraints, K_r then dense up to :data:`reference.modal.SMALL` coordinates;
     :func:`reference.modal.negative_eigenvalues` with ``known``); evaluates the model there unless its
-    last evaluation is at it (``evaluate`` false)."""
+    last evaluation is at it (``evaluate`` false), and assembles the tangent unless the compiled Newton
+    loop left it assembled there (``assembled``: :func:`reference.algorithms.newton_steps.static_newton`)."""
     zero = np.zeros_like(x)
     if evaluate:
         system.evaluate(x, q, zero, zero, zero, lam, t, False)
-    A = system.matrix(x, q, zero, t, lam, 0.0, 0.0, 1.0, ce=0.0)
+    A = system.pattern.assembled if assembled else system.matrix(x, q, zero, t, lam, 0.0, 0.0, 1.0, ce=0.0)
     n = system.n_free
     if A.shape[0] == n:  # no constraint: the free coordinates are independent (Z = None: the identity)
         K = A.toarray() if n <= SMALL else A.copy()
