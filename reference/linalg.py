@@ -344,11 +344,16 @@ class SparseLU:
 
 
 def permutation_sign(perm) -> int:
-    """The sign of a permutation (−1 for an odd number of transpositions), from its cycles."""
-    perm = np.asarray(perm)
-    seen = np.zeros(perm.size, dtype=bool)
+    """The sign of a permutation (−1 for an odd number of transpositions), from its cycles
+    (compiled: the arc-length path takes two per point, of a few hundred entries each)."""
+    perm = np.asarray(perm, dtype=np.int64)
+    return int(_permutation_sign(perm, np.zeros(perm.size, dtype=np.bool_)))
+
+
+@kernel
+def _permutation_sign(perm, seen):
     transpositions = 0
-    for start in range(perm.size):
+    for start in range(perm.shape[0]):
         length, k = 0, start
         while not seen[k]:
             seen[k] = True

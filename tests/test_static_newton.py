@@ -109,3 +109,85 @@ def test_a_singular_first_factor_is_reported_not_raised():
     except SingularMatrix as exc:  # pragma: no cover - the failure this test guards against
         raise AssertionError(f"raised {exc}") from None
     assert code != OK
+
+
+def python_corrector(algo, run, x, q, lam, normal):
+    """The Python arc-length corrector the compiled one replaced (operation for operation)."""
+    system = run.system
+    q_new, tmp = np.empty_like(q), np.empty(4)
+    moved = np.zeros(system.n_free + 1)
+    delta = None
+    for it in range(algo.max_iterations + 1):
+        run.U = float(system.evaluate(x, q, x, x, x, run.mu, algo.t_end, False))
+        F = system.work.F
+        r = system.work.r + (1.0 - lam) * F
+        wk = system.work
+        scale = max(float(np.max(np.abs(wk.S), initial=0.0)), abs(lam) * float(np.max(np.abs(F), initial=0.0)), 1e-300)
+        if run.mu.size:
+            scale = max(scale, float(np.max(np.abs(_row_forces(system, run.mu)))))
+        phi = np.abs(wk.PHI - system.model.joints.eps * run.mu)
+        balanced = float(np.max(np.abs(r[system.free]), initial=0.0)) <= algo.tolerance * scale and \
+            float(np.max(phi, initial=0.0)) <= algo.tolerance * run.L
+        if balanced or (it > 0 and algo.converged(delta, run.L)):
+            return OK, lam, moved, it
+        lu = system.slu.factor(algo._matrix(run, x, q, lam))
+        phi = system.work.PHI - system.model.joints.eps * run.mu
+        dR, muR = system.solve(lu, -r, -phi)
+        dlam = 0.0
+        if normal is not None:
+            dF, muF = system.solve(lu, F, np.zeros_like(phi))
+            den = normal[:-1] @ algo._scaled(run, dF) + normal[-1]
+            dlam = -(normal[:-1] @ algo._scaled(run, dR)) / den
+            dR += dlam * dF
+            muR += dlam * muF
+        delta = dR
+        x += delta[:, :3]
+        compose(q, np.ascontiguousarray(delta[:, 3:]), q_new, tmp)
+        q[:] = q_new
+        run.mu += muR
+        lam += dlam
+        moved[:-1] += algo._scaled(run, delta)
+        moved[-1] += dlam
+    raise AssertionError("the oracle did not converge")
+
+
+def test_compiled_arc_length_corrector_gives_the_python_correctors_iterates():
+    """The frame with a follower force and a dead moment added (load blocks scaled to λ in the kernel): a
+    corrector at fixed λ = 0.6 from the reference state, then one on the normal plane of the tangent predictor
+    (bordered, λ an unknown): the compiled corrector and the oracle agree in x, q, μ, λ and the scaled path
+    increment to 1e-12 (the kernel's dot products and 3×3 products go through BLAS as numpy's do; the
+    load-block products may round differently), with the same number of corrections."""
+    from reference.algorithms.arc_length import ArcLength
+
+    d = frame()
+    nodes = [n for n in d.nodes]
+    d.add_interaction(NodalLoad(nodes[2], np.array([0.0, 0.5, -1.0]), follower=True))
+    d.add_interaction(NodalLoad(nodes[4], np.array([0.2, 0.1, 0.0]), moment=True))
+    model = d.initialization()
+    algo = ArcLength(0.1, 3, 10.0, t_end=1.0)
+    out = []
+    for corrector in ("compiled", "oracle"):
+        state = d.initial_conditions()
+        run = algo.start(model, state)
+        x, q = state.x, state.q
+        step = algo._correct if corrector == "compiled" else \
+            (lambda run, x, q, lam, normal: python_corrector(algo, run, x, q, lam, normal)[:3])
+        code, lam, _ = step(run, x, q, 0.6, None)
+        assert code == OK
+        dF, muF = algo._tangent(run, x, q, lam)
+        t_u = algo._scaled(run, dF)
+        norm = np.sqrt(t_u @ t_u + 1.0)
+        dlam = 0.3 / norm
+        x += dlam * dF[:, :3]
+        qn = np.empty_like(q)
+        compose(q, np.ascontiguousarray(dlam * dF[:, 3:]), qn, np.empty(4))
+        q[:] = qn
+        run.mu += dlam * muF
+        code, lam, moved = step(run, x, q, lam + dlam, np.append(t_u, 1.0) / norm)
+        assert code == OK
+        out.append((x.copy(), q.copy(), run.mu.copy(), lam, moved))
+    (xc, qc, mc, lc, sc), (xo, qo, mo, lo, so) = out
+    diff = max(np.abs(xc - xo).max(), np.abs(qc - qo).max(), abs(lc - lo), np.abs(sc - so).max(),
+               np.abs(mc - mo).max() / np.abs(mo).max())
+    print(f"compiled against Python corrector: largest difference {diff:.1e} (λ = {lc:.6f})")
+    assert diff <= 1e-12 and abs(lc - 0.6) > 1e-3

@@ -52,11 +52,13 @@ import numpy as np
 
 from reference.algorithms.critical_points import CriticalPoints
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
+from reference.algorithms.newton_steps import (BORDERED, CORRECTIONS, ENERGY, FACTORED, LAMBDA, LENGTH,
+                                               MAX_ITERATIONS, NO_FACTOR, RESUME, THRESHOLD, TOLERANCE, arc_newton)
 from reference.algorithms.static import _row_forces
 from reference.interactions import tf_value
 from reference.linalg import SingularMatrix
 from reference.observables import ObservableError, _Names, parse
-from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
+from reference.status import NO_CONVERGENCE, OK, REFACTOR, SINGULAR
 
 MAX_CUTS = 10
 """Halvings of the arc length before the run stops (smallest arc 1/1024 of the one that failed)."""
@@ -112,6 +114,14 @@ class ArcRun:
     follower: list = field(default_factory=list)
     recorded: tuple = (0.0, 0.0, 0, -1)
     controlled: int = -1
+    par: np.ndarray | None = None
+    csc: tuple = ()
+    scatter: tuple = ()
+    tangent_work: tuple = ()
+    arrays: tuple = ()
+    hist: np.ndarray | None = None
+    no_plane: np.ndarray | None = None
+    loads: tuple = ()
 
 
 class ArcLength(CriticalPoints, ImplicitAlgorithm):
@@ -203,7 +213,30 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             run.controlled = int(np.sum(system.free.ravel()[:6 * node + comp]))
         run.follower = [(int(loads.node[k]), int(loads.code[k]), int(loads.tf[k]), np.array(loads.vec[k]))
                         for k in range(loads.node.shape[0]) if loads.code[k] in (1, 2)]
+        self._compiled_arrays(run, state.x.shape[0])
         return run
+
+    def _compiled_arrays(self, run, N) -> None:
+        """The compiled corrector's arrays (:func:`reference.algorithms.newton_steps.arc_newton`)."""
+        system = run.system
+        n, nf = system.pattern.n, system.n_free
+        run.par = np.zeros(12)
+        run.par[TOLERANCE], run.par[LENGTH], run.par[MAX_ITERATIONS] = self.tolerance, run.L, self.max_iterations
+        run.par[THRESHOLD] = system.slu.PIVOT_THRESHOLD
+        A = system.pattern.assembled
+        run.csc = (A.indptr, A.indices, A.data)
+        run.scatter = (system.pattern.slot, system.pattern.keep, system.work.values)
+        wk = system.work
+        run.tangent_work = (wk.small, wk.K12, wk.Kel, system.zero_psi, np.zeros((0, 0)))
+        run.arrays = (np.zeros(n), np.zeros(n), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4),
+                      np.zeros((N, 6)), np.zeros(n), np.zeros((N, 6)), np.zeros(nf), np.zeros(nf), np.zeros((N, 6)))
+        run.hist = np.zeros(self.max_iterations + 1)
+        run.no_plane = np.zeros(nf + 1)
+        tf = system.model.time_functions
+        run.loads = (np.array([f[0] for f in run.follower], dtype=np.int64),
+                     np.array([f[1] for f in run.follower], dtype=np.int64),
+                     np.array([tf_value(tf.kind[f[2]], tf.par[f[2]], self.t_end) for f in run.follower], dtype=float),
+                     np.array([f[3] for f in run.follower], dtype=float).reshape(-1, 3))
 
     def _scaled(self, run, delta):
         """The free coordinates of an (N, 6) increment in the scaled norm's units."""
@@ -237,59 +270,38 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         F = system.work.F
         return system.work.r + (1.0 - lam) * F, F
 
-    def _balanced(self, run, r, F, lam) -> bool:
-        system = run.system
-        wk = system.work
-        scale = max(float(np.max(np.abs(wk.S), initial=0.0)), abs(lam) * float(np.max(np.abs(F), initial=0.0)), 1e-300)
-        if run.mu.size:
-            scale = max(scale, float(np.max(np.abs(_row_forces(system, run.mu)))))
-        phi = np.abs(wk.PHI - system.model.joints.eps * run.mu)
-        return float(np.max(np.abs(r[system.free]), initial=0.0)) <= self.tolerance * scale and \
-            float(np.max(phi, initial=0.0)) <= self.tolerance * run.L
-
     def _correct(self, run, x, q, lam, normal):
         """Newton from ``(x, q, run.mu, λ)`` in place; with ``normal`` (scaled, unit: the predictor's
         direction, its last entry the λ part) the load factor is an unknown on the normal plane, else λ is
-        fixed.  Returns ``(status, λ, Σ scaled corrections incl. Δλ)``."""
-        system = run.system
-        hist = run.history = []
-        q_new, tmp = np.empty_like(q), np.empty(4)
+        fixed.  Returns ``(status, λ, Σ scaled corrections incl. Δλ)``.  The iterations run compiled
+        (:func:`reference.algorithms.newton_steps.arc_newton`); Python makes only the SuperLU factorisations
+        it asks for (the first, and after the kept pivots went bad) and resumes it."""
+        system, par = run.system, run.par
+        slu = system.slu
         moved = np.zeros(system.n_free + 1)
-        delta = None
-        for it in range(self.max_iterations + 1):
-            r, F = self._evaluate(run, x, q, lam)
-            hist.append(float(np.linalg.norm(r[system.free])))
-            if not np.isfinite(hist[-1]):
-                return DIVERGED, lam, moved
-            if self._balanced(run, r, F, lam) or (it > 0 and self.converged(delta, run.L)):
-                run.iterations = it
-                return OK, lam, moved
-            if it == self.max_iterations:
+        par[CORRECTIONS], par[RESUME], par[LAMBDA] = 0.0, 0.0, lam
+        par[BORDERED] = 0.0 if normal is None else 1.0
+        plane = run.no_plane if normal is None else np.ascontiguousarray(normal, dtype=float)
+        while True:
+            par[FACTORED] = 0.0 if slu.f is None else 1.0
+            code = arc_newton(system.arg, x, q, run.mu, self.t_end, system.dof, NO_FACTOR if slu.f is None else slu.f,
+                              (*run.csc, slu.inv_perm_c if slu.f is not None else NO_FACTOR[6], slu.w, slu.work,
+                               slu.rs, slu.cs, *run.scatter), system.wt, run.tangent_work, run.arrays, par,
+                              run.hist, plane, run.weights, run.loads, moved)
+            if code != REFACTOR:
                 break
             try:
-                lu = system.slu.factor(self._matrix(run, x, q, lam))
-                phi = system.work.PHI - system.model.joints.eps * run.mu
-                dR, muR = system.solve(lu, -r, -phi)
-                dlam = 0.0
-                if normal is not None:
-                    dF, muF = system.solve(lu, F, np.zeros_like(phi))
-                    den = normal[:-1] @ self._scaled(run, dF) + normal[-1]
-                    dlam = -(normal[:-1] @ self._scaled(run, dR)) / den
-                    if not np.isfinite(dlam):
-                        return SINGULAR, lam, moved
-                    dR += dlam * dF
-                    muR += dlam * muF
+                slu.factor(system.pattern.assembled)
             except SingularMatrix:
-                return SINGULAR, lam, moved
-            delta = dR
-            x += delta[:, :3]
-            compose(q, np.ascontiguousarray(delta[:, 3:]), q_new, tmp)
-            q[:] = q_new
-            run.mu += muR
-            lam += dlam
-            moved[:-1] += self._scaled(run, delta)
-            moved[-1] += dlam
-        return NO_CONVERGENCE, lam, moved
+                code = SINGULAR
+                break
+            par[RESUME] = 1.0
+        corrections = int(par[CORRECTIONS])
+        run.history = list(run.hist[: corrections + 1])
+        run.U = par[ENERGY]
+        if code == OK:
+            run.iterations = corrections
+        return code, par[LAMBDA], moved
 
     def _tangent(self, run, x, q, lam):
         """The tangent ``(δ_F (N,6), μ_F)``: ``K δ_F = F`` at the converged point (raises SingularMatrix)."""

@@ -1,6 +1,7 @@
-"""The compiled full-Newton loop of the static algorithm (:mod:`reference.algorithms.static`).
+"""The compiled full-Newton loops of the static algorithm (:mod:`reference.algorithms.static`) and of the
+arc-length corrector (:mod:`reference.algorithms.arc_length`).
 
-One call of :func:`static_newton` solves a load level: evaluate the residual, test it, assemble the
+One call of :func:`static_newton` solves a load level (of :func:`arc_newton`, a corrector): evaluate the residual, test it, assemble the
 Newton matrix's values, scatter them into the CSC data of its fixed pattern
 (:class:`reference.linalg.BlockPattern`), refactor numerically with the kept permutations
 (:func:`reference.linalg.refactor`), solve (:func:`reference.linalg.lu_solve`) and update the
@@ -134,12 +135,20 @@ def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr,
 def _balanced(S, F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L):
     """Equilibrium: every free residual force below ``tol`` times the largest internal, external or joint
     force ``Bᵀλ`` (into ``rows``), and ``|Φ − ελ|`` below ``tol × L``."""
-    scale = 0.0
     big_F = 0.0
+    for i in range(F.shape[0]):
+        for k in range(6):
+            big_F = max(big_F, abs(F[i, k]))
+    return _balanced_scaled(S, big_F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L)
+
+
+@kernel
+def _balanced_scaled(S, big_F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L):
+    """:func:`_balanced` with the external forces' scale ``big_F`` given (the arc length's ``|λ| max |F|``)."""
+    scale = 0.0
     for i in range(S.shape[0]):
         for k in range(6):
             scale = max(scale, abs(S[i, k]))
-            big_F = max(big_F, abs(F[i, k]))
     scale = max(scale, big_F, 1e-300)
     m = lam.shape[0]
     if m > 0:
@@ -219,3 +228,172 @@ def tangent_sign(Ap, Ai, Ax, dense):
         return 2.0
     sign, _ = np.linalg.slogdet(dense)
     return sign
+
+
+BORDERED, LAMBDA = 10, 11
+"""Further slots of :func:`arc_newton`'s ``par`` (beside those of :func:`static_newton`; TANGENT and SIGN
+unused): 1 when the load factor is an unknown on the normal plane (in), the load factor λ (in/out)."""
+
+
+@kernel
+def arc_newton(model, x, q, mu, t_end, dof, factors, csc, wt, tangent_work, arr, par, hist, normal, weights,
+               follower, moved):
+    """The arc-length corrector (:meth:`reference.algorithms.arc_length.ArcLength._correct`), compiled: full
+    Newton on ``R = S − λF + Bᵀμ = 0``, ``Φ − εμ = 0`` at ``t_end`` from ``(x, q, μ, λ = par[LAMBDA])``, in
+    place; with ``par[BORDERED] = 1`` λ is an unknown on the plane of the unit ``normal`` (n_free + 1,
+    scaled: translations × ``weights``), solved by bordering: ``K δ_R = −R``, ``K δ_F = F``,
+    ``Δλ = −nᵀδ_R / (nᵀδ_F + n_λ)`` (docs/formulation.md §12).  ``moved`` (n_free + 1) accumulates the
+    scaled corrections and Δλ.  The balance test is the static one with the external forces' scale
+    ``|λ| max |F|``; the Newton matrix's configuration-dependent load blocks, assembled at λ = 1, are scaled
+    to λ (``follower`` = (node, code 1 force / 2 moment, f(t_end), vector (k, 3)) of the follower forces and
+    dead moments).  ``arr`` = ``(rhs, sol, δ (N, 6), δθ (N, 3), q_new, tmp4, row forces (N, 6), sol_F,
+    δ_F (N, 6), scaled (n_free), scaled_F (n_free), r (N, 6))``; the other arguments and the return codes
+    are :func:`static_newton`'s (SINGULAR also for a non-finite Δλ); ``par[CORRECTIONS]`` the corrections.
+    """
+    mdl = named(model, Model)
+    Ap, Ai, Ax, inv_perm_c, w_lu, work, rs, cs, slot, keep, values = csc
+    small, K12, Kel, psi, _ = tangent_work
+    rhs, sol, delta, dth, q_new, tmp, rows, solF, dF, sc, scF, reff = arr
+    f_node, f_code, f_val, f_vec = follower
+    S, F, r, PHI = wt[0], wt[1], wt[2], wt[3]
+    Bl = wt[5]
+    eps = mdl.joints.eps
+    jt_i, jt_j, jt_row0, jt_neq = mdl.joints.i, mdl.joints.j, mdl.joints.row0, mdl.joints.neq
+    tol, L, max_it = par[TOLERANCE], par[LENGTH], int(par[MAX_ITERATIONS])
+    N, m = x.shape[0], mu.shape[0]
+    n_free = rhs.shape[0] - m
+    while True:
+        it = int(par[CORRECTIONS])
+        lam = par[LAMBDA]
+        if par[RESUME] != 1.0:
+            par[ENERGY] = evaluate(model, x, q, x, x, x, mu, t_end, False, wt)
+            size2 = 0.0
+            for i in range(N):
+                for k in range(6):
+                    reff[i, k] = r[i, k] + (1.0 - lam) * F[i, k]
+                    if dof[i, k] >= 0:
+                        size2 += reff[i, k] * reff[i, k]
+            hist[it] = math.sqrt(size2)
+            if not math.isfinite(hist[it]):
+                return DIVERGED
+            big_F = 0.0
+            for i in range(N):
+                for k in range(6):
+                    big_F = max(big_F, abs(F[i, k]))
+            if _balanced_scaled(S, abs(lam) * big_F, reff, PHI, Bl, mu, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows,
+                                tol, L) or (it > 0 and _correction_size(delta, L) <= tol):
+                return OK
+            if it == max_it:
+                return NO_CONVERGENCE
+            tangent_values(model, x, q, x, psi, t_end, mu, 0.0, 0.0, 1.0, 1.0, values, wt, small, K12, Kel)
+            if lam != 1.0:
+                _scale_load_blocks(values, q, lam, f_node, f_code, f_val, f_vec)
+            _scatter(Ax, slot, keep, values)
+            if par[FACTORED] != 1.0:
+                return REFACTOR
+            code = refactor(factors, Ap, Ai, Ax, inv_perm_c, w_lu, par[THRESHOLD], rs, cs)
+            if code == 1:
+                return REFACTOR
+            if code == 2:
+                return SINGULAR
+        par[RESUME] = 0.0
+        for i in range(N):
+            for k in range(6):
+                if dof[i, k] >= 0:
+                    rhs[dof[i, k]] = -reff[i, k]
+        for k in range(m):
+            rhs[n_free + k] = -(PHI[k] - eps[k] * mu[k])
+        if not _solve(factors, rhs, work, sol, dof, delta):
+            return SINGULAR
+        dlam = 0.0
+        if par[BORDERED] == 1.0:
+            for i in range(N):
+                for k in range(6):
+                    if dof[i, k] >= 0:
+                        rhs[dof[i, k]] = F[i, k]
+            for k in range(m):
+                rhs[n_free + k] = 0.0
+            if not _solve(factors, rhs, work, solF, dof, dF):
+                return SINGULAR
+            _scaled(delta, dof, weights, sc)
+            _scaled(dF, dof, weights, scF)
+            n_u = normal[:-1]
+            den = np.dot(n_u, scF) + normal[-1]
+            dlam = -np.dot(n_u, sc) / den
+            if not math.isfinite(dlam):
+                return SINGULAR
+            for i in range(N):
+                for k in range(6):
+                    delta[i, k] += dlam * dF[i, k]
+            for k in range(m):
+                sol[n_free + k] += dlam * solF[n_free + k]
+        for i in range(N):
+            for k in range(3):
+                x[i, k] += delta[i, k]
+                dth[i, k] = delta[i, 3 + k]
+        compose(q, dth, q_new, tmp)
+        for i in range(N):
+            for k in range(4):
+                q[i, k] = q_new[i, k]
+        for k in range(m):
+            mu[k] += sol[n_free + k]
+        par[LAMBDA] = lam + dlam
+        _scaled(delta, dof, weights, sc)
+        for k in range(n_free):
+            moved[k] += sc[k]
+        moved[n_free] += dlam
+        par[CORRECTIONS] = it + 1
+
+
+@kernel
+def _solve(factors, rhs, work, sol, dof, out):
+    """``sol`` of the factored system and its node part ``out`` (N, 6), zero where fixed; false when not finite."""
+    lu_solve(factors, rhs, work, sol)
+    for k in range(sol.shape[0]):
+        if not math.isfinite(sol[k]):
+            return False
+    for i in range(out.shape[0]):
+        for k in range(6):
+            out[i, k] = sol[dof[i, k]] if dof[i, k] >= 0 else 0.0
+    return True
+
+
+@kernel
+def _scaled(d, dof, weights, out):
+    """The free coordinates of ``d`` (N, 6) in the path norm's units: ``d[free] × weights``."""
+    for i in range(d.shape[0]):
+        for k in range(6):
+            if dof[i, k] >= 0:
+                out[dof[i, k]] = d[i, k] * weights[dof[i, k]]
+
+
+@kernel
+def _scale_load_blocks(values, q, lam, f_node, f_code, f_val, f_vec):
+    """The follower forces' and dead moments' load-tangent blocks (written at λ = 1) scaled to λ:
+    a follower force ``F = R f``: ``∂F/∂δθ = −R [f×]``; a dead moment ``F_θ = Rᵀ M``: ``∂F_θ/∂δθ = [(RᵀM)×]``."""
+    R = np.empty((3, 3))
+    Sk = np.empty((3, 3))
+    for k in range(f_node.shape[0]):
+        n = f_node[k]
+        w, a, b, c = q[n, 0], q[n, 1], q[n, 2], q[n, 3]
+        R[0, 0], R[0, 1], R[0, 2] = 1 - 2 * (b * b + c * c), 2 * (a * b - w * c), 2 * (a * c + w * b)
+        R[1, 0], R[1, 1], R[1, 2] = 2 * (a * b + w * c), 1 - 2 * (a * a + c * c), 2 * (b * c - w * a)
+        R[2, 0], R[2, 1], R[2, 2] = 2 * (a * c - w * b), 2 * (b * c + w * a), 1 - 2 * (a * a + b * b)
+        if f_code[k] == 1:
+            _skew(f_vec[k], Sk)
+            block = (-R) @ Sk
+            r0 = 0
+        else:
+            _skew(np.ascontiguousarray(R.T) @ f_vec[k], Sk)
+            block = Sk
+            r0 = 3
+        for i in range(3):
+            for j in range(3):
+                values[36 * n + 6 * (r0 + i) + 3 + j] -= (lam - 1.0) * f_val[k] * block[i, j]
+
+
+@kernel
+def _skew(v, out):
+    out[0, 0], out[0, 1], out[0, 2] = 0.0, -v[2], v[1]
+    out[1, 0], out[1, 1], out[1, 2] = v[2], 0.0, -v[0]
+    out[2, 0], out[2, 1], out[2, 2] = -v[1], v[0], 0.0
