@@ -52,13 +52,12 @@ import numpy as np
 
 from reference.algorithms.critical_points import CriticalPoints
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
-from reference.algorithms.newton_steps import (BORDERED, CORRECTIONS, ENERGY, FACTORED, LAMBDA, LENGTH,
-                                               MAX_ITERATIONS, NO_FACTOR, RESUME, THRESHOLD, TOLERANCE, arc_newton)
+from reference.algorithms.newton_steps import BORDERED, ENERGY, LAMBDA, NewtonArrays, arc_newton
 from reference.algorithms.static import _row_forces
 from reference.interactions import tf_value
 from reference.linalg import SingularMatrix
 from reference.observables import ObservableError, _Names, parse
-from reference.status import NO_CONVERGENCE, OK, REFACTOR, SINGULAR
+from reference.status import NO_CONVERGENCE, OK, SINGULAR
 
 MAX_CUTS = 10
 """Halvings of the arc length before the run stops (smallest arc 1/1024 of the one that failed)."""
@@ -114,12 +113,7 @@ class ArcRun:
     follower: list = field(default_factory=list)
     recorded: tuple = (0.0, 0.0, 0, -1)
     controlled: int = -1
-    par: np.ndarray | None = None
-    csc: tuple = ()
-    scatter: tuple = ()
-    tangent_work: tuple = ()
-    arrays: tuple = ()
-    hist: np.ndarray | None = None
+    newton: NewtonArrays | None = None
     no_plane: np.ndarray | None = None
     loads: tuple = ()
 
@@ -220,17 +214,8 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         """The compiled corrector's arrays (:func:`reference.algorithms.newton_steps.arc_newton`)."""
         system = run.system
         n, nf = system.pattern.n, system.n_free
-        run.par = np.zeros(12)
-        run.par[TOLERANCE], run.par[LENGTH], run.par[MAX_ITERATIONS] = self.tolerance, run.L, self.max_iterations
-        run.par[THRESHOLD] = system.slu.PIVOT_THRESHOLD
-        A = system.pattern.assembled
-        run.csc = (A.indptr, A.indices, A.data)
-        run.scatter = (system.pattern.slot, system.pattern.keep, system.work.values)
-        wk = system.work
-        run.tangent_work = (wk.small, wk.K12, wk.Kel, system.zero_psi, np.zeros((0, 0)))
-        run.arrays = (np.zeros(n), np.zeros(n), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4),
-                      np.zeros((N, 6)), np.zeros(n), np.zeros((N, 6)), np.zeros(nf), np.zeros(nf), np.zeros((N, 6)))
-        run.hist = np.zeros(self.max_iterations + 1)
+        run.newton = NewtonArrays(system, self.tolerance, run.L, self.max_iterations, 12,
+                                  extra=(np.zeros(n), np.zeros((N, 6)), np.zeros(nf), np.zeros(nf), np.zeros((N, 6))))
         run.no_plane = np.zeros(nf + 1)
         tf = system.model.time_functions
         run.loads = (np.array([f[0] for f in run.follower], dtype=np.int64),
@@ -276,31 +261,18 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         fixed.  Returns ``(status, λ, Σ scaled corrections incl. Δλ)``.  The iterations run compiled
         (:func:`reference.algorithms.newton_steps.arc_newton`); Python makes only the SuperLU factorisations
         it asks for (the first, and after the kept pivots went bad) and resumes it."""
-        system, par = run.system, run.par
-        slu = system.slu
+        system, nw = run.system, run.newton
+        par = nw.par
         moved = np.zeros(system.n_free + 1)
-        par[CORRECTIONS], par[RESUME], par[LAMBDA] = 0.0, 0.0, lam
-        par[BORDERED] = 0.0 if normal is None else 1.0
+        par[LAMBDA], par[BORDERED] = lam, 0.0 if normal is None else 1.0
         plane = run.no_plane if normal is None else np.ascontiguousarray(normal, dtype=float)
-        while True:
-            par[FACTORED] = 0.0 if slu.f is None else 1.0
-            code = arc_newton(system.arg, x, q, run.mu, self.t_end, system.dof, NO_FACTOR if slu.f is None else slu.f,
-                              (*run.csc, slu.inv_perm_c if slu.f is not None else NO_FACTOR[6], slu.w, slu.work,
-                               slu.rs, slu.cs, *run.scatter), system.wt, run.tangent_work, run.arrays, par,
-                              run.hist, plane, run.weights, run.loads, moved)
-            if code != REFACTOR:
-                break
-            try:
-                slu.factor(system.pattern.assembled)
-            except SingularMatrix:
-                code = SINGULAR
-                break
-            par[RESUME] = 1.0
-        corrections = int(par[CORRECTIONS])
-        run.history = list(run.hist[: corrections + 1])
+        code = nw.run(lambda factors, csc: arc_newton(system.arg, x, q, run.mu, self.t_end, system.dof, factors, csc,
+                                                      system.wt, nw.tangent_work, nw.arrays, par, nw.hist, plane,
+                                                      run.weights, run.loads, moved))
+        run.history = nw.history()
         run.U = par[ENERGY]
         if code == OK:
-            run.iterations = corrections
+            run.iterations = len(run.history) - 1
         return code, par[LAMBDA], moved
 
     def _tangent(self, run, x, q, lam):

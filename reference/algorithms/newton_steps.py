@@ -24,7 +24,7 @@ import numpy as np
 from reference.algorithms.implicit import compose, evaluate
 from reference.evaluation.tangent import tangent_values
 from reference.jit import kernel, named
-from reference.linalg import lu_solve, refactor
+from reference.linalg import SingularMatrix, lu_solve, refactor
 from reference.modal import SYMMETRY
 from reference.state import Model
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR
@@ -42,6 +42,49 @@ leave at the equilibrium for its stability count (in: 0 nothing, 1 the tangent, 
 sign of its determinant, :func:`tangent_sign`), that sign (out)."""
 
 
+class NewtonArrays:
+    """What a compiled Newton loop of one :class:`reference.algorithms.implicit.NewtonSystem` works in, made once
+    per run: ``par`` (the slots above; ``size`` of them), the CSC arrays and scatter of the Newton matrix, the
+    scratch of the tangent assembly, ``hist`` (max_iterations + 1) and the loop's own ``arrays``: ``(rhs, sol,
+    δ (N, 6), δθ (N, 3), q_new, tmp4, row forces (N, 6))`` and then ``extra``."""
+
+    def __init__(self, system, tolerance: float, L: float, max_iterations: int, size: int, dense=None, extra=()):
+        n, N = system.pattern.n, system.dof.shape[0]
+        self.system = system
+        self.par = np.zeros(size)
+        self.par[TOLERANCE], self.par[LENGTH], self.par[MAX_ITERATIONS] = tolerance, L, max_iterations
+        self.par[THRESHOLD] = system.slu.PIVOT_THRESHOLD
+        A, wk = system.pattern.assembled, system.work
+        self.csc = (A.indptr, A.indices, A.data)
+        self.scatter = (system.pattern.slot, system.pattern.keep, wk.values)
+        self.tangent_work = (wk.small, wk.K12, wk.Kel, system.zero_psi, np.zeros((0, 0)) if dense is None else dense)
+        self.arrays = (np.zeros(n), np.zeros(n), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4),
+                       np.zeros((N, 6)), *extra)
+        self.hist = np.zeros(max_iterations + 1)
+
+    def run(self, call) -> int:
+        """``call(factors, csc)`` (a compiled loop given its factor and CSC arrays) until it ends, with the
+        SuperLU factorisations it asks for (REFACTOR: the matrix it left assembled, then resumed); a status."""
+        slu, par = self.system.slu, self.par
+        par[CORRECTIONS], par[RESUME] = 0.0, 0.0
+        while True:
+            par[FACTORED] = 0.0 if slu.f is None else 1.0
+            csc = (*self.csc, NO_FACTOR[6] if slu.f is None else slu.inv_perm_c, slu.w, slu.work, slu.rs, slu.cs,
+                   *self.scatter)
+            code = call(NO_FACTOR if slu.f is None else slu.f, csc)
+            if code != REFACTOR:
+                return code
+            try:
+                slu.factor(self.system.pattern.assembled)
+            except SingularMatrix:
+                return SINGULAR
+            par[RESUME] = 1.0
+
+    def history(self) -> list:
+        """The residual norms of the last loop's evaluations."""
+        return list(self.hist[: int(self.par[CORRECTIONS]) + 1])
+
+
 @kernel
 def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr, par, hist):
     """Full Newton–Raphson at load level t from ``(x, q, λ)``, in place (docs/formulation.md §10).
@@ -50,10 +93,11 @@ def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr,
     internal, external or joint force, and ``|Φ − ελ|`` below ``tolerance × L``) or, after a correction,
     when the correction is below ``tolerance`` (translations over L, rotations in rad).  ``csc`` =
     ``(indptr, indices, data, inv_perm_c, w, work, rs, cs, slot, keep, values)``: the Newton matrix's
-    CSC arrays and the factor's scratch (``w`` the refactorisation's, zero between calls; ``work`` the solve's) (:class:`reference.linalg.SparseLU`), the pattern's scatter
-    (:class:`reference.linalg.BlockPattern`) and the block values; ``tangent_work`` = ``(small, K12,
-    Kel, ψ = 0 (N, 3), dense (n, n) for par[TANGENT] = 2)``; ``arr`` = ``(rhs, sol, δ (N, 6), δθ (N, 3), q_new, tmp4, row forces (N, 6))``; ``hist`` the
-    residual norms ``‖[r; Φ − ελ]‖`` of the evaluations (one per correction, plus the last).
+    CSC arrays, the factor's scratch (:class:`reference.linalg.SparseLU`; ``w`` the refactorisation's,
+    zero between calls, ``work`` the solve's), the pattern's scatter (:class:`reference.linalg.BlockPattern`)
+    and the block values; ``tangent_work`` = ``(small, K12, Kel, ψ = 0 (N, 3), dense (n, n) for
+    par[TANGENT] = 2)``; ``arr`` = ``(rhs, sol, δ (N, 6), δθ (N, 3), q_new, tmp4, row forces (N, 6))``;
+    ``hist`` the residual norms ``‖[r; Φ − ελ]‖`` of the evaluations (one per correction, plus the last).
 
     Returns OK, DIVERGED (non-finite residual), SINGULAR (a pivot below the equilibrated threshold or a
     non-finite correction), NO_CONVERGENCE (``max_iterations`` corrections) or REFACTOR (the kept pivot
@@ -61,7 +105,7 @@ def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr,
     it with SuperLU and call again with ``par[RESUME] = 1``).
     """
     mdl = named(model, Model)
-    Ap, Ai, Ax, inv_perm_c, w_lu, work, rs, cs, slot, keep, values = csc
+    Ap, Ai, Ax, work, slot, keep, values = csc[0], csc[1], csc[2], csc[5], csc[8], csc[9], csc[10]
     small, K12, Kel, psi, dense = tangent_work
     rhs, sol, delta, dth, q_new, tmp, rows = arr
     S, F, r, PHI = wt[0], wt[1], wt[2], wt[3]
@@ -69,20 +113,11 @@ def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr,
     eps = mdl.joints.eps
     jt_i, jt_j, jt_row0, jt_neq = mdl.joints.i, mdl.joints.j, mdl.joints.row0, mdl.joints.neq
     tol, L, max_it = par[TOLERANCE], par[LENGTH], int(par[MAX_ITERATIONS])
-    N, m = x.shape[0], lam.shape[0]
-    n_free = rhs.shape[0] - m
     while True:
         it = int(par[CORRECTIONS])
         if par[RESUME] != 1.0:
             par[ENERGY] = evaluate(model, x, q, x, x, x, lam, t, False, wt)
-            size2 = 0.0
-            for i in range(N):
-                for k in range(6):
-                    if dof[i, k] >= 0:
-                        size2 += r[i, k] * r[i, k]
-            for k in range(m):
-                size2 += (PHI[k] - eps[k] * lam[k]) ** 2
-            hist[it] = math.sqrt(size2)
+            hist[it] = _residual_norm(r, PHI, eps, lam, dof)
             if not math.isfinite(hist[it]):
                 return DIVERGED
             if _balanced(S, F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L) or \
@@ -97,38 +132,70 @@ def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr,
             if it == max_it:
                 return NO_CONVERGENCE
             tangent_values(model, x, q, x, psi, t, lam, 0.0, 0.0, 1.0, 1.0, values, wt, small, K12, Kel)
-            _scatter(Ax, slot, keep, values)
-            if par[FACTORED] != 1.0:
-                return REFACTOR
-            code = refactor(factors, Ap, Ai, Ax, inv_perm_c, w_lu, par[THRESHOLD], rs, cs)
-            if code == 1:
-                return REFACTOR
-            if code == 2:
-                return SINGULAR
+            code = _refactor_values(factors, csc, par)
+            if code != OK:
+                return code
         par[RESUME] = 0.0
-        for i in range(N):
-            for k in range(6):
-                if dof[i, k] >= 0:
-                    rhs[dof[i, k]] = -r[i, k]
-        for k in range(m):
-            rhs[n_free + k] = -(PHI[k] - eps[k] * lam[k])
-        lu_solve(factors, rhs, work, sol)
-        for k in range(sol.shape[0]):
-            if not math.isfinite(sol[k]):
-                return SINGULAR
-        for i in range(N):
-            for k in range(6):
-                delta[i, k] = sol[dof[i, k]] if dof[i, k] >= 0 else 0.0
-            for k in range(3):
-                x[i, k] += delta[i, k]
-                dth[i, k] = delta[i, 3 + k]
-        compose(q, dth, q_new, tmp)
-        for i in range(N):
-            for k in range(4):
-                q[i, k] = q_new[i, k]
-        for k in range(m):
-            lam[k] += sol[n_free + k]
+        _newton_rhs(r, PHI, eps, lam, dof, rhs)
+        if not _solve(factors, rhs, work, sol, dof, delta):
+            return SINGULAR
+        _update(x, q, lam, delta, sol, dth, q_new, tmp)
         par[CORRECTIONS] = it + 1
+
+
+@kernel
+def _residual_norm(r, PHI, eps, lam, dof):
+    """``‖[r; Φ − ελ]‖`` over the free coordinates."""
+    size2 = 0.0
+    for i in range(r.shape[0]):
+        for k in range(6):
+            if dof[i, k] >= 0:
+                size2 += r[i, k] * r[i, k]
+    for k in range(lam.shape[0]):
+        size2 += (PHI[k] - eps[k] * lam[k]) ** 2
+    return math.sqrt(size2)
+
+
+@kernel
+def _refactor_values(factors, csc, par):
+    """Scatter the block values into the CSC data and refactor with the kept permutations: OK, REFACTOR (no
+    factor yet, or a kept pivot below the threshold: SuperLU's turn) or SINGULAR."""
+    Ap, Ai, Ax, inv_perm_c, w_lu, work, rs, cs, slot, keep, values = csc
+    _scatter(Ax, slot, keep, values)
+    if par[FACTORED] != 1.0:
+        return REFACTOR
+    code = refactor(factors, Ap, Ai, Ax, inv_perm_c, w_lu, par[THRESHOLD], rs, cs)
+    return REFACTOR if code == 1 else SINGULAR if code == 2 else OK
+
+
+@kernel
+def _newton_rhs(r, PHI, eps, lam, dof, rhs):
+    """``rhs = −[r (free coordinates); Φ − ελ]``."""
+    m = lam.shape[0]
+    n_free = rhs.shape[0] - m
+    for i in range(r.shape[0]):
+        for k in range(6):
+            if dof[i, k] >= 0:
+                rhs[dof[i, k]] = -r[i, k]
+    for k in range(m):
+        rhs[n_free + k] = -(PHI[k] - eps[k] * lam[k])
+
+
+@kernel
+def _update(x, q, lam, delta, sol, dth, q_new, tmp):
+    """``x ← x + δx``, ``q ← q ⊗ exp(δθ)``, ``λ ← λ + μ`` (μ the tail of ``sol``)."""
+    N, m = x.shape[0], lam.shape[0]
+    n_free = sol.shape[0] - m
+    for i in range(N):
+        for k in range(3):
+            x[i, k] += delta[i, k]
+            dth[i, k] = delta[i, 3 + k]
+    compose(q, dth, q_new, tmp)
+    for i in range(N):
+        for k in range(4):
+            q[i, k] = q_new[i, k]
+    for k in range(m):
+        lam[k] += sol[n_free + k]
 
 
 @kernel
@@ -251,7 +318,7 @@ def arc_newton(model, x, q, mu, t_end, dof, factors, csc, wt, tangent_work, arr,
     are :func:`static_newton`'s (SINGULAR also for a non-finite Δλ); ``par[CORRECTIONS]`` the corrections.
     """
     mdl = named(model, Model)
-    Ap, Ai, Ax, inv_perm_c, w_lu, work, rs, cs, slot, keep, values = csc
+    work, values = csc[5], csc[10]
     small, K12, Kel, psi, _ = tangent_work
     rhs, sol, delta, dth, q_new, tmp, rows, solF, dF, sc, scF, reff = arr
     f_node, f_code, f_val, f_vec = follower
@@ -260,89 +327,92 @@ def arc_newton(model, x, q, mu, t_end, dof, factors, csc, wt, tangent_work, arr,
     eps = mdl.joints.eps
     jt_i, jt_j, jt_row0, jt_neq = mdl.joints.i, mdl.joints.j, mdl.joints.row0, mdl.joints.neq
     tol, L, max_it = par[TOLERANCE], par[LENGTH], int(par[MAX_ITERATIONS])
-    N, m = x.shape[0], mu.shape[0]
-    n_free = rhs.shape[0] - m
+    n_free = rhs.shape[0] - mu.shape[0]
     while True:
         it = int(par[CORRECTIONS])
         lam = par[LAMBDA]
         if par[RESUME] != 1.0:
             par[ENERGY] = evaluate(model, x, q, x, x, x, mu, t_end, False, wt)
-            size2 = 0.0
-            for i in range(N):
-                for k in range(6):
-                    reff[i, k] = r[i, k] + (1.0 - lam) * F[i, k]
-                    if dof[i, k] >= 0:
-                        size2 += reff[i, k] * reff[i, k]
-            hist[it] = math.sqrt(size2)
+            hist[it] = _load_residual(r, F, lam, dof, reff)
             if not math.isfinite(hist[it]):
                 return DIVERGED
-            big_F = 0.0
-            for i in range(N):
-                for k in range(6):
-                    big_F = max(big_F, abs(F[i, k]))
-            if _balanced_scaled(S, abs(lam) * big_F, reff, PHI, Bl, mu, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows,
-                                tol, L) or (it > 0 and _correction_size(delta, L) <= tol):
+            if _balanced_scaled(S, abs(lam) * _largest(F), reff, PHI, Bl, mu, eps, dof, jt_i, jt_j, jt_row0, jt_neq,
+                                rows, tol, L) or (it > 0 and _correction_size(delta, L) <= tol):
                 return OK
             if it == max_it:
                 return NO_CONVERGENCE
             tangent_values(model, x, q, x, psi, t_end, mu, 0.0, 0.0, 1.0, 1.0, values, wt, small, K12, Kel)
             if lam != 1.0:
                 _scale_load_blocks(values, q, lam, f_node, f_code, f_val, f_vec)
-            _scatter(Ax, slot, keep, values)
-            if par[FACTORED] != 1.0:
-                return REFACTOR
-            code = refactor(factors, Ap, Ai, Ax, inv_perm_c, w_lu, par[THRESHOLD], rs, cs)
-            if code == 1:
-                return REFACTOR
-            if code == 2:
-                return SINGULAR
+            code = _refactor_values(factors, csc, par)
+            if code != OK:
+                return code
         par[RESUME] = 0.0
-        for i in range(N):
-            for k in range(6):
-                if dof[i, k] >= 0:
-                    rhs[dof[i, k]] = -reff[i, k]
-        for k in range(m):
-            rhs[n_free + k] = -(PHI[k] - eps[k] * mu[k])
+        _newton_rhs(reff, PHI, eps, mu, dof, rhs)
         if not _solve(factors, rhs, work, sol, dof, delta):
             return SINGULAR
         dlam = 0.0
         if par[BORDERED] == 1.0:
-            for i in range(N):
-                for k in range(6):
-                    if dof[i, k] >= 0:
-                        rhs[dof[i, k]] = F[i, k]
-            for k in range(m):
-                rhs[n_free + k] = 0.0
-            if not _solve(factors, rhs, work, solF, dof, dF):
-                return SINGULAR
-            _scaled(delta, dof, weights, sc)
-            _scaled(dF, dof, weights, scF)
-            n_u = normal[:-1]
-            den = np.dot(n_u, scF) + normal[-1]
-            dlam = -np.dot(n_u, sc) / den
+            dlam = _bordered(factors, F, dof, weights, normal, rhs, work, sol, solF, delta, dF, sc, scF)
             if not math.isfinite(dlam):
                 return SINGULAR
-            for i in range(N):
-                for k in range(6):
-                    delta[i, k] += dlam * dF[i, k]
-            for k in range(m):
-                sol[n_free + k] += dlam * solF[n_free + k]
-        for i in range(N):
-            for k in range(3):
-                x[i, k] += delta[i, k]
-                dth[i, k] = delta[i, 3 + k]
-        compose(q, dth, q_new, tmp)
-        for i in range(N):
-            for k in range(4):
-                q[i, k] = q_new[i, k]
-        for k in range(m):
-            mu[k] += sol[n_free + k]
+        _update(x, q, mu, delta, sol, dth, q_new, tmp)
         par[LAMBDA] = lam + dlam
         _scaled(delta, dof, weights, sc)
         for k in range(n_free):
             moved[k] += sc[k]
         moved[n_free] += dlam
         par[CORRECTIONS] = it + 1
+
+
+@kernel
+def _load_residual(r, F, lam, dof, reff):
+    """The residual at load factor λ of the residual ``r`` at λ = 1: ``r + (1 − λ) F`` into ``reff``; returns
+    its norm over the free coordinates."""
+    size2 = 0.0
+    for i in range(r.shape[0]):
+        for k in range(6):
+            reff[i, k] = r[i, k] + (1.0 - lam) * F[i, k]
+            if dof[i, k] >= 0:
+                size2 += reff[i, k] * reff[i, k]
+    return math.sqrt(size2)
+
+
+@kernel
+def _largest(F):
+    big = 0.0
+    for i in range(F.shape[0]):
+        for k in range(F.shape[1]):
+            big = max(big, abs(F[i, k]))
+    return big
+
+
+@kernel
+def _bordered(factors, F, dof, weights, normal, rhs, work, sol, solF, delta, dF, sc, scF):
+    """The load-factor correction on the normal plane: ``K δ_F = F``, ``Δλ = −nᵀδ_R / (nᵀδ_F + n_λ)`` (scaled
+    norm), and ``δ ← δ_R + Δλ δ_F``, ``μ ← μ_R + Δλ μ_F`` in ``delta`` and ``sol``; returns Δλ (NaN: singular)."""
+    m = rhs.shape[0] - sc.shape[0]
+    n_free = sc.shape[0]
+    for i in range(F.shape[0]):
+        for k in range(6):
+            if dof[i, k] >= 0:
+                rhs[dof[i, k]] = F[i, k]
+    for k in range(m):
+        rhs[n_free + k] = 0.0
+    if not _solve(factors, rhs, work, solF, dof, dF):
+        return math.nan
+    _scaled(delta, dof, weights, sc)
+    _scaled(dF, dof, weights, scF)
+    n_u = normal[:-1]
+    den = np.dot(n_u, scF) + normal[-1]
+    dlam = -np.dot(n_u, sc) / den
+    if math.isfinite(dlam):
+        for i in range(F.shape[0]):
+            for k in range(6):
+                delta[i, k] += dlam * dF[i, k]
+        for k in range(m):
+            sol[n_free + k] += dlam * solF[n_free + k]
+    return dlam
 
 
 @kernel

@@ -46,12 +46,11 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, relative_rotation
-from reference.algorithms.newton_steps import (CORRECTIONS, ENERGY, FACTORED, LENGTH, MAX_ITERATIONS, NO_FACTOR,
-                                               RESUME, SIGN, TANGENT, THRESHOLD, TOLERANCE, static_newton)
+from reference.algorithms.newton_steps import ENERGY, SIGN, TANGENT, NewtonArrays, static_newton
 from reference.algorithms.step_control import SolverStatistics
-from reference.linalg import SingularMatrix, null_space
+from reference.linalg import null_space
 from reference.modal import SMALL, nearest_zero, negative_eigenvalues
-from reference.status import OK, REFACTOR, SINGULAR
+from reference.status import OK
 from reference.validation import ModelWarning
 
 MAX_CUTS = 8
@@ -92,12 +91,7 @@ class StaticRun:
     stats: SolverStatistics = field(default_factory=SolverStatistics)
     h: float = 0.0
     row: dict = field(default_factory=dict)
-    par: np.ndarray | None = None
-    csc: tuple = ()
-    scatter: tuple = ()
-    tangent_work: tuple = ()
-    arrays: tuple = ()
-    hist: np.ndarray | None = None
+    newton: NewtonArrays | None = None
     dense: bool = False
 
 
@@ -136,19 +130,10 @@ class Static(ImplicitAlgorithm):
         compiled Newton loop's arrays."""
         system = self.newton_system(model)
         run = StaticRun(system, np.zeros(model.n_constraints), self.length_scale(state.x))
-        n, N = system.pattern.n, state.x.shape[0]
-        run.par = np.zeros(10)
-        run.par[TOLERANCE], run.par[LENGTH], run.par[MAX_ITERATIONS] = self.tolerance, run.L, self.max_iterations
-        run.par[THRESHOLD] = system.slu.PIVOT_THRESHOLD
-        A = system.pattern.assembled
-        run.csc = (A.indptr, A.indices, A.data)
-        run.scatter = (system.pattern.slot, system.pattern.keep, system.work.values)
-        wk = system.work
+        n = system.pattern.n
         run.dense = n == system.n_free and n <= SMALL  # the stability count's dense path (no constraints)
-        run.tangent_work = (wk.small, wk.K12, wk.Kel, system.zero_psi, np.zeros((n, n) if run.dense else (0, 0)))
-        run.arrays = (np.zeros(n), np.zeros(n), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4),
-                      np.zeros((N, 6)))
-        run.hist = np.zeros(self.max_iterations + 1)
+        run.newton = NewtonArrays(system, self.tolerance, run.L, self.max_iterations, 10,
+                                  np.zeros((n, n)) if run.dense else None)
         return run
 
     def _equilibrium(self, run, x, q, lam, t):
@@ -157,29 +142,15 @@ class Static(ImplicitAlgorithm):
         The iterations run compiled (:func:`reference.algorithms.newton_steps.static_newton`); Python
         makes only the SuperLU factorisations the kernel asks for (the first, and any after the kept
         pivots went bad) and resumes it."""
-        system, par = run.system, run.par
-        slu = system.slu
-        par[CORRECTIONS], par[RESUME] = 0.0, 0.0
+        system, nw = run.system, run.newton
+        par = nw.par
         # the stability count's tangent is assembled at the equilibrium, and the sign of its determinant
         # computed there when that is all the count needs (negative_eigenvalues' known-count path)
         par[TANGENT], par[SIGN] = (2.0 if run.dense and run.negative >= 0 else 1.0), 3.0
-        while True:
-            par[FACTORED] = 0.0 if slu.f is None else 1.0
-            code = static_newton(system.arg, x, q, lam, t, system.dof, NO_FACTOR if slu.f is None else slu.f,
-                                 (*run.csc, slu.inv_perm_c if slu.f is not None else NO_FACTOR[6], slu.w, slu.work,
-                                  slu.rs, slu.cs, *run.scatter), system.wt, run.tangent_work, run.arrays, par,
-                                 run.hist)
-            if code != REFACTOR:
-                break
-            try:
-                slu.factor(system.pattern.assembled)
-            except SingularMatrix:
-                code = SINGULAR
-                break
-            par[RESUME] = 1.0
-        corrections = int(par[CORRECTIONS])
-        run.stats.iterations += corrections
-        run.history = list(run.hist[: corrections + 1])
+        code = nw.run(lambda factors, csc: static_newton(system.arg, x, q, lam, t, system.dof, factors, csc, system.wt,
+                                                         nw.tangent_work, nw.arrays, par, nw.hist))
+        run.history = nw.history()
+        run.stats.iterations += len(run.history) - 1
         if code == OK:
             run.U = par[ENERGY]
         return code
@@ -277,7 +248,7 @@ class Static(ImplicitAlgorithm):
         """The inertia of the reduced tangent at the equilibrium just reached (the last evaluation is at it);
         a change from the previous equilibrium becomes an event and a warning."""
         system = run.system
-        sign = run.par[SIGN]
+        sign = run.newton.par[SIGN]
         if sign in (-1.0, 0.0, 1.0) and int(sign) == run.sign:
             # a non-symmetric tangent whose determinant kept its sign: the count is the previous one
             # (negative_eigenvalues with known = (count, sign), its sign from the compiled loop)
