@@ -1,6 +1,7 @@
-"""The static algorithm's compiled Newton loop (reference/algorithms/newton_steps.py) against the
-Python loop it replaced, written out here as the oracle: the same iterates bit for bit, through the
-REFACTOR path (a fresh SuperLU factorisation when the kept pivot order fails) too.
+"""The compiled Newton loop of the static algorithm and of the arc-length corrector
+(reference/algorithms/newton_steps.py) against the Python loops it replaced, written out here as the
+oracles: the same iterates bit for bit, through the REFACTOR path (a fresh SuperLU factorisation when the
+kept pivot order fails) too.
 """
 
 from __future__ import annotations

@@ -52,7 +52,7 @@ import numpy as np
 
 from reference.algorithms.critical_points import CriticalPoints
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
-from reference.algorithms.newton_steps import BORDERED, ENERGY, LAMBDA, NewtonArrays, arc_newton
+from reference.algorithms.newton_steps import ENERGY, LAMBDA, NewtonArrays
 from reference.algorithms.static import _row_forces
 from reference.interactions import tf_value
 from reference.linalg import SingularMatrix
@@ -114,8 +114,6 @@ class ArcRun:
     recorded: tuple = (0.0, 0.0, 0, -1)
     controlled: int = -1
     newton: NewtonArrays | None = None
-    no_plane: np.ndarray | None = None
-    loads: tuple = ()
 
 
 class ArcLength(CriticalPoints, ImplicitAlgorithm):
@@ -207,21 +205,20 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             run.controlled = int(np.sum(system.free.ravel()[:6 * node + comp]))
         run.follower = [(int(loads.node[k]), int(loads.code[k]), int(loads.tf[k]), np.array(loads.vec[k]))
                         for k in range(loads.node.shape[0]) if loads.code[k] in (1, 2)]
-        self._compiled_arrays(run, state.x.shape[0])
+        self._compiled_arrays(run)
         return run
 
-    def _compiled_arrays(self, run, N) -> None:
-        """The compiled corrector's arrays (:func:`reference.algorithms.newton_steps.arc_newton`)."""
+    def _compiled_arrays(self, run) -> None:
+        """The compiled corrector's arrays (:func:`reference.algorithms.newton_steps.newton_loop`), with the
+        follower loads' values at ``t_end``."""
         system = run.system
-        n, nf = system.pattern.n, system.n_free
-        run.newton = NewtonArrays(system, self.tolerance, run.L, self.max_iterations, 12,
-                                  extra=(np.zeros(n), np.zeros((N, 6)), np.zeros(nf), np.zeros(nf), np.zeros((N, 6))))
-        run.no_plane = np.zeros(nf + 1)
         tf = system.model.time_functions
-        run.loads = (np.array([f[0] for f in run.follower], dtype=np.int64),
-                     np.array([f[1] for f in run.follower], dtype=np.int64),
-                     np.array([tf_value(tf.kind[f[2]], tf.par[f[2]], self.t_end) for f in run.follower], dtype=float),
-                     np.array([f[3] for f in run.follower], dtype=float).reshape(-1, 3))
+        follower = (np.array([f[0] for f in run.follower], dtype=np.int64),
+                    np.array([f[1] for f in run.follower], dtype=np.int64),
+                    np.array([tf_value(tf.kind[f[2]], tf.par[f[2]], self.t_end) for f in run.follower], dtype=float),
+                    np.array([f[3] for f in run.follower], dtype=float).reshape(-1, 3))
+        run.newton = NewtonArrays(system, self.tolerance, run.L, self.max_iterations, weights=run.weights,
+                                  follower=follower)
 
     def _scaled(self, run, delta):
         """The free coordinates of an (N, 6) increment in the scaled norm's units."""
@@ -259,16 +256,13 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         """Newton from ``(x, q, run.mu, λ)`` in place; with ``normal`` (scaled, unit: the predictor's
         direction, its last entry the λ part) the load factor is an unknown on the normal plane, else λ is
         fixed.  Returns ``(status, λ, Σ scaled corrections incl. Δλ)``.  The iterations run compiled
-        (:func:`reference.algorithms.newton_steps.arc_newton`); Python makes only the SuperLU factorisations
+        (:func:`reference.algorithms.newton_steps.newton_loop`); Python makes only the SuperLU factorisations
         it asks for (the first, and after the kept pivots went bad) and resumes it."""
-        system, nw = run.system, run.newton
+        nw = run.newton
         par = nw.par
-        moved = np.zeros(system.n_free + 1)
-        par[LAMBDA], par[BORDERED] = lam, 0.0 if normal is None else 1.0
-        plane = run.no_plane if normal is None else np.ascontiguousarray(normal, dtype=float)
-        code = nw.run(lambda factors, csc: arc_newton(system.arg, x, q, run.mu, self.t_end, system.dof, factors, csc,
-                                                      system.wt, nw.tangent_work, nw.arrays, par, nw.hist, plane,
-                                                      run.weights, run.loads, moved))
+        moved = np.zeros(run.system.n_free + 1)
+        par[LAMBDA] = lam
+        code = nw.solve(x, q, run.mu, self.t_end, normal, moved)
         run.history = nw.history()
         run.U = par[ENERGY]
         if code == OK:

@@ -1,7 +1,7 @@
-"""The compiled full-Newton loops of the static algorithm (:mod:`reference.algorithms.static`) and of the
+"""The compiled full-Newton loop of the static algorithm (:mod:`reference.algorithms.static`) and of the
 arc-length corrector (:mod:`reference.algorithms.arc_length`).
 
-One call of :func:`static_newton` solves a load level (of :func:`arc_newton`, a corrector): evaluate the residual, test it, assemble the
+One call of :func:`newton_loop` solves a load level, or makes a corrector: evaluate the residual, test it, assemble the
 Newton matrix's values, scatter them into the CSC data of its fixed pattern
 (:class:`reference.linalg.BlockPattern`), refactor numerically with the kept permutations
 (:func:`reference.linalg.refactor`), solve (:func:`reference.linalg.lu_solve`) and update the
@@ -33,25 +33,30 @@ NO_FACTOR = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros
              np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
 """Empty factor arrays, passed before the first factorisation (the kernel asks for one at once)."""
 
-TOLERANCE, LENGTH, MAX_ITERATIONS, CORRECTIONS, RESUME, ENERGY, THRESHOLD, FACTORED, TANGENT, SIGN = range(10)
-"""Slots of :func:`static_newton`'s ``par``: the Newton tolerance, the model size L [m], the iteration
-limit, the corrections made at this level (in/out), 1 to resume with a fresh factor of the matrix left
-assembled (in; cleared), the strain energy of the last evaluation (out), the pivot threshold of the kept
-pivot order (:attr:`reference.linalg.SparseLU.PIVOT_THRESHOLD`), 1 when a factor exists (in), what to
-leave at the equilibrium for its stability count (in: 0 nothing, 1 the tangent, 2 the tangent and the
-sign of its determinant, :func:`tangent_sign`), that sign (out)."""
+(TOLERANCE, LENGTH, MAX_ITERATIONS, CORRECTIONS, RESUME, ENERGY, THRESHOLD, FACTORED, TANGENT, SIGN, BORDERED,
+ LAMBDA) = range(12)
+"""Slots of :func:`newton_loop`'s ``par``: the Newton tolerance, the model size L [m], the iteration limit,
+the corrections made (in/out), 1 to resume with a fresh factor of the matrix left assembled (in; cleared),
+the strain energy of the last evaluation (out), the pivot threshold of the kept pivot order
+(:attr:`reference.linalg.SparseLU.PIVOT_THRESHOLD`), 1 when a factor exists (in), what to leave at the
+equilibrium for the static stability count (in: 0 nothing, 1 the tangent, 2 the tangent and the sign of its
+determinant, :func:`tangent_sign`), that sign (out), 1 when the load factor is an unknown on a normal plane
+(arc length; in), the load factor λ (1 for the static algorithm; in/out)."""
 
 
 class NewtonArrays:
-    """What a compiled Newton loop of one :class:`reference.algorithms.implicit.NewtonSystem` works in, made once
-    per run: ``par`` (the slots above; ``size`` of them), the CSC arrays and scatter of the Newton matrix, the
-    scratch of the tangent assembly, ``hist`` (max_iterations + 1) and the loop's own ``arrays``: ``(rhs, sol,
-    δ (N, 6), δθ (N, 3), q_new, tmp4, row forces (N, 6))`` and then ``extra``."""
+    """What :func:`newton_loop` works in for one :class:`reference.algorithms.implicit.NewtonSystem`, made once
+    per run: ``par`` (the slots above), the CSC arrays and scatter of the Newton matrix, the scratch of the
+    tangent assembly (``dense`` (n, n) for the static stability sign, else empty), ``hist``
+    (max_iterations + 1), the loop's ``arrays`` and, for a path, the scaled norm's ``weights`` (n_free) and the
+    follower loads ``follower`` (node, code 1 force / 2 moment, f, vector (k, 3)), none by default."""
 
-    def __init__(self, system, tolerance: float, L: float, max_iterations: int, size: int, dense=None, extra=()):
-        n, N = system.pattern.n, system.dof.shape[0]
+    def __init__(self, system, tolerance: float, L: float, max_iterations: int, dense=None, weights=None,
+                 follower=None):
+        n, N, nf = system.pattern.n, system.dof.shape[0], system.n_free
         self.system = system
-        self.par = np.zeros(size)
+        self.par = np.zeros(12)
+        self.par[LAMBDA] = 1.0
         self.par[TOLERANCE], self.par[LENGTH], self.par[MAX_ITERATIONS] = tolerance, L, max_iterations
         self.par[THRESHOLD] = system.slu.PIVOT_THRESHOLD
         A, wk = system.pattern.assembled, system.work
@@ -59,8 +64,24 @@ class NewtonArrays:
         self.scatter = (system.pattern.slot, system.pattern.keep, wk.values)
         self.tangent_work = (wk.small, wk.K12, wk.Kel, system.zero_psi, np.zeros((0, 0)) if dense is None else dense)
         self.arrays = (np.zeros(n), np.zeros(n), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4),
-                       np.zeros((N, 6)), *extra)
+                       np.zeros((N, 6)), np.zeros(n), np.zeros((N, 6)), np.zeros(nf), np.zeros(nf), np.zeros((N, 6)))
         self.hist = np.zeros(max_iterations + 1)
+        self.weights = np.ones(nf) if weights is None else weights
+        self.follower = follower if follower is not None else (np.zeros(0, np.int64), np.zeros(0, np.int64),
+                                                               np.zeros(0), np.zeros((0, 3)))
+        self.plane = np.zeros(nf + 1)  # the normal of a corrector without one (not read)
+        self.moved = np.zeros(nf + 1)  # the path increment of a static solve (not read)
+
+    def solve(self, x, q, lam, t, normal=None, moved=None) -> int:
+        """:func:`newton_loop` from ``(x, q, λ)`` at t (load factor ``par[LAMBDA]``) in place, on the plane of
+        ``normal`` when given (``par[BORDERED]``), accumulating the scaled corrections into ``moved``; a status."""
+        system, par = self.system, self.par
+        par[BORDERED] = 0.0 if normal is None else 1.0
+        plane = self.plane if normal is None else np.ascontiguousarray(normal, dtype=float)
+        moved = self.moved if moved is None else moved
+        return self.run(lambda factors, csc: newton_loop(system.arg, x, q, lam, t, system.dof, factors, csc, system.wt,
+                                                         self.tangent_work, self.arrays, par, self.hist, plane,
+                                                         self.weights, self.follower, moved))
 
     def run(self, call) -> int:
         """``call(factors, csc)`` (a compiled loop given its factor and CSC arrays) until it ends, with the
@@ -86,42 +107,52 @@ class NewtonArrays:
 
 
 @kernel
-def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr, par, hist):
-    """Full Newton–Raphson at load level t from ``(x, q, λ)``, in place (docs/formulation.md §10).
+def newton_loop(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr, par, hist, normal, weights,
+                follower, moved):
+    """Full Newton–Raphson on ``S − Λ F + Bᵀλ = 0``, ``Φ − ελ = 0`` at time (load factor) t from
+    ``(x, q, λ)``, in place (docs/formulation.md §10, §12), Λ = ``par[LAMBDA]`` the arc length's load factor
+    (1 for the static algorithm: the residual of the evaluation as it is).
 
-    Converged when the residual is balanced (every residual force below ``tolerance`` times the largest
-    internal, external or joint force, and ``|Φ − ελ|`` below ``tolerance × L``) or, after a correction,
-    when the correction is below ``tolerance`` (translations over L, rotations in rad).  ``csc`` =
-    ``(indptr, indices, data, inv_perm_c, w, work, rs, cs, slot, keep, values)``: the Newton matrix's
-    CSC arrays, the factor's scratch (:class:`reference.linalg.SparseLU`; ``w`` the refactorisation's,
-    zero between calls, ``work`` the solve's), the pattern's scatter (:class:`reference.linalg.BlockPattern`)
-    and the block values; ``tangent_work`` = ``(small, K12, Kel, ψ = 0 (N, 3), dense (n, n) for
-    par[TANGENT] = 2)``; ``arr`` = ``(rhs, sol, δ (N, 6), δθ (N, 3), q_new, tmp4, row forces (N, 6))``;
-    ``hist`` the residual norms ``‖[r; Φ − ελ]‖`` of the evaluations (one per correction, plus the last).
+    Converged when the residual is balanced (every free residual force below ``tolerance`` times the largest
+    internal force, ``|Λ|`` times the largest external force or the largest joint force, and ``|Φ − ελ|``
+    below ``tolerance × L``) or, after a correction, when the correction is below ``tolerance``
+    (translations over L, rotations in rad).  With ``par[BORDERED] = 1`` Λ is an unknown on the plane of
+    the unit ``normal`` (n_free + 1, scaled: translations × ``weights``), solved by bordering (two solves
+    with the one factor, :func:`_bordered`); ``moved`` (n_free + 1) accumulates the scaled corrections and
+    ΔΛ.  At Λ ≠ 1 the configuration-dependent load blocks of the matrix, assembled at Λ = 1, are scaled to
+    Λ (``follower`` of :class:`NewtonArrays`).  ``csc`` = ``(indptr, indices, data, inv_perm_c, w, work,
+    rs, cs, slot, keep, values)``: the Newton matrix's CSC arrays, the factor's scratch
+    (:class:`reference.linalg.SparseLU`; ``w`` the refactorisation's, zero between calls, ``work`` the
+    solve's), the pattern's scatter (:class:`reference.linalg.BlockPattern`) and the block values;
+    ``tangent_work`` and ``arr`` as :class:`NewtonArrays` makes them; ``hist`` the residual norms
+    ``‖[R; Φ − ελ]‖`` of the evaluations (one per correction, plus the last).
 
-    Returns OK, DIVERGED (non-finite residual), SINGULAR (a pivot below the equilibrated threshold or a
-    non-finite correction), NO_CONVERGENCE (``max_iterations`` corrections) or REFACTOR (the kept pivot
-    order failed, or there is no factor yet: the matrix at the iterate is assembled in ``data``; factor
-    it with SuperLU and call again with ``par[RESUME] = 1``).
+    Returns OK, DIVERGED (non-finite residual), SINGULAR (a pivot below the equilibrated threshold, a
+    non-finite correction or ΔΛ), NO_CONVERGENCE (``max_iterations`` corrections) or REFACTOR (the kept
+    pivot order failed, or there is no factor yet: the matrix at the iterate is assembled in ``data``;
+    factor it with SuperLU and call again with ``par[RESUME] = 1``).
     """
     mdl = named(model, Model)
     Ap, Ai, Ax, work, slot, keep, values = csc[0], csc[1], csc[2], csc[5], csc[8], csc[9], csc[10]
     small, K12, Kel, psi, dense = tangent_work
-    rhs, sol, delta, dth, q_new, tmp, rows = arr
+    rhs, sol, delta, dth, q_new, tmp, rows, solF, dF, sc, scF, reff = arr
+    f_node, f_code, f_val, f_vec = follower
     S, F, r, PHI = wt[0], wt[1], wt[2], wt[3]
     Bl = wt[5]
     eps = mdl.joints.eps
     jt_i, jt_j, jt_row0, jt_neq = mdl.joints.i, mdl.joints.j, mdl.joints.row0, mdl.joints.neq
     tol, L, max_it = par[TOLERANCE], par[LENGTH], int(par[MAX_ITERATIONS])
+    n_free = rhs.shape[0] - lam.shape[0]
     while True:
         it = int(par[CORRECTIONS])
+        load = par[LAMBDA]
         if par[RESUME] != 1.0:
             par[ENERGY] = evaluate(model, x, q, x, x, x, lam, t, False, wt)
-            hist[it] = _residual_norm(r, PHI, eps, lam, dof)
+            hist[it] = _load_residual(r, F, PHI, eps, lam, load, dof, reff)
             if not math.isfinite(hist[it]):
                 return DIVERGED
-            if _balanced(S, F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L) or \
-                    (it > 0 and _correction_size(delta, L) <= tol):
+            if _balanced(S, abs(load) * _largest(F), reff, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq,
+                         rows, tol, L) or (it > 0 and _correction_size(delta, L) <= tol):
                 if par[TANGENT] > 0.0:
                     # the stability count's tangent at the equilibrium: [K Bᵀ; B 0] (c_e = 0) at zero velocity
                     tangent_values(model, x, q, psi, psi, t, lam, 0.0, 0.0, 1.0, 0.0, values, wt, small, K12, Kel)
@@ -132,25 +163,39 @@ def static_newton(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr,
             if it == max_it:
                 return NO_CONVERGENCE
             tangent_values(model, x, q, x, psi, t, lam, 0.0, 0.0, 1.0, 1.0, values, wt, small, K12, Kel)
+            if load != 1.0:
+                _scale_load_blocks(values, q, load, f_node, f_code, f_val, f_vec)
             code = _refactor_values(factors, csc, par)
             if code != OK:
                 return code
         par[RESUME] = 0.0
-        _newton_rhs(r, PHI, eps, lam, dof, rhs)
+        _newton_rhs(reff, PHI, eps, lam, dof, rhs)
         if not _solve(factors, rhs, work, sol, dof, delta):
             return SINGULAR
+        dload = 0.0
+        if par[BORDERED] == 1.0:
+            dload = _bordered(factors, F, dof, weights, normal, rhs, work, sol, solF, delta, dF, sc, scF)
+            if not math.isfinite(dload):
+                return SINGULAR
         _update(x, q, lam, delta, sol, dth, q_new, tmp)
+        par[LAMBDA] = load + dload
+        _scaled(delta, dof, weights, sc)
+        for k in range(n_free):
+            moved[k] += sc[k]
+        moved[n_free] += dload
         par[CORRECTIONS] = it + 1
 
 
 @kernel
-def _residual_norm(r, PHI, eps, lam, dof):
-    """``‖[r; Φ − ελ]‖`` over the free coordinates."""
+def _load_residual(r, F, PHI, eps, lam, load, dof, reff):
+    """The residual at load factor Λ = ``load`` of the evaluation's (at Λ = 1), ``r + (1 − Λ) F``, into
+    ``reff`` (``r`` itself at Λ = 1); returns ``‖[reff; Φ − ελ]‖`` over the free coordinates."""
     size2 = 0.0
     for i in range(r.shape[0]):
         for k in range(6):
+            reff[i, k] = r[i, k] if load == 1.0 else r[i, k] + (1.0 - load) * F[i, k]
             if dof[i, k] >= 0:
-                size2 += r[i, k] * r[i, k]
+                size2 += reff[i, k] * reff[i, k]
     for k in range(lam.shape[0]):
         size2 += (PHI[k] - eps[k] * lam[k]) ** 2
     return math.sqrt(size2)
@@ -199,19 +244,10 @@ def _update(x, q, lam, delta, sol, dth, q_new, tmp):
 
 
 @kernel
-def _balanced(S, F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L):
-    """Equilibrium: every free residual force below ``tol`` times the largest internal, external or joint
-    force ``Bᵀλ`` (into ``rows``), and ``|Φ − ελ|`` below ``tol × L``."""
-    big_F = 0.0
-    for i in range(F.shape[0]):
-        for k in range(6):
-            big_F = max(big_F, abs(F[i, k]))
-    return _balanced_scaled(S, big_F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L)
-
-
-@kernel
-def _balanced_scaled(S, big_F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L):
-    """:func:`_balanced` with the external forces' scale ``big_F`` given (the arc length's ``|λ| max |F|``)."""
+def _balanced(S, big_F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L):
+    """Equilibrium: every free residual force below ``tol`` times the largest internal force, the external
+    forces' scale ``big_F`` (``|Λ| max |F|``) or the largest joint force ``Bᵀλ`` (into ``rows``), and
+    ``|Φ − ελ|`` below ``tol × L``."""
     scale = 0.0
     for i in range(S.shape[0]):
         for k in range(6):
@@ -295,87 +331,6 @@ def tangent_sign(Ap, Ai, Ax, dense):
         return 2.0
     sign, _ = np.linalg.slogdet(dense)
     return sign
-
-
-BORDERED, LAMBDA = 10, 11
-"""Further slots of :func:`arc_newton`'s ``par`` (beside those of :func:`static_newton`; TANGENT and SIGN
-unused): 1 when the load factor is an unknown on the normal plane (in), the load factor λ (in/out)."""
-
-
-@kernel
-def arc_newton(model, x, q, mu, t_end, dof, factors, csc, wt, tangent_work, arr, par, hist, normal, weights,
-               follower, moved):
-    """The arc-length corrector (:meth:`reference.algorithms.arc_length.ArcLength._correct`), compiled: full
-    Newton on ``R = S − λF + Bᵀμ = 0``, ``Φ − εμ = 0`` at ``t_end`` from ``(x, q, μ, λ = par[LAMBDA])``, in
-    place; with ``par[BORDERED] = 1`` λ is an unknown on the plane of the unit ``normal`` (n_free + 1,
-    scaled: translations × ``weights``), solved by bordering: ``K δ_R = −R``, ``K δ_F = F``,
-    ``Δλ = −nᵀδ_R / (nᵀδ_F + n_λ)`` (docs/formulation.md §12).  ``moved`` (n_free + 1) accumulates the
-    scaled corrections and Δλ.  The balance test is the static one with the external forces' scale
-    ``|λ| max |F|``; the Newton matrix's configuration-dependent load blocks, assembled at λ = 1, are scaled
-    to λ (``follower`` = (node, code 1 force / 2 moment, f(t_end), vector (k, 3)) of the follower forces and
-    dead moments).  ``arr`` = ``(rhs, sol, δ (N, 6), δθ (N, 3), q_new, tmp4, row forces (N, 6), sol_F,
-    δ_F (N, 6), scaled (n_free), scaled_F (n_free), r (N, 6))``; the other arguments and the return codes
-    are :func:`static_newton`'s (SINGULAR also for a non-finite Δλ); ``par[CORRECTIONS]`` the corrections.
-    """
-    mdl = named(model, Model)
-    work, values = csc[5], csc[10]
-    small, K12, Kel, psi, _ = tangent_work
-    rhs, sol, delta, dth, q_new, tmp, rows, solF, dF, sc, scF, reff = arr
-    f_node, f_code, f_val, f_vec = follower
-    S, F, r, PHI = wt[0], wt[1], wt[2], wt[3]
-    Bl = wt[5]
-    eps = mdl.joints.eps
-    jt_i, jt_j, jt_row0, jt_neq = mdl.joints.i, mdl.joints.j, mdl.joints.row0, mdl.joints.neq
-    tol, L, max_it = par[TOLERANCE], par[LENGTH], int(par[MAX_ITERATIONS])
-    n_free = rhs.shape[0] - mu.shape[0]
-    while True:
-        it = int(par[CORRECTIONS])
-        lam = par[LAMBDA]
-        if par[RESUME] != 1.0:
-            par[ENERGY] = evaluate(model, x, q, x, x, x, mu, t_end, False, wt)
-            hist[it] = _load_residual(r, F, lam, dof, reff)
-            if not math.isfinite(hist[it]):
-                return DIVERGED
-            if _balanced_scaled(S, abs(lam) * _largest(F), reff, PHI, Bl, mu, eps, dof, jt_i, jt_j, jt_row0, jt_neq,
-                                rows, tol, L) or (it > 0 and _correction_size(delta, L) <= tol):
-                return OK
-            if it == max_it:
-                return NO_CONVERGENCE
-            tangent_values(model, x, q, x, psi, t_end, mu, 0.0, 0.0, 1.0, 1.0, values, wt, small, K12, Kel)
-            if lam != 1.0:
-                _scale_load_blocks(values, q, lam, f_node, f_code, f_val, f_vec)
-            code = _refactor_values(factors, csc, par)
-            if code != OK:
-                return code
-        par[RESUME] = 0.0
-        _newton_rhs(reff, PHI, eps, mu, dof, rhs)
-        if not _solve(factors, rhs, work, sol, dof, delta):
-            return SINGULAR
-        dlam = 0.0
-        if par[BORDERED] == 1.0:
-            dlam = _bordered(factors, F, dof, weights, normal, rhs, work, sol, solF, delta, dF, sc, scF)
-            if not math.isfinite(dlam):
-                return SINGULAR
-        _update(x, q, mu, delta, sol, dth, q_new, tmp)
-        par[LAMBDA] = lam + dlam
-        _scaled(delta, dof, weights, sc)
-        for k in range(n_free):
-            moved[k] += sc[k]
-        moved[n_free] += dlam
-        par[CORRECTIONS] = it + 1
-
-
-@kernel
-def _load_residual(r, F, lam, dof, reff):
-    """The residual at load factor λ of the residual ``r`` at λ = 1: ``r + (1 − λ) F`` into ``reff``; returns
-    its norm over the free coordinates."""
-    size2 = 0.0
-    for i in range(r.shape[0]):
-        for k in range(6):
-            reff[i, k] = r[i, k] + (1.0 - lam) * F[i, k]
-            if dof[i, k] >= 0:
-                size2 += reff[i, k] * reff[i, k]
-    return math.sqrt(size2)
 
 
 @kernel

@@ -46,7 +46,7 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, relative_rotation
-from reference.algorithms.newton_steps import ENERGY, SIGN, TANGENT, NewtonArrays, static_newton
+from reference.algorithms.newton_steps import ENERGY, SIGN, TANGENT, NewtonArrays
 from reference.algorithms.step_control import SolverStatistics
 from reference.linalg import null_space
 from reference.modal import SMALL, nearest_zero, negative_eigenvalues
@@ -132,23 +132,22 @@ class Static(ImplicitAlgorithm):
         run = StaticRun(system, np.zeros(model.n_constraints), self.length_scale(state.x))
         n = system.pattern.n
         run.dense = n == system.n_free and n <= SMALL  # the stability count's dense path (no constraints)
-        run.newton = NewtonArrays(system, self.tolerance, run.L, self.max_iterations, 10,
+        run.newton = NewtonArrays(system, self.tolerance, run.L, self.max_iterations,
                                   np.zeros((n, n)) if run.dense else None)
         return run
 
     def _equilibrium(self, run, x, q, lam, t):
         """Newton at load level t from (x, q, λ), in place; returns a status code.
 
-        The iterations run compiled (:func:`reference.algorithms.newton_steps.static_newton`); Python
+        The iterations run compiled (:func:`reference.algorithms.newton_steps.newton_loop`); Python
         makes only the SuperLU factorisations the kernel asks for (the first, and any after the kept
         pivots went bad) and resumes it."""
-        system, nw = run.system, run.newton
+        nw = run.newton
         par = nw.par
         # the stability count's tangent is assembled at the equilibrium, and the sign of its determinant
         # computed there when that is all the count needs (negative_eigenvalues' known-count path)
         par[TANGENT], par[SIGN] = (2.0 if run.dense and run.negative >= 0 else 1.0), 3.0
-        code = nw.run(lambda factors, csc: static_newton(system.arg, x, q, lam, t, system.dof, factors, csc, system.wt,
-                                                         nw.tangent_work, nw.arrays, par, nw.hist))
+        code = nw.solve(x, q, lam, t)
         run.history = nw.history()
         run.stats.iterations += len(run.history) - 1
         if code == OK:
