@@ -13,7 +13,8 @@ model size, or when the correction is below ``tolerance``) on the sparse saddle-
 ``c_k = 1``), starting from the previous level.  The tangent is the exact
 derivative under the update ``x ← x + δx``, ``q ← q ⊗ exp(δθ)`` (body-frame
 δθ), so the convergence is quadratic (Wriggers 2008, *Nonlinear Finite Element
-Methods*, §5.1).  When Newton fails (no convergence in ``max_iterations``, a
+Methods*, §5.1); the iterations run in one compiled call per load level
+(:func:`reference.algorithms.newton_steps.newton_loop`).  When Newton fails (no convergence in ``max_iterations``, a
 non-finite or singular iterate) the step is halved, up to ``MAX_CUTS`` times;
 the next steps grow back to the nominal step.  If the smallest step still
 fails the run stops with the load level reached.  The solver statistics (load steps, Newton
@@ -244,8 +245,9 @@ class Static(ImplicitAlgorithm):
                 "stability/bracket": np.array([e[:2] for e in events], dtype=float).reshape(-1, 2)}
 
     def _stability(self, run, x, q, lam, t) -> None:
-        """The inertia of the reduced tangent at the equilibrium just reached (the last evaluation is at it);
-        a change from the previous equilibrium becomes an event and a warning."""
+        """The inertia of the reduced tangent at the equilibrium just reached (the last evaluation, and the
+        tangent the compiled Newton loop assembled, are at it); a change from the previous equilibrium
+        becomes an event and a warning."""
         system = run.system
         sign = run.newton.par[SIGN]
         if sign in (-1.0, 0.0, 1.0) and int(sign) == run.sign:
