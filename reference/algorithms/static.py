@@ -155,18 +155,6 @@ class Static(ImplicitAlgorithm):
             run.U = par[ENERGY]
         return code
 
-    def balanced(self, system, lam, L) -> bool:
-        """Equilibrium reached: every residual force below ``tolerance`` times the largest
-        internal, external or joint force, and ``|Φ − ελ|`` below ``tolerance × L``."""
-        wk = system.work
-        r = np.abs(wk.r[system.free])
-        scale = max(float(np.max(np.abs(wk.S), initial=0.0)), float(np.max(np.abs(wk.F), initial=0.0)), 1e-300)
-        if lam.size:
-            scale = max(scale, float(np.max(np.abs(_row_forces(system, lam)))))
-        phi = np.abs(wk.PHI - system.model.joints.eps * lam)
-        return float(np.max(r, initial=0.0)) <= self.tolerance * scale and \
-            float(np.max(phi, initial=0.0)) <= self.tolerance * L
-
     def advance(self, model, state, run, n_steps, record) -> int:
         x, q, v, w, f_prev, clock = state[:6]
         system, lam = run.system, run.lam
