@@ -93,6 +93,12 @@ class BlockPattern:
         self._matrix.data[:] = np.bincount(self.slot, weights=values[self.keep], minlength=self.nnz)
         return self._matrix
 
+    @property
+    def assembled(self) -> sps.csc_matrix:
+        """The matrix object of :meth:`matrix` with its data as last written (by :meth:`matrix` or by a
+        compiled loop that scatters the values itself, ``data[slot[k]] += values[keep[k]]``)."""
+        return self._matrix
+
 
 def factorize(matrix: sps.csc_matrix):
     """SuperLU factor of ``matrix`` (column approximate minimum degree ordering).
@@ -338,11 +344,16 @@ class SparseLU:
 
 
 def permutation_sign(perm) -> int:
-    """The sign of a permutation (−1 for an odd number of transpositions), from its cycles."""
-    perm = np.asarray(perm)
-    seen = np.zeros(perm.size, dtype=bool)
+    """The sign of a permutation (−1 for an odd number of transpositions), from its cycles
+    (compiled: the arc-length path takes two per point, of a few hundred entries each)."""
+    perm = np.asarray(perm, dtype=np.int64)
+    return int(_permutation_sign(perm, np.zeros(perm.size, dtype=np.bool_)))
+
+
+@kernel
+def _permutation_sign(perm, seen):
     transpositions = 0
-    for start in range(perm.size):
+    for start in range(perm.shape[0]):
         length, k = 0, start
         while not seen[k]:
             seen[k] = True

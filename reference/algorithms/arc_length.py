@@ -52,11 +52,12 @@ import numpy as np
 
 from reference.algorithms.critical_points import CriticalPoints
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
+from reference.algorithms.newton_steps import ENERGY, LAMBDA, NewtonArrays
 from reference.algorithms.static import _row_forces
 from reference.interactions import tf_value
 from reference.linalg import SingularMatrix
 from reference.observables import ObservableError, _Names, parse
-from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
+from reference.status import NO_CONVERGENCE, OK, SINGULAR
 
 MAX_CUTS = 10
 """Halvings of the arc length before the run stops (smallest arc 1/1024 of the one that failed)."""
@@ -112,6 +113,7 @@ class ArcRun:
     follower: list = field(default_factory=list)
     recorded: tuple = (0.0, 0.0, 0, -1)
     controlled: int = -1
+    newton: NewtonArrays | None = None
 
 
 class ArcLength(CriticalPoints, ImplicitAlgorithm):
@@ -203,7 +205,20 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             run.controlled = int(np.sum(system.free.ravel()[:6 * node + comp]))
         run.follower = [(int(loads.node[k]), int(loads.code[k]), int(loads.tf[k]), np.array(loads.vec[k]))
                         for k in range(loads.node.shape[0]) if loads.code[k] in (1, 2)]
+        self._compiled_arrays(run)
         return run
+
+    def _compiled_arrays(self, run) -> None:
+        """The compiled corrector's arrays (:func:`reference.algorithms.newton_steps.newton_loop`), with the
+        follower loads' values at ``t_end``."""
+        system = run.system
+        tf = system.model.time_functions
+        follower = (np.array([f[0] for f in run.follower], dtype=np.int64),
+                    np.array([f[1] for f in run.follower], dtype=np.int64),
+                    np.array([tf_value(tf.kind[f[2]], tf.par[f[2]], self.t_end) for f in run.follower], dtype=float),
+                    np.array([f[3] for f in run.follower], dtype=float).reshape(-1, 3))
+        run.newton = NewtonArrays(system, self.tolerance, run.L, self.max_iterations, weights=run.weights,
+                                  follower=follower)
 
     def _scaled(self, run, delta):
         """The free coordinates of an (N, 6) increment in the scaled norm's units."""
@@ -237,59 +252,22 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         F = system.work.F
         return system.work.r + (1.0 - lam) * F, F
 
-    def _balanced(self, run, r, F, lam) -> bool:
-        system = run.system
-        wk = system.work
-        scale = max(float(np.max(np.abs(wk.S), initial=0.0)), abs(lam) * float(np.max(np.abs(F), initial=0.0)), 1e-300)
-        if run.mu.size:
-            scale = max(scale, float(np.max(np.abs(_row_forces(system, run.mu)))))
-        phi = np.abs(wk.PHI - system.model.joints.eps * run.mu)
-        return float(np.max(np.abs(r[system.free]), initial=0.0)) <= self.tolerance * scale and \
-            float(np.max(phi, initial=0.0)) <= self.tolerance * run.L
-
     def _correct(self, run, x, q, lam, normal):
         """Newton from ``(x, q, run.mu, λ)`` in place; with ``normal`` (scaled, unit: the predictor's
         direction, its last entry the λ part) the load factor is an unknown on the normal plane, else λ is
-        fixed.  Returns ``(status, λ, Σ scaled corrections incl. Δλ)``."""
-        system = run.system
-        hist = run.history = []
-        q_new, tmp = np.empty_like(q), np.empty(4)
-        moved = np.zeros(system.n_free + 1)
-        delta = None
-        for it in range(self.max_iterations + 1):
-            r, F = self._evaluate(run, x, q, lam)
-            hist.append(float(np.linalg.norm(r[system.free])))
-            if not np.isfinite(hist[-1]):
-                return DIVERGED, lam, moved
-            if self._balanced(run, r, F, lam) or (it > 0 and self.converged(delta, run.L)):
-                run.iterations = it
-                return OK, lam, moved
-            if it == self.max_iterations:
-                break
-            try:
-                lu = system.slu.factor(self._matrix(run, x, q, lam))
-                phi = system.work.PHI - system.model.joints.eps * run.mu
-                dR, muR = system.solve(lu, -r, -phi)
-                dlam = 0.0
-                if normal is not None:
-                    dF, muF = system.solve(lu, F, np.zeros_like(phi))
-                    den = normal[:-1] @ self._scaled(run, dF) + normal[-1]
-                    dlam = -(normal[:-1] @ self._scaled(run, dR)) / den
-                    if not np.isfinite(dlam):
-                        return SINGULAR, lam, moved
-                    dR += dlam * dF
-                    muR += dlam * muF
-            except SingularMatrix:
-                return SINGULAR, lam, moved
-            delta = dR
-            x += delta[:, :3]
-            compose(q, np.ascontiguousarray(delta[:, 3:]), q_new, tmp)
-            q[:] = q_new
-            run.mu += muR
-            lam += dlam
-            moved[:-1] += self._scaled(run, delta)
-            moved[-1] += dlam
-        return NO_CONVERGENCE, lam, moved
+        fixed.  Returns ``(status, λ, Σ scaled corrections incl. Δλ)``.  The iterations run compiled
+        (:func:`reference.algorithms.newton_steps.newton_loop`); Python makes only the SuperLU factorisations
+        it asks for (the first, and after the kept pivots went bad) and resumes it."""
+        nw = run.newton
+        par = nw.par
+        moved = np.zeros(run.system.n_free + 1)
+        par[LAMBDA] = lam
+        code = nw.solve(x, q, run.mu, self.t_end, normal, moved)
+        run.history = nw.history()
+        run.U = par[ENERGY]
+        if code == OK:
+            run.iterations = len(run.history) - 1
+        return code, par[LAMBDA], moved
 
     def _tangent(self, run, x, q, lam):
         """The tangent ``(δ_F (N,6), μ_F)``: ``K δ_F = F`` at the converged point (raises SingularMatrix)."""

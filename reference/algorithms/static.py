@@ -13,7 +13,8 @@ model size, or when the correction is below ``tolerance``) on the sparse saddle-
 ``c_k = 1``), starting from the previous level.  The tangent is the exact
 derivative under the update ``x ← x + δx``, ``q ← q ⊗ exp(δθ)`` (body-frame
 δθ), so the convergence is quadratic (Wriggers 2008, *Nonlinear Finite Element
-Methods*, §5.1).  When Newton fails (no convergence in ``max_iterations``, a
+Methods*, §5.1); the iterations run in one compiled call per load level
+(:func:`reference.algorithms.newton_steps.newton_loop`).  When Newton fails (no convergence in ``max_iterations``, a
 non-finite or singular iterate) the step is halved, up to ``MAX_CUTS`` times;
 the next steps grow back to the nominal step.  If the smallest step still
 fails the run stops with the load level reached.  The solver statistics (load steps, Newton
@@ -45,11 +46,12 @@ import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
-from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
+from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, relative_rotation
+from reference.algorithms.newton_steps import ENERGY, SIGN, TANGENT, NewtonArrays
 from reference.algorithms.step_control import SolverStatistics
-from reference.linalg import SingularMatrix, null_space
+from reference.linalg import null_space
 from reference.modal import SMALL, nearest_zero, negative_eigenvalues
-from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
+from reference.status import OK
 from reference.validation import ModelWarning
 
 MAX_CUTS = 8
@@ -90,6 +92,8 @@ class StaticRun:
     stats: SolverStatistics = field(default_factory=SolverStatistics)
     h: float = 0.0
     row: dict = field(default_factory=dict)
+    newton: NewtonArrays | None = None
+    dense: bool = False
 
 
 class Static(ImplicitAlgorithm):
@@ -123,48 +127,33 @@ class Static(ImplicitAlgorithm):
         return cls(step, settings.tolerance or 1e-10, settings.max_iterations or 25)
 
     def start(self, model, state, critical_step=None, guard=None) -> StaticRun:
-        """A run from ``state`` (its load level ``state.t``): the Newton system and zero multipliers."""
-        return StaticRun(self.newton_system(model), np.zeros(model.n_constraints), self.length_scale(state.x))
+        """A run from ``state`` (its load level ``state.t``): the Newton system, zero multipliers and the
+        compiled Newton loop's arrays."""
+        system = self.newton_system(model)
+        run = StaticRun(system, np.zeros(model.n_constraints), self.length_scale(state.x))
+        n = system.pattern.n
+        run.dense = n == system.n_free and n <= SMALL  # the stability count's dense path (no constraints)
+        run.newton = NewtonArrays(system, self.tolerance, run.L, self.max_iterations,
+                                  np.zeros((n, n)) if run.dense else None)
+        return run
 
     def _equilibrium(self, run, x, q, lam, t):
-        """Newton at load level t from (x, q, λ), in place; returns a status code."""
-        system, L = run.system, run.L
-        hist = run.history = []
-        q_new = np.empty_like(q)
-        tmp = np.empty(4)
-        for it in range(self.max_iterations + 1):
-            U = system.evaluate(x, q, x, x, x, lam, t, False)
-            hist.append(system.residual_norm(1.0, lam))
-            if not np.isfinite(hist[-1]):
-                return DIVERGED
-            if self.balanced(system, lam, L) or (it > 0 and self.converged(delta, L)):
-                run.U = U
-                return OK
-            if it == self.max_iterations:
-                break
-            try:
-                lu = system.factor(x, q, x, t, lam, 0.0, 0.0, 1.0)
-                delta, mu = system.newton_correction(lu, 1.0, lam)
-            except SingularMatrix:
-                return SINGULAR
-            x += delta[:, :3]
-            compose(q, np.ascontiguousarray(delta[:, 3:]), q_new, tmp)
-            q[:] = q_new
-            lam += mu
-            run.stats.iterations += 1
-        return NO_CONVERGENCE
+        """Newton at load level t from (x, q, λ), in place; returns a status code.
 
-    def balanced(self, system, lam, L) -> bool:
-        """Equilibrium reached: every residual force below ``tolerance`` times the largest
-        internal, external or joint force, and ``|Φ − ελ|`` below ``tolerance × L``."""
-        wk = system.work
-        r = np.abs(wk.r[system.free])
-        scale = max(float(np.max(np.abs(wk.S), initial=0.0)), float(np.max(np.abs(wk.F), initial=0.0)), 1e-300)
-        if lam.size:
-            scale = max(scale, float(np.max(np.abs(_row_forces(system, lam)))))
-        phi = np.abs(wk.PHI - system.model.joints.eps * lam)
-        return float(np.max(r, initial=0.0)) <= self.tolerance * scale and \
-            float(np.max(phi, initial=0.0)) <= self.tolerance * L
+        The iterations run compiled (:func:`reference.algorithms.newton_steps.newton_loop`); Python
+        makes only the SuperLU factorisations the kernel asks for (the first, and any after the kept
+        pivots went bad) and resumes it."""
+        nw = run.newton
+        par = nw.par
+        # the stability count's tangent is assembled at the equilibrium, and the sign of its determinant
+        # computed there when that is all the count needs (negative_eigenvalues' known-count path)
+        par[TANGENT], par[SIGN] = (2.0 if run.dense and run.negative >= 0 else 1.0), 3.0
+        code = nw.solve(x, q, lam, t)
+        run.history = nw.history()
+        run.stats.iterations += len(run.history) - 1
+        if code == OK:
+            run.U = par[ENERGY]
+        return code
 
     def advance(self, model, state, run, n_steps, record) -> int:
         x, q, v, w, f_prev, clock = state[:6]
@@ -244,11 +233,18 @@ class Static(ImplicitAlgorithm):
                 "stability/bracket": np.array([e[:2] for e in events], dtype=float).reshape(-1, 2)}
 
     def _stability(self, run, x, q, lam, t) -> None:
-        """The inertia of the reduced tangent at the equilibrium just reached (the last evaluation is at it);
-        a change from the previous equilibrium becomes an event and a warning."""
+        """The inertia of the reduced tangent at the equilibrium just reached (the last evaluation, and the
+        tangent the compiled Newton loop assembled, are at it); a change from the previous equilibrium
+        becomes an event and a warning."""
         system = run.system
-        (count, sign), K, Z, _ = reduced_tangent(system, x, q, lam, t, known=(run.negative, run.sign),
-                                                 evaluate=False)
+        sign = run.newton.par[SIGN]
+        if sign in (-1.0, 0.0, 1.0) and int(sign) == run.sign:
+            # a non-symmetric tangent whose determinant kept its sign: the count is the previous one
+            # (negative_eigenvalues with known = (count, sign), its sign from the compiled loop)
+            count, sign, K, Z = run.negative, run.sign, None, None
+        else:
+            (count, sign), K, Z, _ = reduced_tangent(system, x, q, lam, t, known=(run.negative, run.sign),
+                                                     evaluate=False, assembled=True)
         F = system.work.F.copy()
         before, run.previous = run.previous, (x.copy(), q.copy(), lam.copy(), t, F)
         (old, run.negative), run.sign = (run.negative, count), sign
@@ -281,16 +277,17 @@ def _eigenvalues(count: int) -> str:
     return f"{count} negative eigenvalue{'s' if count != 1 else ''}"
 
 
-def reduced_tangent(system, x, q, lam, t, Z=None, known=None, evaluate=True):
+def reduced_tangent(system, x, q, lam, t, Z=None, known=None, evaluate=True, assembled=False):
     """``((negative eigenvalues, sign of det), K_r, Z, rank B)`` of the static tangent at ``(x, q, λ, t)``
     reduced to the null space of B (Z given, or from :func:`reference.linalg.null_space`; None without
     constraints, K_r then dense up to :data:`reference.modal.SMALL` coordinates;
     :func:`reference.modal.negative_eigenvalues` with ``known``); evaluates the model there unless its
-    last evaluation is at it (``evaluate`` false)."""
+    last evaluation is at it (``evaluate`` false), and assembles the tangent unless the compiled Newton
+    loop left it assembled there (``assembled``: :func:`reference.algorithms.newton_steps.static_newton`)."""
     zero = np.zeros_like(x)
     if evaluate:
         system.evaluate(x, q, zero, zero, zero, lam, t, False)
-    A = system.matrix(x, q, zero, t, lam, 0.0, 0.0, 1.0, ce=0.0)
+    A = system.pattern.assembled if assembled else system.matrix(x, q, zero, t, lam, 0.0, 0.0, 1.0, ce=0.0)
     n = system.n_free
     if A.shape[0] == n:  # no constraint: the free coordinates are independent (Z = None: the identity)
         K = A.toarray() if n <= SMALL else A.copy()
