@@ -83,8 +83,10 @@ def _stable_factor(make_runner, crit: float, dt: float) -> float:
     return best
 
 
-def explicit_large(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEPS, repeat: int = 5) -> list[str]:
-    """The explicit rod beside PyElastica (skipped with a line when it is not installed): stable steps,
+def explicit_large(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEPS, repeat: int = 5,
+                   pyelastica: bool = True) -> list[str]:
+    """The explicit rod beside PyElastica (skipped with a line when it is not installed or not
+    ``pyelastica``): stable steps,
     errors against the half step, µs per element-step (alternating runs); returns the printed lines.  No
     target: the issue's one-thread target is at 768 elements (:func:`flexmbs.bench_throughput.beam_throughput`)."""
     from flexmbs.bench_throughput import elastica_runner, flexmbs_runner, throughput_cantilever
@@ -93,7 +95,7 @@ def explicit_large(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEP
     crit = throughput_cantilever(elements).critical_time_step()
     dt = EXPLICIT_FACTOR * crit
     makers = {"flexmbs": lambda h: flexmbs_runner(elements, h)}
-    if importlib.util.find_spec("elastica") is not None:
+    if pyelastica and importlib.util.find_spec("elastica") is not None:
         makers["PyElastica"] = lambda h: elastica_runner(elements, h)
     runners = {name: make(dt) for name, make in makers.items()}
     runners["flexmbs solve()"] = _solve_runner(elements, dt)
@@ -127,7 +129,7 @@ def explicit_large(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEP
                      f"tips at dt/2 differ by {abs(half['flexmbs'] - half['PyElastica']) / abs(half['flexmbs']):.1e} "
                      "(their discretisations differ: nodal against staggered rotations)")
     else:
-        lines.append("PyElastica not installed (pip install -e '.[bench]'): comparison skipped")
+        lines.append("PyElastica not installed (pip install -e '.[bench]') or not asked for: comparison skipped")
     return lines + [""]
 
 
@@ -364,12 +366,13 @@ QUICK = dict(elements=200, steps=20, refine=2, repeat=1, dynamic_steps=(0.1, 0.0
 """The small version (the tests, ``--quick``): the same code on small meshes and short runs."""
 
 
-def large_models(quick: bool = False, repeat: int = 5, targets: list | None = None) -> list[str]:
-    """Every large-model table (the small version when ``quick``), printed as it is made; returns the lines."""
+def large_models(quick: bool = False, repeat: int = 5, targets: list | None = None, pyelastica: bool = True) -> list[str]:
+    """Every large-model table (the small version when ``quick``), printed as it is made; returns the lines.
+    ``pyelastica=False`` leaves PyElastica out (the tests: its kernels compile for ~30 s on a cold cache)."""
     size = QUICK if quick else dict(elements=EXPLICIT_ELEMENTS, steps=EXPLICIT_STEPS, refine=ROLLUP_REFINE,
                                     repeat=repeat, dynamic_steps=DYNAMIC_STEPS, reference=DYNAMIC_REFERENCE)
     lines = []
-    for part in (lambda: explicit_large(size["elements"], size["steps"], size["repeat"]),
+    for part in (lambda: explicit_large(size["elements"], size["steps"], size["repeat"], pyelastica),
                  lambda: thread_scaling(size["elements"], size["steps"], size["refine"], size["repeat"], targets),
                  lambda: static_large(size["refine"], size["repeat"], targets),
                  lambda: dynamic_large(size["refine"], size["dynamic_steps"], size["reference"], targets)):

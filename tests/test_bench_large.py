@@ -1,6 +1,8 @@
 """The large-model section of ``flexmbs bench`` (flexmbs/bench_large.py, issue 25 item 4) in its small
 version: the same code on a 200-element rod (20 steps) and the roll-up refined twice (24 elements).  No
-timing is asserted (a test never fails on wall time): the answers the timings rest on are."""
+timing is asserted (a test never fails on wall time): the answers the timings rest on are.  PyElastica is
+left out: its kernels compile for ~30 s on a cold cache (``flexmbs bench --large --quick`` runs it; its
+small-mesh numbers are quoted below)."""
 
 from __future__ import annotations
 
@@ -27,22 +29,21 @@ def bench():
     from flexmbs.bench_large import large_models
 
     targets = []
-    lines = large_models(quick=True, targets=targets)
+    lines = large_models(quick=True, targets=targets, pyelastica=False)
     return lines, targets
 
 
-def test_explicit_rod_beside_pyelastica(bench):
-    """Each code's tip at dt against its own run at dt/2 is within 2e-3 (second order, 20 steps at 3/4 of the
-    critical step; measured 5.9e-4 and 7.0e-4), flexmbs is stable up to its own critical step estimate at
-    least, and the two codes (same rod, same step, different discretisations) agree on the tip within 2e-3
-    (measured 6e-4)."""
+def test_explicit_rod(bench):
+    """flexmbs' tip at dt against its run at dt/2 is within 2e-3 (second order, 20 steps at 3/4 of the
+    critical step; measured 5.9e-4; PyElastica's 7.0e-4, the two codes' tips 6e-4 apart), flexmbs is stable
+    up to its own critical step estimate at least, and the whole ``solve()`` ends at the same tip, digit for
+    digit, as the compiled stepping it times."""
     lines, _ = bench
     table = {r[0]: r for r in rows(lines, "**Explicit")}
     assert float(table["flexmbs"][3]) < 2e-3
     assert table["flexmbs"][4].startswith(("1 ×", "1.5 ×", "2 ×", "3 ×"))
-    if "PyElastica" in table:
-        assert float(table["PyElastica"][3]) < 2e-3
-        assert abs(float(table["flexmbs"][2]) / float(table["PyElastica"][2]) - 1.0) < 2e-3
+    assert table["flexmbs, whole `solve()`"][2] == table["flexmbs"][2]
+    assert "PyElastica" not in table
 
 
 def test_thread_table_covers_every_core_and_is_bit_for_bit(bench):
