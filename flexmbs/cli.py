@@ -451,6 +451,9 @@ def parser() -> argparse.ArgumentParser:
     ben.add_argument("--repeat", type=number(int, 1, low_ok=True, example="--repeat 3"), default=3,
                      help="timed rounds of each case (median; default 3)")
     ben.add_argument("--quick", action="store_true", help="fewer steps in the work-precision part")
+    ben.add_argument("--large", action="store_true",
+                     help="only the large models (50,000-element explicit, 5,004-element static and generalized-alpha, "
+                          "thread scaling); with --quick on small meshes")
     ben.add_argument("--out", help="folder of the work-precision figure and tables (default: out/bench/)")
     ben.set_defaults(func=cmd_bench)
     sw = sub.add_parser("sweep", help="a parameter study of a deck (STUDY.toml), every case a Dask task")

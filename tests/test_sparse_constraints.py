@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flexmbs.bench import LINK, spherical_chain, two_beams
+from flexmbs.bench_scaling import LINK, spherical_chain, two_beams
 from reference.domain import Domain, SolverSettings
 from reference.elements import Section
 from reference.interactions import Gravity
