@@ -338,6 +338,41 @@ def test_sparse_lu_refactorisation_keeps_structural_zeros():
         SparseLU(n).factor(A)
 
 
+def test_symbolic_lu_is_the_left_looking_fill():
+    """The fill pattern of ``symbolic_lu`` (heap-ordered reach) is that of the left-looking
+    recurrence written out densely — column j of L ∪ U is column j of Pr A Pc plus every column
+    k < j of L whose row k it reaches — on random and block-banded matrices; rows ascending."""
+    import scipy.sparse as sps
+    import scipy.sparse.linalg as spla
+
+    from reference.linalg import symbolic_lu
+
+    banded = sps.kron(sps.diags([1.0, 1.0, 1.0], [-1, 0, 1], shape=(8, 8)), np.ones((6, 6)))
+    for A in [sps.random(40, 40, density=0.08, random_state=4) + sps.eye(40), banded + sps.eye(48)]:
+        A = sps.csc_matrix(A)
+        n = A.shape[0]
+        lu = spla.splu(A, permc_spec="COLAMD")
+        perm_r, perm_c = lu.perm_r.astype(np.int64), lu.perm_c.astype(np.int64)
+        inv_perm_c = np.argsort(perm_c).astype(np.int64)
+        dense = (A.toarray() != 0.0)[np.argsort(perm_r)][:, inv_perm_c]  # the pattern of Pr A Pc, as the kernel reads it
+        reached = np.zeros((n, n), bool)
+        for j in range(n):
+            col = dense[:, j].copy()
+            col[j] = True
+            for k in range(j):
+                if col[k]:
+                    col |= reached[:, k] & (np.arange(n) >= k)
+            reached[:, j] = col
+        Lp, Up = np.zeros(n + 1, np.int64), np.zeros(n + 1, np.int64)
+        Li, Ui = np.zeros(n * n, np.int64), np.zeros(n * n, np.int64)
+        nl, nu = symbolic_lu(A.indptr, A.indices, perm_r, inv_perm_c, Lp, Li, Up, Ui, np.zeros(3 * n, np.int64))
+        for j in range(n):
+            rows = np.flatnonzero(reached[:, j])
+            assert list(Li[Lp[j]:Lp[j + 1]]) == [r for r in rows if r >= j]
+            assert list(Ui[Up[j]:Up[j + 1]]) == [r for r in rows if r < j] + [j]
+        assert nl == Lp[n] and nu == Up[n]
+
+
 def test_static_rollup_crosschecks_with_exudyn_static_solver():
     """The static roll-up translated to Exudyn's static solver (20 load steps, loads following
     their time functions): tips within 0.5 % L at every load step (the elements differ: Beam2's
