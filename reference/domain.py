@@ -54,8 +54,11 @@ def free_block_inverse(inertia: np.ndarray, free_rot: np.ndarray) -> np.ndarray:
     accelerations solve ``J_ff ω̇_f = g_f``; a diagonal J gives ``1/J_kk`` as before.
     """
     out = np.zeros_like(inertia)
-    for n in range(inertia.shape[0]):
-        f = np.flatnonzero(free_rot[n] > 0.0)
+    free = free_rot > 0.0
+    whole = free.all(axis=1)
+    out[whole] = np.linalg.inv(inertia[whole])  # the same LAPACK call per matrix as one at a time
+    for n in np.flatnonzero(~whole):
+        f = np.flatnonzero(free[n])
         if f.size:
             out[n][np.ix_(f, f)] = np.linalg.inv(inertia[n][np.ix_(f, f)])
     return out
@@ -298,7 +301,12 @@ class Domain:
         ``1/m + r²/J_min`` (and ``uᵀJ⁻¹u`` about the axis u of a torsional
         stiffness): the element oscillating against the bodies it connects.
         """
-        limits = [e.formulation.critical_time_step(self._length(e)) for e in self.elements]
+        limits, known = [], {}  # the limit of each (formulation, length) once: a uniform mesh repeats them
+        for e in self.elements:
+            key = (id(e.formulation), self._length(e))
+            if key not in known:
+                known[key] = e.formulation.critical_time_step(key[1])
+            limits.append(known[key])
         if self.force_elements:
             lumped = self._lumped_masses()
             for fe in self.force_elements:
@@ -330,9 +338,12 @@ class Domain:
                 rm.quat_product(qs[a] * np.array([1.0, -1.0, -1.0, -1.0]), ps[a], offset[a])
             # lumped rotary inertia: the section-frame diagonal, rotated into the node frame (O J Oᵀ)
             for a, (i, (m, J)) in enumerate(zip(ids, element.formulation.lumped_mass(xs))):
-                O = EulerParameters(offset[a]).matrix()
                 mass[i] += m
-                inertia[i] += O @ J @ O.T
+                if offset[a, 0] == 1.0 and not offset[a, 1:].any():  # O = I: O J Oᵀ is J, bit for bit
+                    inertia[i] += J
+                else:
+                    O = EulerParameters(offset[a]).matrix()
+                    inertia[i] += O @ J @ O.T
             placed.append(PlacedElement(e, element, xs, ps, offset))
         return mass, inertia, placed
 

@@ -327,6 +327,7 @@ class Beam2Formulation(ElementFormulation):
     def __init__(self, section: Section, element_type: ElementType | None = None):
         self.section = section
         self.element_type = element_type or Beam2()
+        self._shape_integrals = None
 
     @classmethod
     def pack(cls, placed: list[PlacedElement]) -> Beam2Data:
@@ -354,11 +355,16 @@ class Beam2Formulation(ElementFormulation):
         return np.zeros((data.conn.shape[0], 40))
 
     def lumped_mass(self, x_nodes):
+        """Row-sum lumping ``m_i = ∫ N_i ρA ds`` (the element type's mass points; its integrals of
+        ``N_i`` over [−1, 1] are computed once per formulation) and ``J_i`` likewise."""
         length = float(np.linalg.norm(x_nodes[1] - x_nodes[0]))
-        xi, w = self.element_type.mass_points()
+        if self._shape_integrals is None:
+            xi, w = self.element_type.mass_points()
+            self._shape_integrals = [sum(wk * self.element_type.shape_functions(xk)[i] for xk, wk in zip(xi, w))
+                                     for i in range(self.element_type.n_nodes)]
         out = []
-        for i in range(self.element_type.n_nodes):
-            share = sum(wk * self.element_type.shape_functions(xk)[i] for xk, wk in zip(xi, w)) * length / 2
+        for integral in self._shape_integrals:
+            share = integral * length / 2
             out.append((self.section.rhoA * share, np.diag(self.section.rotary_inertia * share)))
         return out
 
