@@ -55,10 +55,13 @@ from numba import prange, types
 from numba.core.imputils import impl_ret_borrowed
 from numba.extending import intrinsic
 
-__all__ = ["CompileTimer", "boundary", "kernel", "inlined", "named", "parallel_kernel", "prange", "threads", "use_threads",
-           "source_digest"]
+__all__ = ["CompileTimer", "available_cores", "boundary", "kernel", "inlined", "named", "parallel_kernel", "prange",
+           "threads", "use_threads", "source_digest"]
 
 THREADS_ENV = "FLEXMBS_THREADS"
+DEFAULT_PARALLEL_NODES = 8192
+"""Nodes from which a run takes every available core by default (below it, one thread): the crossover
+measured in the module docstring."""
 ENGINE = Path(__file__).resolve().parent
 
 
@@ -131,23 +134,34 @@ def parallel_kernel(func):
     return numba.njit(cache=True, fastmath=False, parallel=True)(func)
 
 
-def threads() -> int:
-    """Threads of the parallel kernels: ``FLEXMBS_THREADS`` (default 1), at most the cores numba uses.
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity), at most the threads numba starts."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, numba.config.NUMBA_NUM_THREADS))
+
+
+def threads(nodes: int | None = None) -> int:
+    """Threads of the parallel kernels: ``FLEXMBS_THREADS`` if set (at most the cores numba uses), else
+    :func:`available_cores` for a model of at least :data:`DEFAULT_PARALLEL_NODES` nodes and 1 for a
+    smaller one (or when ``nodes`` is not given).
 
     Raises
     ------
     ValueError
         When the variable is not a positive integer.
     """
-    text = os.environ.get(THREADS_ENV, "1").strip()
+    text = os.environ.get(THREADS_ENV, "").strip()
+    if not text:
+        return available_cores() if nodes is not None and nodes >= DEFAULT_PARALLEL_NODES else 1
     if not text.isdigit() or int(text) < 1:
         raise ValueError(f"{THREADS_ENV}={text!r}: expected a positive integer (threads of the parallel kernels)")
     return min(int(text), numba.config.NUMBA_NUM_THREADS)
 
 
-def use_threads(n: int | None = None) -> int:
-    """Set the parallel kernels' thread count for the calling thread (default :func:`threads`); return it."""
-    n = threads() if n is None else max(1, min(int(n), numba.config.NUMBA_NUM_THREADS))
+def use_threads(n: int | None = None, nodes: int | None = None) -> int:
+    """Set the parallel kernels' thread count for the calling thread (default :func:`threads` for a model of
+    ``nodes`` nodes); return it."""
+    n = threads(nodes) if n is None else max(1, min(int(n), numba.config.NUMBA_NUM_THREADS))
     numba.set_num_threads(n)
     return n
 

@@ -22,12 +22,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from reference.elements.beam2 import Beam2Formulation
+from reference.elements.beam2 import PARALLEL_ELEMENTS, Beam2Formulation
 from reference.elements.formulation import section_quaternion, tangent_to_node_frames, to_node_frame
 from reference.generated import beam2_se3 as generated
 from reference.generated import rotation_maps as rm
-from reference.jit import inlined
+from reference.jit import inlined, parallel_kernel, prange
 from reference.newton_blocks import store_block
+from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum
 
 
 class Beam2SE3Data(NamedTuple):
@@ -42,6 +43,8 @@ class Beam2SE3Data(NamedTuple):
     psi0: np.ndarray
     gamma0: np.ndarray
     stiff: np.ndarray
+    node_start: np.ndarray
+    node_item: np.ndarray
 
 
 _internal_forces = inlined(generated.internal_forces)
@@ -62,41 +65,64 @@ def _element(data, x, q, e, w):
     return w[39]
 
 
+@parallel_kernel
+def _elements(data, x, q, W):
+    for e in prange(data.conn.shape[0]):
+        _element(data, x, q, e, W[e])
+
+
 @inlined
 def _assemble(data, W, x, q, S):
-    """:meth:`Beam2SE3Formulation.assemble`: the internal forces added into ``S`` (N, 6) element by
-    element; returns the strain energy [J]."""
-    U = 0.0
-    for e in range(data.conn.shape[0]):
-        w = W[e]
-        U += _element(data, x, q, e, w)
-        i, j = data.conn[e, 0], data.conn[e, 1]
-        for k in range(3):
-            S[i, k] += w[k]
-            S[i, 3 + k] += w[32 + k]
-            S[j, k] += w[6 + k]
-            S[j, 3 + k] += w[35 + k]
-    return U
+    """:meth:`Beam2SE3Formulation.assemble`: each element's forces into its row of ``W`` (a parallel loop
+    from ``PARALLEL_ELEMENTS`` elements on), added into ``S`` (N, 6) in element order
+    (:func:`reference.parallel.accumulate`); returns the strain energy [J]."""
+    if data.conn.shape[0] >= PARALLEL_ELEMENTS:
+        _elements(data, x, q, W)
+    else:
+        for e in range(data.conn.shape[0]):
+            _element(data, x, q, e, W[e])
+    accumulate(data.conn, data.node_start, data.node_item, W, 32, S)
+    return energy_sum(W, 39)
+
+
+@inlined
+def _tangent_element(data, W, x, q, psi, ck, values, p, Jr, K144, e):
+    """Element e's 12×12 tangent times ``ck`` into ``values`` from ``p`` on; returns the position after it."""
+    K12 = K144.reshape((12, 12))
+    i, j = data.conn[e, 0], data.conn[e, 1]
+    w = W[e]
+    if ck != 0.0:
+        section_quaternion(q[i], data.offset[e, 0], w[24:28])
+        section_quaternion(q[j], data.offset[e, 1], w[28:32])
+        generated.tangent(x[i], x[j], w[24:28], w[28:32], data.L0[e], data.psi0[e], data.gamma0[e],
+                          data.stiff[e], w[:12], K144)
+        tangent_to_node_frames(data.offset[e], K12, w[32:35], w[35:38])
+    else:
+        K12[:, :] = 0.0
+    return store_block(K12, data.conn[e], 2, psi, Jr, ck, values, p)
+
+
+@parallel_kernel
+def _tangent_parallel(data, W, x, q, psi, ck, values, p):
+    E = data.conn.shape[0]
+    for k in prange(element_chunks(E)):
+        Jr, K144 = np.empty(9), np.empty(144)
+        for e in range(k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK)):
+            _tangent_element(data, W, x, q, psi, ck, values, p + 144 * e, Jr, K144, e)
 
 
 @inlined
 def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
     """:meth:`Beam2SE3Formulation.tangent_values`: each element's 12×12 tangent (the generated
-    ``tangent``, section frames taken back to the node frames) times ``ck``."""
+    ``tangent``, section frames taken back to the node frames) times ``ck``;
+    from ``PARALLEL_ELEMENTS`` elements on a parallel loop, each element writing its own slice."""
+    E = data.conn.shape[0]
+    if E >= PARALLEL_ELEMENTS:
+        _tangent_parallel(data, W, x, q, psi, ck, values, p)
+        return p + 144 * E
     K144 = K[:144]
-    K12 = K144.reshape((12, 12))
-    for e in range(data.conn.shape[0]):
-        i, j = data.conn[e, 0], data.conn[e, 1]
-        w = W[e]
-        if ck != 0.0:
-            section_quaternion(q[i], data.offset[e, 0], w[24:28])
-            section_quaternion(q[j], data.offset[e, 1], w[28:32])
-            generated.tangent(x[i], x[j], w[24:28], w[28:32], data.L0[e], data.psi0[e], data.gamma0[e],
-                              data.stiff[e], w[:12], K144)
-            tangent_to_node_frames(data.offset[e], K12, w[32:35], w[35:38])
-        else:
-            K12[:, :] = 0.0
-        p = store_block(K12, data.conn[e], 2, psi, Jr, ck, values, p)
+    for e in range(E):
+        p = _tangent_element(data, W, x, q, psi, ck, values, p, Jr, K144, e)
     return p
 
 
