@@ -14,12 +14,22 @@ helpers are :func:`inlined` (the same Python function compiled to be inlined
 where it is called; numba then drops the updates), and a kernel binds the
 Model's arrays it needs to local names once, before its loops.
 
-A loop over independent items (the Beam2 elements) may be a
-:func:`parallel_kernel` with ``prange``; it runs on :func:`threads` threads,
-set by the environment variable ``FLEXMBS_THREADS`` (default 1: on a machine
-shared with other jobs, a thread that is not scheduled stalls every step).
-Results never depend on the thread count: parallel loops only write per-item
-rows, and the sums over items are taken afterwards, in order, on one thread.
+Loops over independent items are :func:`parallel_kernel` loops (``prange``): every element family's
+element loop and tangent blocks, the explicit step's node loops (kick, drift, the step's sums, the
+force reset, the element → node gather) and the implicit residual's and tangent's node loops.  Their
+results never depend on the thread count, by the rules of :mod:`reference.parallel`: a parallel loop
+writes per-item rows only, the element → node accumulation is a per-node gather in element order, and
+sums are taken over fixed chunks whose partial sums are added in order.  Whether a loop takes its
+parallel form depends on the model's size only (``reference.parallel.PARALLEL_NODES``, the families'
+``PARALLEL_ELEMENTS``).  Joints, master/slave joints, loads and force elements stay serial.
+
+**Thread count** (:func:`threads`): ``FLEXMBS_THREADS`` when set (the override, capped at numba's
+pool, ``NUMBA_NUM_THREADS``); otherwise every core the process may use (:func:`available_cores`) for a
+model of at least :data:`DEFAULT_PARALLEL_NODES` nodes, and one thread below: a small model's step is
+a few µs per loop, about what starting a parallel region costs, so it gains nothing from a second thread
+(the measured per element-step costs and crossover are in docs/benchmarks.md §5).  On a machine shared
+with other jobs set ``FLEXMBS_THREADS=1``: a thread that another process holds up stalls every parallel
+region, and a two-thread step then costs several times the one-thread step (measured there too).
 
 Calling a compiled kernel from Python unboxes its arguments, and numba does that markedly
 slower for named tuples than for plain ones: a call taking the Model costs 7.7 µs, the same

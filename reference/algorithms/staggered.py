@@ -39,7 +39,7 @@ import numpy as np
 from reference.algorithms.base import Algorithm
 from reference.evaluation.forces import generalized_forces
 from reference.evaluation.force_elements import force_element_dissipation
-from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_node, kick_nodes, node_sums
+from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_nodes, kick_range, node_sums
 from reference.jit import inlined, kernel, use_threads
 from reference.joints.assembly import (
     assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
@@ -65,9 +65,9 @@ def _kick(model, v, w, S, F, hk, v_new, w_new):
     the constrained velocities of the previous pass (:func:`_constrain`; the full kick is
     :func:`~reference.algorithms.staggered_nodes.kick_nodes`)."""
     c, J, Jinv, free, mass = model.damping, model.nodes.inertia, model.nodes.inertia_inv, model.nodes.free, model.nodes.mass
-    constrained_nodes = model.nodes.constrained_ids
-    for p in range(constrained_nodes.shape[0]):
-        kick_node(constrained_nodes[p], c, J, Jinv, free, mass, v, w, S, F, hk, v_new, w_new, 1, True)
+    ids = model.nodes.constrained_ids
+    kick_range(0, ids.shape[0], ids, True, c, J, Jinv, free, mass, model.nodes.constrained, v, w, S, F, hk, v_new,
+               w_new, 1, 0, True)
 
 
 @inlined

@@ -30,64 +30,71 @@ external power at V^{n−½} and at V^{n+½}, and the sum of the new velocities 
 
 
 @inlined
-def kick_node(i, c, J, Jinv, free, mass, v, w, S, F, hk, v_new, w_new, n_sweeps, from_guess):
-    """Stage 2 at node i: ``v* = v + h_k (m⁻¹(F − S_u) − c v)`` and the body-frame angular velocity with
-    the midpoint gyroscopic term ``ω̄ × J ω̄`` by at most ``n_sweeps`` fixed-point sweeps, from ``w`` or,
-    if ``from_guess``, from ``w_new`` (see :func:`reference.algorithms.staggered._kick`)."""
-    m_inv = 1.0 / mass[i]
-    for k in range(3):
-        v_new[i, k] = free[i, k] * (v[i, k] + hk * ((F[i, k] - S[i, k]) * m_inv - c * v[i, k]))
-    w0, w1, w2 = w[i, 0], w[i, 1], w[i, 2]
-    r0, r1, r2 = F[i, 3] - S[i, 3], F[i, 4] - S[i, 4], F[i, 5] - S[i, 5]
-    if c != 0.0:  # damping moment −c J ω at the old half step
-        r0 -= c * (J[i, 0, 0] * w0 + J[i, 0, 1] * w1 + J[i, 0, 2] * w2)
-        r1 -= c * (J[i, 1, 0] * w0 + J[i, 1, 1] * w1 + J[i, 1, 2] * w2)
-        r2 -= c * (J[i, 2, 0] * w0 + J[i, 2, 1] * w1 + J[i, 2, 2] * w2)
-    n0, n1, n2 = w0, w1, w2
-    if from_guess:
-        n0, n1, n2 = w_new[i, 0], w_new[i, 1], w_new[i, 2]
-    # a principal-axes inertia (every node of a straight beam) needs a third of the products
-    diagonal = J[i, 0, 1] == 0.0 and J[i, 0, 2] == 0.0 and J[i, 1, 2] == 0.0 and J[i, 1, 0] == 0.0 and \
-        J[i, 2, 0] == 0.0 and J[i, 2, 1] == 0.0 and Jinv[i, 0, 1] == 0.0 and Jinv[i, 0, 2] == 0.0 and \
-        Jinv[i, 1, 2] == 0.0 and Jinv[i, 1, 0] == 0.0 and Jinv[i, 2, 0] == 0.0 and Jinv[i, 2, 1] == 0.0
-    for sweep in range(n_sweeps):
-        b0, b1, b2 = 0.5 * (w0 + n0), 0.5 * (w1 + n1), 0.5 * (w2 + n2)
-        if diagonal:
-            j0, j1, j2 = J[i, 0, 0] * b0, J[i, 1, 1] * b1, J[i, 2, 2] * b2
-        else:
-            j0 = J[i, 0, 0] * b0 + J[i, 0, 1] * b1 + J[i, 0, 2] * b2
-            j1 = J[i, 1, 0] * b0 + J[i, 1, 1] * b1 + J[i, 1, 2] * b2
-            j2 = J[i, 2, 0] * b0 + J[i, 2, 1] * b1 + J[i, 2, 2] * b2
-        g0 = r0 - (b1 * j2 - b2 * j1)
-        g1 = r1 - (b2 * j0 - b0 * j2)
-        g2 = r2 - (b0 * j1 - b1 * j0)
-        if diagonal:
-            m0 = free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0))
-            m1 = free[i, 4] * (w1 + hk * (Jinv[i, 1, 1] * g1))
-            m2 = free[i, 5] * (w2 + hk * (Jinv[i, 2, 2] * g2))
-        else:
-            m0 = free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0 + Jinv[i, 0, 1] * g1 + Jinv[i, 0, 2] * g2))
-            m1 = free[i, 4] * (w1 + hk * (Jinv[i, 1, 0] * g0 + Jinv[i, 1, 1] * g1 + Jinv[i, 1, 2] * g2))
-            m2 = free[i, 5] * (w2 + hk * (Jinv[i, 2, 0] * g0 + Jinv[i, 2, 1] * g1 + Jinv[i, 2, 2] * g2))
-        # converged to round-off: a further sweep would change nothing
-        done = sweep > 0 and abs(m0 - n0) + abs(m1 - n1) + abs(m2 - n2) <= \
-            SWEEP_TOLERANCE * (abs(m0) + abs(m1) + abs(m2))
-        n0, n1, n2 = m0, m1, m2
-        if done:
-            break
-    w_new[i, 0], w_new[i, 1], w_new[i, 2] = n0, n1, n2
+def kick_range(lo, hi, ids, by_id, c, J, Jinv, free, mass, constrained, v, w, S, F, hk, v_new, w_new, sweeps, extra,
+               from_guess):
+    """Stage 2 at the nodes ``lo … hi − 1`` (or ``ids[lo:hi]`` if ``by_id``): ``v* = v + h_k (m⁻¹(F − S_u) − c v)``
+    and the body-frame angular velocity with the midpoint gyroscopic term ``ω̄ × J ω̄`` by at most
+    ``sweeps`` fixed-point sweeps (``extra`` more at a node of no joint), from ``w`` or, if
+    ``from_guess``, from ``w_new``.  The loop over the nodes is here, not a call per node: an inlined
+    call inside a loop costs numba's reference-count updates of its array arguments per iteration."""
+    for p in range(lo, hi):
+        i = ids[p] if by_id else p
+        n_sweeps = sweeps if constrained[i] else sweeps + extra
+        m_inv = 1.0 / mass[i]
+        for k in range(3):
+            v_new[i, k] = free[i, k] * (v[i, k] + hk * ((F[i, k] - S[i, k]) * m_inv - c * v[i, k]))
+        w0, w1, w2 = w[i, 0], w[i, 1], w[i, 2]
+        r0, r1, r2 = F[i, 3] - S[i, 3], F[i, 4] - S[i, 4], F[i, 5] - S[i, 5]
+        if c != 0.0:  # damping moment −c J ω at the old half step
+            r0 -= c * (J[i, 0, 0] * w0 + J[i, 0, 1] * w1 + J[i, 0, 2] * w2)
+            r1 -= c * (J[i, 1, 0] * w0 + J[i, 1, 1] * w1 + J[i, 1, 2] * w2)
+            r2 -= c * (J[i, 2, 0] * w0 + J[i, 2, 1] * w1 + J[i, 2, 2] * w2)
+        n0, n1, n2 = w0, w1, w2
+        if from_guess:
+            n0, n1, n2 = w_new[i, 0], w_new[i, 1], w_new[i, 2]
+        # a principal-axes inertia (every node of a straight beam) needs a third of the products
+        diagonal = J[i, 0, 1] == 0.0 and J[i, 0, 2] == 0.0 and J[i, 1, 2] == 0.0 and J[i, 1, 0] == 0.0 and \
+            J[i, 2, 0] == 0.0 and J[i, 2, 1] == 0.0 and Jinv[i, 0, 1] == 0.0 and Jinv[i, 0, 2] == 0.0 and \
+            Jinv[i, 1, 2] == 0.0 and Jinv[i, 1, 0] == 0.0 and Jinv[i, 2, 0] == 0.0 and Jinv[i, 2, 1] == 0.0
+        for sweep in range(n_sweeps):
+            b0, b1, b2 = 0.5 * (w0 + n0), 0.5 * (w1 + n1), 0.5 * (w2 + n2)
+            if diagonal:
+                j0, j1, j2 = J[i, 0, 0] * b0, J[i, 1, 1] * b1, J[i, 2, 2] * b2
+            else:
+                j0 = J[i, 0, 0] * b0 + J[i, 0, 1] * b1 + J[i, 0, 2] * b2
+                j1 = J[i, 1, 0] * b0 + J[i, 1, 1] * b1 + J[i, 1, 2] * b2
+                j2 = J[i, 2, 0] * b0 + J[i, 2, 1] * b1 + J[i, 2, 2] * b2
+            g0 = r0 - (b1 * j2 - b2 * j1)
+            g1 = r1 - (b2 * j0 - b0 * j2)
+            g2 = r2 - (b0 * j1 - b1 * j0)
+            if diagonal:
+                m0 = free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0))
+                m1 = free[i, 4] * (w1 + hk * (Jinv[i, 1, 1] * g1))
+                m2 = free[i, 5] * (w2 + hk * (Jinv[i, 2, 2] * g2))
+            else:
+                m0 = free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0 + Jinv[i, 0, 1] * g1 + Jinv[i, 0, 2] * g2))
+                m1 = free[i, 4] * (w1 + hk * (Jinv[i, 1, 0] * g0 + Jinv[i, 1, 1] * g1 + Jinv[i, 1, 2] * g2))
+                m2 = free[i, 5] * (w2 + hk * (Jinv[i, 2, 0] * g0 + Jinv[i, 2, 1] * g1 + Jinv[i, 2, 2] * g2))
+            # converged to round-off: a further sweep would change nothing
+            done = sweep > 0 and abs(m0 - n0) + abs(m1 - n1) + abs(m2 - n2) <= \
+                SWEEP_TOLERANCE * (abs(m0) + abs(m1) + abs(m2))
+            n0, n1, n2 = m0, m1, m2
+            if done:
+                break
+        w_new[i, 0], w_new[i, 1], w_new[i, 2] = n0, n1, n2
 
 
 @parallel_kernel
 def _kick_parallel(c, J, Jinv, free, mass, constrained, v, w, S, F, hk, v_new, w_new, sweeps, extra):
-    for i in prange(v.shape[0]):
-        kick_node(i, c, J, Jinv, free, mass, v, w, S, F, hk, v_new, w_new,
-                  sweeps if constrained[i] else sweeps + extra, False)
+    N = v.shape[0]
+    for k in prange(n_chunks(N)):
+        kick_range(k * CHUNK, min(N, (k + 1) * CHUNK), constrained, False, c, J, Jinv, free, mass, constrained, v, w,
+                   S, F, hk, v_new, w_new, sweeps, extra, False)
 
 
 @inlined
 def kick_nodes(model, v, w, S, F, hk, v_new, w_new, sweeps, extra_free_sweeps):
-    """The kick of every node (:func:`kick_node`, ``sweeps`` sweeps, ``extra_free_sweeps`` more at a node of
+    """The kick of every node (:func:`kick_range`, ``sweeps`` sweeps, ``extra_free_sweeps`` more at a node of
     no joint); a parallel loop from :data:`~reference.parallel.PARALLEL_NODES` nodes on."""
     # the model's arrays bound once: a field read inside the loop costs two atomic reference-count
     # updates per iteration (numba), and a row view (J[i]) as many
@@ -95,10 +102,9 @@ def kick_nodes(model, v, w, S, F, hk, v_new, w_new, sweeps, extra_free_sweeps):
     constrained = model.nodes.constrained
     if v.shape[0] >= PARALLEL_NODES:
         _kick_parallel(c, J, Jinv, free, mass, constrained, v, w, S, F, hk, v_new, w_new, sweeps, extra_free_sweeps)
-        return
-    for i in range(v.shape[0]):
-        kick_node(i, c, J, Jinv, free, mass, v, w, S, F, hk, v_new, w_new,
-                  sweeps if constrained[i] else sweeps + extra_free_sweeps, False)
+    else:
+        kick_range(0, v.shape[0], constrained, False, c, J, Jinv, free, mass, constrained, v, w, S, F, hk, v_new,
+                   w_new, sweeps, extra_free_sweeps, False)
 
 
 @inlined

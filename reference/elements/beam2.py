@@ -172,26 +172,28 @@ def _family_assemble(data, W, x, q, S):
 
 
 @inlined
-def _tangent_element(data, W, x, q, psi, ck, values, p, Jr, K144, e):
-    """Element e's 12×12 tangent times ``ck`` into ``values`` from ``p`` on; returns the position after it."""
+def _tangent_range(data, W, x, q, psi, ck, values, p0, Jr, K144, lo, hi):
+    """The 12×12 tangents times ``ck`` of the elements ``lo … hi − 1``, element e's into ``values`` from
+    ``p0 + 144 e`` on (``Jr`` (9,), ``K144`` scratch)."""
     conn, offset, L0, psi0, gamma0, stiff = data.conn, data.offset, data.L0, data.psi0, data.gamma0, data.stiff
     K12 = K144.reshape((12, 12))
-    i, j = conn[e, 0], conn[e, 1]
-    s_el = W[e]
-    if ck != 0.0 and is_identity(offset[e, 0]) and is_identity(offset[e, 1]):
-        # section frames are the node frames (straight beams): p_a = q_a and T = I exactly
-        generated_tangents.beam2_tangent(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e],
-                                         s_el[:12], K144)
-    elif ck != 0.0:
-        p1, p2 = s_el[24:28], s_el[28:32]
-        section_quaternion(q[i], offset[e, 0], p1)
-        section_quaternion(q[j], offset[e, 1], p2)
-        generated_tangents.beam2_tangent(x[i], x[j], p1, p2, L0[e], psi0[e], gamma0[e], stiff[e], s_el[:12],
-                                         K144)
-        tangent_to_node_frames(offset[e], K12, s_el[32:35], s_el[35:38])
-    else:
-        K12[:, :] = 0.0
-    return store_block(K12, conn[e], 2, psi, Jr, ck, values, p)
+    for e in range(lo, hi):
+        i, j = conn[e, 0], conn[e, 1]
+        s_el = W[e]
+        if ck != 0.0 and is_identity(offset[e, 0]) and is_identity(offset[e, 1]):
+            # section frames are the node frames (straight beams): p_a = q_a and T = I exactly
+            generated_tangents.beam2_tangent(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e],
+                                             s_el[:12], K144)
+        elif ck != 0.0:
+            p1, p2 = s_el[24:28], s_el[28:32]
+            section_quaternion(q[i], offset[e, 0], p1)
+            section_quaternion(q[j], offset[e, 1], p2)
+            generated_tangents.beam2_tangent(x[i], x[j], p1, p2, L0[e], psi0[e], gamma0[e], stiff[e], s_el[:12],
+                                             K144)
+            tangent_to_node_frames(offset[e], K12, s_el[32:35], s_el[35:38])
+        else:
+            K12[:, :] = 0.0
+        store_block(K12, conn[e], 2, psi, Jr, ck, values, p0 + 144 * e)
 
 
 @parallel_kernel
@@ -199,8 +201,7 @@ def _tangent_parallel(data, W, x, q, psi, ck, values, p):
     E = data.conn.shape[0]
     for k in prange(element_chunks(E)):
         Jr, K144 = np.empty(9), np.empty(144)
-        for e in range(k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK)):
-            _tangent_element(data, W, x, q, psi, ck, values, p + 144 * e, Jr, K144, e)
+        _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K144, k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK))
 
 
 @inlined
@@ -212,10 +213,8 @@ def _family_tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
     if E >= PARALLEL_ELEMENTS:
         _tangent_parallel(data, W, x, q, psi, ck, values, p)
         return p + 144 * E
-    K144 = K[:144]
-    for e in range(E):
-        p = _tangent_element(data, W, x, q, psi, ck, values, p, Jr, K144, e)
-    return p
+    _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K[:144], 0, E)
+    return p + 144 * E
 
 
 @inlined

@@ -86,20 +86,22 @@ def _assemble(data, W, x, q, S):
 
 
 @inlined
-def _tangent_element(data, W, x, q, psi, ck, values, p, Jr, K144, e):
-    """Element e's 12×12 tangent times ``ck`` into ``values`` from ``p`` on; returns the position after it."""
+def _tangent_range(data, W, x, q, psi, ck, values, p0, Jr, K144, lo, hi):
+    """The 12×12 tangents times ``ck`` of the elements ``lo … hi − 1``, element e's into ``values`` from
+    ``p0 + 144 e`` on (``Jr`` (9,), ``K144`` scratch)."""
     K12 = K144.reshape((12, 12))
-    i, j = data.conn[e, 0], data.conn[e, 1]
-    w = W[e]
-    if ck != 0.0:
-        section_quaternion(q[i], data.offset[e, 0], w[24:28])
-        section_quaternion(q[j], data.offset[e, 1], w[28:32])
-        generated.tangent(x[i], x[j], w[24:28], w[28:32], data.L0[e], data.psi0[e], data.gamma0[e],
-                          data.stiff[e], w[:12], K144)
-        tangent_to_node_frames(data.offset[e], K12, w[32:35], w[35:38])
-    else:
-        K12[:, :] = 0.0
-    return store_block(K12, data.conn[e], 2, psi, Jr, ck, values, p)
+    for e in range(lo, hi):
+        i, j = data.conn[e, 0], data.conn[e, 1]
+        w = W[e]
+        if ck != 0.0:
+            section_quaternion(q[i], data.offset[e, 0], w[24:28])
+            section_quaternion(q[j], data.offset[e, 1], w[28:32])
+            generated.tangent(x[i], x[j], w[24:28], w[28:32], data.L0[e], data.psi0[e], data.gamma0[e],
+                              data.stiff[e], w[:12], K144)
+            tangent_to_node_frames(data.offset[e], K12, w[32:35], w[35:38])
+        else:
+            K12[:, :] = 0.0
+        store_block(K12, data.conn[e], 2, psi, Jr, ck, values, p0 + 144 * e)
 
 
 @parallel_kernel
@@ -107,8 +109,7 @@ def _tangent_parallel(data, W, x, q, psi, ck, values, p):
     E = data.conn.shape[0]
     for k in prange(element_chunks(E)):
         Jr, K144 = np.empty(9), np.empty(144)
-        for e in range(k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK)):
-            _tangent_element(data, W, x, q, psi, ck, values, p + 144 * e, Jr, K144, e)
+        _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K144, k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK))
 
 
 @inlined
@@ -120,10 +121,8 @@ def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
     if E >= PARALLEL_ELEMENTS:
         _tangent_parallel(data, W, x, q, psi, ck, values, p)
         return p + 144 * E
-    K144 = K[:144]
-    for e in range(E):
-        p = _tangent_element(data, W, x, q, psi, ck, values, p, Jr, K144, e)
-    return p
+    _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K[:144], 0, E)
+    return p + 144 * E
 
 
 @inlined

@@ -88,23 +88,25 @@ def _assemble(data, W, x, q, S):
 
 
 @inlined
-def _tangent_element(data, W, x, q, psi, ck, values, p, Jr, K324, e):
-    """Element e's 18×18 tangent times ``ck`` into ``values`` from ``p`` on; returns the position after it."""
+def _tangent_range(data, W, x, q, psi, ck, values, p0, Jr, K324, lo, hi):
+    """The 18×18 tangents times ``ck`` of the elements ``lo … hi − 1``, element e's into ``values`` from
+    ``p0 + 324 e`` on (``Jr`` (9,), ``K324`` scratch)."""
     K18 = K324.reshape((18, 18))
-    i, j, m = data.conn[e, 0], data.conn[e, 1], data.conn[e, 2]
-    w = W[e]
-    if ck != 0.0:
-        _element(data, x, q, e, w)
-        for g in range(2):
-            generated.gauss_hessian(w[70 + 9 * g:79 + 9 * g], data.gamma0[e, 3 * g:3 * g + 3],
-                                    data.kappa0[e, 3 * g:3 * g + 3], data.stiff[e], data.L0[e],
-                                    w[88 + 81 * g:169 + 81 * g])
-        generated.tangent(x[i], x[j], x[m], w[42:46], w[46:50], w[50:54], data.L0[e], data.gamma0[e],
-                          data.kappa0[e], data.stiff[e], w[88:250], w[:18], K324)
-        tangent_to_node_frames(data.offset[e], K18, w[64:67], w[67:70])
-    else:
-        K18[:, :] = 0.0
-    return store_block(K18, data.conn[e], 3, psi, Jr, ck, values, p)
+    for e in range(lo, hi):
+        i, j, m = data.conn[e, 0], data.conn[e, 1], data.conn[e, 2]
+        w = W[e]
+        if ck != 0.0:
+            _element(data, x, q, e, w)
+            for g in range(2):
+                generated.gauss_hessian(w[70 + 9 * g:79 + 9 * g], data.gamma0[e, 3 * g:3 * g + 3],
+                                        data.kappa0[e, 3 * g:3 * g + 3], data.stiff[e], data.L0[e],
+                                        w[88 + 81 * g:169 + 81 * g])
+            generated.tangent(x[i], x[j], x[m], w[42:46], w[46:50], w[50:54], data.L0[e], data.gamma0[e],
+                              data.kappa0[e], data.stiff[e], w[88:250], w[:18], K324)
+            tangent_to_node_frames(data.offset[e], K18, w[64:67], w[67:70])
+        else:
+            K18[:, :] = 0.0
+        store_block(K18, data.conn[e], 3, psi, Jr, ck, values, p0 + 324 * e)
 
 
 @parallel_kernel
@@ -112,8 +114,7 @@ def _tangent_parallel(data, W, x, q, psi, ck, values, p):
     E = data.conn.shape[0]
     for k in prange(element_chunks(E)):
         Jr, K324 = np.empty(9), np.empty(324)
-        for e in range(k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK)):
-            _tangent_element(data, W, x, q, psi, ck, values, p + 324 * e, Jr, K324, e)
+        _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K324, k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK))
 
 
 @inlined
@@ -125,10 +126,8 @@ def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
     if E >= PARALLEL_ELEMENTS:
         _tangent_parallel(data, W, x, q, psi, ck, values, p)
         return p + 324 * E
-    K324 = K[:324]
-    for e in range(E):
-        p = _tangent_element(data, W, x, q, psi, ck, values, p, Jr, K324, e)
-    return p
+    _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K[:324], 0, E)
+    return p + 324 * E
 
 
 @inlined

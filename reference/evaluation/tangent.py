@@ -70,43 +70,45 @@ def load_tangent(model, q, t, i, K6, T9):
 
 
 @inlined
-def _node_block(i, node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p,
+def _node_range(lo, hi, node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p0,
                 blk, Jr, J9, A):
-    """Node i's 6×6 block (see :func:`_node_blocks`) into ``values`` from ``p`` on."""
-    for a in range(6):
-        for b in range(6):
-            blk[a, b] = 0.0
-    _loads_tangent(node, code, tf, vec, tf_kind, tf_par, q, t, i, blk, A)
-    for a in range(6):
-        for b in range(6):
-            blk[a, b] *= ck
-    times_right_jacobian(blk, 3, psi[i], Jr)
-    for a in range(3):
-        blk[a, a] += mass[i] * (cm + cc * c)
-    for a in range(3):
-        for b in range(3):
-            blk[3 + a, 3 + b] += (cm + cc * c) * J[i, a, b]
-    if cc != 0.0:
+    """The 6×6 blocks of the nodes ``lo … hi − 1`` (see :func:`_node_blocks`), node i's from ``p0 + 36 i`` on."""
+    for i in range(lo, hi):
+        p = p0 + 36 * i
+        for a in range(6):
+            for b in range(6):
+                blk[a, b] = 0.0
+        _loads_tangent(node, code, tf, vec, tf_kind, tf_par, q, t, i, blk, A)
+        for a in range(6):
+            for b in range(6):
+                blk[a, b] *= ck
+        times_right_jacobian(blk, 3, psi[i], Jr)
+        for a in range(3):
+            blk[a, a] += mass[i] * (cm + cc * c)
         for a in range(3):
             for b in range(3):
-                J9[3 * a + b] = J[i, a, b]
-        generated_tangents.gyroscopic_tangent(J9, w[i], A)
-        for a in range(3):
-            for b in range(3):
-                blk[3 + a, 3 + b] += cc * A[3 * a + b]
-    for a in range(6):
-        for b in range(6):
-            values[p] = blk[a, b]
-            p += 1
+                blk[3 + a, 3 + b] += (cm + cc * c) * J[i, a, b]
+        if cc != 0.0:
+            for a in range(3):
+                for b in range(3):
+                    J9[3 * a + b] = J[i, a, b]
+            generated_tangents.gyroscopic_tangent(J9, w[i], A)
+            for a in range(3):
+                for b in range(3):
+                    blk[3 + a, 3 + b] += cc * A[3 * a + b]
+        for a in range(6):
+            for b in range(6):
+                values[p] = blk[a, b]
+                p += 1
 
 
 @parallel_kernel
 def _node_blocks_parallel(node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p):
-    for k in prange(n_chunks(q.shape[0])):
+    N = q.shape[0]
+    for k in prange(n_chunks(N)):
         blk, Jr, J9, A = np.empty((6, 6)), np.empty(9), np.empty(9), np.empty(9)
-        for i in range(k * CHUNK, min(q.shape[0], (k + 1) * CHUNK)):
-            _node_block(i, node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values,
-                        p + 36 * i, blk, Jr, J9, A)
+        _node_range(k * CHUNK, min(N, (k + 1) * CHUNK), node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t,
+                    cm, cc, ck, values, p, blk, Jr, J9, A)
 
 
 @inlined
@@ -121,12 +123,9 @@ def _node_blocks(model, q, w, psi, t, cm, cc, ck, values, p, K12, Jr, J9, A):
     if N >= PARALLEL_NODES:
         _node_blocks_parallel(node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p)
         return p + 36 * N
-    blk = K12[:6, :6]
-    for i in range(N):
-        _node_block(i, node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p,
-                    blk, Jr, J9, A)
-        p += 36
-    return p
+    _node_range(0, N, node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p,
+                K12[:6, :6], Jr, J9, A)
+    return p + 36 * N
 
 
 @inlined
