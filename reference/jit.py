@@ -26,8 +26,9 @@ parallel form depends on the model's size only (``reference.parallel.PARALLEL_NO
 **Thread count** (:func:`threads`): ``FLEXMBS_THREADS`` when set (the override, capped at numba's
 pool, ``NUMBA_NUM_THREADS``); otherwise every core the process may use (:func:`available_cores`) for a
 model of at least :data:`DEFAULT_PARALLEL_NODES` nodes, and one thread below: a small model's step is
-a few µs per loop, about what starting a parallel region costs, so it gains nothing from a second thread
-(the measured per element-step costs and crossover are in docs/benchmarks.md §5).  On a machine shared
+a few µs per loop, about what starting a parallel region costs, so it gains little from a second
+thread.  The measured costs are in docs/benchmarks.md §5; the crossover itself needs an idle core and
+could not be measured on the shared development machine, so 8,192 nodes is a conservative choice.  On a machine shared
 with other jobs set ``FLEXMBS_THREADS=1``: a thread that another process holds up stalls every parallel
 region, and a two-thread step then costs several times the one-thread step (measured there too).
 
@@ -70,8 +71,8 @@ __all__ = ["CompileTimer", "available_cores", "boundary", "kernel", "inlined", "
 
 THREADS_ENV = "FLEXMBS_THREADS"
 DEFAULT_PARALLEL_NODES = 8192
-"""Nodes from which a run takes every available core by default (below it, one thread): the crossover
-measured in the module docstring."""
+"""Nodes from which a run takes every available core by default (below it, one thread); see the
+module docstring."""
 ENGINE = Path(__file__).resolve().parent
 
 
