@@ -14,12 +14,23 @@ helpers are :func:`inlined` (the same Python function compiled to be inlined
 where it is called; numba then drops the updates), and a kernel binds the
 Model's arrays it needs to local names once, before its loops.
 
-A loop over independent items (the Beam2 elements) may be a
-:func:`parallel_kernel` with ``prange``; it runs on :func:`threads` threads,
-set by the environment variable ``FLEXMBS_THREADS`` (default 1: on a machine
-shared with other jobs, a thread that is not scheduled stalls every step).
-Results never depend on the thread count: parallel loops only write per-item
-rows, and the sums over items are taken afterwards, in order, on one thread.
+Loops over independent items are :func:`parallel_kernel` loops (``prange``): every element family's
+element loop and tangent blocks, the explicit step's node loops (kick, drift, the step's sums, the
+force reset, the element → node gather) and the implicit residual's and tangent's node loops.  Their
+results never depend on the thread count, by the rules of :mod:`reference.parallel`: a parallel loop
+writes per-item rows only, the element → node accumulation is a per-node gather in element order, and
+sums are taken over fixed chunks whose partial sums are added in order.  Whether a loop takes its
+parallel form depends on the model's size only (``reference.parallel.PARALLEL_NODES``, the families'
+``PARALLEL_ELEMENTS``).  Joints, master/slave joints, loads and force elements stay serial.
+
+**Thread count** (:func:`threads`): ``FLEXMBS_THREADS`` when set (the override, capped at numba's
+pool, ``NUMBA_NUM_THREADS``); otherwise every core the process may use (:func:`available_cores`) for a
+model of at least :data:`DEFAULT_PARALLEL_NODES` nodes, and one thread below: a small model's step is
+a few µs per loop, about what starting a parallel region costs, so it gains little from a second
+thread.  The measured costs are in docs/benchmarks.md §5; the crossover itself needs an idle core and
+could not be measured on the shared development machine, so 8,192 nodes is a conservative choice.  On a machine shared
+with other jobs set ``FLEXMBS_THREADS=1``: a thread that another process holds up stalls every parallel
+region, and a two-thread step then costs several times the one-thread step (measured there too).
 
 Calling a compiled kernel from Python unboxes its arguments, and numba does that markedly
 slower for named tuples than for plain ones: a call taking the Model costs 7.7 µs, the same
@@ -55,10 +66,13 @@ from numba import prange, types
 from numba.core.imputils import impl_ret_borrowed
 from numba.extending import intrinsic
 
-__all__ = ["CompileTimer", "boundary", "kernel", "inlined", "named", "parallel_kernel", "prange", "threads", "use_threads",
-           "source_digest", "vector_kernel"]
+__all__ = ["CompileTimer", "available_cores", "boundary", "kernel", "inlined", "named", "parallel_kernel", "prange",
+           "threads", "use_threads", "source_digest", "vector_kernel"]
 
 THREADS_ENV = "FLEXMBS_THREADS"
+DEFAULT_PARALLEL_NODES = 8192
+"""Nodes from which a run takes every available core by default (below it, one thread); see the
+module docstring."""
 ENGINE = Path(__file__).resolve().parent
 
 
@@ -139,23 +153,34 @@ def parallel_kernel(func):
     return numba.njit(cache=True, fastmath=False, parallel=True)(func)
 
 
-def threads() -> int:
-    """Threads of the parallel kernels: ``FLEXMBS_THREADS`` (default 1), at most the cores numba uses.
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity), at most the threads numba starts."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, numba.config.NUMBA_NUM_THREADS))
+
+
+def threads(nodes: int | None = None) -> int:
+    """Threads of the parallel kernels: ``FLEXMBS_THREADS`` if set (at most the cores numba uses), else
+    :func:`available_cores` for a model of at least :data:`DEFAULT_PARALLEL_NODES` nodes and 1 for a
+    smaller one (or when ``nodes`` is not given).
 
     Raises
     ------
     ValueError
         When the variable is not a positive integer.
     """
-    text = os.environ.get(THREADS_ENV, "1").strip()
+    text = os.environ.get(THREADS_ENV, "").strip()
+    if not text:
+        return available_cores() if nodes is not None and nodes >= DEFAULT_PARALLEL_NODES else 1
     if not text.isdigit() or int(text) < 1:
         raise ValueError(f"{THREADS_ENV}={text!r}: expected a positive integer (threads of the parallel kernels)")
     return min(int(text), numba.config.NUMBA_NUM_THREADS)
 
 
-def use_threads(n: int | None = None) -> int:
-    """Set the parallel kernels' thread count for the calling thread (default :func:`threads`); return it."""
-    n = threads() if n is None else max(1, min(int(n), numba.config.NUMBA_NUM_THREADS))
+def use_threads(n: int | None = None, nodes: int | None = None) -> int:
+    """Set the parallel kernels' thread count for the calling thread (default :func:`threads` for a model of
+    ``nodes`` nodes); return it."""
+    n = threads(nodes) if n is None else max(1, min(int(n), numba.config.NUMBA_NUM_THREADS))
     numba.set_num_threads(n)
     return n
 

@@ -52,7 +52,7 @@ the step's characteristic polynomial is ``λ² − (2 − c h − h²ω²) λ + 
 stay in the unit circle (Jury's test) for ``0 ≤ c h < 2 − (h ω)² / 2``; with the critical step
 ``h_c = 2 / ω_max`` of the undamped scheme, ``c h < 2 (1 − (h / h_c)²)`` (:func:`damping_limit`).
 The energy the damping removes in a kick is its force times the mean of the two half-step
-velocities, ``h c m V^{n−½}·½(V^{n−½} + V^{n+½})`` (:func:`damping_dissipation`), the first
+velocities, ``h c m V^{n−½}·½(V^{n−½} + V^{n+½})`` (:func:`reference.algorithms.staggered_nodes.node_sums`), the first
 half kick included: the product with ``V^{n−½}`` alone overcounts a kick by ``1 / (1 − c h / 2)``,
 fourfold at c h = 1.5 (a free decay at c h = 1.5 now books its loss to 1.2e-7; before, 0.26 of it).
 """
@@ -63,7 +63,7 @@ import math
 
 import numpy as np
 
-from reference.jit import inlined, kernel
+from reference.jit import kernel
 
 TOLERANCE = 0.5
 """Energy-balance residual, as a fraction of the energy scale, that stops a run."""
@@ -266,17 +266,3 @@ def damping_problem(c: float, dt: float, critical: float, margin: float = 1.0) -
     return (f"c·dt = {c * dt:.3g} exceeds {'' if margin == 1.0 else f'{margin:g} × '}the explicit scheme's damping "
             f"limit 2(1 − (dt/dt_crit)²) = {lim:.3g} at dt = {ratio:.2g} × critical; use dt ≤ {0.99 * h:.2g} "
             f"or damping ≤ {0.99 * max(limit, 0.0) / dt:.3g}")
-
-
-@inlined
-def damping_dissipation(model, v, w, v_new, w_new):
-    """``Σ m V^{n−½}·½(V^{n−½} + V^{n+½}) + ω^{n−½}·J·½(ω^{n−½} + ω^{n+½})`` over the free
-    coordinates: times ``h c`` the energy the mass-proportional damping removes in one kick."""
-    mass, J, free = model.nodes.mass, model.nodes.inertia, model.nodes.free
-    total = 0.0
-    for i in range(v.shape[0]):
-        for a in range(3):
-            total += mass[i] * v[i, a] * 0.5 * (v[i, a] + v_new[i, a]) * free[i, a]
-            for b in range(3):
-                total += w[i, a] * J[i, a, b] * 0.5 * (w[i, b] + w_new[i, b]) * free[i, 3 + a]
-    return total

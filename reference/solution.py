@@ -24,7 +24,7 @@ import numpy as np
 from reference.algorithms import Algorithm
 from reference.elements.families import resultants
 from reference.io.results import MemoryRecorder, Results
-from reference.jit import boundary, inlined, kernel, named
+from reference.jit import boundary, inlined, kernel, named, use_threads
 from reference.joints.joint import PRESCRIBED
 from reference.joints.reactions import joint_reactions
 from reference.joints.reactions import scratch as reaction_scratch
@@ -146,6 +146,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     status = "failed: stopped before the first step"
     wall0 = _time.perf_counter()
     try:
+        use_threads(nodes=len(domain.nodes))  # reference.jit: every core for a large model, one for a small one
         run_state = algo.start(model, state, watch.critical if watch is not None else domain.critical_time_step(),
                                watch.floor if watch is not None else None)
         domain.last_run["solver"] = run_state

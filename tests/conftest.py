@@ -9,6 +9,9 @@ import os
 # tangent at every load level, ran 0.7–1.3 s instead of 0.02 s on a loaded two-core machine).  Set before
 # numpy loads OpenBLAS; the subprocesses the tests start inherit it.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+# numba's thread pool: at least three threads, so that tests/test_parallel_steps.py can run the parallel loops
+# on 1, 2 and 3 of them (the runs themselves use FLEXMBS_THREADS or reference.jit.threads(), capped at the cores)
+os.environ.setdefault("NUMBA_NUM_THREADS", str(max(3, os.cpu_count() or 1)))
 
 import numpy as np  # noqa: E402
 import pytest

@@ -57,9 +57,10 @@ from reference.elements.families import family_of
 from reference.evaluation.forces import generalized_forces
 from reference.evaluation.tangent import newton_pattern, tangent_values
 from reference.generated import rotation_maps as rm
-from reference.jit import boundary, inlined, kernel, named
+from reference.jit import boundary, inlined, kernel, named, parallel_kernel, prange
 from reference.joints.assembly import joint_rows
 from reference.linalg import SingularMatrix, SparseLU, lu_solve
+from reference.parallel import CHUNK, PARALLEL_NODES, n_chunks
 from reference.state import Model, Record, element_work
 from reference.status import newton_failure
 
@@ -97,6 +98,34 @@ class Work:
         self.fe_out = np.zeros(1)
 
 
+@inlined
+def _residual_rows(lo, hi, S, F, r, mass, J, c, v, w, vd, dynamic):
+    """Rows ``lo … hi − 1`` of the residual without the constraint forces: ``S − F`` and, if ``dynamic``,
+    the inertia ``m (v̇ + c v)``, ``J ω̇ + ω × J ω + c J ω``."""
+    for i in range(lo, hi):
+        for k in range(6):
+            r[i, k] = S[i, k] - F[i, k]
+        if dynamic:
+            m = mass[i]
+            for k in range(3):
+                r[i, k] += m * (vd[i, k] + c * v[i, k])
+            jw0 = J[i, 0, 0] * w[i, 0] + J[i, 0, 1] * w[i, 1] + J[i, 0, 2] * w[i, 2]
+            jw1 = J[i, 1, 0] * w[i, 0] + J[i, 1, 1] * w[i, 1] + J[i, 1, 2] * w[i, 2]
+            jw2 = J[i, 2, 0] * w[i, 0] + J[i, 2, 1] * w[i, 1] + J[i, 2, 2] * w[i, 2]
+            r[i, 3] += w[i, 1] * jw2 - w[i, 2] * jw1 + c * jw0
+            r[i, 4] += w[i, 2] * jw0 - w[i, 0] * jw2 + c * jw1
+            r[i, 5] += w[i, 0] * jw1 - w[i, 1] * jw0 + c * jw2
+            for a in range(3):
+                r[i, 3 + a] += J[i, a, 0] * vd[i, 3] + J[i, a, 1] * vd[i, 4] + J[i, a, 2] * vd[i, 5]
+
+
+@parallel_kernel
+def _residual_parallel(S, F, r, mass, J, c, v, w, vd, dynamic):
+    N = S.shape[0]
+    for k in prange(n_chunks(N)):
+        _residual_rows(k * CHUNK, min(N, (k + 1) * CHUNK), S, F, r, mass, J, c, v, w, vd, dynamic)
+
+
 @kernel
 def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
     """Residual ``r`` (N,6), constraint rows ``Φ, Φ_t, B`` (local (m,12)) at time t; returns U.
@@ -126,21 +155,10 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
     mass, J = model.nodes.mass, model.nodes.inertia
     jt_i, jt_j, jt_neq, jt_row0, jt_tf = model.joints.i, model.joints.j, model.joints.neq, model.joints.row0, model.joints.tf
     jt_par, jt_rows, jt_drive, tf_kind, tf_par = model.joints.par, model.joints.rows, model.joints.drive, model.time_functions.kind, model.time_functions.par
-    for i in range(N):
-        for k in range(6):
-            r[i, k] = S[i, k] - F[i, k]
-        if dynamic:
-            m = mass[i]
-            for k in range(3):
-                r[i, k] += m * (vd[i, k] + c * v[i, k])
-            jw0 = J[i, 0, 0] * w[i, 0] + J[i, 0, 1] * w[i, 1] + J[i, 0, 2] * w[i, 2]
-            jw1 = J[i, 1, 0] * w[i, 0] + J[i, 1, 1] * w[i, 1] + J[i, 1, 2] * w[i, 2]
-            jw2 = J[i, 2, 0] * w[i, 0] + J[i, 2, 1] * w[i, 1] + J[i, 2, 2] * w[i, 2]
-            r[i, 3] += w[i, 1] * jw2 - w[i, 2] * jw1 + c * jw0
-            r[i, 4] += w[i, 2] * jw0 - w[i, 0] * jw2 + c * jw1
-            r[i, 5] += w[i, 0] * jw1 - w[i, 1] * jw0 + c * jw2
-            for a in range(3):
-                r[i, 3 + a] += J[i, a, 0] * vd[i, 3] + J[i, a, 1] * vd[i, 4] + J[i, a, 2] * vd[i, 5]
+    if N >= PARALLEL_NODES:
+        _residual_parallel(S, F, r, mass, J, c, v, w, vd, dynamic)
+    else:
+        _residual_rows(0, N, S, F, r, mass, J, c, v, w, vd, dynamic)
     for k in range(jt_i.shape[0]):
         neq = jt_neq[k]
         r0 = jt_row0[k]

@@ -34,28 +34,25 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numpy as np
+
 from reference.algorithms.base import Algorithm
 from reference.evaluation.forces import generalized_forces
 from reference.evaluation.force_elements import force_element_dissipation
-from reference.generated import rotation_maps as rm
+from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_nodes, kick_range, node_sums
 from reference.jit import inlined, kernel, use_threads
 from reference.joints.assembly import (
     assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
 )
 from reference.joints.master_slave import master_slave_positions, master_slave_project
-from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, damping_dissipation, likely_cause
+from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, likely_cause
+from reference.parallel import n_chunks
 from reference.state import Model, Record, Scratch, State
 from reference.status import BLOWUP, DIVERGED, OK, SINGULAR, explicit_failure
-
-_cayley_update = inlined(rm.cayley_update)
 
 GYRO_SWEEPS = 4
 """Most fixed-point sweeps of the midpoint gyroscopic term (contraction factor
 ≈ h|ω|, so four sweeps reach round-off for h|ω| ≲ 1e-3)."""
-
-SWEEP_TOLERANCE = 2.0**-52
-"""The sweeps stop early once a sweep changes ω by less than this relative to |ω| (round-off):
-a slowly turning node (h|ω| ≲ 1e-8, most nodes of a beam) needs two."""
 
 CONSTRAINED_SWEEPS = 3
 """Extra (kick, projection) passes when there are joints (contraction ≈ h|ω|)."""
@@ -63,65 +60,14 @@ CONSTRAINED_SWEEPS = 3
 
 
 @inlined
-def _kick(model, v, w, S, F, hk, v_new, w_new, sweeps, from_guess, extra_free_sweeps, only_constrained):
-    """Explicit predictor of the half-step velocities (stage 2), fixed coordinates kept at rest.
-
-    The midpoint gyroscopic term is solved by ``sweeps`` fixed-point sweeps
-    starting from ``w`` or, if ``from_guess``, from the current ``w_new`` (the
-    constrained velocities of the previous pass, see :func:`advance`); nodes of
-    no joint get ``extra_free_sweeps`` more.  ``only_constrained``: visit only
-    the nodes of joints (``model.nodes.constrained_ids``).
-    """
-    # the model's arrays bound once: a field read inside the loop costs two atomic reference-count
-    # updates per iteration (numba), and a row view (J[i]) as many
+def _kick(model, v, w, S, F, hk, v_new, w_new):
+    """The kick again at the nodes of joints (``model.nodes.constrained_ids``), one gyroscopic sweep from
+    the constrained velocities of the previous pass (:func:`_constrain`; the full kick is
+    :func:`~reference.algorithms.staggered_nodes.kick_nodes`)."""
     c, J, Jinv, free, mass = model.damping, model.nodes.inertia, model.nodes.inertia_inv, model.nodes.free, model.nodes.mass
-    constrained_nodes, node_constrained = model.nodes.constrained_ids, model.nodes.constrained
-    count = constrained_nodes.shape[0] if only_constrained else v.shape[0]
-    for p in range(count):
-        i = constrained_nodes[p] if only_constrained else p
-        n_sweeps = sweeps if node_constrained[i] else sweeps + extra_free_sweeps
-        m_inv = 1.0 / mass[i]
-        for k in range(3):
-            v_new[i, k] = free[i, k] * (v[i, k] + hk * ((F[i, k] - S[i, k]) * m_inv - c * v[i, k]))
-        w0, w1, w2 = w[i, 0], w[i, 1], w[i, 2]
-        r0, r1, r2 = F[i, 3] - S[i, 3], F[i, 4] - S[i, 4], F[i, 5] - S[i, 5]
-        if c != 0.0:  # damping moment −c J ω at the old half step
-            r0 -= c * (J[i, 0, 0] * w0 + J[i, 0, 1] * w1 + J[i, 0, 2] * w2)
-            r1 -= c * (J[i, 1, 0] * w0 + J[i, 1, 1] * w1 + J[i, 1, 2] * w2)
-            r2 -= c * (J[i, 2, 0] * w0 + J[i, 2, 1] * w1 + J[i, 2, 2] * w2)
-        n0, n1, n2 = w0, w1, w2
-        if from_guess:
-            n0, n1, n2 = w_new[i, 0], w_new[i, 1], w_new[i, 2]
-        # a principal-axes inertia (every node of a straight beam) needs a third of the products
-        diagonal = J[i, 0, 1] == 0.0 and J[i, 0, 2] == 0.0 and J[i, 1, 2] == 0.0 and J[i, 1, 0] == 0.0 and \
-            J[i, 2, 0] == 0.0 and J[i, 2, 1] == 0.0 and Jinv[i, 0, 1] == 0.0 and Jinv[i, 0, 2] == 0.0 and \
-            Jinv[i, 1, 2] == 0.0 and Jinv[i, 1, 0] == 0.0 and Jinv[i, 2, 0] == 0.0 and Jinv[i, 2, 1] == 0.0
-        for sweep in range(n_sweeps):
-            b0, b1, b2 = 0.5 * (w0 + n0), 0.5 * (w1 + n1), 0.5 * (w2 + n2)
-            if diagonal:
-                j0, j1, j2 = J[i, 0, 0] * b0, J[i, 1, 1] * b1, J[i, 2, 2] * b2
-            else:
-                j0 = J[i, 0, 0] * b0 + J[i, 0, 1] * b1 + J[i, 0, 2] * b2
-                j1 = J[i, 1, 0] * b0 + J[i, 1, 1] * b1 + J[i, 1, 2] * b2
-                j2 = J[i, 2, 0] * b0 + J[i, 2, 1] * b1 + J[i, 2, 2] * b2
-            g0 = r0 - (b1 * j2 - b2 * j1)
-            g1 = r1 - (b2 * j0 - b0 * j2)
-            g2 = r2 - (b0 * j1 - b1 * j0)
-            if diagonal:
-                m0 = free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0))
-                m1 = free[i, 4] * (w1 + hk * (Jinv[i, 1, 1] * g1))
-                m2 = free[i, 5] * (w2 + hk * (Jinv[i, 2, 2] * g2))
-            else:
-                m0 = free[i, 3] * (w0 + hk * (Jinv[i, 0, 0] * g0 + Jinv[i, 0, 1] * g1 + Jinv[i, 0, 2] * g2))
-                m1 = free[i, 4] * (w1 + hk * (Jinv[i, 1, 0] * g0 + Jinv[i, 1, 1] * g1 + Jinv[i, 1, 2] * g2))
-                m2 = free[i, 5] * (w2 + hk * (Jinv[i, 2, 0] * g0 + Jinv[i, 2, 1] * g1 + Jinv[i, 2, 2] * g2))
-            # converged to round-off: a further sweep would change nothing
-            done = sweep > 0 and abs(m0 - n0) + abs(m1 - n1) + abs(m2 - n2) <= \
-                SWEEP_TOLERANCE * (abs(m0) + abs(m1) + abs(m2))
-            n0, n1, n2 = m0, m1, m2
-            if done:
-                break
-        w_new[i, 0], w_new[i, 1], w_new[i, 2] = n0, n1, n2
+    ids = model.nodes.constrained_ids
+    kick_range(0, ids.shape[0], ids, True, c, J, Jinv, free, mass, model.nodes.constrained, v, w, S, F, hk, v_new,
+               w_new, 1, 0, True)
 
 
 @inlined
@@ -137,32 +83,17 @@ def _kinetic(model, v, w):
 
 
 @inlined
-def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
+def _balance(T, P_old, P_new, h, P_drive, mean, U, clock, guard):
     """The energy-balance guard of one step (:mod:`reference.monitor`): ``True`` when
     ``E − E₀ − W + D > tolerance × S + h (|F·V⁻| + |F·V⁺| + |P_drive|)`` (energy gained
     that no force put in; energy lost, e.g. to the constraint stabilisation, is no blow-up)
     and ``E − E₀ > tolerance × S`` (the energy itself has grown).  E is the kinetic
-    energy at the integer-step velocities plus the strain energy ``U``; W and D come from
+    energy ``T`` at the integer-step velocities plus the strain energy ``U``; W and D come from
     ``clock``; S is the largest ``|E₀| + |W| + |D|`` so far; the last term, a step of the
-    external power ``F`` at the half-step velocities V⁻ (``v``, ``w``) and V⁺ (``v_new``,
-    ``w_new``) and of the constraint forces' power ``P_drive``, covers the half-step lag or
-    lead of the work behind or ahead of E.
+    external power ``F`` at the half-step velocities V⁻ (``P_old``) and V⁺ (``P_new``) and of the
+    constraint forces' power ``P_drive``, covers the half-step lag or lead of the work behind or
+    ahead of E (the sums: :func:`~reference.algorithms.staggered_nodes.node_sums`).
     ``guard`` = [E₀, S, tolerance, residual, E]."""
-    c = 0.5 if mean else 1.0
-    d = 0.5 if mean else 0.0
-    mass, J = model.nodes.mass, model.nodes.inertia
-    T = 0.0
-    P_old = 0.0
-    P_new = 0.0
-    for i in range(v.shape[0]):
-        for a in range(3):
-            va = c * v[i, a] + d * v_new[i, a]
-            T += 0.5 * mass[i] * va * va
-            P_old += F[i, a] * v[i, a] + F[i, 3 + a] * w[i, a]
-            P_new += F[i, a] * v_new[i, a] + F[i, 3 + a] * w_new[i, a]
-            wa = c * w[i, a] + d * w_new[i, a]
-            for b in range(3):
-                T += 0.5 * wa * J[i, a, b] * (c * w[i, b] + d * w_new[i, b])
     E = T + U
     if not mean:  # the first step: E₀ only
         guard[0] = E
@@ -174,17 +105,6 @@ def _balance(model, v, w, v_new, w_new, F, h, P_drive, mean, U, clock, guard):
     # the energy itself must have grown too: negative work at round-off level on a held model
     # (W ≈ −1e-20, E = 0) is no blow-up
     return r > guard[2] * guard[1] + h * (abs(P_old) + abs(P_new) + abs(P_drive)) and E - guard[0] > guard[2] * guard[1]
-
-
-@inlined
-def _external_work(v, w, f_prev, F, h, clock):
-    """Bookkeeping of the step into ``t_n``: the trapezoidal work of the external forces over the last
-    increment ``h V^{n−½}`` into ``clock[2]``."""
-    dW = 0.0
-    for i in range(v.shape[0]):
-        for a in range(3):
-            dW += 0.5 * (f_prev[i, a] + F[i, a]) * v[i, a] + 0.5 * (f_prev[i, 3 + a] + F[i, 3 + a]) * w[i, a]
-    clock[2] += h * dW
 
 
 @inlined
@@ -203,7 +123,7 @@ def _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows,
     # multiplier and master/slave joints the passes also alternate the two projections.
     for sweep in range(1 + CONSTRAINED_SWEEPS):
         if sweep > 0:
-            _kick(model, v, w, S, F, hk, v_new, w_new, 1, True, 0, True)
+            _kick(model, v, w, S, F, hk, v_new, w_new)
         if n_rows > 0:
             constraint_impulse(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, scratch.PHI, scratch.PHIt,
                                v_new, w_new, h, hk, scratch.lam)
@@ -244,31 +164,15 @@ def _record(model, scratch, rec, x, q, v, w, v_new, w_new, first, U, dD_fe, cloc
 
 
 @inlined
-def _drift(model, scratch, x, q, v, w, v_new, w_new, f_prev, F, h, n_ms):
-    """Stage 3: ``x^{n+1} = x^n + h v^{n+½}``, ``q^{n+1} = q^n ⊗ p(h ω^{n+½})`` (Cayley, normalised),
-    the half-step velocities and the forces kept for the next step's work; the master/slave
-    positions.  Returns False (and changes nothing) if a velocity is not finite."""
-    N = x.shape[0]
-    total = 0.0  # non-finite if any velocity is (or overflows: diverged too)
-    for i in range(N):
-        for a in range(3):
-            total += v_new[i, a] + w_new[i, a]
-    if not math.isfinite(total):
+def _drift(model, scratch, x, q, v, w, v_new, w_new, f_prev, F, h, n_ms, finite):
+    """Stage 3 (:func:`~reference.algorithms.staggered_nodes.drift_nodes`) and the master/slave
+    positions.  Returns False (and changes nothing) if ``finite``, the sum of the new velocities,
+    is not."""
+    if not math.isfinite(finite):
         return False
-    q_tmp = scratch.q_tmp
-    for i in range(N):
-        for a in range(3):
-            v[i, a] = v_new[i, a]
-            w[i, a] = w_new[i, a]
-            x[i, a] += h * v_new[i, a]
-        _cayley_update(q[i], w_new[i], h, q_tmp)
-        nrm = math.sqrt(q_tmp[0] ** 2 + q_tmp[1] ** 2 + q_tmp[2] ** 2 + q_tmp[3] ** 2)
-        for a in range(4):
-            q[i, a] = q_tmp[a] / nrm
-        for a in range(6):
-            f_prev[i, a] = F[i, a]
+    drift_nodes(x, q, v, w, v_new, w_new, f_prev, F, h, scratch.q_tmp)
     if n_ms > 0:
-        master_slave_positions(model, x, q, scratch.A_m, scratch.A_s, q_tmp, scratch.r4)
+        master_slave_positions(model, x, q, scratch.A_m, scratch.A_s, scratch.q_tmp, scratch.r4)
     return True
 
 
@@ -287,25 +191,26 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     n_fe = model.force_elements.kind.shape[0]
     n_rows = scratch.PHI.shape[0]
     n_ms = model.master_slave.master.shape[0]
+    part, sums = np.empty((n_chunks(x.shape[0]), SUMS)), np.empty(SUMS)
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
         # dampers of the force elements at V^{n−½}
         U, _ = generalized_forces(model, scratch.elements, x, q, v, w, t, S, F, G, state.angle, scratch.A,
                                   scratch.prim_phi, scratch.prim_B)
-        if n > 0:
-            _external_work(v, w, f_prev, F, h, clock)
         hk = h if n > 0 else 0.5 * h
         # a node outside every joint keeps its predicted velocity through the constrained passes
         # below, which would only add gyroscopic sweeps to it: it gets all of them at once
-        _kick(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, False,
-              CONSTRAINED_SWEEPS if n_rows > 0 or n_ms > 0 else 0, False)
+        kick_nodes(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, CONSTRAINED_SWEEPS if n_rows > 0 or n_ms > 0 else 0)
         if (n_rows > 0 or n_ms > 0) and _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows,
                                                     n_ms) != OK:
             return SINGULAR
+        c = model.damping
+        node_sums(model, v, w, v_new, w_new, F, f_prev, c != 0.0, scratch.guard[2] > 0.0, n > 0, part, sums)
+        if n > 0:  # the trapezoidal work of the external forces over the increment into t_n
+            clock[2] += h * sums[0]
         # energy removed by the damping (mass-proportional and the force elements' dampers) in this
         # kick: force at V^{n−½} times the mean velocity; t_n (integer-step velocities) gets half
-        c = model.damping
-        dD_fe = hk * c * damping_dissipation(model, v, w, v_new, w_new) if c != 0.0 else 0.0
+        dD_fe = hk * c * sums[1] if c != 0.0 else 0.0
         if n_fe > 0:
             dD_fe += hk * force_element_dissipation(model, x, q, v, w, v_new, w_new, scratch.prim_phi,
                                                     scratch.prim_B)
@@ -319,11 +224,11 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             P_drive = constraint_power(model, scratch.Bj, scratch.lam, v, w, v_new, w_new)
             clock[2] += hk * P_drive
         clock[3] += 0.5 * dD_fe
-        if scratch.guard[2] > 0.0 and _balance(model, v, w, v_new, w_new, F, h, P_drive, n > 0, U, clock,
+        if scratch.guard[2] > 0.0 and _balance(sums[2], sums[3], sums[4], h, P_drive, n > 0, U, clock,
                                                scratch.guard):
             return BLOWUP
         clock[3] += 0.5 * dD_fe
-        if not _drift(model, scratch, x, q, v, w, v_new, w_new, f_prev, F, h, n_ms):
+        if not _drift(model, scratch, x, q, v, w, v_new, w_new, f_prev, F, h, n_ms, sums[5]):
             return DIVERGED
         clock[1] = n + 1
         clock[0] = (n + 1) * h
@@ -371,7 +276,7 @@ class StaggeredCentralDifference(Algorithm):
 
     def advance(self, model: Model, state: State, run: "ExplicitRun", n_steps: int, record: Record | None) -> int:
         rec = record if record is not None else Record.empty(state.x.shape[0], model.n_constraints)
-        use_threads()
+        use_threads(nodes=state.x.shape[0])
         return advance(model, state, self.dt, int(n_steps), record is not None, rec, run.scratch)
 
 
@@ -391,7 +296,7 @@ class ExplicitRun(NamedTuple):
 def step(model: Model, state: State, h: float) -> State:
     """One staggered step as a pure function: returns the state at ``t_{n+1}``."""
     new = state.copy()
-    use_threads()
+    use_threads(nodes=new.x.shape[0])
     status = advance(model, new, h, 1, False, Record.empty(new.x.shape[0], model.n_constraints),
                      Scratch.for_model(model))
     if status != OK:

@@ -31,6 +31,7 @@ from reference.generated import rotation_maps as rm
 from reference.generated import tangents as generated_tangents
 from reference.jit import inlined, kernel, parallel_kernel, prange
 from reference.newton_blocks import store_block
+from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum, node_incidence
 
 PARALLEL_ELEMENTS = 8
 """From this many elements on, the forces are computed by the parallel element loop
@@ -48,7 +49,8 @@ class Beam2Data(NamedTuple):
     t = 0 as ``o_a = q_a⁰* ⊗ p_a⁰``; the identity where the node frame is the section frame);
     ``L0`` (E,) reference length [m]; ``psi0``, ``gamma0`` (E, 3) the reference relative
     rotation and ``Γ0`` of the section frames (0 and E1 for a straight element);
-    ``stiff`` (E, 6) = EA, GA2, GA3, GJ, EI2, EI3.
+    ``stiff`` (E, 6) = EA, GA2, GA3, GJ, EI2, EI3; ``node_start``, ``node_item`` the node → (element,
+    end) incidence (:func:`reference.parallel.node_incidence`) of the element → node gather.
     """
 
     conn: np.ndarray
@@ -58,6 +60,8 @@ class Beam2Data(NamedTuple):
     psi0: np.ndarray
     gamma0: np.ndarray
     stiff: np.ndarray
+    node_start: np.ndarray
+    node_item: np.ndarray
 
 
 _internal_forces = inlined(generated_beam2.internal_forces)
@@ -226,9 +230,10 @@ def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
 
 @inlined
 def _family_assemble(data, W, x, q, S):
-    """:meth:`Beam2Formulation.assemble`: the internal forces of the elements added into ``S``
-    in element order (the parallel element loop from :data:`PARALLEL_ELEMENTS` elements on, the
-    same numbers either way); returns the strain energy."""
+    """:meth:`Beam2Formulation.assemble`: each element's forces into its row of ``W`` (the parallel
+    element loop from :data:`PARALLEL_ELEMENTS` elements on, the same numbers either way), then
+    added into ``S`` in element order (:func:`reference.parallel.accumulate`: a per-node gather on a
+    large mesh, bit for bit the serial scatter); returns the strain energy (element order)."""
     conn, offset, L0, psi0, gamma0, stiff = data.conn, data.offset, data.L0, data.psi0, data.gamma0, data.stiff
     E = conn.shape[0]
     if E >= PARALLEL_ELEMENTS:
@@ -236,21 +241,17 @@ def _family_assemble(data, W, x, q, S):
     else:
         for e in range(E):
             beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, W[e])
-    U = 0.0
-    for e in range(E):
-        U += W[e, 39]
-        _add_element(conn, e, W, e, S)
-    return U
+    accumulate(conn, data.node_start, data.node_item, W, 32, S)
+    return energy_sum(W, 39)
 
 
 @inlined
-def _family_tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
-    """:meth:`Beam2Formulation.tangent_values`: each element's 12×12 tangent (material + geometric,
-    the generated ``beam2_tangent``, section frames taken back to the node frames) times ``ck``."""
+def _tangent_range(data, W, x, q, psi, ck, values, p0, Jr, K144, lo, hi):
+    """The 12×12 tangents times ``ck`` of the elements ``lo … hi − 1``, element e's into ``values`` from
+    ``p0 + 144 e`` on (``Jr`` (9,), ``K144`` scratch)."""
     conn, offset, L0, psi0, gamma0, stiff = data.conn, data.offset, data.L0, data.psi0, data.gamma0, data.stiff
-    K144 = K[:144]
     K12 = K144.reshape((12, 12))
-    for e in range(conn.shape[0]):
+    for e in range(lo, hi):
         i, j = conn[e, 0], conn[e, 1]
         s_el = W[e]
         if ck != 0.0 and is_identity(offset[e, 0]) and is_identity(offset[e, 1]):
@@ -266,8 +267,28 @@ def _family_tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
             tangent_to_node_frames(offset[e], K12, s_el[32:35], s_el[35:38])
         else:
             K12[:, :] = 0.0
-        p = store_block(K12, conn[e], 2, psi, Jr, ck, values, p)
-    return p
+        store_block(K12, conn[e], 2, psi, Jr, ck, values, p0 + 144 * e)
+
+
+@parallel_kernel
+def _tangent_parallel(data, W, x, q, psi, ck, values, p):
+    E = data.conn.shape[0]
+    for k in prange(element_chunks(E)):
+        Jr, K144 = np.empty(9), np.empty(144)
+        _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K144, k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK))
+
+
+@inlined
+def _family_tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
+    """:meth:`Beam2Formulation.tangent_values`: each element's 12×12 tangent (material + geometric,
+    the generated ``beam2_tangent``, section frames taken back to the node frames) times ``ck``;
+    from :data:`PARALLEL_ELEMENTS` elements on a parallel loop, each element writing its own slice."""
+    E = data.conn.shape[0]
+    if E >= PARALLEL_ELEMENTS:
+        _tangent_parallel(data, W, x, q, psi, ck, values, p)
+        return p + 144 * E
+    _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K[:144], 0, E)
+    return p + 144 * E
 
 
 @inlined
@@ -333,11 +354,12 @@ class Beam2Formulation(ElementFormulation):
     def pack(cls, placed: list[PlacedElement]) -> Beam2Data:
         """The family's plain data from its elements placed at t = 0 (reference states of the section frames)."""
         E = len(placed)
-        data = Beam2Data(np.zeros((E, 2), dtype=np.int64), np.zeros(E, dtype=np.int64), np.zeros((E, 2, 4)),
-                         np.zeros(E), np.zeros((E, 3)), np.zeros((E, 3)), np.zeros((E, 6)))
+        conn = np.array([item.element.nodes for item in placed], dtype=np.int64).reshape(E, 2)
+        data = Beam2Data(conn, np.zeros(E, dtype=np.int64), np.zeros((E, 2, 4)), np.zeros(E), np.zeros((E, 3)),
+                         np.zeros((E, 3)), np.zeros((E, 6)), *node_incidence(conn))
         for e, item in enumerate(placed):
             ref = item.element.formulation.reference_state(item.x, item.p)
-            data.conn[e], data.index[e], data.offset[e] = item.element.nodes, item.index, item.offset
+            data.index[e], data.offset[e] = item.index, item.offset
             data.L0[e], data.psi0[e], data.gamma0[e] = ref["L0"], ref["psi0"], ref["gamma0"]
             data.stiff[e] = item.element.formulation.section.stiffness
         return data

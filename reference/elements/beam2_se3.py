@@ -22,12 +22,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from reference.elements.beam2 import Beam2Formulation
+from reference.elements.beam2 import PARALLEL_ELEMENTS, Beam2Formulation
 from reference.elements.formulation import section_quaternion, tangent_to_node_frames, to_node_frame
 from reference.generated import beam2_se3 as generated
 from reference.generated import rotation_maps as rm
-from reference.jit import inlined
+from reference.jit import inlined, parallel_kernel, prange
 from reference.newton_blocks import store_block
+from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum
 
 
 class Beam2SE3Data(NamedTuple):
@@ -42,6 +43,8 @@ class Beam2SE3Data(NamedTuple):
     psi0: np.ndarray
     gamma0: np.ndarray
     stiff: np.ndarray
+    node_start: np.ndarray
+    node_item: np.ndarray
 
 
 _internal_forces = inlined(generated.internal_forces)
@@ -62,30 +65,32 @@ def _element(data, x, q, e, w):
     return w[39]
 
 
+@parallel_kernel
+def _elements(data, x, q, W):
+    for e in prange(data.conn.shape[0]):
+        _element(data, x, q, e, W[e])
+
+
 @inlined
 def _assemble(data, W, x, q, S):
-    """:meth:`Beam2SE3Formulation.assemble`: the internal forces added into ``S`` (N, 6) element by
-    element; returns the strain energy [J]."""
-    U = 0.0
-    for e in range(data.conn.shape[0]):
-        w = W[e]
-        U += _element(data, x, q, e, w)
-        i, j = data.conn[e, 0], data.conn[e, 1]
-        for k in range(3):
-            S[i, k] += w[k]
-            S[i, 3 + k] += w[32 + k]
-            S[j, k] += w[6 + k]
-            S[j, 3 + k] += w[35 + k]
-    return U
+    """:meth:`Beam2SE3Formulation.assemble`: each element's forces into its row of ``W`` (a parallel loop
+    from ``PARALLEL_ELEMENTS`` elements on), added into ``S`` (N, 6) in element order
+    (:func:`reference.parallel.accumulate`); returns the strain energy [J]."""
+    if data.conn.shape[0] >= PARALLEL_ELEMENTS:
+        _elements(data, x, q, W)
+    else:
+        for e in range(data.conn.shape[0]):
+            _element(data, x, q, e, W[e])
+    accumulate(data.conn, data.node_start, data.node_item, W, 32, S)
+    return energy_sum(W, 39)
 
 
 @inlined
-def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
-    """:meth:`Beam2SE3Formulation.tangent_values`: each element's 12×12 tangent (the generated
-    ``tangent``, section frames taken back to the node frames) times ``ck``."""
-    K144 = K[:144]
+def _tangent_range(data, W, x, q, psi, ck, values, p0, Jr, K144, lo, hi):
+    """The 12×12 tangents times ``ck`` of the elements ``lo … hi − 1``, element e's into ``values`` from
+    ``p0 + 144 e`` on (``Jr`` (9,), ``K144`` scratch)."""
     K12 = K144.reshape((12, 12))
-    for e in range(data.conn.shape[0]):
+    for e in range(lo, hi):
         i, j = data.conn[e, 0], data.conn[e, 1]
         w = W[e]
         if ck != 0.0:
@@ -96,8 +101,28 @@ def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
             tangent_to_node_frames(data.offset[e], K12, w[32:35], w[35:38])
         else:
             K12[:, :] = 0.0
-        p = store_block(K12, data.conn[e], 2, psi, Jr, ck, values, p)
-    return p
+        store_block(K12, data.conn[e], 2, psi, Jr, ck, values, p0 + 144 * e)
+
+
+@parallel_kernel
+def _tangent_parallel(data, W, x, q, psi, ck, values, p):
+    E = data.conn.shape[0]
+    for k in prange(element_chunks(E)):
+        Jr, K144 = np.empty(9), np.empty(144)
+        _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K144, k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK))
+
+
+@inlined
+def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
+    """:meth:`Beam2SE3Formulation.tangent_values`: each element's 12×12 tangent (the generated
+    ``tangent``, section frames taken back to the node frames) times ``ck``;
+    from ``PARALLEL_ELEMENTS`` elements on a parallel loop, each element writing its own slice."""
+    E = data.conn.shape[0]
+    if E >= PARALLEL_ELEMENTS:
+        _tangent_parallel(data, W, x, q, psi, ck, values, p)
+        return p + 144 * E
+    _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K[:144], 0, E)
+    return p + 144 * E
 
 
 @inlined

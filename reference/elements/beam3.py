@@ -16,11 +16,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from reference.elements.beam2 import Beam2Formulation
+from reference.elements.beam2 import PARALLEL_ELEMENTS, Beam2Formulation
 from reference.elements.formulation import PlacedElement, section_quaternion, tangent_to_node_frames, to_node_frame
 from reference.generated import beam3 as generated
-from reference.jit import inlined
+from reference.jit import inlined, parallel_kernel, prange
 from reference.newton_blocks import store_block
+from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum, node_incidence
 
 WIDTH = 250
 """Work row per element: forces (18), strains (12), resultants (12), section quaternions (12), node-frame
@@ -44,6 +45,8 @@ class Beam3Data(NamedTuple):
     gamma0: np.ndarray
     kappa0: np.ndarray
     stiff: np.ndarray
+    node_start: np.ndarray
+    node_item: np.ndarray
 
 
 _internal_forces = inlined(generated.internal_forces)
@@ -64,28 +67,32 @@ def _element(data, x, q, e, w):
     return w[63]
 
 
+@parallel_kernel
+def _elements(data, x, q, W):
+    for e in prange(data.conn.shape[0]):
+        _element(data, x, q, e, W[e])
+
+
 @inlined
 def _assemble(data, W, x, q, S):
-    """:meth:`Beam3Formulation.assemble`: the internal forces added into ``S`` (N, 6); returns the energy [J]."""
-    U = 0.0
-    for e in range(data.conn.shape[0]):
-        w = W[e]
-        U += _element(data, x, q, e, w)
-        for a in range(3):
-            n = data.conn[e, a]
-            for k in range(3):
-                S[n, k] += w[6 * a + k]
-                S[n, 3 + k] += w[54 + 3 * a + k]
-    return U
+    """:meth:`Beam3Formulation.assemble`: each element's forces into its row of ``W`` (a parallel loop
+    from ``PARALLEL_ELEMENTS`` elements on), added into ``S`` (N, 6) in element order
+    (:func:`reference.parallel.accumulate`); returns the energy [J]."""
+    if data.conn.shape[0] >= PARALLEL_ELEMENTS:
+        _elements(data, x, q, W)
+    else:
+        for e in range(data.conn.shape[0]):
+            _element(data, x, q, e, W[e])
+    accumulate(data.conn, data.node_start, data.node_item, W, 54, S)
+    return energy_sum(W, 63)
 
 
 @inlined
-def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
-    """:meth:`Beam3Formulation.tangent_values`: each element's 18×18 tangent (the generated ``tangent``,
-    taken to the node frames) times ``ck``; ``K`` at least 324 entries."""
-    K324 = K[:324]
+def _tangent_range(data, W, x, q, psi, ck, values, p0, Jr, K324, lo, hi):
+    """The 18×18 tangents times ``ck`` of the elements ``lo … hi − 1``, element e's into ``values`` from
+    ``p0 + 324 e`` on (``Jr`` (9,), ``K324`` scratch)."""
     K18 = K324.reshape((18, 18))
-    for e in range(data.conn.shape[0]):
+    for e in range(lo, hi):
         i, j, m = data.conn[e, 0], data.conn[e, 1], data.conn[e, 2]
         w = W[e]
         if ck != 0.0:
@@ -99,8 +106,28 @@ def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
             tangent_to_node_frames(data.offset[e], K18, w[64:67], w[67:70])
         else:
             K18[:, :] = 0.0
-        p = store_block(K18, data.conn[e], 3, psi, Jr, ck, values, p)
-    return p
+        store_block(K18, data.conn[e], 3, psi, Jr, ck, values, p0 + 324 * e)
+
+
+@parallel_kernel
+def _tangent_parallel(data, W, x, q, psi, ck, values, p):
+    E = data.conn.shape[0]
+    for k in prange(element_chunks(E)):
+        Jr, K324 = np.empty(9), np.empty(324)
+        _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K324, k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK))
+
+
+@inlined
+def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
+    """:meth:`Beam3Formulation.tangent_values`: each element's 18×18 tangent (the generated ``tangent``,
+    taken to the node frames) times ``ck``; ``K`` at least 324 entries;
+    from ``PARALLEL_ELEMENTS`` elements on a parallel loop, each element writing its own slice."""
+    E = data.conn.shape[0]
+    if E >= PARALLEL_ELEMENTS:
+        _tangent_parallel(data, W, x, q, psi, ck, values, p)
+        return p + 324 * E
+    _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K[:324], 0, E)
+    return p + 324 * E
 
 
 @inlined
@@ -142,11 +169,12 @@ class Beam3Formulation(Beam2Formulation):
     def pack(cls, placed: list[PlacedElement]) -> Beam3Data:
         """The family's plain data from its elements placed at t = 0."""
         E = len(placed)
-        data = Beam3Data(np.zeros((E, 3), dtype=np.int64), np.zeros(E, dtype=np.int64), np.zeros((E, 3, 4)),
-                         np.zeros(E), np.zeros((E, 6)), np.zeros((E, 6)), np.zeros((E, 6)))
+        conn = np.array([item.element.nodes for item in placed], dtype=np.int64).reshape(E, 3)
+        data = Beam3Data(conn, np.zeros(E, dtype=np.int64), np.zeros((E, 3, 4)), np.zeros(E), np.zeros((E, 6)),
+                         np.zeros((E, 6)), np.zeros((E, 6)), *node_incidence(conn))
         for e, item in enumerate(placed):
             ref = item.element.formulation.reference_state(item.x, item.p)
-            data.conn[e], data.index[e], data.offset[e] = item.element.nodes, item.index, item.offset
+            data.index[e], data.offset[e] = item.index, item.offset
             data.L0[e], data.gamma0[e], data.kappa0[e] = ref["L0"], ref["gamma0"], ref["kappa0"]
             data.stiff[e] = item.element.formulation.section.stiffness
         return data

@@ -15,6 +15,7 @@ from reference.evaluation.force_elements import force_element_forces
 from reference.generated import rotation_maps as rm
 from reference.interactions import tf_value
 from reference.jit import inlined, kernel
+from reference.parallel import PARALLEL_NODES, reset_forces
 
 
 @inlined
@@ -29,6 +30,13 @@ def external_forces(model, x, q, t, F, A):
     for i in range(F.shape[0]):
         F[i, 0], F[i, 1], F[i, 2] = mass[i] * g0, mass[i] * g1, mass[i] * g2
         F[i, 3], F[i, 4], F[i, 5] = 0.0, 0.0, 0.0
+    add_loads(model, q, t, F, A)
+
+
+@inlined
+def add_loads(model, q, t, F, A):
+    """Add the loads at time t into ``F`` (N, 6) (:func:`external_forces` without gravity; one load after
+    the other, serial: two may act on one node)."""
     for l in range(model.loads.node.shape[0]):
         i = model.loads.node[l]
         j = model.loads.tf[l]
@@ -75,11 +83,15 @@ def generalized_forces(model, element_work, x, q, v, w, t, S, F, G, angle, A, fe
     scratch (at least 6 and 72 entries).
     """
     N = x.shape[0]
-    for i in range(N):
-        for a in range(6):
-            S[i, a] = 0.0
+    if N >= PARALLEL_NODES:  # the same numbers, node by node in parallel
+        reset_forces(S, F, model.nodes.mass, model.gravity[0], model.gravity[1], model.gravity[2])
+        add_loads(model, q, t, F, A)
+    else:
+        for i in range(N):
+            for a in range(6):
+                S[i, a] = 0.0
+        external_forces(model, x, q, t, F, A)
     U = assemble_forces(model.elements, element_work, x, q, S)
-    external_forces(model, x, q, t, F, A)
     D = 0.0
     if model.force_elements.kind.shape[0] > 0:
         # springs and dampers act like internal forces (S −= their force; energy in U), their

@@ -30,52 +30,55 @@ from reference.elements.families import tangent_values as element_tangent_values
 from reference.evaluation.force_elements import force_element_tangent
 from reference.generated import tangents as generated_tangents
 from reference.interactions import tf_value
-from reference.jit import inlined, kernel, named
+from reference.jit import inlined, kernel, named, parallel_kernel, prange
 from reference.joints.hessian import joint_rows_hessian
 from reference.joints.sparse import jacobian_row_columns
 from reference.linalg import BlockPattern
 from reference.newton_blocks import times_right_jacobian
+from reference.parallel import CHUNK, PARALLEL_NODES, n_chunks
 from reference.state import Model
 
 
-@kernel
-def load_tangent(model, q, t, i, K6, T9):
-    """Add ``−∂F/∂δ`` of the configuration-dependent loads on node i into the 6×6 block ``K6``:
-    follower forces (generated ``follower_force_tangent``) and dead moments (``dead_moment_tangent``)."""
-    for l in range(model.loads.node.shape[0]):
-        if model.loads.node[l] != i:
+@inlined
+def _loads_tangent(node, code_, tf_, vec, tf_kind, tf_par, q, t, i, K6, T9):
+    """:func:`load_tangent` on the loads' arrays (``model.loads``, ``model.time_functions``)."""
+    for l in range(node.shape[0]):
+        if node[l] != i:
             continue
-        code = model.loads.code[l]
+        code = code_[l]
         if code != 1 and code != 2:
             continue
-        tf = model.loads.tf[l]
-        f = tf_value(model.time_functions.kind[tf], model.time_functions.par[tf], t)
+        tf = tf_[l]
+        f = tf_value(tf_kind[tf], tf_par[tf], t)
         if code == 1:
-            generated_tangents.follower_force_tangent(q[i], model.loads.vec[l], T9)
+            generated_tangents.follower_force_tangent(q[i], vec[l], T9)
             r0 = 0
         else:
-            generated_tangents.dead_moment_tangent(q[i], model.loads.vec[l], T9)
+            generated_tangents.dead_moment_tangent(q[i], vec[l], T9)
             r0 = 3
         for a in range(3):
             for b in range(3):
                 K6[r0 + a, 3 + b] -= f * T9[3 * a + b]
 
 
-_load_tangent = inlined(load_tangent)
+@kernel
+def load_tangent(model, q, t, i, K6, T9):
+    """Add ``−∂F/∂δ`` of the configuration-dependent loads on node i into the 6×6 block ``K6``:
+    follower forces (generated ``follower_force_tangent``) and dead moments (``dead_moment_tangent``)."""
+    loads, tfs = model.loads, model.time_functions
+    _loads_tangent(loads.node, loads.code, loads.tf, loads.vec, tfs.kind, tfs.par, q, t, i, K6, T9)
 
 
 @inlined
-def _node_blocks(model, q, w, psi, t, cm, cc, ck, values, p, K12, Jr, J9, A):
-    """Each node's 6×6 block: ``c_k`` times the load tangents (times ``J_r(ψ)``), the mass and damping
-    ``(c_m + c_c c) M`` and ``c_c`` times the gyroscopic tangent; returns the position after them."""
-    c = model.damping
-    J, mass = model.nodes.inertia, model.nodes.mass
-    for i in range(q.shape[0]):
-        blk = K12[:6, :6]
+def _node_range(lo, hi, node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p0,
+                blk, Jr, J9, A):
+    """The 6×6 blocks of the nodes ``lo … hi − 1`` (see :func:`_node_blocks`), node i's from ``p0 + 36 i`` on."""
+    for i in range(lo, hi):
+        p = p0 + 36 * i
         for a in range(6):
             for b in range(6):
                 blk[a, b] = 0.0
-        _load_tangent(model, q, t, i, blk, A)
+        _loads_tangent(node, code, tf, vec, tf_kind, tf_par, q, t, i, blk, A)
         for a in range(6):
             for b in range(6):
                 blk[a, b] *= ck
@@ -97,7 +100,32 @@ def _node_blocks(model, q, w, psi, t, cm, cc, ck, values, p, K12, Jr, J9, A):
             for b in range(6):
                 values[p] = blk[a, b]
                 p += 1
-    return p
+
+
+@parallel_kernel
+def _node_blocks_parallel(node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p):
+    N = q.shape[0]
+    for k in prange(n_chunks(N)):
+        blk, Jr, J9, A = np.empty((6, 6)), np.empty(9), np.empty(9), np.empty(9)
+        _node_range(k * CHUNK, min(N, (k + 1) * CHUNK), node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t,
+                    cm, cc, ck, values, p, blk, Jr, J9, A)
+
+
+@inlined
+def _node_blocks(model, q, w, psi, t, cm, cc, ck, values, p, K12, Jr, J9, A):
+    """Each node's 6×6 block: ``c_k`` times the load tangents (times ``J_r(ψ)``), the mass and damping
+    ``(c_m + c_c c) M`` and ``c_c`` times the gyroscopic tangent, node after node from ``p`` on (a
+    parallel loop from :data:`~reference.parallel.PARALLEL_NODES` nodes on); returns the position after them."""
+    c, J, mass = model.damping, model.nodes.inertia, model.nodes.mass
+    node, code, tf, vec = model.loads.node, model.loads.code, model.loads.tf, model.loads.vec
+    tf_kind, tf_par = model.time_functions.kind, model.time_functions.par
+    N = q.shape[0]
+    if N >= PARALLEL_NODES:
+        _node_blocks_parallel(node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p)
+        return p + 36 * N
+    _node_range(0, N, node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p,
+                K12[:6, :6], Jr, J9, A)
+    return p + 36 * N
 
 
 @inlined
