@@ -242,20 +242,19 @@ def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
     dof6 = dof.reshape(N, 6)
     rows, cols = [], []
 
-    def block(nodes_r, nodes_c):
-        idx_r = np.concatenate([dof6[n] if n >= 0 else np.full(6, -1) for n in nodes_r])
-        idx_c = np.concatenate([dof6[n] if n >= 0 else np.full(6, -1) for n in nodes_c])
-        rows.append(np.repeat(idx_r, idx_c.size))
-        cols.append(np.tile(idx_c, idx_r.size))
+    def blocks(nodes):
+        """The square blocks of the node lists ``nodes`` (B, k) (−1 the ground), row-major each, in order."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        idx = np.where(nodes[:, :, None] >= 0, dof6[np.maximum(nodes, 0)], -1).reshape(nodes.shape[0],
+                                                                                       6 * nodes.shape[1])
+        n = idx.shape[1]
+        rows.append(np.repeat(idx, n, axis=1).reshape(-1))
+        cols.append(np.tile(idx, (1, n)).reshape(-1))
 
-    for i in range(N):
-        block([i], [i])
+    blocks(np.arange(N)[:, None])
     for data in model.elements:
-        for e in range(data.conn.shape[0]):
-            block(list(data.conn[e]), list(data.conn[e]))
-    for k in range(model.joints.i.shape[0]):
-        nodes = [model.joints.i[k], model.joints.j[k]]
-        block(nodes, nodes)
+        blocks(data.conn)
+    blocks(np.stack([model.joints.i, model.joints.j], axis=1))
     row_dofs = jacobian_row_columns(model.joints.i, model.joints.j, model.joints.neq, dof6)
     for rr, idx in enumerate(row_dofs):
         rows.append(np.full(12, n_free + rr))
@@ -265,9 +264,7 @@ def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:
         cols.append(np.full(12, n_free + rr))
     rows.append(n_free + np.arange(m))
     cols.append(n_free + np.arange(m))
-    for k in range(model.force_elements.kind.shape[0]):
-        nodes = [model.force_elements.i[k], model.force_elements.j[k]]
-        block(nodes, nodes)
+    blocks(np.stack([model.force_elements.i, model.force_elements.j], axis=1))
     rows = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
     cols = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)
     return BlockPattern(rows, cols, n_free + m), dof6
