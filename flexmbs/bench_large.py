@@ -305,7 +305,7 @@ def thread_scaling(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEP
     """The thread-scaling table: for each model, per-step cost at each of :func:`thread_counts` (rounds over the
     counts, median), speed-up over one thread and whether the final state is bit for bit one thread's."""
     from flexmbs.bench_throughput import flexmbs_runner, throughput_cantilever
-    from reference.jit import use_threads
+    from reference.jit import THREADS_ENV, use_threads
 
     counts = thread_counts()
     dt = EXPLICIT_FACTOR * throughput_cantilever(elements).critical_time_step()
@@ -328,15 +328,20 @@ def thread_scaling(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEP
     lines = [f"**Threads** (cores available: {len(os.sched_getaffinity(0))}; {repeat} rounds over the thread counts, "
              "median):", "", "| model | threads | µs per element-step | speed-up | final state as one thread's |",
              "|---|---|---|---|---|"]
+    def threads(n):  # the override every run honours (each run sets its threads from it, reference.jit.threads)
+        os.environ[THREADS_ENV] = str(n)
+        use_threads(n)
+
+    saved = os.environ.get(THREADS_ENV)
     try:
         for model, (runners, arg, n_el, n_steps) in models.items():
             times = {n: [] for n in counts}
             for n in counts:
-                use_threads(n)
+                threads(n)
                 runners[n](max(arg // 50, 1) if arg else 0)  # warm-up
             for _ in range(repeat):
                 for n in counts:
-                    use_threads(n)
+                    threads(n)
                     times[n].append(runners[n](arg)[0])
             base = statistics.median(times[1])
             for n in counts:
@@ -351,6 +356,10 @@ def thread_scaling(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEP
                     targets.append(Target(f"{model}, two threads' time / one thread's",
                                           statistics.median(times[2]) / base, 1.0 / 1.7, "{:.3f}"))
     finally:
+        if saved is None:
+            os.environ.pop(THREADS_ENV, None)
+        else:
+            os.environ[THREADS_ENV] = saved
         use_threads()
     return lines + [""]
 
