@@ -106,7 +106,8 @@ def explicit_large(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEP
     half = {name: make(dt / 2)(2 * steps)[1] for name, make in makers.items()}
     lines = [f"**Explicit, {elements:,} elements** (clamped rod, end moment; dt = {dt:.4g} s = {EXPLICIT_FACTOR:g} of "
              f"flexmbs' critical step estimate {crit:.4g} s; {steps} steps; {repeat} alternating rounds, median; "
-             f"FLEXMBS_THREADS = {threads()}):", "",
+             f"flexmbs on {threads(elements + 1)} thread(s), the default for this size — the thread table below has "
+             "one and more —, PyElastica on one):", "",
              "| code | µs per element-step | tip z at t = steps·dt [m] | error against dt/2 | largest stable step "
              "probed |", "|---|---|---|---|---|"]
     per = {}

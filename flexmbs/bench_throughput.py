@@ -144,7 +144,7 @@ def beam_throughput(repeat: int = 3, targets: list | None = None) -> tuple[float
             times[name].append(wall / (c["steps"] * c["elements"]))
     per = {name: statistics.median(t) for name, t in times.items()}
     print(f"beam throughput: clamped rod, end torque, {c['elements']} elements, dt = {c['dt']:g}, {c['steps']} steps, "
-          f"runs alternating (FLEXMBS_THREADS = {threads()})")
+          f"runs alternating (flexmbs on {threads(c['elements'] + 1)} thread(s), the default for this size)")
     targets = targets if targets is not None else []
     cost = Target("beam throughput, flexmbs µs per element-step", per["flexmbs"] * 1e6, 0.15, "{:.3f}")
     targets.append(cost)
