@@ -260,6 +260,8 @@ def solve(domain, dt: float | None = None, t_end: float | None = None, results_p
             ok = " ".join(str(exc).split())[:200] or type(exc).__name__
         wall = time.perf_counter() - t0
         reached = float(solver.it.currentTime)
+        if ok is True and not _rotations_proper(t):
+            ok = "its rotations stopped being proper rotation matrices: the solution diverged"
         if ok is True and reached >= t_end * (1.0 - 1e-9) and _on_grid(t, every * dt, t_end):
             break
     else:
@@ -278,6 +280,20 @@ def _on_grid(t, interval: float, t_end: float) -> bool:
     times = np.asarray(t.mbs.GetSensorStoredData(t.sensors["position"][0]))[:, 0]
     expected = interval * np.arange(int(round(t_end / interval)) + 1)
     return times.shape == expected.shape and bool(np.allclose(times, expected, rtol=0.0, atol=1e-9 * t_end))
+
+
+def _rotations_proper(t, tolerance: float = 1e-3) -> bool:
+    """Whether every recorded rotation matrix is finite, orthogonal to ``tolerance`` and not a reflection (the
+    test :meth:`reference.rotation.EulerParameters.from_matrix` applies): a diverged Exudyn run can finish its
+    steps and record garbage."""
+    for sensor in t.sensors["rotation"]:
+        R = np.asarray(t.mbs.GetSensorStoredData(sensor))[:, 1:10].reshape(-1, 3, 3)
+        if not np.all(np.isfinite(R)):
+            return False
+        err = np.abs(np.einsum("kba,kbc->kac", R, R) - np.eye(3)).max(initial=0.0)
+        if err > tolerance or np.any(np.linalg.det(R) <= 0.0):
+            return False
+    return True
 
 
 def _exudyn():

@@ -200,3 +200,23 @@ def test_a_modes_deck_is_compared_with_exudyns_eigen_solve(tmp_path, capsys):
     assert [int(row[0]) for row in rows] == list(range(1, 11))
     assert all(abs(float(row[3])) <= 1e-3 and float(row[5]) > 0.0 for row in rows)
     assert out[-1].startswith("pass  frequencies, same mass")
+
+
+def test_a_run_whose_rotations_are_improper_counts_as_failed():
+    """A diverged Exudyn run can finish its steps and record garbage; the translation checks the recorded
+    rotation matrices as ``EulerParameters.from_matrix`` does (finite, |RᵀR − I| ≤ 1e-3, det > 0), so
+    the run is retried with smaller steps and ends in the one-line ``ExudynFailed``, not a ValueError."""
+    from types import SimpleNamespace
+
+    from crosscheck.exudyn_model import _rotations_proper
+
+    def recorded(*matrices):
+        rows = np.array([np.concatenate([[0.1 * k], np.asarray(R, float).reshape(9)]) for k, R in enumerate(matrices)])
+        return SimpleNamespace(sensors={"rotation": [0]}, mbs=SimpleNamespace(GetSensorStoredData=lambda s: rows))
+
+    c, s = np.cos(0.3), np.sin(0.3)
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    assert _rotations_proper(recorded(np.eye(3), turn))
+    assert not _rotations_proper(recorded(np.eye(3), 1.01 * turn))  # stretched: |RᵀR − I| = 0.02
+    assert not _rotations_proper(recorded(turn, np.diag([1.0, 1.0, -1.0])))  # a reflection
+    assert not _rotations_proper(recorded(turn, np.full((3, 3), np.nan)))
