@@ -48,7 +48,7 @@ from crosscheck.exudyn_items import (
 from reference.forces import ROTATIONAL
 from reference.interactions import Gravity, LineLoad, NodalLoad
 from reference.joints.joint import PRESCRIBED
-from reference.rotation import EulerParameters
+from reference.rotation import ORTHOGONALITY_TOLERANCE, EulerParameters
 from reference.solution import SolverDiverged
 
 
@@ -282,10 +282,10 @@ def _on_grid(t, interval: float, t_end: float) -> bool:
     return times.shape == expected.shape and bool(np.allclose(times, expected, rtol=0.0, atol=1e-9 * t_end))
 
 
-def _rotations_proper(t, tolerance: float = 1e-3) -> bool:
+def _rotations_proper(t, tolerance: float = ORTHOGONALITY_TOLERANCE) -> bool:
     """Whether every recorded rotation matrix is finite, orthogonal to ``tolerance`` and not a reflection (the
-    test :meth:`reference.rotation.EulerParameters.from_matrix` applies): a diverged Exudyn run can finish its
-    steps and record garbage."""
+    test :meth:`reference.rotation.EulerParameters.from_matrix` applies to one matrix, here on all of them
+    at once): a diverged Exudyn run can finish its steps and record garbage."""
     for sensor in t.sensors["rotation"]:
         R = np.asarray(t.mbs.GetSensorStoredData(sensor))[:, 1:10].reshape(-1, 3, 3)
         if not np.all(np.isfinite(R)):

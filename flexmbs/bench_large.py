@@ -329,7 +329,7 @@ def thread_scaling(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEP
     lines = [f"**Threads** (cores available: {len(os.sched_getaffinity(0))}; {repeat} rounds over the thread counts, "
              "median):", "", "| model | threads | µs per element-step | speed-up | final state as one thread's |",
              "|---|---|---|---|---|"]
-    def threads(n):  # the override every run honours (each run sets its threads from it, reference.jit.threads)
+    def set_threads(n):  # the override every run honours (each run sets its threads from it, reference.jit.threads)
         os.environ[THREADS_ENV] = str(n)
         use_threads(n)
 
@@ -338,11 +338,11 @@ def thread_scaling(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEP
         for model, (runners, arg, n_el, n_steps) in models.items():
             times = {n: [] for n in counts}
             for n in counts:
-                threads(n)
+                set_threads(n)
                 runners[n](max(arg // 50, 1) if arg else 0)  # warm-up
             for _ in range(repeat):
                 for n in counts:
-                    threads(n)
+                    set_threads(n)
                     times[n].append(runners[n](arg)[0])
             base = statistics.median(times[1])
             for n in counts:

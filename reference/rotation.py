@@ -354,13 +354,15 @@ class Rotation(ABC):
         return f"{type(self).__name__}([{vals}])"
 
 
-def _check_rotation_matrix(R) -> np.ndarray:
-    """``R`` as a float 3×3 array, rejecting non-finite, reflected or far-from-orthogonal input.
+ORTHOGONALITY_TOLERANCE = 1e-3
+"""Largest ``|RᵀR − I|`` of a matrix taken as a rotation: it accepts matrices of other solvers whose
+Euler parameters are normalised only to a Newton tolerance, and rejects garbage."""
 
-    The tolerance 1e-3 on ``|RᵀR − I|`` accepts matrices of other solvers whose
-    Euler parameters are normalised only to a Newton tolerance; it rejects
-    garbage and reflections (det < 0), which Shepperd's method would silently
-    turn into some rotation.
+
+def _check_rotation_matrix(R) -> np.ndarray:
+    """``R`` as a float 3×3 array, rejecting non-finite, reflected or far-from-orthogonal input
+    (``|RᵀR − I|`` above :data:`ORTHOGONALITY_TOLERANCE`, or det ≤ 0, which Shepperd's method
+    would silently turn into some rotation).
     """
     R = np.asarray(R, dtype=float)
     if R.shape != (3, 3):
@@ -368,7 +370,7 @@ def _check_rotation_matrix(R) -> np.ndarray:
     if not np.all(np.isfinite(R)):
         raise ValueError("a rotation matrix must be finite")
     err = np.max(np.abs(R.T @ R - np.eye(3)))
-    if err > 1e-3 or np.linalg.det(R) <= 0.0:
+    if err > ORTHOGONALITY_TOLERANCE or np.linalg.det(R) <= 0.0:
         raise ValueError(f"not a proper rotation matrix (|RᵀR − I| = {err:.3g}, det = {np.linalg.det(R):.6g})")
     return R
 

@@ -31,7 +31,7 @@ from reference.generated import rotation_maps as rm
 from reference.generated import tangents as generated_tangents
 from reference.jit import inlined, kernel, parallel_kernel, prange
 from reference.newton_blocks import store_block
-from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum, node_incidence
+from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum, node_incidence, scatter
 
 PARALLEL_ELEMENTS = 8
 """From this many elements on, the forces are computed by the parallel element loop
@@ -211,8 +211,9 @@ def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
     The elements are independent: each writes its own row of ``W`` (E, 40)
     (:func:`beam2_element`) on the threads of :func:`reference.jit.use_threads`;
     then one thread adds the rows into ``S`` and ΣU in element order — the
-    serial kernel's order — so the result does not depend on the thread count.
-    This is the algorithms' path also on one thread: measured at 768 elements,
+    serial kernel's order, :func:`reference.parallel.scatter` — so the result does not
+    depend on the thread count.  The algorithms' path (:meth:`Beam2Formulation.assemble`)
+    computes the rows the same way: measured at 768 elements,
     0.08 µs per element against 0.21 µs for the serial :func:`beam2_assemble`,
     whose loop spends the difference on atomic reference-count updates of the
     element's array views (``perf``; numba removes fewer of them there); the
@@ -221,11 +222,8 @@ def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
     """
     _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
     S[:, :] = 0.0
-    U = 0.0
-    for e in range(conn.shape[0]):
-        U += W[e, 39]
-        _add_element(conn, e, W, e, S)
-    return U
+    scatter(conn, W, 32, S)
+    return energy_sum(W, 39)
 
 
 @inlined
