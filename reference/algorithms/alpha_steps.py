@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from reference.algorithms.implicit import compose, evaluate, write_record
+from reference.algorithms.implicit import compose, evaluate_named, write_record_named
 from reference.jit import inlined, kernel, named
 from reference.linalg import lu_solve
 from reference.state import Model, Record
@@ -52,8 +52,8 @@ def dissipation(model, v, w):
     return c * D
 
 
-_evaluate = inlined(evaluate)
-_write_record = inlined(write_record)
+_evaluate = evaluate_named
+_write_record = write_record_named
 _power_inlined = inlined(power)
 _dissipation_inlined = inlined(dissipation)
 """The model-taking kernels that :func:`steps` calls every iteration, inlined: a compiled call

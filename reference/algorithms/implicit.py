@@ -137,7 +137,13 @@ def evaluate(model, x, q, v, w, vd, lam, t, dynamic, w_):
     zero velocities.  U includes the springs' energy; the dampers' power ``Σ c (B_e V)²`` [W]
     goes to ``fe_out[0]``.
     """
-    model = named(model, Model)
+    return evaluate_named(named(model, Model), x, q, v, w, vd, lam, t, dynamic, w_)
+
+
+@inlined
+def evaluate_named(model, x, q, v, w, vd, lam, t, dynamic, w_):
+    """:func:`evaluate` of a Model that is a named tuple already: the form a kernel that has named the Model
+    once inlines (:func:`named` at every evaluation would incref every array of the Model again)."""
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = w_
     G, angle, fe_e, fe_B, fe_G, C12, fv, fw, fe_out = fe
     N = x.shape[0]
@@ -414,8 +420,12 @@ def relative_rotation(q0, q1, out, tmp):
 @kernel
 def write_record(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
     """Record: configuration, velocities, energies [T, U, W, D], ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
-    model = named(model, Model)
-    rec = named(rec, Record)
+    write_record_named(named(model, Model), x, q, v, w, U, clock, lam, PHI, PHIt, Bl, named(rec, Record))
+
+
+@inlined
+def write_record_named(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
+    """:func:`write_record` of a Model and Record that are named tuples already (the form a kernel inlines)."""
     T = 0.0
     J, mass = model.nodes.inertia, model.nodes.mass
     rx, rq, rv, rw = rec.x, rec.q, rec.v, rec.w

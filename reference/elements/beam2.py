@@ -83,19 +83,21 @@ def beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, w):
     """
     i, j = conn[e, 0], conn[e, 1]
     o1, o2 = offset[e, 0], offset[e, 1]
-    if is_identity(o1) and is_identity(o2):  # section frames are the node frames (straight beams): same numbers
-        w[39] = _internal_forces(x[i], x[j], q[i], q[j], L0[e], psi0[e], gamma0[e], stiff[e],
-                                 w[:12], w[12:18], w[18:24])
+    straight = is_identity(o1) and is_identity(o2)
+    p1, p2 = q[i], q[j]  # section frames are the node frames (straight beams): same numbers
+    if not straight:
+        p1, p2 = w[24:28], w[28:32]
+        _section_quaternion(q[i], o1, p1)
+        _section_quaternion(q[j], o2, p2)
+    # one call site: the generated kernel is inlined once
+    w[39] = _internal_forces(x[i], x[j], p1, p2, L0[e], psi0[e], gamma0[e], stiff[e], w[:12], w[12:18], w[18:24])
+    if straight:
         for k in range(3):
             w[32 + k] = w[3 + k]
             w[35 + k] = w[9 + k]
-        return w[39]
-    _section_quaternion(q[i], o1, w[24:28])
-    _section_quaternion(q[j], o2, w[28:32])
-    w[39] = _internal_forces(x[i], x[j], w[24:28], w[28:32], L0[e], psi0[e], gamma0[e], stiff[e],
-                             w[:12], w[12:18], w[18:24])
-    _to_node_frame(o1, w[3:6], w[32:35])
-    _to_node_frame(o2, w[9:12], w[35:38])
+    else:
+        _to_node_frame(o1, w[3:6], w[32:35])
+        _to_node_frame(o2, w[9:12], w[35:38])
     return w[39]
 
 
@@ -205,6 +207,15 @@ def _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W):
 
 
 @kernel
+def _beam2_rows(x, q, conn, offset, L0, psi0, gamma0, stiff, W):
+    """Every element's row of ``W`` (E, 40), one element after the other (:func:`beam2_element`): the
+    element loop of a mesh too small for :func:`_beam2_elements`' blocks and threads.  A kernel of its own,
+    so that the generated element code is compiled once, not again inside every algorithm's kernel."""
+    for e in range(conn.shape[0]):
+        beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, W[e])
+
+
+@kernel
 def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
     """:func:`beam2_assemble` with the elements computed in parallel, bit for bit the same result.
 
@@ -233,12 +244,10 @@ def _family_assemble(data, W, x, q, S):
     added into ``S`` in element order (:func:`reference.parallel.accumulate`: a per-node gather on a
     large mesh, bit for bit the serial scatter); returns the strain energy (element order)."""
     conn, offset, L0, psi0, gamma0, stiff = data.conn, data.offset, data.L0, data.psi0, data.gamma0, data.stiff
-    E = conn.shape[0]
-    if E >= PARALLEL_ELEMENTS:
+    if conn.shape[0] >= PARALLEL_ELEMENTS:
         _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
     else:
-        for e in range(E):
-            beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, W[e])
+        _beam2_rows(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
     accumulate(conn, data.node_start, data.node_item, W, 32, S)
     return energy_sum(W, 39)
 

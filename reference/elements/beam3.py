@@ -19,7 +19,7 @@ import numpy as np
 from reference.elements.beam2 import PARALLEL_ELEMENTS, Beam2Formulation
 from reference.elements.formulation import PlacedElement, section_quaternion, tangent_to_node_frames, to_node_frame
 from reference.generated import beam3 as generated
-from reference.jit import inlined, parallel_kernel, prange
+from reference.jit import inlined, kernel, parallel_kernel, prange
 from reference.newton_blocks import store_block
 from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum, node_incidence
 
@@ -73,6 +73,11 @@ def _elements(data, x, q, W):
         _element(data, x, q, e, W[e])
 
 
+_elements_serial = kernel(getattr(_elements, "py_func", _elements))
+""":func:`_elements` on the calling thread (a mesh below ``PARALLEL_ELEMENTS``): a kernel of its own, so that
+the generated element code is compiled once, not again inside every algorithm's kernel."""
+
+
 @inlined
 def _assemble(data, W, x, q, S):
     """:meth:`Beam3Formulation.assemble`: each element's forces into its row of ``W`` (a parallel loop
@@ -81,8 +86,7 @@ def _assemble(data, W, x, q, S):
     if data.conn.shape[0] >= PARALLEL_ELEMENTS:
         _elements(data, x, q, W)
     else:
-        for e in range(data.conn.shape[0]):
-            _element(data, x, q, e, W[e])
+        _elements_serial(data, x, q, W)
     accumulate(data.conn, data.node_start, data.node_item, W, 54, S)
     return energy_sum(W, 63)
 

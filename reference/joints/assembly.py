@@ -53,11 +53,10 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
     drive with s = f(t) / s = ∫f; 5 prescribed displacement, s = f(t) along the ground-fixed
     u3 (``par[15:24]``, the ground's frame, is inertial).
     """
+    xj, qj = GROUND_X, GROUND_Q  # one type for both branches: the generated kernel compiles once
     if j >= 0:
-        generated.joint_primitives(x[i], q[i], x[j], q[j], par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
-    else:
-        generated.joint_primitives(x[i], q[i], GROUND_X, GROUND_Q, par[0:3], par[3:6], par[6:15], par[15:24],
-                                   prim_phi, prim_B)
+        xj, qj = x[j], q[j]
+    generated.joint_primitives(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
     if drive == 0:
         for r in range(phi.shape[0]):
             row = rows[r]

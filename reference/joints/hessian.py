@@ -79,11 +79,11 @@ def joint_rows_hessian(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, lam, ph
     joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, prim_phi, prim_B)
     primitive_weights(par, rows, drive, tf_kind, tf_par, t, lam, w)
     Hf = H.reshape(144)
+    xj, qj = GROUND_X, GROUND_Q  # one type for both branches: the generated kernel compiles once
     if j >= 0:
-        generated.joint_primitive_hessian(x[i], q[i], x[j], q[j], par[0:3], par[3:6], par[6:15], par[15:24], w, Hf)
-    else:
-        generated.joint_primitive_hessian(x[i], q[i], GROUND_X, GROUND_Q, par[0:3], par[3:6], par[6:15],
-                                          par[15:24], w, Hf)
+        xj, qj = x[j], q[j]
+    generated.joint_primitive_hessian(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], w, Hf)
+    if j < 0:
         for a in range(12):
             for b in range(6, 12):
                 H[a, b] = 0.0
