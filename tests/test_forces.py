@@ -384,10 +384,12 @@ def test_force_element_forces_are_the_energy_gradient():
 
     def energy(x, q):
         F = np.zeros((2, 6))
-        return force_element_forces(model, x, q, zero, zero, 0.0, np.zeros(3), F, F, np.zeros(10), np.zeros(120))
+        return force_element_forces(model.force_elements, model.time_functions, x, q, zero, zero, 0.0, np.zeros(3),
+                                    F, F, np.zeros(10), np.zeros(120))
 
     F = np.zeros((2, 6))
-    force_element_forces(model, x, q, zero, zero, 0.0, np.zeros(3), F, F, np.zeros(10), np.zeros(120))
+    force_element_forces(model.force_elements, model.time_functions, x, q, zero, zero, 0.0, np.zeros(3), F, F,
+                         np.zeros(10), np.zeros(120))
     eps = 1e-6
     for n in range(2):
         for a_ in range(6):
@@ -517,7 +519,8 @@ def _tangent_check(kind):
 
     def force(x, q, v, w):
         F = np.zeros((2, 6))
-        force_element_forces(model, x, q, v, w, 0.0, np.zeros(1), F, F, np.zeros(6), np.zeros(72))
+        force_element_forces(model.force_elements, model.time_functions, x, q, v, w, 0.0, np.zeros(1), F, F,
+                             np.zeros(6), np.zeros(72))
         return F.reshape(12)
 
     K, C = np.zeros((12, 12)), np.zeros((12, 12))

@@ -54,7 +54,7 @@ import numpy as np
 
 from reference.algorithms.base import Algorithm
 from reference.elements.families import family_of
-from reference.evaluation.forces import generalized_forces
+from reference.evaluation.forces import model_forces
 from reference.evaluation.tangent import newton_pattern, tangent_values
 from reference.generated import rotation_maps as rm
 from reference.jit import boundary, inlined, kernel, named, parallel_kernel, prange
@@ -153,7 +153,8 @@ def evaluate_named(model, x, q, v, w, vd, lam, t, dynamic, w_):
             for k in range(3):
                 fv[i, k] = v[i, k] if dynamic else 0.0
                 fw[i, k] = w[i, k] if dynamic else 0.0
-    U, D_fe = generalized_forces(model, elements, x, q, fv, fw, t, S, F, G, angle, A, fe_e, fe_B)
+    U, D_fe = model_forces(model.nodes.mass, model.gravity, model.loads, model.time_functions, model.elements,
+                           model.force_elements, elements, x, q, fv, fw, t, S, F, G, angle, A, fe_e, fe_B)
     fe_out[0] = D_fe
     # the model's arrays are taken out once: each access of a Model field in a loop costs two
     # atomic reference-count updates

@@ -37,7 +37,7 @@ from typing import NamedTuple
 import numpy as np
 
 from reference.algorithms.base import Algorithm
-from reference.evaluation.forces import generalized_forces
+from reference.evaluation.forces import model_forces
 from reference.evaluation.force_elements import force_element_dissipation
 from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_nodes, kick_range, node_sums
 from reference.jit import inlined, kernel, use_threads
@@ -195,8 +195,9 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
         # dampers of the force elements at V^{n−½}
-        U, _ = generalized_forces(model, scratch.elements, x, q, v, w, t, S, F, G, state.angle, scratch.A,
-                                  scratch.prim_phi, scratch.prim_B)
+        U, _ = model_forces(model.nodes.mass, model.gravity, model.loads, model.time_functions, model.elements,
+                            model.force_elements, scratch.elements, x, q, v, w, t, S, F, G, state.angle,
+                            scratch.A, scratch.prim_phi, scratch.prim_B)
         hk = h if n > 0 else 0.5 * h
         # a node outside every joint keeps its predicted velocity through the constrained passes
         # below, which would only add gyroscopic sweeps to it: it gets all of them at once

@@ -21,16 +21,17 @@ from reference.joints.assembly import GROUND_Q, GROUND_X
 
 
 @inlined
-def _measures(model, x, q, k, e, B):
+def _measures(fe, x, q, k, e, B):
     """Measures ``e`` and Jacobian ``B`` (row-major, 12 columns) of element k; returns their number.
 
     A point-to-point element's generated d becomes ℓ = |d|, a rotational
     element's raw pair (r sin φ, r cos φ) the wrapped angle φ = atan2, with their
-    Jacobians by the chain rule; the ground's columns are zeroed.
+    Jacobians by the chain rule; the ground's columns are zeroed.  ``fe`` the Model's ``force_elements``
+    group (not the Model: every array of an argument of an inlined function costs two atomic updates).
     """
-    i, j = model.force_elements.i[k], model.force_elements.j[k]
-    par = model.force_elements.par[k]
-    kind = model.force_elements.kind[k]
+    i, j = fe.i[k], fe.j[k]
+    par = fe.par[k]
+    kind = fe.kind[k]
     xj, qj = GROUND_X, GROUND_Q
     if j >= 0:
         xj, qj = x[j], q[j]
@@ -89,13 +90,13 @@ def _continuous(angle, k, raw):
 
 
 @kernel
-def force_element_forces(model, x, q, v, w, t, angle, F, F_ext, e, B):
+def force_element_forces(fe, time_functions, x, q, v, w, t, angle, F, F_ext, e, B):
     """Forces of all force elements at one configuration; returns ``(energy, dissipation rate)``.
 
     Parameters
     ----------
-    model : Model
-        ``fe_*`` fields (see :class:`reference.state.Model`).
+    fe, time_functions : ForceElements, TimeFunctions
+        The Model's ``force_elements`` and ``time_functions`` groups (:class:`reference.state.Model`).
     x, q, v, w : arrays (N,3), (N,4), (N,3), (N,3)
         Positions, Euler parameters, inertial and body-frame velocities.
     t : float
@@ -119,24 +120,24 @@ def force_element_forces(model, x, q, v, w, t, angle, F, F_ext, e, B):
     """
     energy = 0.0
     dissipation = 0.0
-    for k in range(model.force_elements.kind.shape[0]):
-        i, j = model.force_elements.i[k], model.force_elements.j[k]
-        kind = model.force_elements.kind[k]
-        m = _measures(model, x, q, k, e, B)
+    for k in range(fe.kind.shape[0]):
+        i, j = fe.i[k], fe.j[k]
+        kind = fe.kind[k]
+        m = _measures(fe, x, q, k, e, B)
         if kind == ROTATIONAL:
             e[0] = _continuous(angle, k, e[0])
             angle[k] = e[0]
         elif kind == POINT_TO_POINT and e[0] <= 0.0:
             continue  # coincident points: no direction (the deck refuses a zero rest length)
         for r in range(m):
-            stretch = e[r] - (model.force_elements.rest[k] if m == 1 else 0.0)
+            stretch = e[r] - (fe.rest[k] if m == 1 else 0.0)
             rate = _rate(B, r, v, w, i, j)
-            energy += 0.5 * model.force_elements.k[k, r] * stretch * stretch
-            dissipation += model.force_elements.c[k, r] * rate * rate
-            _spread(B, r, model.force_elements.k[k, r] * stretch + model.force_elements.c[k, r] * rate, i, j, F)
-        tf = model.force_elements.tf[k]
+            energy += 0.5 * fe.k[k, r] * stretch * stretch
+            dissipation += fe.c[k, r] * rate * rate
+            _spread(B, r, fe.k[k, r] * stretch + fe.c[k, r] * rate, i, j, F)
+        tf = fe.tf[k]
         if tf >= 0:
-            _spread(B, 0, tf_value(model.time_functions.kind[tf], model.time_functions.par[tf], t), i, j, F_ext)
+            _spread(B, 0, tf_value(time_functions.kind[tf], time_functions.par[tf], t), i, j, F_ext)
     return energy, dissipation
 
 
@@ -157,7 +158,7 @@ def force_element_dissipation(model, x, q, v, w, v_new, w_new, e, B):
         if not damped:
             continue
         i, j = model.force_elements.i[k], model.force_elements.j[k]
-        m = _measures(model, x, q, k, e, B)
+        m = _measures(model.force_elements, x, q, k, e, B)
         for r in range(m):
             old = _rate(B, r, v, w, i, j)
             new = _rate(B, r, v_new, w_new, i, j)
@@ -209,7 +210,7 @@ def force_element_tangent(model, x, q, v, w, angle, k, K, C, e, B, G):
                 G[12 * a + c] = g - bphi * 2.0 * (sn * B[c] + cs * B[12 + c]) / r2
     else:
         generated.bushing_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
-    m = _measures(model, x, q, k, e, B)
+    m = _measures(model.force_elements, x, q, k, e, B)
     if kind == ROTATIONAL:
         e[0] = _continuous(angle, k, e[0])
     K[:, :] = 0.0

@@ -25,24 +25,29 @@ def external_forces(model, x, q, t, F, A):
     A force applied at a body-fixed point (``model.loads.arm`` ≠ 0) adds its
     moment ``arm × force`` (body frame) about the node.
     """
-    g0, g1, g2 = model.gravity[0], model.gravity[1], model.gravity[2]
-    mass = model.nodes.mass
-    for i in range(F.shape[0]):
-        F[i, 0], F[i, 1], F[i, 2] = mass[i] * g0, mass[i] * g1, mass[i] * g2
-        F[i, 3], F[i, 4], F[i, 5] = 0.0, 0.0, 0.0
-    add_loads(model, q, t, F, A)
+    _gravity(model.nodes.mass, model.gravity, F)
+    add_loads(model.loads, model.time_functions, q, t, F, A)
 
 
 @inlined
-def add_loads(model, q, t, F, A):
+def _gravity(mass, gravity, F):
+    """``F`` = the nodes' weights ``m g`` (inertial forces, no moments)."""
+    g0, g1, g2 = gravity[0], gravity[1], gravity[2]
+    for i in range(F.shape[0]):
+        F[i, 0], F[i, 1], F[i, 2] = mass[i] * g0, mass[i] * g1, mass[i] * g2
+        F[i, 3], F[i, 4], F[i, 5] = 0.0, 0.0, 0.0
+
+
+@inlined
+def add_loads(loads, time_functions, q, t, F, A):
     """Add the loads at time t into ``F`` (N, 6) (:func:`external_forces` without gravity; one load after
-    the other, serial: two may act on one node)."""
-    for l in range(model.loads.node.shape[0]):
-        i = model.loads.node[l]
-        j = model.loads.tf[l]
-        f = tf_value(model.time_functions.kind[j], model.time_functions.par[j], t)
-        code = model.loads.code[l]
-        vec = model.loads.vec[l]
+    the other, serial: two may act on one node).  ``loads``, ``time_functions``: the Model's groups."""
+    for l in range(loads.node.shape[0]):
+        i = loads.node[l]
+        j = loads.tf[l]
+        f = tf_value(time_functions.kind[j], time_functions.par[j], t)
+        code = loads.code[l]
+        vec = loads.vec[l]
         if code == 0:
             for k in range(3):
                 F[i, k] += f * vec[k]
@@ -57,7 +62,7 @@ def add_loads(model, q, t, F, A):
             else:  # dead moment: body = A^T M
                 for k in range(3):
                     F[i, 3 + k] += f * (A[k] * vec[0] + A[3 + k] * vec[1] + A[6 + k] * vec[2])
-        arm = model.loads.arm[l]
+        arm = loads.arm[l]
         if code <= 1 and (arm[0] != 0.0 or arm[1] != 0.0 or arm[2] != 0.0):
             if code == 0:  # body components of the dead force
                 rm.rotation_matrix(q[i], A)
@@ -80,26 +85,38 @@ def generalized_forces(model, element_work, x, q, v, w, t, S, F, G, angle, A, fe
     ``element_work`` the element families' work arrays (:func:`reference.state.element_work`);
     ``G`` (N, 6) receives the force elements' forces; ``angle`` (F,) the rotational springs'
     continuous angles, carried on (:mod:`reference.forces`); ``A`` (9,), ``fe_phi``, ``fe_B``
-    scratch (at least 6 and 72 entries).
+    scratch (at least 6 and 72 entries).  The algorithms' kernels inline :func:`model_forces`.
     """
+    return model_forces(model.nodes.mass, model.gravity, model.loads, model.time_functions, model.elements,
+                        model.force_elements, element_work, x, q, v, w, t, S, F, G, angle, A, fe_phi, fe_B)
+
+
+@inlined
+def model_forces(mass, gravity, loads, time_functions, elements, force_elements, element_work, x, q, v, w, t, S, F,
+                 G, angle, A, fe_phi, fe_B):
+    """:func:`generalized_forces` of the Model's groups (``model.nodes.mass``, ``model.gravity``, ``model.loads``,
+    ``model.time_functions``, ``model.elements``, ``model.force_elements``): the form an algorithm's kernel
+    inlines.  Not the Model itself: an inlined function's argument costs two atomic reference-count updates
+    per array in it, each call (:mod:`reference.jit`), and the Model has some seventy arrays."""
     N = x.shape[0]
     if N >= PARALLEL_NODES:  # the same numbers, node by node in parallel
-        reset_forces(S, F, model.nodes.mass, model.gravity[0], model.gravity[1], model.gravity[2])
-        add_loads(model, q, t, F, A)
+        reset_forces(S, F, mass, gravity[0], gravity[1], gravity[2])
     else:
         for i in range(N):
             for a in range(6):
                 S[i, a] = 0.0
-        external_forces(model, x, q, t, F, A)
-    U = assemble_forces(model.elements, element_work, x, q, S)
+        _gravity(mass, gravity, F)
+    if loads.node.shape[0] > 0:
+        add_loads(loads, time_functions, q, t, F, A)
+    U = assemble_forces(elements, element_work, x, q, S)
     D = 0.0
-    if model.force_elements.kind.shape[0] > 0:
+    if force_elements.kind.shape[0] > 0:
         # springs and dampers act like internal forces (S −= their force; energy in U), their
         # actuators like external loads (into F)
         for i in range(N):
             for a in range(6):
                 G[i, a] = 0.0
-        U_fe, D = force_element_forces(model, x, q, v, w, t, angle, G, F, fe_phi, fe_B)
+        U_fe, D = force_element_forces(force_elements, time_functions, x, q, v, w, t, angle, G, F, fe_phi, fe_B)
         U += U_fe
         for i in range(N):
             for a in range(6):
