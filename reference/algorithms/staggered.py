@@ -163,19 +163,6 @@ def _record(model, scratch, rec, x, q, v, w, v_new, w_new, first, U, dD_fe, cloc
     rec.constraint[1] = math.sqrt(rec.constraint[1])
 
 
-@inlined
-def _drift(model, scratch, x, q, v, w, v_new, w_new, f_prev, F, h, n_ms, finite):
-    """Stage 3 (:func:`~reference.algorithms.staggered_nodes.drift_nodes`) and the master/slave
-    positions.  Returns False (and changes nothing) if ``finite``, the sum of the new velocities,
-    is not."""
-    if not math.isfinite(finite):
-        return False
-    drift_nodes(x, q, v, w, v_new, w_new, f_prev, F, h, scratch.q_tmp)
-    if n_ms > 0:
-        master_slave_positions(model, x, q, scratch.A_m, scratch.A_s, scratch.q_tmp, scratch.r4)
-    return True
-
-
 @kernel
 def advance(model, state, h, n_steps, record, rec, scratch):
     """Advance ``state`` in place by ``n_steps`` steps of size ``h``: forces, kick, constrain, drift.
@@ -191,7 +178,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     n_fe = model.force_elements.kind.shape[0]
     n_rows = scratch.PHI.shape[0]
     n_ms = model.master_slave.master.shape[0]
-    part, sums = np.empty((n_chunks(x.shape[0]), SUMS)), np.empty(SUMS)
+    part, sums, q_tmp = np.empty((n_chunks(x.shape[0]), SUMS)), np.empty(SUMS), scratch.q_tmp
     for k in range(max(n_steps, 1)):
         t, n = clock[0], clock[1]
         # dampers of the force elements at V^{n−½}
@@ -201,12 +188,13 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         hk = h if n > 0 else 0.5 * h
         # a node outside every joint keeps its predicted velocity through the constrained passes
         # below, which would only add gyroscopic sweeps to it: it gets all of them at once
-        kick_nodes(model, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS, CONSTRAINED_SWEEPS if n_rows > 0 or n_ms > 0 else 0)
+        kick_nodes(model.nodes, model.damping, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS,
+                   CONSTRAINED_SWEEPS if n_rows > 0 or n_ms > 0 else 0)
         if (n_rows > 0 or n_ms > 0) and _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows,
                                                     n_ms) != OK:
             return SINGULAR
         c = model.damping
-        node_sums(model, v, w, v_new, w_new, F, f_prev, c != 0.0, scratch.guard[2] > 0.0, n > 0, part, sums)
+        node_sums(model.nodes, v, w, v_new, w_new, F, f_prev, c != 0.0, scratch.guard[2] > 0.0, n > 0, part, sums)
         if n > 0:  # the trapezoidal work of the external forces over the increment into t_n
             clock[2] += h * sums[0]
         # energy removed by the damping (mass-proportional and the force elements' dampers) in this
@@ -229,8 +217,11 @@ def advance(model, state, h, n_steps, record, rec, scratch):
                                                scratch.guard):
             return BLOWUP
         clock[3] += 0.5 * dD_fe
-        if not _drift(model, scratch, x, q, v, w, v_new, w_new, f_prev, F, h, n_ms, sums[5]):
+        if not math.isfinite(sums[5]):  # a new velocity is not finite: the state stays at the last finite step
             return DIVERGED
+        drift_nodes(x, q, v, w, v_new, w_new, f_prev, F, h, q_tmp)
+        if n_ms > 0:
+            master_slave_positions(model, x, q, scratch.A_m, scratch.A_s, q_tmp, scratch.r4)
         clock[1] = n + 1
         clock[0] = (n + 1) * h
     return OK

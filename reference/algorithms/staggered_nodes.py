@@ -93,13 +93,14 @@ def _kick_parallel(c, J, Jinv, free, mass, constrained, v, w, S, F, hk, v_new, w
 
 
 @inlined
-def kick_nodes(model, v, w, S, F, hk, v_new, w_new, sweeps, extra_free_sweeps):
+def kick_nodes(nodes, c, v, w, S, F, hk, v_new, w_new, sweeps, extra_free_sweeps):
     """The kick of every node (:func:`kick_range`, ``sweeps`` sweeps, ``extra_free_sweeps`` more at a node of
-    no joint); a parallel loop from :data:`~reference.parallel.PARALLEL_NODES` nodes on."""
-    # the model's arrays bound once: a field read inside the loop costs two atomic reference-count
-    # updates per iteration (numba), and a row view (J[i]) as many
-    c, J, Jinv, free, mass = model.damping, model.nodes.inertia, model.nodes.inertia_inv, model.nodes.free, model.nodes.mass
-    constrained = model.nodes.constrained
+    no joint); a parallel loop from :data:`~reference.parallel.PARALLEL_NODES` nodes on.  ``nodes`` the Model's
+    group, ``c`` its mass-proportional damping [1/s] (not the Model: every array of an inlined function's
+    argument costs two atomic reference-count updates a call)."""
+    # the arrays bound once: a field read inside the loop costs two atomic reference-count updates per
+    # iteration (numba), and a row view (J[i]) as many
+    J, Jinv, free, mass, constrained = nodes.inertia, nodes.inertia_inv, nodes.free, nodes.mass, nodes.constrained
     if v.shape[0] >= PARALLEL_NODES:
         _kick_parallel(c, J, Jinv, free, mass, constrained, v, w, S, F, hk, v_new, w_new, sweeps, extra_free_sweeps)
     else:
@@ -142,7 +143,7 @@ def _sums_parallel(mass, J, free, v, w, v_new, w_new, F, f_prev, damped, guarded
 
 
 @inlined
-def node_sums(model, v, w, v_new, w_new, F, f_prev, damped, guarded, mean, part, out):
+def node_sums(nodes, v, w, v_new, w_new, F, f_prev, damped, guarded, mean, part, out):
     """The step's sums over the nodes into ``out`` (:data:`SUMS`,), chunk by chunk (``part``
     (:func:`~reference.parallel.n_chunks`, :data:`SUMS`) scratch), the chunks' partial sums added in order:
 
@@ -152,8 +153,10 @@ def node_sums(model, v, w, v_new, w_new, F, f_prev, damped, guarded, mean, part,
     2–4. if ``guarded``: the kinetic energy at the integer-step velocities (``mean``; else at V^{n−½})
        and the external powers ``F·V^{n−½}``, ``F·V^{n+½}`` (:func:`reference.algorithms.staggered._balance`);
     5. ``Σ (v^{n+½} + ω^{n+½})`` over every component: not finite if a velocity is not (or overflows).
+
+    ``nodes`` the Model's group.
     """
-    mass, J, free = model.nodes.mass, model.nodes.inertia, model.nodes.free
+    mass, J, free = nodes.mass, nodes.inertia, nodes.free
     if v.shape[0] >= PARALLEL_NODES:
         _sums_parallel(mass, J, free, v, w, v_new, w_new, F, f_prev, damped, guarded, mean, part)
     else:
