@@ -19,6 +19,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numba import get_num_threads
 
 from reference.elements.element_type import Beam2, ElementType
 from reference.elements.formulation import (
@@ -31,7 +32,9 @@ from reference.generated import rotation_maps as rm
 from reference.generated import tangents as generated_tangents
 from reference.jit import inlined, kernel, parallel_kernel, prange
 from reference.newton_blocks import store_block
-from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum, node_incidence, scatter
+from reference.parallel import (
+    ELEMENT_CHUNK, PARALLEL_NODES, accumulate, element_chunks, energy_sum, node_incidence, scatter,
+)
 
 PARALLEL_ELEMENTS = 8
 """From this many elements on, the forces are computed by the parallel element loop
@@ -50,7 +53,11 @@ class Beam2Data(NamedTuple):
     ``L0`` (E,) reference length [m]; ``psi0``, ``gamma0`` (E, 3) the reference relative
     rotation and ``Γ0`` of the section frames (0 and E1 for a straight element);
     ``stiff`` (E, 6) = EA, GA2, GA3, GJ, EI2, EI3; ``node_start``, ``node_item`` the node → (element,
-    end) incidence (:func:`reference.parallel.node_incidence`) of the element → node gather.
+    end) incidence (:func:`reference.parallel.node_incidence`) of the element → node gather;
+    ``straight`` (E,) 1 where both offsets are the identity (:func:`straight_elements`); ``blocked`` the
+    values that never change, ``L0``, ``psi0``, ``gamma0``, ``stiff``, in the structure-of-arrays rows
+    of the vectorised element loop (:func:`soa_fixed_rows`), filled once here instead of gathered at
+    every step.
     """
 
     conn: np.ndarray
@@ -62,10 +69,32 @@ class Beam2Data(NamedTuple):
     stiff: np.ndarray
     node_start: np.ndarray
     node_item: np.ndarray
+    straight: np.ndarray
+    blocked: np.ndarray
+
+
+def straight_elements(offset: np.ndarray) -> np.ndarray:
+    """(E,) int8: 1 where both end offsets of the element (``offset`` (E, 2, 4)) are exactly the identity
+    (:func:`is_identity`: the section frames are the node frames), else 0."""
+    identity = np.array([1.0, 0.0, 0.0, 0.0])
+    return np.all(offset == identity, axis=(1, 2)).astype(np.int8)
+
+
+def soa_fixed_rows(L0, psi0, gamma0, stiff) -> np.ndarray:
+    """The inputs of ``generated.beam2_soa.internal_forces_soa`` that never change, in its rows of ``u``:
+    row b for block b (elements ``64 b …``), component k of its element e at ``[b, k * BLOCK + e]`` (zeros
+    past the last element)."""
+    B, E = soa.BLOCK, L0.shape[0]
+    n_blocks = (E + B - 1) // B
+    rows = np.zeros((n_blocks * B, soa.FIXED_ROWS))
+    rows[:E, soa.FIXED_L0] = L0
+    rows[:E, soa.FIXED_PSI0:soa.FIXED_PSI0 + 3] = psi0
+    rows[:E, soa.FIXED_GAMMA0:soa.FIXED_GAMMA0 + 3] = gamma0
+    rows[:E, soa.FIXED_C:soa.FIXED_C + 6] = stiff
+    return np.ascontiguousarray(rows.reshape(n_blocks, B, soa.FIXED_ROWS).transpose(0, 2, 1)).reshape(n_blocks, -1)
 
 
 _internal_forces = inlined(generated_beam2.internal_forces)
-assert soa.ROW_STRAIN == soa.ROW_S + 12 and soa.ROW_STRESS == soa.ROW_STRAIN + 6  # _scatter_block's copy
 _section_quaternion = inlined(section_quaternion)
 _to_node_frame = inlined(to_node_frame)
 
@@ -134,20 +163,10 @@ def beam2_assemble(x, q, conn, offset, L0, psi0, gamma0, stiff, S, s_el):
 
 
 @inlined
-def _straight(offset, e):
-    """Both end offsets of element e are the identity (:func:`is_identity`), read without array views
-    (a view costs atomic reference-count updates inside a parallel loop)."""
-    for a in range(2):
-        if offset[e, a, 0] != 1.0 or offset[e, a, 1] != 0.0 or offset[e, a, 2] != 0.0 or offset[e, a, 3] != 0.0:
-            return False
-    return True
-
-
-@inlined
-def _gather_block(x, q, conn, offset, L0, psi0, gamma0, stiff, W, e0, n, v):
-    """The inputs of elements ``e0 … e0+n−1`` into the rows of ``v`` (``generated.beam2_soa``'s layout):
-    positions, section quaternions (composed ``p_a = q_a ⊗ o_a`` into ``W[e, 24:32]`` as
-    :func:`beam2_element` does, unless both offsets are the identity), reference values, stiffness."""
+def _gather_block(x, q, conn, offset, straight, W, e0, n, v):
+    """The inputs of elements ``e0 … e0+n−1`` that change into the rows of ``v`` (``generated.beam2_soa``'s
+    layout): positions and section quaternions (composed ``p_a = q_a ⊗ o_a`` into ``W[e, 24:32]`` as
+    :func:`beam2_element` does, unless both offsets are the identity)."""
     B = soa.BLOCK
     for k in range(n):
         e = e0 + k
@@ -155,9 +174,7 @@ def _gather_block(x, q, conn, offset, L0, psi0, gamma0, stiff, W, e0, n, v):
         for c in range(3):
             v[(soa.ROW_X1 + c) * B + k] = x[i, c]
             v[(soa.ROW_X2 + c) * B + k] = x[j, c]
-            v[(soa.ROW_PSI0 + c) * B + k] = psi0[e, c]
-            v[(soa.ROW_GAMMA0 + c) * B + k] = gamma0[e, c]
-        if _straight(offset, e):
+        if straight[e]:
             for c in range(4):
                 v[(soa.ROW_Q1 + c) * B + k] = q[i, c]
                 v[(soa.ROW_Q2 + c) * B + k] = q[j, c]
@@ -167,22 +184,20 @@ def _gather_block(x, q, conn, offset, L0, psi0, gamma0, stiff, W, e0, n, v):
             for c in range(4):
                 v[(soa.ROW_Q1 + c) * B + k] = W[e, 24 + c]
                 v[(soa.ROW_Q2 + c) * B + k] = W[e, 28 + c]
-        v[soa.ROW_L0 * B + k] = L0[e]
-        for c in range(6):
-            v[(soa.ROW_C + c) * B + k] = stiff[e, c]
 
 
 @inlined
-def _scatter_block(offset, W, e0, n, v):
-    """The outputs of elements ``e0 … e0+n−1`` from the rows of ``v`` into their rows of ``W`` (the
-    layout of :func:`beam2_element`), the moments taken back to the node frames."""
+def _scatter_block(offset, straight, W, e0, n, v):
+    """The forces and energies of elements ``e0 … e0+n−1`` from the rows of ``v`` into their rows of ``W``
+    (the layout of :func:`beam2_element`), the moments taken back to the node frames; the strains and
+    resultants (``W[e, 12:24]``) are not written (nothing of the step reads them)."""
     B = soa.BLOCK
     for k in range(n):
         e = e0 + k
-        for c in range(24):  # s (12), strain (6), stress (6): consecutive rows (checked on import)
+        for c in range(12):
             W[e, c] = v[(soa.ROW_S + c) * B + k]
         W[e, 39] = v[soa.ROW_RETURNS * B + k]
-        if _straight(offset, e):
+        if straight[e]:
             for c in range(3):
                 W[e, 32 + c] = W[e, 3 + c]
                 W[e, 35 + c] = W[e, 9 + c]
@@ -192,18 +207,61 @@ def _scatter_block(offset, W, e0, n, v):
 
 
 @parallel_kernel
-def _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W):
-    """Every element's row of ``W`` (E, 40), bit for bit :func:`beam2_element`'s: blocks of
-    ``soa.BLOCK`` elements gathered into a structure of arrays, the generated
-    ``internal_forces_soa`` (vectorised across the elements), scattered back."""
+def _beam2_elements(x, q, conn, offset, straight, blocked, W):
+    """Every element's forces and energy in its row of ``W`` (E, 40), bit for bit :func:`beam2_element`'s:
+    blocks of ``soa.BLOCK`` elements gathered into a structure of arrays, the generated
+    ``internal_forces_soa`` (vectorised across the elements; ``blocked`` its rows that never change,
+    :func:`soa_fixed_rows`), scattered back."""
     E = conn.shape[0]
     for b in prange((E + soa.BLOCK - 1) // soa.BLOCK):
         v = np.empty(soa.ROWS * soa.BLOCK)
         e0 = b * soa.BLOCK
         n = min(soa.BLOCK, E - e0)
-        _gather_block(x, q, conn, offset, L0, psi0, gamma0, stiff, W, e0, n, v)
-        soa.internal_forces_soa(n, v)
-        _scatter_block(offset, W, e0, n, v)
+        _gather_block(x, q, conn, offset, straight, W, e0, n, v)
+        soa.internal_forces_soa(n, v, blocked[b])
+        _scatter_block(offset, straight, W, e0, n, v)
+
+
+@inlined
+def _add_block(conn, offset, straight, W, e0, n, v, S, U):
+    """Add the forces of elements ``e0 … e0+n−1`` from the rows of ``v`` into ``S`` (N, 6) as
+    :func:`reference.parallel.scatter` adds their rows of ``W`` (element order, end 1 then end 2: the same
+    sums bit for bit), a curved element's through its row of ``W`` (:func:`_scatter_block`); returns ``U``
+    plus their energies, in element order (:func:`reference.parallel.energy_sum`'s sum)."""
+    B = soa.BLOCK
+    for k in range(n):
+        e = e0 + k
+        i, j = conn[e, 0], conn[e, 1]
+        if straight[e]:  # node-frame moments = section-frame moments
+            for c in range(3):
+                S[i, c] += v[(soa.ROW_S + c) * B + k]
+                S[i, 3 + c] += v[(soa.ROW_S + 3 + c) * B + k]
+            for c in range(3):
+                S[j, c] += v[(soa.ROW_S + 6 + c) * B + k]
+                S[j, 3 + c] += v[(soa.ROW_S + 9 + c) * B + k]
+        else:
+            _scatter_block(offset, straight, W, e, 1, v[k:])
+            _add_element(conn, e, W, e, S)
+        U += v[soa.ROW_RETURNS * B + k]
+    return U
+
+
+@kernel
+def _beam2_blocks(x, q, conn, offset, straight, blocked, W, S):
+    """:func:`_beam2_elements` and the element → node sum (:func:`reference.parallel.scatter`) in one pass on
+    one thread: each block's forces go from its rows straight into ``S`` (:func:`_add_block`), none through
+    ``W`` (but a curved element's); returns the strain energy.  The same bits as the two passes; it spares
+    the parallel launch and the rows' round trip through ``W`` (docs/benchmarks.md §5)."""
+    E = conn.shape[0]
+    v = np.empty(soa.ROWS * soa.BLOCK)
+    U = 0.0
+    for b in range((E + soa.BLOCK - 1) // soa.BLOCK):
+        e0 = b * soa.BLOCK
+        n = min(soa.BLOCK, E - e0)
+        _gather_block(x, q, conn, offset, straight, W, e0, n, v)
+        soa.internal_forces_soa(n, v, blocked[b])
+        U = _add_block(conn, offset, straight, W, e0, n, v, S, U)
+    return U
 
 
 @kernel
@@ -215,9 +273,10 @@ def _beam2_rows(x, q, conn, offset, L0, psi0, gamma0, stiff, W):
         beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, W[e])
 
 
-@kernel
 def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
-    """:func:`beam2_assemble` with the elements computed in parallel, bit for bit the same result.
+    """:func:`beam2_assemble` with the elements computed in parallel, bit for bit the same result
+    (``S``, ΣU and every row's forces and energy; the strains and resultants of ``W[:, 12:24]`` are not
+    written).
 
     The elements are independent: each writes its own row of ``W`` (E, 40)
     (:func:`beam2_element`) on the threads of :func:`reference.jit.use_threads`;
@@ -231,7 +290,13 @@ def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
     structure-of-arrays loop of :func:`_beam2_elements` then halved the 0.08 µs
     (docs/benchmarks.md §5).
     """
-    _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
+    return _assemble_parallel(x, q, conn, offset, straight_elements(offset), soa_fixed_rows(L0, psi0, gamma0, stiff),
+                              S, W)
+
+
+@kernel
+def _assemble_parallel(x, q, conn, offset, straight, blocked, S, W):
+    _beam2_elements(x, q, conn, offset, straight, blocked, W)
     S[:, :] = 0.0
     scatter(conn, W, 32, S)
     return energy_sum(W, 39)
@@ -244,8 +309,10 @@ def _family_assemble(data, W, x, q, S):
     added into ``S`` in element order (:func:`reference.parallel.accumulate`: a per-node gather on a
     large mesh, bit for bit the serial scatter); returns the strain energy (element order)."""
     conn, offset, L0, psi0, gamma0, stiff = data.conn, data.offset, data.L0, data.psi0, data.gamma0, data.stiff
+    if conn.shape[0] >= PARALLEL_ELEMENTS and S.shape[0] < PARALLEL_NODES and get_num_threads() == 1:
+        return _beam2_blocks(x, q, conn, offset, data.straight, data.blocked, W, S)
     if conn.shape[0] >= PARALLEL_ELEMENTS:
-        _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
+        _beam2_elements(x, q, conn, offset, data.straight, data.blocked, W)
     else:
         _beam2_rows(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
     accumulate(conn, data.node_start, data.node_item, W, 32, S)
@@ -362,14 +429,15 @@ class Beam2Formulation(ElementFormulation):
         """The family's plain data from its elements placed at t = 0 (reference states of the section frames)."""
         E = len(placed)
         conn = np.array([item.element.nodes for item in placed], dtype=np.int64).reshape(E, 2)
-        data = Beam2Data(conn, np.zeros(E, dtype=np.int64), np.zeros((E, 2, 4)), np.zeros(E), np.zeros((E, 3)),
-                         np.zeros((E, 3)), np.zeros((E, 6)), *node_incidence(conn))
+        index, offset, L0, psi0, gamma0, stiff = (np.zeros(E, dtype=np.int64), np.zeros((E, 2, 4)), np.zeros(E),
+                                                  np.zeros((E, 3)), np.zeros((E, 3)), np.zeros((E, 6)))
         for e, item in enumerate(placed):
             ref = item.element.formulation.reference_state(item.x, item.p)
-            data.index[e], data.offset[e] = item.index, item.offset
-            data.L0[e], data.psi0[e], data.gamma0[e] = ref["L0"], ref["psi0"], ref["gamma0"]
-            data.stiff[e] = item.element.formulation.section.stiffness
-        return data
+            index[e], offset[e] = item.index, item.offset
+            L0[e], psi0[e], gamma0[e] = ref["L0"], ref["psi0"], ref["gamma0"]
+            stiff[e] = item.element.formulation.section.stiffness
+        return Beam2Data(conn, index, offset, L0, psi0, gamma0, stiff, *node_incidence(conn), straight_elements(offset),
+                         soa_fixed_rows(L0, psi0, gamma0, stiff))
 
     @staticmethod
     def characteristic_energy(data: Beam2Data) -> float:
