@@ -159,6 +159,14 @@ def kernels() -> list[Kernel]:
                 ("w", w, "body-frame angular velocity over the step [rad/s]"),
                 ("h", h, "time step [s]")],
                [("out", q_new, "Euler parameters at the end of the step")]),
+        Kernel("cayley_update_scalars",
+               "``cayley_update`` on numbers, not arrays: the explicit step's drift calls it once per node,\n"
+               "    and an array argument of a call inside a loop costs numba two atomic reference-count updates\n"
+               "    per call (reference/jit.py).  The same arithmetic, the same bits.",
+               [(f"q_{k}", q[k], f"Euler parameter {k} at the start of the step") for k in range(4)]
+               + [(f"w_{k}", w[k], f"body-frame angular velocity {k} over the step [rad/s]") for k in range(3)]
+               + [("h", h, "time step [s]")],
+               [], (q_new, "the Euler parameters at the end of the step")),
         Kernel("exp_quaternion", "Euler parameters of the rotation vector ψ.",
                [("psi", psi, "rotation vector [rad]")],
                [("out", exp_quaternion(psi), "unit Euler parameters")]),

@@ -224,6 +224,46 @@ def cayley_update(q, w, h, out):
 
 
 @kernel
+def cayley_update_scalars(q_0, q_1, q_2, q_3, w_0, w_1, w_2, h):
+    """``cayley_update`` on numbers, not arrays: the explicit step's drift calls it once per node,
+    and an array argument of a call inside a loop costs numba two atomic reference-count updates
+    per call (reference/jit.py).  The same arithmetic, the same bits.
+
+    Parameters (in this order)
+    ----------
+    q_0 : float
+        Euler parameter 0 at the start of the step
+    q_1 : float
+        Euler parameter 1 at the start of the step
+    q_2 : float
+        Euler parameter 2 at the start of the step
+    q_3 : float
+        Euler parameter 3 at the start of the step
+    w_0 : float
+        body-frame angular velocity 0 over the step [rad/s]
+    w_1 : float
+        body-frame angular velocity 1 over the step [rad/s]
+    w_2 : float
+        body-frame angular velocity 2 over the step [rad/s]
+    h : float
+        time step [s]
+
+    Returns
+    -------
+    tuple of 4 floats
+        the Euler parameters at the end of the step
+    """
+    t0 = h**2*(w_0**2 + w_1**2 + w_2**2)
+    t1 = 1/(t0 + 16)
+    t2 = 8*h
+    t3 = t2*w_0
+    t4 = t2*w_1
+    t5 = t2*w_2
+    t6 = t0 - 16
+    return -t1*(q_0*t6 + q_1*t3 + q_2*t4 + q_3*t5), t1*(q_0*t3 - q_1*t6 + q_2*t5 - q_3*t4), t1*(q_0*t4 - q_1*t5 - q_2*t6 + q_3*t3), t1*(q_0*t5 + q_1*t4 - q_2*t3 - q_3*t6)
+
+
+@kernel
 def exp_quaternion(psi, out):
     """Euler parameters of the rotation vector ψ.
 
