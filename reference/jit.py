@@ -29,7 +29,7 @@ parallel form depends on the model's size only (``reference.parallel.PARALLEL_NO
 ``PARALLEL_ELEMENTS``).  Joints, master/slave joints, loads and force elements stay serial.  One exception,
 with the same bits: on one thread a Beam2 mesh below ``PARALLEL_NODES`` nodes takes its element loop and its
 element → node sum in one serial pass (no parallel launch, no round trip of the rows through the work
-array; :func:`reference.elements.beam2._beam2_blocks`).
+array; :func:`reference.elements.beam2_blocks.soa_forces`).
 
 An index the compiler cannot prove non-negative (``u[u0 + e]`` with ``u0`` an argument) costs numba's
 negative-index wrap-around select on every access, and in a loop meant to vectorise, the vectorisation: a

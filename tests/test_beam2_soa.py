@@ -7,9 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from reference.elements.beam2 import (
-    _beam2_blocks, beam2_assemble, beam2_assemble_parallel, soa_fixed_rows, straight_elements,
-)
+from reference.elements.beam2 import beam2_assemble, beam2_assemble_parallel
+from reference.elements.beam2_blocks import soa_fixed_rows, soa_forces, straight_elements
 from reference.elements.formulation import is_identity, section_quaternion, to_node_frame
 from reference.generated import beam2 as generated_beam2
 from reference.generated import beam2_soa as soa
@@ -87,7 +86,7 @@ def test_soa_rows_equal_the_per_element_kernel_bit_for_bit():
     # the one-thread pass (forces from the blocks' rows straight into S) gives the same S and ΣU
     conn, offset, L0, psi0, gamma0, stiff = data[2:]
     S_one = np.zeros_like(S)
-    U_one = _beam2_blocks(x, q, conn, offset, straight_elements(offset), soa_fixed_rows(L0, psi0, gamma0, stiff),
+    U_one = soa_forces(x, q, conn, offset, straight_elements(offset), soa_fixed_rows(L0, psi0, gamma0, stiff),
                           np.zeros((E, 40)), S_one)
     assert U_one == U and np.array_equal(S_one, S_ref)
     # the straight elements' relative rotations |ψ| reach every branch: the short series of c_asinc
