@@ -20,7 +20,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import get_num_threads
 
 from reference.elements.element_type import Beam2, ElementType
 from reference.elements.formulation import (
@@ -38,10 +37,12 @@ from reference.parallel import (
 )
 
 PARALLEL_ELEMENTS = 8
-"""From this many elements on, the forces are computed by the parallel element loop
-(:func:`beam2_assemble_parallel`'s, no per-view reference counts) instead of the serial one
-(no parallel launch): measured 1.6 against 2.1 µs at 4 elements, 3.2 against 2.7 µs at 12;
-both give the same numbers."""
+"""From this many elements on, the forces are computed by the structure-of-arrays element loop
+(:mod:`reference.elements.beam2_blocks`; no per-view reference counts) instead of the per-element one:
+measured 1.6 against 2.1 µs at 4 elements, 3.2 against 2.7 µs at 12 (before the loop was vectorised);
+both give the same numbers.  Below :data:`reference.parallel.PARALLEL_NODES` nodes the blocks run on one
+thread, their forces added into the nodes' sums as each block is done
+(:func:`~reference.elements.beam2_blocks.soa_forces`); from there on the parallel loop over blocks."""
 
 
 class Beam2Data(NamedTuple):
@@ -169,12 +170,14 @@ def _assemble_parallel(x, q, conn, offset, straight, blocked, S, W):
 
 @inlined
 def _family_assemble(data, W, x, q, S):
-    """:meth:`Beam2Formulation.assemble`: each element's forces into its row of ``W`` (the parallel
-    element loop from :data:`PARALLEL_ELEMENTS` elements on, the same numbers either way), then
+    """:meth:`Beam2Formulation.assemble`: each element's forces into its row of ``W`` (the
+    structure-of-arrays loop from :data:`PARALLEL_ELEMENTS` elements on, the same numbers either way), then
     added into ``S`` in element order (:func:`reference.parallel.accumulate`: a per-node gather on a
-    large mesh, bit for bit the serial scatter); returns the strain energy (element order)."""
+    large mesh, bit for bit the serial scatter); returns the strain energy (element order).  Below
+    :data:`~reference.parallel.PARALLEL_NODES` nodes both in one serial pass (:func:`soa_forces`, the same
+    bits; no parallel launch, and the forces go from the blocks' rows into ``S`` without ``W``)."""
     conn, offset, L0, psi0, gamma0, stiff = data.conn, data.offset, data.L0, data.psi0, data.gamma0, data.stiff
-    if conn.shape[0] >= PARALLEL_ELEMENTS and S.shape[0] < PARALLEL_NODES and get_num_threads() == 1:
+    if conn.shape[0] >= PARALLEL_ELEMENTS and S.shape[0] < PARALLEL_NODES:
         return soa_forces(x, q, conn, offset, data.straight, data.blocked, W, S)
     if conn.shape[0] >= PARALLEL_ELEMENTS:
         soa_rows(x, q, conn, offset, data.straight, data.blocked, W)

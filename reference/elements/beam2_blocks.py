@@ -2,8 +2,9 @@
 ``reference/generated/beam2_soa.py`` (derivations/soa.py), bit for bit the per-element kernel's rows
 (:func:`reference.elements.beam2.beam2_element`).
 
-:func:`soa_rows` fills every element's row of the work array (the parallel loop over blocks); on one
-thread :func:`soa_forces` adds each block's forces from its rows straight into the nodes' sums instead.
+:func:`soa_rows` fills every element's row of the work array (the parallel loop over blocks, from
+:data:`reference.parallel.PARALLEL_NODES` nodes on); below, :func:`soa_forces` runs the blocks on one
+thread and adds each block's forces from its rows straight into the nodes' sums instead.
 The values that never change (reference lengths and rotations, stiffness) are laid out in the rows once,
 when the family's data are packed (:func:`soa_fixed_rows`).  Measured costs: docs/benchmarks.md §5.
 """
@@ -140,8 +141,8 @@ def add_block(conn, offset, straight, W, e0, n, v, S, U):
 
 @kernel
 def soa_forces(x, q, conn, offset, straight, blocked, W, S):
-    """:func:`soa_rows` and the element → node sum (:func:`reference.parallel.scatter`) in one pass on
-    one thread: each block's forces go from its rows straight into ``S`` (:func:`add_block`), none through
+    """:func:`soa_rows` and the element → node sum (:func:`reference.parallel.scatter`) in one serial
+    pass (a model below :data:`reference.parallel.PARALLEL_NODES` nodes): each block's forces go from its rows straight into ``S`` (:func:`add_block`), none through
     ``W`` (but a curved element's); returns the strain energy.  The same bits as the two passes; it spares
     the parallel launch and the rows' round trip through ``W`` (docs/benchmarks.md §5)."""
     E = conn.shape[0]
