@@ -39,7 +39,8 @@ def soa_fixed_rows(L0, psi0, gamma0, stiff) -> np.ndarray:
     rows[:E, soa.FIXED_PSI0:soa.FIXED_PSI0 + 3] = psi0
     rows[:E, soa.FIXED_GAMMA0:soa.FIXED_GAMMA0 + 3] = gamma0
     rows[:E, soa.FIXED_C:soa.FIXED_C + 6] = stiff
-    return np.ascontiguousarray(rows.reshape(n_blocks, B, soa.FIXED_ROWS).transpose(0, 2, 1)).reshape(n_blocks, -1)
+    blocks = rows.reshape(n_blocks, B, soa.FIXED_ROWS).transpose(0, 2, 1)
+    return np.ascontiguousarray(blocks).reshape(n_blocks, soa.FIXED_ROWS * B)  # (0, …) for a family of none
 
 
 @inlined
