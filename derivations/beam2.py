@@ -57,6 +57,7 @@ from derivations.codegen import Kernel, Stager, render_kernel, render_module, ve
 from derivations.soa import render_series, render_soa_kernel
 from derivations.rotation_maps import (
     USER_FUNCTIONS,
+    atan2_quadrant,
     exp_matrix,
     log_quaternion,
     quat_conj,
@@ -126,8 +127,20 @@ def kernel_arguments(inp) -> list:
     ]
 
 
+def _vectorisable(expr):
+    """``expr`` with libm's ``atan2`` replaced by ``atan2_quadrant`` (arithmetic only, derivations/atan2.py):
+    the force kernel's half angle, ``atan2(|e|, σ e0)``, has both arguments ≥ 0, and the
+    structure-of-arrays kernel (:func:`generate_soa`) then needs no scalar loop for it."""
+    return expr.replace(sp.atan2, lambda y, x: atan2_quadrant(y, x))
+
+
 def kernels() -> list[Kernel]:
+    """The force kernel ``internal_forces`` (its half angle by ``atan2_quadrant``; the tangent kernels,
+    derivations/tangents.py, differentiate :func:`beam2_quantities` and keep libm's ``atan2``)."""
     inp, out, stages = beam2_quantities()
+    out = {name: [_vectorisable(e) for e in value] if isinstance(value, list) else _vectorisable(value)
+           for name, value in out.items()}
+    stages = [(syms, [_vectorisable(e) for e in exprs]) for syms, exprs in stages]
     args = kernel_arguments(inp)
     return [
         Kernel(
@@ -156,7 +169,9 @@ def generate() -> str:
         imports=(
             "import math",
             "",
-            "from reference.generated.rotation_maps import branch_sign, c_asinc, c_cosc, c_jinv, c_sinc, c_sinc3",
+            "from reference.generated.rotation_maps import (",
+            "    atan2_quadrant, branch_sign, c_asinc, c_cosc, c_jinv, c_sinc, c_sinc3,",
+            ")",
             "from reference.jit import kernel",
         ),
     )
@@ -164,24 +179,39 @@ def generate() -> str:
 
 SOA_BLOCK = 64
 """Elements per call of the structure-of-arrays kernel (:func:`generate_soa`): its rows of 64 values
-(72 rows, 37 kB) stay in the first-level cache (48 kB here)."""
+(45 rows, 23 kB) stay in the first-level cache (32 kB and more)."""
+SOA_FIXED = ("L0", "psi0", "gamma0", "c")
+"""The inputs the structure-of-arrays kernel reads from rows filled once, at the model's assembly
+(``Beam2Data.blocked``), instead of gathering them at every step."""
 
 
 def generate_soa() -> str:
     """Source of ``reference/generated/beam2_soa.py``: :func:`kernels`' ``internal_forces`` as a
-    structure-of-arrays kernel over blocks of :data:`SOA_BLOCK` elements (derivations/soa.py)."""
+    structure-of-arrays kernel over blocks of :data:`SOA_BLOCK` elements (derivations/soa.py).
+
+    Its outputs are the forces ``s`` and the energy only: the explicit step reads nothing else (the
+    strains and resultants of an output come from the per-element kernel, ``Beam2Formulation.resultants``).
+    """
     from derivations.rotation_maps import COEFFICIENTS
 
     (k,) = kernels()
+    k = Kernel(k.name, k.doc, k.inputs, [o for o in k.outputs if o[0] == "s"], k.returns, k.stages)
     coefficients = {c.name: c for c in COEFFICIENTS if c.name in USER_FUNCTIONS}
-    source, layout = render_soa_kernel(k, coefficients, SOA_BLOCK, USER_FUNCTIONS)
+    source, layout = render_soa_kernel(k, coefficients, SOA_BLOCK, USER_FUNCTIONS, SOA_FIXED,
+                                       {"atan2_quadrant": "atan2_quadrant_vector"})
     constants = [f"BLOCK = {SOA_BLOCK}", '"""Elements per call of :func:`internal_forces_soa` at most."""',
-                 f"ROWS = {layout['rows']}", '"""Rows of its array ``v`` (each ``BLOCK`` long)."""']
+                 f"ROWS = {layout['rows']}", '"""Rows of its array ``v`` (each ``BLOCK`` long)."""',
+                 f"FIXED_ROWS = {layout['fixed_rows']}",
+                 '"""Rows of a block of its array ``u`` (the inputs that never change, each ``BLOCK`` long)."""']
     for name, first, _ in layout["inputs"] + layout["outputs"]:
         constants += [f"ROW_{name.upper()} = {first}", f'"""First row of ``{name}``."""']
+    for name, first, _ in layout["fixed"]:
+        constants += [f"FIXED_{name.upper()} = {first}", f'"""First row of ``{name}`` in a block of ``u``."""']
     series = [render_series(c) for c in COEFFICIENTS if c.name in source]
     select = ('@inlined\ndef branch_sign_select(x):\n    """``branch_sign`` inlined: a select in a vector loop."""\n'
-              "    if x >= 0.0:\n        return 1.0\n    return -1.0\n")
+              "    if x >= 0.0:\n        return 1.0\n    return -1.0\n\n\n"
+              "atan2_quadrant_vector = inlined(atan2_quadrant)\n"
+              '"""``atan2_quadrant`` inlined into the vector loops (the same arithmetic: the same bits)."""\n')
     return render_module(
         "derivations/beam2.py",
         "Beam2 internal forces as a structure-of-arrays kernel: the arithmetic of ``beam2.internal_forces``\n"
@@ -191,7 +221,9 @@ def generate_soa() -> str:
         imports=(
             "import math",
             "",
-            "from reference.generated.rotation_maps import branch_sign, c_asinc, c_cosc, c_jinv, c_sinc, c_sinc3",
+            "from reference.generated.rotation_maps import (",
+            "    atan2_quadrant, branch_sign, c_asinc, c_cosc, c_jinv, c_sinc, c_sinc3,",
+            ")",
             "from reference.jit import inlined, vector_kernel",
         ),
     )

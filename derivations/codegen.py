@@ -83,8 +83,8 @@ class Kernel:
     outputs : list of (str, list of sympy.Expr, str)
         ``(argument name, component expressions, description)``; written
         into the caller's 1-D array.
-    returns : (sympy.Expr, str) or None
-        Optional scalar return value and its description.
+    returns : (sympy.Expr or list of sympy.Expr, str) or None
+        Optional scalar return value (or values, returned as a tuple) and its description.
     stages : list of (list of sympy.Symbol, list of sympy.Expr)
         Named intermediate quantities, computed in order before the outputs
         (each stage is CSE'd on its own); later expressions refer to the
@@ -203,8 +203,10 @@ def render_kernel(kernel: Kernel, user_functions=()) -> str:
     """Source of one array kernel, with CSE and documented argument order."""
     printer = _printer(user_functions)
     exprs = [e for _, comps, _ in kernel.outputs for e in comps]
+    returned = kernel.returns[0] if kernel.returns is not None else None
+    several = isinstance(returned, (list, tuple))
     if kernel.returns is not None:
-        exprs.append(kernel.returns[0])
+        exprs += list(returned) if several else [returned]
     temps = sp.numbered_symbols("t")
     body, replacements, reduced = _shared_subexpressions(kernel.stages, exprs, temps)
     body = [f"    {s} = {printer.doprint(e)}" for s, e in body]
@@ -218,7 +220,8 @@ def render_kernel(kernel: Kernel, user_functions=()) -> str:
     for name, comps, desc in kernel.outputs:
         doc += [f"    {name} : array ({len(comps)},), written", f"        {desc}"]
     if kernel.returns is not None:
-        doc += ["", "    Returns", "    -------", "    float", f"        {kernel.returns[1]}"]
+        doc += ["", "    Returns", "    -------", f"    tuple of {len(returned)} floats" if several else "    float",
+                f"        {kernel.returns[1]}"]
     doc += ['    """']
     lines += doc
     for name, comps, _ in kernel.inputs:
@@ -233,7 +236,9 @@ def render_kernel(kernel: Kernel, user_functions=()) -> str:
         for i in range(len(comps)):
             lines.append(f"    {name}[{i}] = {printer.doprint(reduced[k])}")
             k += 1
-    if kernel.returns is not None:
+    if several:
+        lines.append(f"    return {', '.join(printer.doprint(e) for e in reduced[k:])}")
+    elif kernel.returns is not None:
         lines.append(f"    return {printer.doprint(reduced[k])}")
     return "\n".join(lines) + "\n"
 

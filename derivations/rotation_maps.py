@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from derivations import atan2
 from derivations.codegen import Coefficient, Kernel, render_coefficient, render_kernel, render_module, vector
 
 a = sp.Symbol("a")
@@ -39,8 +40,11 @@ COEFFICIENTS = [
     Coefficient("c_asinc", a / sp.sin(a), "a/sin(a), for the logarithm from Euler parameters (a = half angle)."),
 ]
 C = {c.name: sp.Function(c.name) for c in COEFFICIENTS}
-USER_FUNCTIONS = [c.name for c in COEFFICIENTS] + ["branch_sign"]
+USER_FUNCTIONS = [c.name for c in COEFFICIENTS] + ["branch_sign", "atan2_quadrant"]
 branch_sign = sp.Function("branch_sign")
+atan2_quadrant = sp.Function("atan2_quadrant")
+"""``atan2`` of the first quadrant from arithmetic only (derivations/atan2.py): the Beam2 force kernels'
+half angle, so that their structure-of-arrays loops vectorise."""
 
 BRANCH_SIGN_SOURCE = '''@kernel
 def branch_sign(x):
@@ -155,6 +159,14 @@ def kernels() -> list[Kernel]:
                 ("w", w, "body-frame angular velocity over the step [rad/s]"),
                 ("h", h, "time step [s]")],
                [("out", q_new, "Euler parameters at the end of the step")]),
+        Kernel("cayley_update_scalars",
+               "``cayley_update`` on numbers, not arrays: the explicit step's drift calls it once per node,\n"
+               "    and an array argument of a call inside a loop costs numba two atomic reference-count updates\n"
+               "    per call (reference/jit.py).  The same arithmetic, the same bits.",
+               [(f"q_{k}", q[k], f"Euler parameter {k} at the start of the step") for k in range(4)]
+               + [(f"w_{k}", w[k], f"body-frame angular velocity {k} over the step [rad/s]") for k in range(3)]
+               + [("h", h, "time step [s]")],
+               [], (q_new, "the Euler parameters at the end of the step")),
         Kernel("exp_quaternion", "Euler parameters of the rotation vector ψ.",
                [("psi", psi, "rotation vector [rad]")],
                [("out", exp_quaternion(psi), "unit Euler parameters")]),
@@ -175,7 +187,7 @@ def kernels() -> list[Kernel]:
 
 def generate() -> str:
     """Source of ``reference/generated/rotation_maps.py``."""
-    parts = [render_coefficient(c) for c in COEFFICIENTS] + [BRANCH_SIGN_SOURCE]
+    parts = [render_coefficient(c) for c in COEFFICIENTS] + [BRANCH_SIGN_SOURCE, atan2.source()]
     parts += [render_kernel(k, USER_FUNCTIONS) for k in kernels()]
     return render_module(
         "derivations/rotation_maps.py",

@@ -12,8 +12,10 @@ A loop the compiler can vectorise may hold arithmetic, ``sqrt``, ``abs`` and sel
 the C maths library (``atan2``, ``sin``, ``cos``: LLVM has no vector form of them here).  So the
 statements are split into rounds; round r is a vector loop then a scalar loop:
 
-* ``atan2`` is computed in the scalar loop of the first round its arguments are ready in (the
-  call alone: its arguments and what uses the angle are other statements);
+* ``atan2`` (libm's) is computed in the scalar loop of the first round its arguments are ready in (the
+  call alone: its arguments and what uses the angle are other statements); a kernel that calls a
+  function of arithmetic only instead (the Beam2 kernels' ``atan2_quadrant``, derivations/atan2.py)
+  keeps it in the vector loops, under the inlined name ``vector_names`` gives;
 * a statement with a coefficient function ``c_*(a)`` (a removable singularity at 0: Taylor series
   below a threshold, the closed form with ``sin``/``cos`` above) is computed in the vector loop
   with the series only (the two series joined by a select, ``c_*_series``), and the scalar loop
@@ -75,6 +77,22 @@ def _isolate_atan2(stmts):
     return out
 
 
+def _isolate_coefficient_arguments(stmts, coefficients):
+    """The argument of every coefficient function that is not a symbol (``c_asinc(atan2_quadrant(…))``) as
+    a statement of its own before its user: the scalar loop that recomputes the coefficient beyond its
+    series' range then reads the argument from a row instead of computing it again."""
+    out, k = [], 0
+    for sym, expr in stmts:
+        for call in sorted(_calls(expr, coefficients), key=sp.default_sort_key):
+            if not call.args[0].is_Symbol:
+                name = sp.Symbol(f"coef_arg{k}", real=True)
+                out.append((name, call.args[0]))
+                expr = expr.subs(call.args[0], name)
+                k += 1
+        out.append((sym, expr))
+    return out
+
+
 def _plan(stmts, coefficients):
     """Loop index of every statement: vector loop of round r = 2r, scalar loop = 2r + 1."""
     defined = {s for s, _ in stmts}
@@ -105,8 +123,10 @@ def _plan(stmts, coefficients):
     return kind, loop, stored
 
 
-def render_soa_kernel(kernel: Kernel, coefficients: dict, block: int, user_functions=()) -> tuple[str, dict]:
-    """Source of the SoA form ``<kernel.name>_soa(n, v)`` of ``kernel``, and its row layout.
+def render_soa_kernel(kernel: Kernel, coefficients: dict, block: int, user_functions=(), fixed=(),
+                      vector_names=None) -> tuple[str, dict]:
+    """Source of the SoA form ``<kernel.name>_soa(n, v)`` of ``kernel`` (``<kernel.name>_soa(n, v, u)``
+    with ``fixed`` inputs), and its row layout.
 
     Parameters
     ----------
@@ -118,13 +138,22 @@ def render_soa_kernel(kernel: Kernel, coefficients: dict, block: int, user_funct
         Elements per call at most (the row length of ``v``).
     user_functions : sequence of str
         The names the per-element kernel calls (printed as they are in the scalar loops).
+    fixed : sequence of str
+        Inputs that do not change from call to call (reference values, stiffness): read from the rows of a
+        second array ``u`` (component k of element e at ``u[k*block + e]``), which the caller fills once
+        instead of gathering them into ``v`` at every call.  (Its own array, not an offset into a larger
+        one: an index that the compiler cannot prove non-negative takes numba's wrap-around select on
+        every load, and the loop then ran at half speed.)
+    vector_names : dict of str to str, optional
+        Names under which the vector loops call some of the ``user_functions`` (their inlined forms).
 
     Returns
     -------
     source : str
     layout : dict
-        ``"inputs"``: ``(name, first row, count)`` of every input, in order; ``"outputs"`` the same of
-        every output (the return value last, one row, named ``"returns"``); ``"rows"``: rows of ``v``.
+        ``"inputs"``: ``(name, first row, count)`` of every input of ``v``, in order; ``"fixed"`` the same
+        of the rows of ``u`` (``"fixed_rows"`` of them); ``"outputs"`` the same of every output (the return
+        value last, one row, named ``"returns"``); ``"rows"``: rows of ``v``.
     """
     outputs = [(name, len(comps)) for name, comps, _ in kernel.outputs]
     exprs = [e for _, comps, _ in kernel.outputs for e in comps]
@@ -134,15 +163,20 @@ def render_soa_kernel(kernel: Kernel, coefficients: dict, block: int, user_funct
     staged, rest, reduced = _shared_subexpressions(kernel.stages, exprs, sp.numbered_symbols("t"))
     out_syms = [sp.Symbol(f"out_{k}", real=True) for k in range(len(reduced))]
     stmts = _isolate_atan2(list(staged) + list(rest) + list(zip(out_syms, reduced)))
+    stmts = _isolate_coefficient_arguments(stmts, set(coefficients))
 
-    layout, row = {"inputs": [], "outputs": []}, 0
-    input_row = {}
+    layout, row = {"inputs": [], "fixed": [], "outputs": []}, 0
+    input_row, fixed_row = {}, {}
     for name, comps, _ in kernel.inputs:
         comps = comps if isinstance(comps, (list, tuple)) else [comps]
-        layout["inputs"].append((name, row, len(comps)))
+        rows = fixed_row if name in fixed else input_row
+        first = len(fixed_row) if name in fixed else row
+        layout["fixed" if name in fixed else "inputs"].append((name, first, len(comps)))
         for s in comps:
-            input_row[s] = row
-            row += 1
+            rows[s] = first
+            first += 1
+        row = row if name in fixed else first
+    layout["fixed_rows"] = len(fixed_row)
     out_row = {}
     k = 0
     for name, count in outputs:
@@ -161,9 +195,11 @@ def render_soa_kernel(kernel: Kernel, coefficients: dict, block: int, user_funct
     where = {**input_row, **temp_row, **out_row}
 
     scalar_printer = _printer(user_functions)
-    vector_printer = PythonVectorPrinter(user_functions, coefficients)
+    vector_printer = PythonVectorPrinter(user_functions, coefficients, vector_names or {})
 
     def at(sym):
+        if sym in fixed_row:
+            return f"u[{fixed_row[sym] * block} + e]" if fixed_row[sym] else "u[e]"
         return f"v[{where[sym] * block} + e]" if where[sym] else "v[e]"
 
     body = []
@@ -176,7 +212,8 @@ def render_soa_kernel(kernel: Kernel, coefficients: dict, block: int, user_funct
         local = {s for s, _ in in_loop}
         needed = set().union(*(e.free_symbols for _, e in in_loop + fixes)) - local
         body.append("    for e in range(n):")
-        body += [f"        {s.name} = {at(s)}" for s in sorted(needed, key=lambda s: where[s])]
+        body += [f"        {s.name} = {at(s)}" for s in sorted(needed, key=lambda s: (s not in fixed_row,
+                                                                                   where.get(s, fixed_row.get(s))))]
         printer = vector_printer if lp % 2 == 0 else scalar_printer
         for sym, expr in in_loop:
             text = printer.doprint(expr)
@@ -198,15 +235,22 @@ def render_soa_kernel(kernel: Kernel, coefficients: dict, block: int, user_funct
         f"    Structure of arrays: the same arithmetic as ``{kernel.name}`` for ``n`` ≤ {block} elements at once,",
         f"    component k of element e at ``v[k*{block} + e]`` (derivations/soa.py).  Rows of ``v``:",
     ]
-    for name, first, count in layout["inputs"]:
-        doc.append(f"    {first}–{first + count - 1}: input ``{name}``" if count > 1 else f"    {first}: input ``{name}``")
-    for name, first, count in layout["outputs"]:
-        doc.append(f"    {first}–{first + count - 1}: output ``{name}``" if count > 1 else f"    {first}: output ``{name}``")
+    def rows(items, what):
+        return [f"    {first}–{first + count - 1}: {what} ``{name}``" if count > 1 else f"    {first}: {what} ``{name}``"
+                for name, first, count in items]
+
+    doc += rows(layout["inputs"], "input") + rows(layout["outputs"], "output")
     doc.append(f"    {len(input_row) + len(out_row)}–{row - 1}: values passed between the loops.")
+    if fixed_row:
+        doc += ["    Rows of ``u`` (filled once by the caller):"] + rows(layout["fixed"], "input")
     doc += ["", "    Parameters (in this order)", "    ----------",
             "    n : int", f"        elements in this call (≤ {block})",
-            f"    v : array ({row * block},)", "        the rows above: inputs read, outputs written", '    """']
-    lines = ["@vector_kernel", f"def {kernel.name}_soa(n, v):"] + doc + body
+            f"    v : array ({row * block},)", "        the rows above: inputs read, outputs written"]
+    if fixed_row:
+        doc += [f"    u : array ({len(fixed_row) * block},)", "        the rows of the fixed inputs (read only)"]
+    doc.append('    """')
+    args = "n, v, u" if fixed_row else "n, v"
+    lines = ["@vector_kernel", f"def {kernel.name}_soa({args}):"] + doc + body
     return "\n".join(lines) + "\n", layout
 
 
@@ -214,9 +258,10 @@ class PythonVectorPrinter:
     """The per-element kernel's printer for a vector loop: a coefficient function ``c`` is printed as
     ``c_series`` (:func:`render_series`), ``branch_sign`` as the inlined ``branch_sign_select``."""
 
-    def __init__(self, user_functions, coefficients):
+    def __init__(self, user_functions, coefficients, vector_names=None):
         names = {name: name for name in user_functions}
         names.update({name: f"{name}_series" for name in coefficients})
+        names.update(vector_names or {})
         if "branch_sign" in names:
             names["branch_sign"] = "branch_sign_select"
         self._printer = PythonCodePrinter({"fully_qualified_modules": True, "user_functions": names, "strict": True})

@@ -26,7 +26,16 @@ results never depend on the thread count, by the rules of :mod:`reference.parall
 writes per-item rows only, the element → node accumulation is a per-node gather in element order, and
 sums are taken over fixed chunks whose partial sums are added in order.  Whether a loop takes its
 parallel form depends on the model's size only (``reference.parallel.PARALLEL_NODES``, the families'
-``PARALLEL_ELEMENTS``).  Joints, master/slave joints, loads and force elements stay serial.
+``PARALLEL_ELEMENTS``).  Joints, master/slave joints, loads and force elements stay serial.  A Beam2 mesh below
+``PARALLEL_NODES`` nodes takes its element loop and its element → node sum in one serial pass (no parallel
+launch, no round trip of the rows through the work array; :func:`reference.elements.beam2_blocks.soa_forces`).
+The choice is the model's size, never the thread count read inside a kernel: ``numba.get_num_threads()`` in
+compiled code makes every kernel that inlines it uncacheable (numba: "dynamic globals"), and each run then
+compiles the step again.
+
+An index the compiler cannot prove non-negative (``u[u0 + e]`` with ``u0`` an argument) costs numba's
+negative-index wrap-around select on every access, and in a loop meant to vectorise, the vectorisation: a
+vector kernel takes its own arrays (a row ``blocked[b]``) rather than an offset into a larger one.
 
 **Thread count** (:func:`threads`): ``FLEXMBS_THREADS`` when set (the override, capped at numba's
 pool, ``NUMBA_NUM_THREADS``); otherwise every core the process may use (:func:`available_cores`) for a

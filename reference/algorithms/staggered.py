@@ -219,7 +219,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         clock[3] += 0.5 * dD_fe
         if not math.isfinite(sums[5]):  # a new velocity is not finite: the state stays at the last finite step
             return DIVERGED
-        drift_nodes(x, q, v, w, v_new, w_new, f_prev, F, h, q_tmp)
+        drift_nodes(x, q, v, w, v_new, w_new, f_prev, F, h)
         if n_ms > 0:
             master_slave_positions(model, x, q, scratch.A_m, scratch.A_s, q_tmp, scratch.r4)
         clock[1] = n + 1

@@ -12,13 +12,12 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 
 from reference.generated import rotation_maps as rm
 from reference.jit import inlined, parallel_kernel, prange
 from reference.parallel import CHUNK, PARALLEL_NODES, n_chunks
 
-_cayley_update = inlined(rm.cayley_update)
+_cayley_update = inlined(rm.cayley_update_scalars)
 
 SWEEP_TOLERANCE = 2.0**-52
 """The sweeps stop early once a sweep changes ω by less than this relative to |ω| (round-off):
@@ -169,16 +168,16 @@ def node_sums(nodes, v, w, v_new, w_new, F, f_prev, damped, guarded, mean, part,
 
 
 @inlined
-def _drift_chunk(k, x, q, v, w, v_new, w_new, f_prev, F, h, q_tmp):
+def _drift_chunk(k, x, q, v, w, v_new, w_new, f_prev, F, h):
     for i in range(k * CHUNK, min(x.shape[0], (k + 1) * CHUNK)):
         for a in range(3):
             v[i, a] = v_new[i, a]
             w[i, a] = w_new[i, a]
             x[i, a] += h * v_new[i, a]
-        _cayley_update(q[i], w_new[i], h, q_tmp)
-        nrm = math.sqrt(q_tmp[0] ** 2 + q_tmp[1] ** 2 + q_tmp[2] ** 2 + q_tmp[3] ** 2)
-        for a in range(4):
-            q[i, a] = q_tmp[a] / nrm
+        # numbers, not the row views q[i], w_new[i]: a view costs two atomic updates per node (reference.jit)
+        p0, p1, p2, p3 = _cayley_update(q[i, 0], q[i, 1], q[i, 2], q[i, 3], w_new[i, 0], w_new[i, 1], w_new[i, 2], h)
+        nrm = math.sqrt(p0 ** 2 + p1 ** 2 + p2 ** 2 + p3 ** 2)
+        q[i, 0], q[i, 1], q[i, 2], q[i, 3] = p0 / nrm, p1 / nrm, p2 / nrm, p3 / nrm
         for a in range(6):
             f_prev[i, a] = F[i, a]
 
@@ -186,17 +185,16 @@ def _drift_chunk(k, x, q, v, w, v_new, w_new, f_prev, F, h, q_tmp):
 @parallel_kernel
 def _drift_parallel(x, q, v, w, v_new, w_new, f_prev, F, h):
     for k in prange(n_chunks(x.shape[0])):
-        q_tmp = np.empty(4)
-        _drift_chunk(k, x, q, v, w, v_new, w_new, f_prev, F, h, q_tmp)
+        _drift_chunk(k, x, q, v, w, v_new, w_new, f_prev, F, h)
 
 
 @inlined
-def drift_nodes(x, q, v, w, v_new, w_new, f_prev, F, h, q_tmp):
+def drift_nodes(x, q, v, w, v_new, w_new, f_prev, F, h):
     """Stage 3 at every node: ``x^{n+1} = x^n + h v^{n+½}``, ``q^{n+1} = q^n ⊗ p(h ω^{n+½})`` (Cayley,
     normalised), the half-step velocities and the forces kept for the next step's work; a parallel loop
-    over chunks from :data:`~reference.parallel.PARALLEL_NODES` nodes on (``q_tmp`` (4,) scratch of the serial one)."""
+    over chunks from :data:`~reference.parallel.PARALLEL_NODES` nodes on."""
     if x.shape[0] >= PARALLEL_NODES:
         _drift_parallel(x, q, v, w, v_new, w_new, f_prev, F, h)
     else:
         for k in range(n_chunks(x.shape[0])):
-            _drift_chunk(k, x, q, v, w, v_new, w_new, f_prev, F, h, q_tmp)
+            _drift_chunk(k, x, q, v, w, v_new, w_new, f_prev, F, h)

@@ -8,8 +8,9 @@ works in its section frames ``p_a = q_a ⊗ o_a``
 and tangent go back to the node frames.  :func:`beam2_assemble` runs it over all
 elements at once (compiled, allocation-free); from :data:`PARALLEL_ELEMENTS` elements on, the element loop runs the
 structure-of-arrays form of the same generated arithmetic (``reference/generated/beam2_soa.py``,
-``derivations/soa.py``: blocks of 64 elements, loops vectorised across the elements) and gives every
-element's row bit for bit as the per-element kernel does.  The family's compiled calls
+``derivations/soa.py``: blocks of 64 elements, loops vectorised across the elements;
+:mod:`reference.elements.beam2_blocks`) and gives every element's forces bit for bit as the per-element
+kernel does.  The family's compiled calls
 (:meth:`Beam2Formulation.assemble`, ``tangent_values``, ``resultants``) are what the
 algorithms reach through :mod:`reference.elements.families`.
 """
@@ -26,18 +27,22 @@ from reference.elements.formulation import (
 )
 from reference.elements.section import Section
 from reference.generated import beam2 as generated_beam2
-from reference.generated import beam2_soa as soa
 from reference.generated import rotation_maps as rm
 from reference.generated import tangents as generated_tangents
 from reference.jit import inlined, kernel, parallel_kernel, prange
 from reference.newton_blocks import store_block
-from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum, node_incidence, scatter
+from reference.elements.beam2_blocks import add_element, soa_fixed_rows, soa_forces, soa_rows, straight_elements
+from reference.parallel import (
+    ELEMENT_CHUNK, PARALLEL_NODES, accumulate, element_chunks, energy_sum, node_incidence, scatter,
+)
 
 PARALLEL_ELEMENTS = 8
-"""From this many elements on, the forces are computed by the parallel element loop
-(:func:`beam2_assemble_parallel`'s, no per-view reference counts) instead of the serial one
-(no parallel launch): measured 1.6 against 2.1 µs at 4 elements, 3.2 against 2.7 µs at 12;
-both give the same numbers."""
+"""From this many elements on, the forces are computed by the structure-of-arrays element loop
+(:mod:`reference.elements.beam2_blocks`; no per-view reference counts) instead of the per-element one:
+measured 1.6 against 2.1 µs at 4 elements, 3.2 against 2.7 µs at 12 (before the loop was vectorised);
+both give the same numbers.  Below :data:`reference.parallel.PARALLEL_NODES` nodes the blocks run on one
+thread, their forces added into the nodes' sums as each block is done
+(:func:`~reference.elements.beam2_blocks.soa_forces`); from there on the parallel loop over blocks."""
 
 
 class Beam2Data(NamedTuple):
@@ -50,7 +55,11 @@ class Beam2Data(NamedTuple):
     ``L0`` (E,) reference length [m]; ``psi0``, ``gamma0`` (E, 3) the reference relative
     rotation and ``Γ0`` of the section frames (0 and E1 for a straight element);
     ``stiff`` (E, 6) = EA, GA2, GA3, GJ, EI2, EI3; ``node_start``, ``node_item`` the node → (element,
-    end) incidence (:func:`reference.parallel.node_incidence`) of the element → node gather.
+    end) incidence (:func:`reference.parallel.node_incidence`) of the element → node gather;
+    ``straight`` (E,) 1 where both offsets are the identity (:func:`straight_elements`); ``blocked`` the
+    values that never change, ``L0``, ``psi0``, ``gamma0``, ``stiff``, in the structure-of-arrays rows
+    of the vectorised element loop (:func:`soa_fixed_rows`), filled once here instead of gathered at
+    every step.
     """
 
     conn: np.ndarray
@@ -62,10 +71,11 @@ class Beam2Data(NamedTuple):
     stiff: np.ndarray
     node_start: np.ndarray
     node_item: np.ndarray
+    straight: np.ndarray
+    blocked: np.ndarray
 
 
 _internal_forces = inlined(generated_beam2.internal_forces)
-assert soa.ROW_STRAIN == soa.ROW_S + 12 and soa.ROW_STRESS == soa.ROW_STRAIN + 6  # _scatter_block's copy
 _section_quaternion = inlined(section_quaternion)
 _to_node_frame = inlined(to_node_frame)
 
@@ -101,19 +111,6 @@ def beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, w):
     return w[39]
 
 
-@inlined
-def _add_element(conn, e, W, r, S):
-    """Add the node-frame forces of element e (row r of ``W``, see :func:`beam2_element`) into ``S``."""
-    i, j = conn[e, 0], conn[e, 1]
-    for k in range(3):
-        S[i, k] += W[r, k]
-        S[i, 3 + k] += W[r, 32 + k]
-    for k in range(3):
-        S[j, k] += W[r, 6 + k]
-        S[j, 3 + k] += W[r, 35 + k]
-
-
-
 @kernel
 def beam2_assemble(x, q, conn, offset, L0, psi0, gamma0, stiff, S, s_el):
     """Add the internal forces of all Beam2 elements into ``S`` (N, 6); return ΣU.
@@ -129,95 +126,23 @@ def beam2_assemble(x, q, conn, offset, L0, psi0, gamma0, stiff, S, s_el):
     W = s_el.reshape((1, 40))
     for e in range(conn.shape[0]):
         U += beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, s_el)
-        _add_element(conn, e, W, 0, S)
+        add_element(conn, e, W, 0, S)
     return U
-
-
-@inlined
-def _straight(offset, e):
-    """Both end offsets of element e are the identity (:func:`is_identity`), read without array views
-    (a view costs atomic reference-count updates inside a parallel loop)."""
-    for a in range(2):
-        if offset[e, a, 0] != 1.0 or offset[e, a, 1] != 0.0 or offset[e, a, 2] != 0.0 or offset[e, a, 3] != 0.0:
-            return False
-    return True
-
-
-@inlined
-def _gather_block(x, q, conn, offset, L0, psi0, gamma0, stiff, W, e0, n, v):
-    """The inputs of elements ``e0 … e0+n−1`` into the rows of ``v`` (``generated.beam2_soa``'s layout):
-    positions, section quaternions (composed ``p_a = q_a ⊗ o_a`` into ``W[e, 24:32]`` as
-    :func:`beam2_element` does, unless both offsets are the identity), reference values, stiffness."""
-    B = soa.BLOCK
-    for k in range(n):
-        e = e0 + k
-        i, j = conn[e, 0], conn[e, 1]
-        for c in range(3):
-            v[(soa.ROW_X1 + c) * B + k] = x[i, c]
-            v[(soa.ROW_X2 + c) * B + k] = x[j, c]
-            v[(soa.ROW_PSI0 + c) * B + k] = psi0[e, c]
-            v[(soa.ROW_GAMMA0 + c) * B + k] = gamma0[e, c]
-        if _straight(offset, e):
-            for c in range(4):
-                v[(soa.ROW_Q1 + c) * B + k] = q[i, c]
-                v[(soa.ROW_Q2 + c) * B + k] = q[j, c]
-        else:
-            _section_quaternion(q[i], offset[e, 0], W[e, 24:28])
-            _section_quaternion(q[j], offset[e, 1], W[e, 28:32])
-            for c in range(4):
-                v[(soa.ROW_Q1 + c) * B + k] = W[e, 24 + c]
-                v[(soa.ROW_Q2 + c) * B + k] = W[e, 28 + c]
-        v[soa.ROW_L0 * B + k] = L0[e]
-        for c in range(6):
-            v[(soa.ROW_C + c) * B + k] = stiff[e, c]
-
-
-@inlined
-def _scatter_block(offset, W, e0, n, v):
-    """The outputs of elements ``e0 … e0+n−1`` from the rows of ``v`` into their rows of ``W`` (the
-    layout of :func:`beam2_element`), the moments taken back to the node frames."""
-    B = soa.BLOCK
-    for k in range(n):
-        e = e0 + k
-        for c in range(24):  # s (12), strain (6), stress (6): consecutive rows (checked on import)
-            W[e, c] = v[(soa.ROW_S + c) * B + k]
-        W[e, 39] = v[soa.ROW_RETURNS * B + k]
-        if _straight(offset, e):
-            for c in range(3):
-                W[e, 32 + c] = W[e, 3 + c]
-                W[e, 35 + c] = W[e, 9 + c]
-        else:
-            _to_node_frame(offset[e, 0], W[e, 3:6], W[e, 32:35])
-            _to_node_frame(offset[e, 1], W[e, 9:12], W[e, 35:38])
-
-
-@parallel_kernel
-def _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W):
-    """Every element's row of ``W`` (E, 40), bit for bit :func:`beam2_element`'s: blocks of
-    ``soa.BLOCK`` elements gathered into a structure of arrays, the generated
-    ``internal_forces_soa`` (vectorised across the elements), scattered back."""
-    E = conn.shape[0]
-    for b in prange((E + soa.BLOCK - 1) // soa.BLOCK):
-        v = np.empty(soa.ROWS * soa.BLOCK)
-        e0 = b * soa.BLOCK
-        n = min(soa.BLOCK, E - e0)
-        _gather_block(x, q, conn, offset, L0, psi0, gamma0, stiff, W, e0, n, v)
-        soa.internal_forces_soa(n, v)
-        _scatter_block(offset, W, e0, n, v)
 
 
 @kernel
 def _beam2_rows(x, q, conn, offset, L0, psi0, gamma0, stiff, W):
     """Every element's row of ``W`` (E, 40), one element after the other (:func:`beam2_element`): the
-    element loop of a mesh too small for :func:`_beam2_elements`' blocks and threads.  A kernel of its own,
+    element loop of a mesh too small for :func:`soa_rows`' blocks and threads.  A kernel of its own,
     so that the generated element code is compiled once, not again inside every algorithm's kernel."""
     for e in range(conn.shape[0]):
         beam2_element(x, q, conn, offset, L0, psi0, gamma0, stiff, e, W[e])
 
 
-@kernel
 def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
-    """:func:`beam2_assemble` with the elements computed in parallel, bit for bit the same result.
+    """:func:`beam2_assemble` with the elements computed in parallel, bit for bit the same result
+    (``S``, ΣU and every row's forces and energy; the strains and resultants of ``W[:, 12:24]`` are not
+    written).
 
     The elements are independent: each writes its own row of ``W`` (E, 40)
     (:func:`beam2_element`) on the threads of :func:`reference.jit.use_threads`;
@@ -228,10 +153,16 @@ def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
     0.08 µs per element against 0.21 µs for the serial :func:`beam2_assemble`,
     whose loop spends the difference on atomic reference-count updates of the
     element's array views (``perf``; numba removes fewer of them there); the
-    structure-of-arrays loop of :func:`_beam2_elements` then halved the 0.08 µs
+    structure-of-arrays loop of :func:`soa_rows` then halved the 0.08 µs
     (docs/benchmarks.md §5).
     """
-    _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
+    return _assemble_parallel(x, q, conn, offset, straight_elements(offset), soa_fixed_rows(L0, psi0, gamma0, stiff),
+                              S, W)
+
+
+@kernel
+def _assemble_parallel(x, q, conn, offset, straight, blocked, S, W):
+    soa_rows(x, q, conn, offset, straight, blocked, W)
     S[:, :] = 0.0
     scatter(conn, W, 32, S)
     return energy_sum(W, 39)
@@ -239,13 +170,17 @@ def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
 
 @inlined
 def _family_assemble(data, W, x, q, S):
-    """:meth:`Beam2Formulation.assemble`: each element's forces into its row of ``W`` (the parallel
-    element loop from :data:`PARALLEL_ELEMENTS` elements on, the same numbers either way), then
+    """:meth:`Beam2Formulation.assemble`: each element's forces into its row of ``W`` (the
+    structure-of-arrays loop from :data:`PARALLEL_ELEMENTS` elements on, the same numbers either way), then
     added into ``S`` in element order (:func:`reference.parallel.accumulate`: a per-node gather on a
-    large mesh, bit for bit the serial scatter); returns the strain energy (element order)."""
+    large mesh, bit for bit the serial scatter); returns the strain energy (element order).  Below
+    :data:`~reference.parallel.PARALLEL_NODES` nodes both in one serial pass (:func:`soa_forces`, the same
+    bits; no parallel launch, and the forces go from the blocks' rows into ``S`` without ``W``)."""
     conn, offset, L0, psi0, gamma0, stiff = data.conn, data.offset, data.L0, data.psi0, data.gamma0, data.stiff
+    if conn.shape[0] >= PARALLEL_ELEMENTS and S.shape[0] < PARALLEL_NODES:
+        return soa_forces(x, q, conn, offset, data.straight, data.blocked, W, S)
     if conn.shape[0] >= PARALLEL_ELEMENTS:
-        _beam2_elements(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
+        soa_rows(x, q, conn, offset, data.straight, data.blocked, W)
     else:
         _beam2_rows(x, q, conn, offset, L0, psi0, gamma0, stiff, W)
     accumulate(conn, data.node_start, data.node_item, W, 32, S)
@@ -362,14 +297,15 @@ class Beam2Formulation(ElementFormulation):
         """The family's plain data from its elements placed at t = 0 (reference states of the section frames)."""
         E = len(placed)
         conn = np.array([item.element.nodes for item in placed], dtype=np.int64).reshape(E, 2)
-        data = Beam2Data(conn, np.zeros(E, dtype=np.int64), np.zeros((E, 2, 4)), np.zeros(E), np.zeros((E, 3)),
-                         np.zeros((E, 3)), np.zeros((E, 6)), *node_incidence(conn))
+        index, offset, L0, psi0, gamma0, stiff = (np.zeros(E, dtype=np.int64), np.zeros((E, 2, 4)), np.zeros(E),
+                                                  np.zeros((E, 3)), np.zeros((E, 3)), np.zeros((E, 6)))
         for e, item in enumerate(placed):
             ref = item.element.formulation.reference_state(item.x, item.p)
-            data.index[e], data.offset[e] = item.index, item.offset
-            data.L0[e], data.psi0[e], data.gamma0[e] = ref["L0"], ref["psi0"], ref["gamma0"]
-            data.stiff[e] = item.element.formulation.section.stiffness
-        return data
+            index[e], offset[e] = item.index, item.offset
+            L0[e], psi0[e], gamma0[e] = ref["L0"], ref["psi0"], ref["gamma0"]
+            stiff[e] = item.element.formulation.section.stiffness
+        return Beam2Data(conn, index, offset, L0, psi0, gamma0, stiff, *node_incidence(conn), straight_elements(offset),
+                         soa_fixed_rows(L0, psi0, gamma0, stiff))
 
     @staticmethod
     def characteristic_energy(data: Beam2Data) -> float:

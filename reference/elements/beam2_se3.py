@@ -190,8 +190,9 @@ class Beam2SE3Formulation(Beam2Formulation):
 
     @classmethod
     def pack(cls, placed) -> Beam2SE3Data:
-        """The family's plain data: Beam2's fields, with this family's reference state."""
-        return Beam2SE3Data(*Beam2Formulation.pack(placed))
+        """The family's plain data: Beam2's fields (but those of its vectorised loop, which this family has
+        not), with this family's reference state."""
+        return Beam2SE3Data(*Beam2Formulation.pack(placed)[:len(Beam2SE3Data._fields)])
 
     @staticmethod
     def rest_frames(node_frames, chord_frames, i):

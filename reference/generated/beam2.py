@@ -7,7 +7,9 @@ See derivations/beam2.py for the derivation.
 
 import math
 
-from reference.generated.rotation_maps import branch_sign, c_asinc, c_cosc, c_jinv, c_sinc, c_sinc3
+from reference.generated.rotation_maps import (
+    atan2_quadrant, branch_sign, c_asinc, c_cosc, c_jinv, c_sinc, c_sinc3,
+)
 from reference.jit import kernel
 
 
@@ -92,7 +94,7 @@ def internal_forces(x1, x2, q1, q2, L0, psi0, gamma0, c, s, strain, stress):
     r_2 = q1_0*q2_2 + q1_1*q2_3 - q1_2*q2_0 - q1_3*q2_1
     r_3 = q1_0*q2_3 - q1_1*q2_2 + q1_2*q2_1 - q1_3*q2_0
     t4 = branch_sign(r_0)
-    t5 = 2*t4*c_asinc(math.atan2(math.sqrt(r_1**2 + r_2**2 + r_3**2), r_0*t4))
+    t5 = 2*t4*c_asinc(atan2_quadrant(math.sqrt(r_1**2 + r_2**2 + r_3**2), r_0*t4))
     psi_0 = r_1*t5
     psi_1 = r_2*t5
     psi_2 = r_3*t5

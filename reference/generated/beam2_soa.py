@@ -8,14 +8,18 @@ See derivations/beam2.py for the derivation and derivations/soa.py for the loops
 
 import math
 
-from reference.generated.rotation_maps import branch_sign, c_asinc, c_cosc, c_jinv, c_sinc, c_sinc3
+from reference.generated.rotation_maps import (
+    atan2_quadrant, branch_sign, c_asinc, c_cosc, c_jinv, c_sinc, c_sinc3,
+)
 from reference.jit import inlined, vector_kernel
 
 
 BLOCK = 64
 """Elements per call of :func:`internal_forces_soa` at most."""
-ROWS = 72
+ROWS = 45
 """Rows of its array ``v`` (each ``BLOCK`` long)."""
+FIXED_ROWS = 13
+"""Rows of a block of its array ``u`` (the inputs that never change, each ``BLOCK`` long)."""
 ROW_X1 = 0
 """First row of ``x1``."""
 ROW_X2 = 3
@@ -24,22 +28,18 @@ ROW_Q1 = 6
 """First row of ``q1``."""
 ROW_Q2 = 10
 """First row of ``q2``."""
-ROW_L0 = 14
-"""First row of ``L0``."""
-ROW_PSI0 = 15
-"""First row of ``psi0``."""
-ROW_GAMMA0 = 18
-"""First row of ``gamma0``."""
-ROW_C = 21
-"""First row of ``c``."""
-ROW_S = 27
+ROW_S = 14
 """First row of ``s``."""
-ROW_STRAIN = 39
-"""First row of ``strain``."""
-ROW_STRESS = 45
-"""First row of ``stress``."""
-ROW_RETURNS = 51
+ROW_RETURNS = 26
 """First row of ``returns``."""
+FIXED_L0 = 0
+"""First row of ``L0`` in a block of ``u``."""
+FIXED_PSI0 = 1
+"""First row of ``psi0`` in a block of ``u``."""
+FIXED_GAMMA0 = 4
+"""First row of ``gamma0`` in a block of ``u``."""
+FIXED_C = 7
+"""First row of ``c`` in a block of ``u``."""
 
 
 @inlined
@@ -100,8 +100,12 @@ def branch_sign_select(x):
     return -1.0
 
 
+atan2_quadrant_vector = inlined(atan2_quadrant)
+"""``atan2_quadrant`` inlined into the vector loops (the same arithmetic: the same bits)."""
+
+
 @vector_kernel
-def internal_forces_soa(n, v):
+def internal_forces_soa(n, v, u):
     """Beam2 internal nodal forces (the exact gradient of the strain energy), strains, resultants.
 
     Paper eq. (3): the vector S of ``M a + S = F``.  Order of ``s``:
@@ -113,22 +117,23 @@ def internal_forces_soa(n, v):
     3–5: input ``x2``
     6–9: input ``q1``
     10–13: input ``q2``
-    14: input ``L0``
-    15–17: input ``psi0``
-    18–20: input ``gamma0``
-    21–26: input ``c``
-    27–38: output ``s``
-    39–44: output ``strain``
-    45–50: output ``stress``
-    51: output ``returns``
-    52–71: values passed between the loops.
+    14–25: output ``s``
+    26: output ``returns``
+    27–44: values passed between the loops.
+    Rows of ``u`` (filled once by the caller):
+    0: input ``L0``
+    1–3: input ``psi0``
+    4–6: input ``gamma0``
+    7–12: input ``c``
 
     Parameters (in this order)
     ----------
     n : int
         elements in this call (≤ 64)
-    v : array (4608,)
+    v : array (2880,)
         the rows above: inputs read, outputs written
+    u : array (832,)
+        the rows of the fixed inputs (read only)
     """
     for e in range(n):
         q1_0 = v[384 + e]
@@ -141,73 +146,76 @@ def internal_forces_soa(n, v):
         q2_3 = v[832 + e]
         r_0 = q1_0*q2_0 + q1_1*q2_1 + q1_2*q2_2 + q1_3*q2_3
         r_1 = q1_0*q2_1 - q1_1*q2_0 - q1_2*q2_3 + q1_3*q2_2
-        v[3328 + e] = r_1
+        v[1728 + e] = r_1
         r_2 = q1_0*q2_2 + q1_1*q2_3 - q1_2*q2_0 - q1_3*q2_1
-        v[3392 + e] = r_2
+        v[1792 + e] = r_2
         r_3 = q1_0*q2_3 - q1_1*q2_2 + q1_2*q2_1 - q1_3*q2_0
-        v[3456 + e] = r_3
+        v[1856 + e] = r_3
         t4 = branch_sign_select(r_0)
-        v[3520 + e] = t4
-        atan2_arg0_0 = math.sqrt(r_1**2 + r_2**2 + r_3**2)
-        v[3584 + e] = atan2_arg0_0
-        atan2_arg0_1 = r_0*t4
-        v[3648 + e] = atan2_arg0_1
+        v[1920 + e] = t4
+        coef_arg0 = atan2_quadrant_vector(math.sqrt(r_1**2 + r_2**2 + r_3**2), r_0*t4)
+        v[1984 + e] = coef_arg0
+        t5 = 2*t4*c_asinc_series(coef_arg0)
+        v[2048 + e] = t5
     for e in range(n):
-        atan2_arg0_0 = v[3584 + e]
-        atan2_arg0_1 = v[3648 + e]
-        atan2_0 = math.atan2(atan2_arg0_0, atan2_arg0_1)
-        v[3712 + e] = atan2_0
+        t4 = v[1920 + e]
+        coef_arg0 = v[1984 + e]
+        if abs(coef_arg0) >= 0.1:
+            v[2048 + e] = 2*t4*c_asinc(coef_arg0)
     for e in range(n):
-        t4 = v[3520 + e]
-        atan2_0 = v[3712 + e]
-        t5 = 2*t4*c_asinc_series(atan2_0)
-        v[3776 + e] = t5
-    for e in range(n):
-        t4 = v[3520 + e]
-        atan2_0 = v[3712 + e]
-        if abs(atan2_0) >= 0.1:
-            v[3776 + e] = 2*t4*c_asinc(atan2_0)
-    for e in range(n):
-        r_1 = v[3328 + e]
-        r_2 = v[3392 + e]
-        r_3 = v[3456 + e]
-        t5 = v[3776 + e]
+        r_1 = v[1728 + e]
+        r_2 = v[1792 + e]
+        r_3 = v[1856 + e]
+        t5 = v[2048 + e]
         psi_0 = r_1*t5
-        v[3840 + e] = psi_0
+        v[2112 + e] = psi_0
         psi_1 = r_2*t5
-        v[3904 + e] = psi_1
+        v[2176 + e] = psi_1
         psi_2 = r_3*t5
-        v[3968 + e] = psi_2
+        v[2240 + e] = psi_2
         t6 = psi_1**2
-        v[4032 + e] = t6
+        v[2304 + e] = t6
         t7 = psi_0**2
-        v[4096 + e] = t7
+        v[2368 + e] = t7
         t8 = psi_2**2
-        v[4160 + e] = t8
+        v[2432 + e] = t8
         t9 = math.sqrt(t6 + t7 + t8)
-        v[4224 + e] = t9
+        v[2496 + e] = t9
         t10 = (1/2)*t9
-        v[4288 + e] = t10
+        v[2560 + e] = t10
         t11 = c_cosc_series(t10)
-        v[4352 + e] = t11
+        v[2624 + e] = t11
         t15 = 2*c_sinc_series(t10)
-        v[4416 + e] = t15
+        v[2688 + e] = t15
         t34 = c_sinc3_series(t10)
-        v[4480 + e] = t34
+        v[2752 + e] = t34
         t48 = c_jinv_series(t9)
-        v[4544 + e] = t48
+        v[2816 + e] = t48
     for e in range(n):
-        t9 = v[4224 + e]
-        t10 = v[4288 + e]
+        t9 = v[2496 + e]
+        t10 = v[2560 + e]
         if abs(t10) >= 1.0:
-            v[4352 + e] = c_cosc(t10)
+            v[2624 + e] = c_cosc(t10)
         if abs(t10) >= 0.1:
-            v[4416 + e] = 2*c_sinc(t10)
+            v[2688 + e] = 2*c_sinc(t10)
         if abs(t10) >= 1.0:
-            v[4480 + e] = c_sinc3(t10)
+            v[2752 + e] = c_sinc3(t10)
         if abs(t9) >= 1.0:
-            v[4544 + e] = c_jinv(t9)
+            v[2816 + e] = c_jinv(t9)
     for e in range(n):
+        L0 = u[e]
+        psi0_0 = u[64 + e]
+        psi0_1 = u[128 + e]
+        psi0_2 = u[192 + e]
+        gamma0_0 = u[256 + e]
+        gamma0_1 = u[320 + e]
+        gamma0_2 = u[384 + e]
+        c_0 = u[448 + e]
+        c_1 = u[512 + e]
+        c_2 = u[576 + e]
+        c_3 = u[640 + e]
+        c_4 = u[704 + e]
+        c_5 = u[768 + e]
         x1_0 = v[e]
         x1_1 = v[64 + e]
         x1_2 = v[128 + e]
@@ -218,29 +226,16 @@ def internal_forces_soa(n, v):
         q1_1 = v[448 + e]
         q1_2 = v[512 + e]
         q1_3 = v[576 + e]
-        L0 = v[896 + e]
-        psi0_0 = v[960 + e]
-        psi0_1 = v[1024 + e]
-        psi0_2 = v[1088 + e]
-        gamma0_0 = v[1152 + e]
-        gamma0_1 = v[1216 + e]
-        gamma0_2 = v[1280 + e]
-        c_0 = v[1344 + e]
-        c_1 = v[1408 + e]
-        c_2 = v[1472 + e]
-        c_3 = v[1536 + e]
-        c_4 = v[1600 + e]
-        c_5 = v[1664 + e]
-        psi_0 = v[3840 + e]
-        psi_1 = v[3904 + e]
-        psi_2 = v[3968 + e]
-        t6 = v[4032 + e]
-        t7 = v[4096 + e]
-        t8 = v[4160 + e]
-        t11 = v[4352 + e]
-        t15 = v[4416 + e]
-        t34 = v[4480 + e]
-        t48 = v[4544 + e]
+        psi_0 = v[2112 + e]
+        psi_1 = v[2176 + e]
+        psi_2 = v[2240 + e]
+        t6 = v[2304 + e]
+        t7 = v[2368 + e]
+        t8 = v[2432 + e]
+        t11 = v[2624 + e]
+        t15 = v[2688 + e]
+        t34 = v[2752 + e]
+        t48 = v[2816 + e]
         t0 = 2*q1_0**2 - 1
         t1 = q1_0*q1_3
         t2 = q1_0*q1_2
@@ -351,28 +346,16 @@ def internal_forces_soa(n, v):
         t58 = Am_0*N_0 + Am_1*N_1 + Am_2*N_2
         t59 = Am_3*N_0 + Am_4*N_1 + Am_5*N_2
         t60 = Am_6*N_0 + Am_7*N_1 + Am_8*N_2
-        v[1728 + e] = -t58
-        v[1792 + e] = -t59
-        v[1856 + e] = -t60
-        v[1920 + e] = E_0*f_0 + E_1*f_1 + E_2*f_2 - R_0*st2_0 - R_1*st2_1 - R_2*st2_2
-        v[1984 + e] = E_3*f_0 + E_4*f_1 + E_5*f_2 - R_3*st2_0 - R_4*st2_1 - R_5*st2_2
-        v[2048 + e] = E_6*f_0 + E_7*f_1 + E_8*f_2 - R_6*st2_0 - R_7*st2_1 - R_8*st2_2
-        v[2112 + e] = t58
-        v[2176 + e] = t59
-        v[2240 + e] = t60
-        v[2304 + e] = st2_0
-        v[2368 + e] = st2_1
-        v[2432 + e] = st2_2
-        v[2496 + e] = Gamma_0
-        v[2560 + e] = Gamma_1
-        v[2624 + e] = Gamma_2
-        v[2688 + e] = Kappa_0
-        v[2752 + e] = Kappa_1
-        v[2816 + e] = Kappa_2
-        v[2880 + e] = N_0
-        v[2944 + e] = N_1
-        v[3008 + e] = N_2
-        v[3072 + e] = M_0
-        v[3136 + e] = M_1
-        v[3200 + e] = M_2
-        v[3264 + e] = (1/2)*L0*(Gamma_0**2*c_0 + Gamma_1**2*c_1 + Gamma_2**2*c_2 + Kappa_0**2*c_3 + Kappa_1**2*c_4 + Kappa_2**2*c_5)
+        v[896 + e] = -t58
+        v[960 + e] = -t59
+        v[1024 + e] = -t60
+        v[1088 + e] = E_0*f_0 + E_1*f_1 + E_2*f_2 - R_0*st2_0 - R_1*st2_1 - R_2*st2_2
+        v[1152 + e] = E_3*f_0 + E_4*f_1 + E_5*f_2 - R_3*st2_0 - R_4*st2_1 - R_5*st2_2
+        v[1216 + e] = E_6*f_0 + E_7*f_1 + E_8*f_2 - R_6*st2_0 - R_7*st2_1 - R_8*st2_2
+        v[1280 + e] = t58
+        v[1344 + e] = t59
+        v[1408 + e] = t60
+        v[1472 + e] = st2_0
+        v[1536 + e] = st2_1
+        v[1600 + e] = st2_2
+        v[1664 + e] = (1/2)*L0*(Gamma_0**2*c_0 + Gamma_1**2*c_1 + Gamma_2**2*c_2 + Kappa_0**2*c_3 + Kappa_1**2*c_4 + Kappa_2**2*c_5)
