@@ -105,3 +105,42 @@ def test_double_pendulum_frequencies_of_a_point_mass_limit():
     # two equal point masses on massless rods of length 1: ω² = (2 ± √2) g
     w, _ = analytic.double_pendulum_frequencies(1.0, 1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 9.81)
     assert w**2 == pytest.approx([(2 - np.sqrt(2)) * 9.81, (2 + np.sqrt(2)) * 9.81], rel=1e-12)
+
+
+def test_andrews_equations_against_hairer_wanner_and_the_test_set():
+    """``flexmbs.verification.andrews`` builds the squeezer's mass matrix from the bodies' kinematics: it is
+    Hairer & Wanner's published M(q) (1996, §VII.7, transcribed below) to round-off at random angles; the
+    test set's initial angles close the three loops, and the index-1 system gives its consistent initial
+    accelerations and multipliers (the published 14222.44…, −10666.83… rad/s² and 98.5669, −6.1227 N)."""
+    from flexmbs.verification import andrews
+
+    p = andrews.PARAMETERS
+
+    def published(q):
+        m1, m2, m3, m4, m5, m6, m7 = (p[f"m{k}"] for k in range(1, 8))
+        i1, i2, i3, i4, i5, i6, i7 = (p[f"i{k}"] for k in range(1, 8))
+        rr, ra, da, sa, sb, e, ea, zt = p["rr"], p["ra"], p["da"], p["sa"], p["sb"], p["e"], p["ea"], p["zt"]
+        ta, tb, zf, fa, u, ua, ub = p["ta"], p["tb"], p["zf"], p["fa"], p["u"], p["ua"], p["ub"]
+        th, ph, om = q[1], q[3], q[5]
+        M = np.zeros((7, 7))
+        M[0, 0] = m1 * ra**2 + m2 * (rr**2 - 2 * da * rr * np.cos(th) + da**2) + i1 + i2
+        M[1, 0] = m2 * (da**2 - da * rr * np.cos(th)) + i2
+        M[1, 1] = m2 * da**2 + i2
+        M[2, 2] = m3 * (sa**2 + sb**2) + i3
+        M[3, 3] = m4 * (e - ea) ** 2 + i4
+        M[4, 3] = m4 * ((e - ea) ** 2 + zt * (e - ea) * np.sin(ph)) + i4
+        M[4, 4] = m4 * (zt**2 + 2 * zt * (e - ea) * np.sin(ph) + (e - ea) ** 2) + m5 * (ta**2 + tb**2) + i4 + i5
+        M[5, 5] = m6 * (zf - fa) ** 2 + i6
+        M[6, 5] = m6 * ((zf - fa) ** 2 - u * (zf - fa) * np.sin(om)) + i6
+        M[6, 6] = m6 * ((zf - fa) ** 2 - 2 * u * (zf - fa) * np.sin(om) + u**2) + m7 * (ua**2 + ub**2) + i6 + i7
+        return np.tril(M) + np.tril(M, -1).T
+
+    rng = np.random.default_rng(22)
+    for q in rng.uniform(-np.pi, np.pi, (5, 7)):
+        M = published(q)
+        assert np.max(np.abs(andrews.mass_matrix(q) - M)) <= 1e-14 * np.max(np.abs(M))
+    assert np.max(np.abs(andrews.constraints(andrews.Q0))) < 1e-16
+    qdd, lam = andrews.accelerations(andrews.Q0, np.zeros(7))
+    assert qdd[:2] == pytest.approx([14222.4439199541138705911625887, -10666.8329399655854029433719415], rel=1e-11)
+    assert lam[:2] == pytest.approx([98.5668703962410896057654982170, -6.12268834425566265503114393122], rel=1e-11)
+    assert np.max(np.abs(qdd[2:])) < 1e-6 and np.max(np.abs(lam[2:])) < 1e-9

@@ -110,21 +110,42 @@ def _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe
         lam[k] = lamn[k]
 
 
+ROUNDOFF = 64.0 * np.finfo(float).eps
+"""A correction below ``ROUNDOFF × max(1, max|x|/L)`` (translations over L, rotations in rad) is at the
+round-off of the coordinates: Newton stops there even when the residual, whose round-off can exceed the
+tolerance on a stiff model nearly at rest, is not balanced."""
+
+
 @inlined
-def _correction(r, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta, L):
+def _correction(r, S, F, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta, L, mass, J, vdn):
     """One Newton correction with the kept factor: the right-hand side ``−[c_k r; Φ − ελ]`` of the last
-    evaluation, the solution ``sol`` and the node part ``delta`` (N, 6); returns its size
-    (translations over the model size L, rotations in rad), NaN if the residual is not finite."""
+    evaluation, the solution ``sol`` and the node part ``delta`` (N, 6).
+
+    Returns its size (translations over the model size L, rotations in rad; NaN if the residual is not
+    finite) and the evaluation's imbalance: the largest free residual force over the step's force scale
+    — the largest free inertial force ``M V̇``, internal force S, external force F or ``r − S + F`` (the
+    joints' and the inertia's forces together) — moments over L, or ``max |Φ − ελ| / L`` if larger."""
     m = lamn.shape[0]
     n_free = rhs.shape[0] - m
+    res, scale = 0.0, 0.0
     for i in range(r.shape[0]):
         for k in range(6):
             if not math.isfinite(r[i, k]):
-                return math.nan
+                return math.nan, math.nan
             if dof[i, k] >= 0:
                 rhs[dof[i, k]] = -ck * r[i, k]
+                if k < 3:
+                    inertia, unit = mass[i] * vdn[i, k], 1.0
+                else:
+                    inertia = J[i, k - 3, 0] * vdn[i, 3] + J[i, k - 3, 1] * vdn[i, 4] + J[i, k - 3, 2] * vdn[i, 5]
+                    unit = 1.0 / L
+                res = max(res, abs(r[i, k]) * unit)
+                big = max(abs(inertia), abs(S[i, k]), abs(F[i, k]), abs(r[i, k] - S[i, k] + F[i, k]))
+                scale = max(scale, big * unit)
+    phi = 0.0
     for k in range(m):
         rhs[n_free + k] = -(PHI[k] - row_eps[k] * lamn[k])
+        phi = max(phi, abs(rhs[n_free + k]))
     lu_solve(factors, rhs, lwork, sol)
     size = 0.0
     for i in range(r.shape[0]):
@@ -132,7 +153,17 @@ def _correction(r, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta,
             d = sol[dof[i, k]] if dof[i, k] >= 0 else 0.0
             delta[i, k] = d
             size = max(size, abs(d) / L if k < 3 else abs(d))
-    return size
+    return size, max(res / scale if res > 0.0 else 0.0, phi / L)
+
+
+@inlined
+def _roundoff(x, L):
+    """``ROUNDOFF × max(1, max|x|/L)``: a correction below it is at the coordinates' round-off."""
+    extent = 1.0
+    for i in range(x.shape[0]):
+        for k in range(3):
+            extent = max(extent, abs(x[i, k]) / L)
+    return ROUNDOFF * extent
 
 
 @kernel
@@ -142,8 +173,9 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     Returns ``(status, steps done)``; ``REFACTOR`` (a correction shrank by less than
     ``contraction``, or there is no factor yet) leaves the iterate of the unfinished step in
     ``arr`` (x1, q1, V, λ, h Δq): the caller factors the Newton matrix there and calls again,
-    and the step resumes from that iterate.  At most ``max_iterations`` corrections per step
-    (``NO_CONVERGENCE`` otherwise).
+    and the step resumes from that iterate.  Converged: :func:`_correction`'s imbalance (× θ/(1 − θ) once the
+    contraction θ is known) below ``tolerance``, or a correction at :func:`_roundoff`; at most ``max_iterations``
+    corrections per step (``NO_CONVERGENCE`` otherwise).
     ``par`` = [h, α_m, α_f, γ, β, tolerance, L, contraction, max_iterations, fresh, iterations, U,
     resume, corrections of this step, record, t₀, n₀] (fresh: 1 the factor is new, −1 there is none yet;
     iterations counted here; U the strain energy of the last evaluation; resume: 1 to continue
@@ -163,7 +195,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     N = x.shape[0]
     m = lam.shape[0]
     n_free = rhs.shape[0] - m
-    row_eps = model.joints.eps
+    row_eps, floor = model.joints.eps, _roundoff(x, L)
     if par[14] == 1.0:
         par[14] = 0.0
         _write_record(model, x, q, v, w, par[11], clock, lam, PHI, PHIt, Bl, rec)
@@ -185,7 +217,8 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
             par[11] = _evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
             if par[9] < 0.0:
                 return REFACTOR, step
-            size = _correction(r, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta, L)
+            size, imbalance = _correction(r, S, F, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta, L,
+                                          model.nodes.mass, model.nodes.inertia, vdn)
             if not math.isfinite(size):
                 return DIVERGED, step
             if previous >= 0.0 and size > contraction * previous:
@@ -201,9 +234,8 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
             for k in range(m):
                 lamn[k] += bp * sol[n_free + k]
             par[10] += 1.0
-            # the error left after this correction: about θ/(1 − θ) of it for a contraction θ
-            # (Hairer & Wanner 1996, §IV.8); the correction itself when θ is not known yet
-            if size <= tol or (theta < 1.0 and theta * size <= tol * (1.0 - theta)):
+            # left after this correction: θ/(1 − θ) of the imbalance it corrected (Hairer & Wanner 1996, §IV.8)
+            if imbalance <= tol or (theta < 1.0 and theta * imbalance <= tol * (1.0 - theta)) or size <= floor:
                 converged = True
                 break
         if not converged:

@@ -27,9 +27,18 @@ with the iteration matrix ``M + (γ'/β') C + K T/β'``, T the tangent operator
 factor is kept over iterations and steps while every correction is below a
 tenth of the previous one (modified Newton); otherwise the matrix is refactored
 at the current iterate and the step goes on from there (full Newton if need
-be).  Newton stops when the correction, or the error it leaves for an observed
-contraction θ, ``θ/(1 − θ)·|δ|`` (Hairer & Wanner 1996, §IV.8), is below the
-tolerance (translations over the model size, rotations in rad).  The
+be).  The convergence test is scaled to the problem (docs/formulation.md §10): Newton
+stops when the iterate is balanced — every free residual force below ``tolerance`` times
+the step's force scale (the largest free inertial force ``M V̇``, internal force S,
+external force F or ``r − S + F``, the joints' and the inertia's forces together;
+moments over the model size L) and ``|Φ − ελ|`` below ``tolerance × L`` — judged for the
+iterate after the last correction: the imbalance that correction removed times
+``θ/(1 − θ)`` for the observed contraction θ of the corrections (Hairer & Wanner 1996,
+§IV.8), that imbalance itself while θ is not known.  A residual left at a fraction of
+the forces is an error of the accelerations that does not grow as h shrinks; a
+correction left below a fixed length δ would be one of ``β'δ ~ δ/h²`` (measured on
+Andrews' squeezer, ``models/andrews_squeezer.toml``).  A correction at the round-off of
+the coordinates (:data:`reference.algorithms.alpha_steps.ROUNDOFF`) ends it too.  The
 initial accelerations and multipliers are consistent: ``M V̇_0 + Bᵀλ_0 = −r_0``,
 ``B V̇_0 = −d/dt(B V + Φ_t)`` (the last by a central difference along the motion).
 
@@ -117,6 +126,9 @@ class GeneralizedAlphaRun:
         return self.stats.factorizations
 
 
+TOLERANCE = 1e-9
+"""The default Newton tolerance: the imbalance left, relative to the step's forces (module docstring)."""
+
 RECOVERABLE = (NO_CONVERGENCE, DIVERGED, SINGULAR)
 """Step failures that a smaller step may cure (:mod:`reference.algorithms.step_control`)."""
 
@@ -131,10 +143,11 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         ``first_step`` is given, the first step.
     rho_inf : float, default 0.8
         Spectral radius at infinite frequency, 0 ≤ ρ∞ ≤ 1 (1: no numerical dissipation).
-    tolerance : float, default 1e-10
-        Newton stops when the largest correction (or the error it leaves, see above) is
-        below ``tolerance`` × model size (translations) and ``tolerance`` rad (rotations)
-        (× h/dt on a cut step, :mod:`reference.algorithms.step_control`).
+    tolerance : float, default 1e-9
+        Newton stops when the imbalance left after the last correction (estimated, see above)
+        is below ``tolerance``: every free residual force below ``tolerance`` × the step's
+        largest force [N] (moments [N m] over the model size L) and ``|Φ − ελ|`` below
+        ``tolerance`` × L [m]; the same on a cut or error-controlled step.
     max_iterations : int, default 15
         Newton corrections per step before the step is cut.
     error_tolerance : float, optional
@@ -154,7 +167,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     """Modified Newton: the factor is kept over iterations and steps while each correction is
     below this fraction of the previous one; otherwise the matrix is refactored at the iterate."""
 
-    def __init__(self, dt: float, rho_inf: float = 0.8, tolerance: float = 1e-10, max_iterations: int = 15,
+    def __init__(self, dt: float, rho_inf: float = 0.8, tolerance: float = TOLERANCE, max_iterations: int = 15,
                  error_tolerance: float | None = None, dt_min: float | None = None, dt_max: float | None = None,
                  first_step: float | None = None):
         super().__init__(dt, tolerance, max_iterations)
@@ -186,7 +199,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
 
     @classmethod
     def from_settings(cls, settings, dt=None):
-        return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or 1e-10, settings.max_iterations or 15,
+        return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or TOLERANCE, settings.max_iterations or 15,
                    settings.error_tolerance, settings.dt_min, settings.dt_max, settings.first_step)
 
     def start(self, model, state, critical_step=None, guard=None) -> GeneralizedAlphaRun:
@@ -305,8 +318,6 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         if h != par[0]:
             par[0] = h
             run.factors = None
-            # the Newton tolerance follows a cut step (step_control): no more Newton error in the answer
-            par[5] = self.tolerance * min(1.0, h / self.dt) if self.error_tolerance is None else self.tolerance
         par[15], par[16] = t0, n0
 
     def _cut(self, state, run, code) -> int:

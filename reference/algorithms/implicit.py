@@ -338,8 +338,10 @@ class ImplicitAlgorithm(Algorithm):
     dt : float
         Step [s] (or load-factor increment for the static algorithm).
     tolerance : float
-        Newton stops when the largest correction is below ``tolerance`` times
-        the model size (translations) or ``tolerance`` rad (rotations).
+        Newton's tolerance, in each algorithm's test: the static one's (a balanced residual, or
+        :meth:`converged`: the largest correction below ``tolerance`` times the model size for
+        translations, ``tolerance`` rad for rotations), generalized-α's (the imbalance left,
+        relative to the step's forces, :mod:`reference.algorithms.generalized_alpha`).
     max_iterations : int
         Newton iterations per step before the step counts as failed.
     """

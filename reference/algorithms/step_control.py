@@ -4,9 +4,9 @@ error estimate and the step-size controller of ``[solver] error_tolerance``, and
 **Step cuts.**  A step whose Newton iteration fails (no convergence in ``max_iterations``, a non-finite
 iterate, a singular Newton matrix) is retried from the last converged state with half the step, up to
 :data:`MAX_CUTS` halvings in a row (or down to ``dt_min``); after :data:`GROW_AFTER` converged steps at
-a cut step it is doubled again, up to the deck's ``dt``.  The Newton tolerance of a cut step shrinks
-with it (``tolerance · h/dt``), so that the twice as many steps of half the size leave no more Newton
-error in the answer than the steps of ``dt`` would.
+a cut step it is doubled again, up to the deck's ``dt``.  Newton's tolerance is the same on every step: it
+bounds the residual left relative to the step's forces (:mod:`reference.algorithms.generalized_alpha`), an
+error of the accelerations that twice as many steps of half the size do not make larger.
 
 **Local error estimate** (Zienkiewicz & Xie 1991, "A simple error estimator and adaptive time stepping
 procedure for dynamic analysis", Earthquake Eng. Struct. Dyn. 20, 871–887): the leading term of the local
