@@ -7,9 +7,12 @@ call for many steps; the factorisations stay in Python.
 :func:`steps` works in one of three modes (``par[CONTROL]``): :data:`FIXED` steps of ``par[0]``, as many as
 asked; :data:`GROWING` (a step cut after a Newton failure doubles back) and :data:`ERROR_CONTROL`
 (``error_tolerance``), which step to the output time ``par[TARGET]``, choosing each step.  The helpers of the
-controlled modes take the arrays they need, never a tuple of arrays or the Model (an inlined helper's
-arguments cost two atomic reference-count updates per array in them and call, :mod:`reference.jit`), and
-what a rejected step restores is packed into one flat array ``held`` (:func:`save`).
+controlled modes take the arrays they need, never a tuple of arrays or the Model (a helper's arguments cost
+two atomic reference-count updates per array in them and call, :mod:`reference.jit`), and they are compiled
+apart, not inlined into :func:`steps`, which inlines the whole evaluation (the first version, inlined, made its
+compilation 70 % longer).  A step is judged on its converged iterate before :func:`_accept` writes it into the
+state, so a rejected step leaves the state as it was: only the force elements' continuous angles, which every
+evaluation continues, are restored, from the flat array ``held``.
 """
 
 from __future__ import annotations
@@ -163,67 +166,18 @@ def _correction(r, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta,
     return size
 
 
-def held_size(N: int, m: int, n_angles: int) -> int:
-    """Length of ``held``, the flat copy of what a rejected step restores (:func:`_hold`), for N nodes, m
-    constraint rows and ``n_angles`` force elements."""
-    return 31 * N + m + 6 + n_angles
-
-
 @inlined
-def _move2(held, off, A, back):
-    """Copy the (n, k) array A into ``held`` from ``off`` on (``back``: from ``held`` into A); the offset after it."""
-    for i in range(A.shape[0]):
-        for k in range(A.shape[1]):
-            if back:
-                A[i, k] = held[off]
-            else:
-                held[off] = A[i, k]
-            off += 1
-    return off
-
-
-@inlined
-def _move1(held, off, A, back):
-    """:func:`_move2` of a 1-D array."""
-    for k in range(A.shape[0]):
-        if back:
-            A[k] = held[off]
-        else:
-            held[off] = A[k]
-        off += 1
-    return off
-
-
-@inlined
-def _hold(held, x, q, v, w, vd, a, lam, clock, f_prev, energy, angle, back):
-    """Copy the state at a step's start into ``held`` (``back``: restore it after a rejected step), in the
-    order x, q, v, w, V̇, a (from 19 N on), f_prev, λ, clock, energy, angles (last, ``n_angles`` of them)."""
-    off = _move2(held, 0, x, back)
-    off = _move2(held, off, q, back)
-    off = _move2(held, off, v, back)
-    off = _move2(held, off, w, back)
-    off = _move2(held, off, vd, back)
-    off = _move2(held, off, a, back)
-    off = _move2(held, off, f_prev, back)
-    off = _move1(held, off, lam, back)
-    off = _move1(held, off, clock, back)
-    off = _move1(held, off, energy, back)
-    _move1(held, off, angle, back)
-
-
-@inlined
-def _error_norm(a, held, v, w, h, beta, L, tol):
-    """:func:`reference.algorithms.step_control.error_norm` (the same operations in the same order) with the
-    algorithmic accelerations of the step's start from ``held`` (:func:`_hold`)."""
-    N = a.shape[0]
+def _error_norm(a, an, vdn, vd, Vn, h, beta, L, tol, am, af):
+    """:func:`reference.algorithms.step_control.error_norm` of the converged iterate before it is accepted: the
+    new algorithmic accelerations as :func:`_accept` makes them, the same operations in the same order."""
     c = h * h * abs(beta - 1.0 / 6.0)
     floor = FLOOR * L
     err = 0.0
-    for i in range(N):
-        for k in range(3):
-            ex = abs(a[i, k] - held[19 * N + 6 * i + k]) * c / (tol * (h * abs(v[i, k]) + floor))
-            er = abs(a[i, 3 + k] - held[19 * N + 6 * i + 3 + k]) * c / (tol * (h * abs(w[i, k]) + FLOOR))
-            err = max(err, max(ex, er))
+    for i in range(a.shape[0]):
+        for k in range(6):
+            a_new = an[i, k] + (1.0 - af) / (1.0 - am) * (vdn[i, k] - vd[i, k])
+            e = abs(a_new - a[i, k]) * c / (tol * (h * abs(Vn[i, k]) + (floor if k < 3 else FLOOR)))
+            err = max(err, e)
     return err
 
 
@@ -248,16 +202,19 @@ def set_step(par, h, t0, n0):
 _set_step = inlined(set_step)
 
 
-@inlined
-def _choose(par, clock):
+@kernel
+def _choose(par, clock, angle, held):
     """The next step of a controlled mode from the state at ``clock[0]``: the controller's ``par[H_NEXT]``
-    made to land on the output time ``par[TARGET]`` (:func:`reference.algorithms.step_control.landing_step`);
-    False, with the clock set to the output time, when that is reached."""
+    made to land on the output time ``par[TARGET]`` (:func:`reference.algorithms.step_control.landing_step`),
+    and the force elements' continuous angles kept in ``held`` (every evaluation continues them); False, with
+    the clock set to the output time, when that is reached."""
     left = par[TARGET] - clock[0]
     if left <= 1e-9 * par[DT]:
         clock[0] = par[TARGET]
         return False
     _set_step(par, _landing_step(left, par[H_NEXT]), clock[0], clock[1])
+    for k in range(angle.shape[0]):
+        held[k] = angle[k]
     return True
 
 
@@ -270,11 +227,11 @@ def _count(par, h, err):
         par[ERROR] = err if par[ERROR] != par[ERROR] else max(par[ERROR], err)
 
 
-@inlined
-def _judge(par, a, held, v, w, beta, L):
-    """After a converged step of ``par[0]`` in a controlled mode: the statistics and the next step
-    (:mod:`reference.algorithms.step_control`); True when the step is rejected for its error estimate (the
-    caller restores ``held``)."""
+@kernel
+def _judge(par, a, an, vdn, vd, Vn, angle, held, beta, L, am, af):
+    """The converged iterate of a step of ``par[0]`` in a controlled mode, before it is accepted: the statistics
+    and the next step (:mod:`reference.algorithms.step_control`); True when the step is rejected for its error
+    estimate (the state is left as it was at the step's start, the angles restored from ``held``)."""
     h_use, h = par[0], par[H_NEXT]
     if par[CONTROL] != ERROR_CONTROL:
         _count(par, h_use, math.nan)
@@ -282,11 +239,13 @@ def _judge(par, a, held, v, w, beta, L):
         if par[H_NEXT] < par[CEILING] and par[GOOD] >= GROW_AFTER:
             par[H_NEXT], par[GOOD] = min(2.0 * par[H_NEXT], par[CEILING]), 0.0
         return False
-    err = _error_norm(a, held, v, w, h_use, beta, L, par[ERROR_TOLERANCE])
+    err = _error_norm(a, an, vdn, vd, Vn, h_use, beta, L, par[ERROR_TOLERANCE], am, af)
     h_next = min(max(_next_step(h_use, err), par[DT_MIN]), par[DT_MAX])
     if err > 1.0 and h_use > par[DT_MIN] * (1.0 + 1e-12):
         par[REJECTED] += 1.0
         par[H_NEXT], par[AFTER_REJECTION] = h_next, 1.0
+        for k in range(angle.shape[0]):
+            angle[k] = held[k]
         return True
     if par[AFTER_REJECTION] == 1.0:
         h_next, par[AFTER_REJECTION] = min(h_next, h_use), 0.0  # no growth right after a rejection (HNW §II.4)
@@ -314,7 +273,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     ``REFACTOR`` (a correction shrank by less than ``contraction``, or no factor for the step yet) leaves the
     unfinished step's iterate in ``arr`` (x1, q1, V, λ, h Δq): the caller factors the Newton matrix there at
     ``par[0]`` and calls again, and the step resumes from it.  ``NO_CONVERGENCE`` after ``max_iterations``
-    corrections.  ``par``: :data:`PAR_SIZE`; ``held``: :func:`_hold`."""
+    corrections.  ``par``: :data:`PAR_SIZE`; ``held``: :func:`_choose`."""
     model, rec = named(model, Model), named(rec, Record)
     dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, psi = arr
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = wt
@@ -329,9 +288,8 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
         _write_record(model, x, q, v, w, par[11], clock, lam, PHI, PHIt, Bl, rec)
     for step in range(n_steps):
         if control and par[12] != 1.0:  # a new step of a controlled mode
-            if not _choose(par, clock):
+            if not _choose(par, clock, angle, held):
                 return OK, n_steps
-            _hold(held, x, q, v, w, vd, a, lam, clock, f_prev, energy, angle, False)
             h, bp, gp, ck = _coefficients(par)
             tol = par[5]
         t1 = clock[0] + h
@@ -377,10 +335,10 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
             return NO_CONVERGENCE, step
         par[9] = 0.0
         par[12] = 0.0
+        if control and _judge(par, a, an, vdn, vd, Vn, angle, held, beta, L, am, af):
+            par[11] = math.nan  # rejected: the state stays, the last evaluation is not at it
+            continue
         _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe[8], h, am, af)
         clock[1] += 1
         clock[0] = par[15] + (clock[1] - par[16]) * h
-        if control and _judge(par, a, held, v, w, beta, L):
-            _hold(held, x, q, v, w, vd, a, lam, clock, f_prev, energy, angle, True)
-            par[11] = math.nan  # the last evaluation is no longer at the state
     return OK, n_steps

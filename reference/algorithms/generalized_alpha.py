@@ -53,7 +53,7 @@ import numpy as np
 from dataclasses import dataclass, field
 
 from reference.algorithms import alpha_steps as ak
-from reference.algorithms.alpha_steps import NO_FACTOR, dissipation, held_size, power, set_step, steps
+from reference.algorithms.alpha_steps import NO_FACTOR, dissipation, power, set_step, steps
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem
 from reference.linalg import SingularMatrix
 from reference.state import Record
@@ -83,7 +83,7 @@ class GeneralizedAlphaRun:
     settings, counters and step control (:data:`reference.algorithms.alpha_steps.PAR_SIZE`: the controller's
     next step, the converged steps since the last cut, the largest step a cut step grows back to — below the
     last that failed, doubled at every output up to ``dt`` —, …); ``arrays`` their work arrays; ``held`` the
-    copy of the state that a rejected step restores; ``started`` whether the consistent initial accelerations
+    force elements' angles at the step's start (restored after a rejected or failed step); ``started`` whether the consistent initial accelerations
     are computed; ``varying`` whether the step is controlled step by
     step (error control, or a cut step growing back); ``nominal`` the steps of ``dt`` reached (the
     output grid); ``stats`` the
@@ -233,7 +233,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         run.arrays = tuple(np.zeros((N, 6)) for _ in range(7)) + (
             np.zeros(m), np.zeros(m), np.zeros(n), np.zeros(n), np.zeros(n),
             np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4), np.zeros((N, 3)))
-        run.held = np.zeros(held_size(N, m, system.work.angle.shape[0]))
+        run.held = np.zeros_like(system.work.angle)
         run.par = np.zeros(ak.PAR_SIZE)
         run.par[:17] = [run.h, self.alpha_m, self.alpha_f, self.gamma, self.beta, self.tolerance, run.L,
                         self.contraction, self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0, 0.0, t, clock[1]]
@@ -352,8 +352,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             self._collect(run)
             if code == OK:
                 break
-            if angle.shape[0]:
-                angle[:] = run.held[run.held.shape[0] - angle.shape[0]:]  # as at the failed step's start
+            angle[:] = run.held  # as at the failed step's start
             if code not in RECOVERABLE:
                 return code
             code = self._cut(state, run, code)
