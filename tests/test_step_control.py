@@ -13,7 +13,9 @@ import pytest
 from flexmbs.cli import main
 from flexmbs.deckchecks.three_bar import rigid_coupler_deck
 from flexmbs.verification.observables import midspan_deflection, rocker_angle
+from reference.algorithms.generalized_alpha import GeneralizedAlpha
 from reference.domain import Domain, SolverSettings
+from reference.io.results import Results
 from reference.io.deck import DeckError, load_deck
 from reference.joints import Jacobian
 from reference.observables import wrap
@@ -82,9 +84,10 @@ def test_stiff_spin_up_survives_a_step_ten_times_too_large_through_step_cuts(tmp
     """The stiff spin-up (EA = 2.8e7, EI = 1.4e4): fixed-step Newton converges at dt = 0.025 and fails
     at 0.05 (t = 3.55) and 0.1 (t = 2.8), measured before the step cuts existed.  At dt = 0.25 the run
     completes through step cuts, with the statistics in the file and on the terminal, and is the same
-    motion as the fixed-step run at dt = 0.025: tip within 2e-3 of the length (measured 1.6e-3 L: before
-    t = 2.8 s the cut run keeps the steps of 0.25 s, whose numerical damping of the beam's first bending
-    mode, 3.8 rad/s, ω h ≈ 1, is larger; a wrong step sequence would leave it a whole swing away)."""
+    motion as the fixed-step run at dt = 0.025: tip within 2e-3 of the length (measured 0.94e-3 L; 1.6e-3 L
+    before the equal landing steps: before t = 2.8 s the cut run keeps the steps of 0.25 s, whose numerical
+    damping of the beam's first bending mode, 3.8 rad/s, ω h ≈ 1, is larger; a wrong step sequence would
+    leave it a whole swing away)."""
     deck = tmp_path / "spin_up.toml"
     deck.write_text(SPIN_UP)
     assert main(["run", str(deck), "--out", str(tmp_path / "big"), "--no-vtk"]) == 0
@@ -151,7 +154,8 @@ def test_error_tolerance_is_proportional_on_the_three_bar():
     """Three-bar, 4 s, no dt (outputs every 0.01 s): at error_tolerance 1e-3, 1e-4, 1e-5 the coupler's
     mid-span deflection against a converged run (dt = 2.5e-4, whose own error is ~1e-5 of the peak by
     its h² trend) decreases and stays within 0.05–20 × the tolerance (issue acceptance; measured
-    3.0, 9.2 and 15.2 × with the step-increment norm)."""
+    2.9, 8.9 and 15.1 × with the step-increment norm, the dead band and equal landing steps; 3.0, 9.2 and
+    15.2 × before them)."""
     def domain(**solver):
         d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 4.0})
         d.solver.algorithm = "generalized_alpha"
@@ -172,6 +176,47 @@ def test_error_tolerance_is_proportional_on_the_three_bar():
         errors.append(err)
         assert 0.05 * tol <= err <= 20.0 * tol, (tol, err)
     assert errors[0] > errors[1] > errors[2]
+
+
+def _every_array(r):
+    """Every time history of a run (node and joint histories, energies, ``/solver/…``), by name."""
+    arrays = {name: getattr(r, name) for name in Results.ARRAYS}
+    arrays.update({f"energy/{k}": v for k, v in r.energy.items()})
+    arrays.update({k: np.asarray(v) for k, v in r.extra.items()})
+    return arrays
+
+
+@pytest.mark.parametrize("case", ["error control", "error control, dead band", "step cuts"])
+def test_compiled_step_control_is_the_python_controller_bit_for_bit(case, tmp_path, monkeypatch):
+    """The step control in compiled code (many steps per call, :func:`reference.algorithms.alpha_steps.steps`)
+    against the Python controller of step_control's functions around one compiled step per call (the oracle,
+    ``GeneralizedAlpha.python_control``): every result array, the statistics and the summary line the same bit
+    for bit.  The three-bar, 1 s at error_tolerance 1e-3 (steps rejected for their error and steps landing on
+    the outputs), without and with the dead band; and the stiff spin-up at dt = 0.25 to 3.5 s (Newton fails at
+    t = 2.8: step cuts, steps growing back)."""
+    deck = tmp_path / "spin_up.toml"
+    deck.write_text(SPIN_UP)
+
+    def run(python):
+        monkeypatch.setattr(GeneralizedAlpha, "python_control", python)
+        monkeypatch.setattr(GeneralizedAlpha, "dead_band", 1.2 if "dead band" in case else 1.0)
+        if case == "step cuts":
+            d = load_deck(deck, overrides={"t_end": 3.5}).domain
+        else:
+            d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 1.0})
+            d.solver.algorithm, d.solver.dt, d.solver.output_every = "generalized_alpha", 0.01, 1
+            d.solver.error_tolerance = 1e-3
+        r = d.solve()
+        return r, d.last_run["solver"].stats
+
+    (r0, s0), (r1, s1) = run(True), run(False)
+    assert r1.status == "completed" and s1.steps > 25
+    assert (s1.rejected > 10 if case.startswith("error") else s1.cuts > 2), s1.summary()
+    a0, a1 = _every_array(r0), _every_array(r1)
+    assert a0.keys() == a1.keys()
+    for name in a0:
+        assert np.array_equal(a0[name], a1[name], equal_nan=True), name
+    assert s0.summary() == s1.summary()
 
 
 def test_error_tolerance_deck_keys(tmp_path):
@@ -263,8 +308,9 @@ def test_bauchau_four_bar_deck_data_and_smooth_start():
     """The bench's mechanism with near-singular passages (flexmbs/bench_decks/bauchau_four_bar.toml): its
     sections are the published steel squares (E = 207 GPa, ν = 0.3, ρ = 7800 kg/m³, a = 16 and 8 mm;
     rounding of the deck's 5 digits: 1e-4), and its smooth spin-up lets error control take large steps:
-    0.5 s at error_tolerance 1e-2 in fewer than 200 steps (measured 72; a start at full speed, the velocities
-    made consistent with the joints only, took 977 steps of about 1e-5 s for the first 0.01 s)."""
+    0.5 s at error_tolerance 1e-2 in fewer than 200 steps (measured 80; 72 before the dead band and the equal
+    landing steps; a start at full speed, the velocities made consistent with the joints only, took 977 steps
+    of about 1e-5 s for the first 0.01 s)."""
     deck = Path(__file__).resolve().parent.parent / "flexmbs" / "bench_decks" / "bauchau_four_bar.toml"
     d = load_deck(deck, overrides={"t_end": 0.5}).domain
     E, G, rho = 207e9, 207e9 / 2.6, 7800.0

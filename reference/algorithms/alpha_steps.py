@@ -1,6 +1,18 @@
 """The compiled steps of generalized-α (:mod:`reference.algorithms.generalized_alpha`): predictor,
-modified-Newton corrections with the kept factor, acceptance with the energy bookkeeping, all in one
-compiled call for many steps; the step-size control and the factorisations stay in Python.
+modified-Newton corrections with the kept factor, acceptance with the energy bookkeeping, and the step-size
+control between the outputs (:mod:`reference.algorithms.step_control`: the local error estimate, the
+controller, rejection and restore, the step cuts' growing back, landing on the output), all in one compiled
+call for many steps; the factorisations stay in Python.
+
+:func:`steps` works in one of three modes (``par[CONTROL]``): :data:`FIXED` steps of ``par[0]``, as many as
+asked; :data:`GROWING` (a step cut after a Newton failure doubles back) and :data:`ERROR_CONTROL`
+(``error_tolerance``), which step to the output time ``par[TARGET]``, choosing each step.  The helpers of the
+controlled modes take the arrays they need, never a tuple of arrays or the Model (a helper's arguments cost
+two atomic reference-count updates per array in them and call, :mod:`reference.jit`), and they are compiled
+apart, not inlined into :func:`steps`, which inlines the whole evaluation (the first version, inlined, made its
+compilation 70 % longer).  A step is judged on its converged iterate before :func:`_accept` writes it into the
+state, so a rejected step leaves the state as it was: only the force elements' continuous angles, which every
+evaluation continues, are restored, from the flat array ``held``.
 """
 
 from __future__ import annotations
@@ -10,10 +22,29 @@ import math
 import numpy as np
 
 from reference.algorithms.implicit import compose, evaluate_named, write_record_named
+from reference.algorithms.step_control import FLOOR, GROW_AFTER, kept_step, landing_step, next_step
 from reference.jit import inlined, kernel, named
 from reference.linalg import lu_solve
 from reference.state import Model, Record
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR
+
+FIXED, GROWING, ERROR_CONTROL = 0.0, 1.0, 2.0
+"""The modes of :func:`steps` (``par[CONTROL]``): fixed steps; a cut step growing back; error control."""
+(CONTROL, DT, TARGET, H_NEXT, DT_MIN, DT_MAX, ERROR_TOLERANCE, AFTER_REJECTION, GOOD, CEILING,
+ DEAD_BAND, REUSE, H_FACTOR, ACCEPTED, H_MIN, H_MAX, ERROR, REJECTED) = range(17, 35)
+PAR_SIZE = 35
+"""The settings and counters ``par`` of :func:`steps`: [h, α_m, α_f, γ, β, Newton tolerance, L, contraction,
+max_iterations, fresh, iterations, U, resume, corrections of this step, record, t₀, n₀] (fresh: 1 the factor
+is new, −1 there is none for h; iterations counted in the kernel; U the strain energy of the last evaluation;
+resume: 1 to continue the interrupted step's iterate; record: 1 to first write the output record ``rec`` of
+the current state from the last evaluation; the time after step n is ``t₀ + (n − n₀) h``, t₀ and n₀ where the
+step h began), then, from :data:`CONTROL` on, the entries of the controlled modes: the mode; the output
+grid's step dt [s]; the output time to land on [s]; the controller's next step [s]; ``dt_min``, ``dt_max``
+[s]; ``error_tolerance``; 1 right after a rejected step; converged steps since the
+last cut; the step a cut step grows back to [s]; the dead band (:func:`reference.algorithms.step_control.kept_step`);
+the relative change of the step within which the factor is kept; the step of the factor [s]; and the
+statistics since the caller last read them: accepted steps, smallest and largest accepted step [s], largest
+error norm (NaN: none), rejected steps."""
 
 NO_FACTOR = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
              np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
@@ -166,40 +197,131 @@ def _roundoff(x, L):
     return ROUNDOFF * extent
 
 
-@kernel
-def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr, rec):
-    """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton).
+@inlined
+def _error_norm(a, an, vdn, vd, Vn, h, beta, L, tol, am, af):
+    """:func:`reference.algorithms.step_control.error_norm` of the converged iterate before it is accepted: the
+    new algorithmic accelerations as :func:`_accept` makes them, the same operations in the same order."""
+    c = h * h * abs(beta - 1.0 / 6.0)
+    floor = FLOOR * L
+    err = 0.0
+    for i in range(a.shape[0]):
+        for k in range(6):
+            a_new = an[i, k] + (1.0 - af) / (1.0 - am) * (vdn[i, k] - vd[i, k])
+            e = abs(a_new - a[i, k]) * c / (tol * (h * abs(Vn[i, k]) + (floor if k < 3 else FLOOR)))
+            err = max(err, e)
+    return err
 
-    Returns ``(status, steps done)``; ``REFACTOR`` (a correction shrank by less than
-    ``contraction``, or there is no factor yet) leaves the iterate of the unfinished step in
-    ``arr`` (x1, q1, V, λ, h Δq): the caller factors the Newton matrix there and calls again,
-    and the step resumes from that iterate.  Converged: :func:`_correction`'s imbalance (× θ/(1 − θ) once the
-    contraction θ is known) below ``tolerance``, or a correction at :func:`_roundoff`; at most ``max_iterations``
-    corrections per step (``NO_CONVERGENCE`` otherwise).
-    ``par`` = [h, α_m, α_f, γ, β, tolerance, L, contraction, max_iterations, fresh, iterations, U,
-    resume, corrections of this step, record, t₀, n₀] (fresh: 1 the factor is new, −1 there is none yet;
-    iterations counted here; U the strain energy of the last evaluation; resume: 1 to continue
-    the interrupted step's iterate; record: 1 to first write the output record ``rec`` of the
-    current state from the last evaluation, :func:`reference.algorithms.implicit.write_record`; the
-    time after step n is ``t₀ + (n − n₀) h``, t₀ and n₀ where the step h began).
-    """
-    model = named(model, Model)
-    rec = named(rec, Record)
+
+_next_step = inlined(next_step)
+_kept_step = inlined(kept_step)
+_landing_step = inlined(landing_step)
+
+
+def set_step(par, h, t0, n0):
+    """Steps of h [s] from time t0 after step n0 (``par`` of :func:`steps`).  A new h needs a new factor
+    (``par[9] = −1``: the Newton matrix's coefficients depend on h) unless it lies within ``par[REUSE]`` of the
+    factor's step."""
+    if h != par[0]:
+        par[0] = h
+        if abs(h - par[H_FACTOR]) > par[REUSE] * par[H_FACTOR]:
+            par[9] = -1.0
+    par[15], par[16] = t0, n0
+
+
+_set_step = inlined(set_step)
+
+
+@kernel
+def _choose(par, clock, angle, held):
+    """The next step of a controlled mode from the state at ``clock[0]``: the controller's ``par[H_NEXT]``
+    made to land on the output time ``par[TARGET]`` (:func:`reference.algorithms.step_control.landing_step`),
+    and the force elements' continuous angles kept in ``held`` (every evaluation continues them); False, with
+    the clock set to the output time, when that is reached."""
+    left = par[TARGET] - clock[0]
+    if left <= 1e-9 * par[DT]:
+        clock[0] = par[TARGET]
+        return False
+    _set_step(par, _landing_step(left, par[H_NEXT]), clock[0], clock[1])
+    for k in range(angle.shape[0]):
+        held[k] = angle[k]
+    return True
+
+
+@inlined
+def _count(par, h, err):
+    """:meth:`reference.algorithms.step_control.SolverStatistics.step` into ``par``'s statistics."""
+    par[ACCEPTED] += 1.0
+    par[H_MIN], par[H_MAX] = min(par[H_MIN], h), max(par[H_MAX], h)
+    if err == err:
+        par[ERROR] = err if par[ERROR] != par[ERROR] else max(par[ERROR], err)
+
+
+@kernel
+def _judge(par, a, an, vdn, vd, Vn, angle, held, beta, L, am, af):
+    """The converged iterate of a step of ``par[0]`` in a controlled mode, before it is accepted: the statistics
+    and the next step (:mod:`reference.algorithms.step_control`); True when the step is rejected for its error
+    estimate (the state is left as it was at the step's start, the angles restored from ``held``)."""
+    h_use, h = par[0], par[H_NEXT]
+    if par[CONTROL] != ERROR_CONTROL:
+        _count(par, h_use, math.nan)
+        par[GOOD] += 1.0
+        if par[H_NEXT] < par[CEILING] and par[GOOD] >= GROW_AFTER:
+            par[H_NEXT], par[GOOD] = min(2.0 * par[H_NEXT], par[CEILING]), 0.0
+        return False
+    err = _error_norm(a, an, vdn, vd, Vn, h_use, beta, L, par[ERROR_TOLERANCE], am, af)
+    h_next = min(max(_next_step(h_use, err), par[DT_MIN]), par[DT_MAX])
+    if err > 1.0 and h_use > par[DT_MIN] * (1.0 + 1e-12):
+        par[REJECTED] += 1.0
+        par[H_NEXT], par[AFTER_REJECTION] = h_next, 1.0
+        for k in range(angle.shape[0]):
+            angle[k] = held[k]
+        return True
+    if par[AFTER_REJECTION] == 1.0:
+        h_next, par[AFTER_REJECTION] = min(h_next, h_use), 0.0  # no growth right after a rejection (HNW §II.4)
+    h_next = _kept_step(h_use, h_next, par[DEAD_BAND])
+    _count(par, h_use, err)
+    # a step shortened to land on an output keeps the controller's step for the next
+    par[H_NEXT] = h_next if h_use >= h else max(h, h_next)
+    return False
+
+
+@inlined
+def _coefficients(par):
+    """``(h, β', γ', c_k)`` of the step ``par[0]``: ``β' = (1 − α_m)/(h²β(1 − α_f))``, ``γ' = γ/(hβ)``,
+    ``c_k = 1/β'``."""
+    h, am, af, gamma, beta = par[0], par[1], par[2], par[3], par[4]
+    bp = (1.0 - am) / (h * h * beta * (1.0 - af))
+    return h, bp, gamma / (h * beta), 1.0 / bp
+
+
+@kernel
+def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr, rec, held):
+    """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton), or in a controlled
+    mode (``par[CONTROL]``) the steps to ``par[TARGET]``, each chosen by the step control; ``(status, steps)``.
+
+    ``REFACTOR`` (a correction shrank by less than ``contraction``, or no factor for the step yet) leaves the
+    unfinished step's iterate in ``arr`` (x1, q1, V, λ, h Δq): the caller factors the Newton matrix there at
+    ``par[0]`` and calls again, and the step resumes from it.  ``NO_CONVERGENCE`` after ``max_iterations``
+    corrections.  Converged: :func:`_correction`'s imbalance (× θ/(1 − θ) once the contraction θ is known) below
+    the Newton tolerance, or a correction at :func:`_roundoff`.  ``par``: :data:`PAR_SIZE`; ``held``:
+    :func:`_choose`."""
+    model, rec = named(model, Model), named(rec, Record)
     dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, psi = arr
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = wt
-    h, am, af, gamma, beta, tol, L, contraction = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
+    am, af, gamma, beta, tol, L, contraction = par[1], par[2], par[3], par[4], par[5], par[6], par[7]
     max_it = int(par[8])
-    bp = (1.0 - am) / (h * h * beta * (1.0 - af))
-    gp = gamma / (h * beta)
-    ck = 1.0 / bp
-    N = x.shape[0]
-    m = lam.shape[0]
+    h, bp, gp, ck = _coefficients(par)
+    N, m = x.shape[0], lam.shape[0]
     n_free = rhs.shape[0] - m
-    row_eps, floor = model.joints.eps, _roundoff(x, L)
+    row_eps, angle, control, floor = model.joints.eps, fe[1], par[CONTROL] != FIXED, _roundoff(x, L)
     if par[14] == 1.0:
         par[14] = 0.0
         _write_record(model, x, q, v, w, par[11], clock, lam, PHI, PHIt, Bl, rec)
     for step in range(n_steps):
+        if control and par[12] != 1.0:  # a new step of a controlled mode
+            if not _choose(par, clock, angle, held):
+                return OK, n_steps
+            h, bp, gp, ck = _coefficients(par)
         t1 = clock[0] + h
         if not (step == 0 and par[12] == 1.0):
             # predictor (unless resuming the iterate of an interrupted step with a new factor)
@@ -243,6 +365,9 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
             return NO_CONVERGENCE, step
         par[9] = 0.0
         par[12] = 0.0
+        if control and _judge(par, a, an, vdn, vd, Vn, angle, held, beta, L, am, af):
+            par[11] = math.nan  # rejected: the state stays, the last evaluation is not at it
+            continue
         _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe[8], h, am, af)
         clock[1] += 1
         clock[0] = par[15] + (clock[1] - par[16]) * h

@@ -44,8 +44,9 @@ initial accelerations and multipliers are consistent: ``M V̇_0 + Bᵀλ_0 = −
 
 Step size (:mod:`reference.algorithms.step_control`, docs/formulation.md §13): a step whose Newton
 iteration fails is halved and grows back; with ``error_tolerance`` every step is chosen from the local
-error estimate.  The compiled steps (predictor, modified Newton, acceptance) are
-:mod:`reference.algorithms.alpha_steps`; this module keeps the factorisations and the step control.
+error estimate.  The compiled steps (predictor, modified Newton, acceptance, and between two outputs the
+step control: estimate, controller, rejection, landing) are :mod:`reference.algorithms.alpha_steps`; this
+module makes the factorisations, the step cuts after a Newton failure and the statistics.
 
 Energies: external work by the trapezoidal rule on the step increments (loads,
 actuators and drives), damping dissipation by the trapezoidal rule on
@@ -60,12 +61,13 @@ import numpy as np
 
 from dataclasses import dataclass, field
 
-from reference.algorithms.alpha_steps import NO_FACTOR, dissipation, power, steps
+from reference.algorithms import alpha_steps as ak
+from reference.algorithms.alpha_steps import NO_FACTOR, dissipation, power, set_step, steps
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem
 from reference.linalg import SingularMatrix
 from reference.state import Record
-from reference.algorithms.step_control import (GROW_AFTER, LANDING, MAX_CUTS, SolverStatistics, error_norm,
-                                               next_step)
+from reference.algorithms.step_control import (DEAD_BAND, GROW_AFTER, MAX_CUTS, SolverStatistics, error_norm,
+                                               kept_step, landing_step, next_step)
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR, newton_failure
 
 
@@ -84,14 +86,16 @@ class GeneralizedAlphaRun:
     :class:`~reference.state.State`.
 
     ``system`` the model's Newton system; ``L`` the model size [m] of the convergence test;
-    ``h`` the current step [s]; ``vd``, ``a`` (N, 6) the accelerations V̇ and the algorithmic
-    accelerations; ``lam`` (m,) the multipliers; ``powers`` = [constraint power P, dissipated power D]
+    ``h`` the first step [s] (then ``par[H_NEXT]``); ``vd``, ``a`` (N, 6) the accelerations V̇ and the
+    algorithmic accelerations; ``lam`` (m,) the multipliers; ``powers`` = [constraint power P, dissipated power D]
     of the last step; ``factors`` the kept LU factor (None: none yet); ``par`` the compiled steps'
-    settings and counters (:func:`steps`); ``arrays`` their work arrays; ``started`` whether the
-    consistent initial accelerations are computed; ``varying`` whether the step is controlled step by
+    settings, counters and step control (:data:`reference.algorithms.alpha_steps.PAR_SIZE`: the controller's
+    next step, the converged steps since the last cut, the largest step a cut step grows back to — below the
+    last that failed, doubled at every output up to ``dt`` —, …); ``arrays`` their work arrays; ``held`` the
+    force elements' angles at the step's start (restored after a rejected or failed step); ``started`` whether the consistent initial accelerations
+    are computed; ``varying`` whether the step is controlled step by
     step (error control, or a cut step growing back); ``nominal`` the steps of ``dt`` reached (the
-    output grid); ``good`` converged steps since the last cut; ``ceiling`` the largest step it grows back to
-    (below the last that failed, doubled at every output up to ``dt``); ``stats`` the
+    output grid); ``stats`` the
     :class:`~reference.algorithms.step_control.SolverStatistics`; ``row`` its record of the last
     output; ``stopped_at`` the time where a failed step stopped; ``tried`` what was tried then.
     """
@@ -106,11 +110,10 @@ class GeneralizedAlphaRun:
     factors: tuple | None = None
     par: np.ndarray | None = None
     arrays: tuple = ()
+    held: np.ndarray | None = None
     started: bool = False
     varying: bool = False
     nominal: int = 0
-    good: int = 0
-    ceiling: float = math.inf
     stats: SolverStatistics = field(default_factory=SolverStatistics)
     row: dict = field(default_factory=dict)
     stopped_at: float | None = None
@@ -166,6 +169,17 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     contraction = 0.1
     """Modified Newton: the factor is kept over iterations and steps while each correction is
     below this fraction of the previous one; otherwise the matrix is refactored at the iterate."""
+    dead_band = DEAD_BAND
+    """The controller's dead band (:func:`reference.algorithms.step_control.kept_step`); 1: none."""
+    reuse = 1e-9
+    """A new step within this relative change of the factor's step keeps the factor (modified Newton with the
+    old coefficients; the contraction test refactors when it converges too slowly): the equal steps landing on
+    an output differ by rounding only.  Wider bands were measured (docs/formulation.md §13): 5–10 % save 1–8 %
+    of the factorisations, 20 % lets the Newton error left by the slower iteration into the error estimate at
+    tight tolerances (three-bar at 1e-5: 4.5 times the steps)."""
+    python_control = False
+    """True: the step control runs in Python around one compiled step per call
+    (:meth:`_controlled_python`), the oracle the tests compare the compiled control with."""
 
     def __init__(self, dt: float, rho_inf: float = 0.8, tolerance: float = TOLERANCE, max_iterations: int = 15,
                  error_tolerance: float | None = None, dt_min: float | None = None, dt_max: float | None = None,
@@ -232,8 +246,13 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         run.arrays = tuple(np.zeros((N, 6)) for _ in range(7)) + (
             np.zeros(m), np.zeros(m), np.zeros(n), np.zeros(n), np.zeros(n),
             np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4), np.zeros((N, 3)))
-        run.par = np.array([run.h, self.alpha_m, self.alpha_f, self.gamma, self.beta, self.tolerance, run.L,
-                            self.contraction, self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0, 0.0, t, clock[1]])
+        run.held = np.zeros_like(system.work.angle)
+        run.par = np.zeros(ak.PAR_SIZE)
+        run.par[:17] = [run.h, self.alpha_m, self.alpha_f, self.gamma, self.beta, self.tolerance, run.L,
+                        self.contraction, self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0, 0.0, t, clock[1]]
+        run.par[ak.DT:ak.CEILING + 1] = [self.dt, 0.0, run.h, self.dt_min, self.dt_max,
+                                         self.error_tolerance or 0.0, 0.0, 0.0, math.inf]
+        run.par[ak.DEAD_BAND:] = [self.dead_band, self.reuse, run.h, 0.0, math.inf, 0.0, np.nan, 0.0]
         run.varying = self.error_tolerance is not None or run.h != self.dt
         run.nominal = int(round(t / self.dt))
         run.started = True
@@ -283,8 +302,8 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         return code
 
     def _steps(self, state, run, n_steps, rec) -> tuple[int, int]:
-        """Up to ``n_steps`` compiled steps of ``par[0]``, the Newton matrix factored when they ask;
-        returns (status, steps done)."""
+        """Up to ``n_steps`` compiled steps (in a controlled mode: to the output time ``par[TARGET]``), the Newton
+        matrix factored when they ask; returns (status, steps done)."""
         system, par = run.system, run.par
         x, q, v, w, f_prev, clock = state[:6]
         left, done = n_steps, 0
@@ -293,7 +312,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                 par[9] = -1.0  # only predict: the factor is made at the predictor
             code, n = steps(system.arg, x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers, system.dof,
                             par, left, NO_FACTOR if run.factors is None else run.factors, system.wt, run.arrays,
-                            system.record_arg(rec))
+                            system.record_arg(rec), run.held)
             left -= n
             done += n
             if code == OK:
@@ -310,15 +329,8 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                 return SINGULAR, done
             run.stats.factorizations += 1
             par[9] = 1.0  # the interrupted step resumes with a fresh factor
+            par[ak.H_FACTOR] = h
         return OK, done
-
-    def _set_step(self, run, h: float, t0: float, n0: float) -> None:
-        """Steps of h from time t0 after step n0; a new h needs a new factor (its coefficients change)."""
-        par = run.par
-        if h != par[0]:
-            par[0] = h
-            run.factors = None
-        par[15], par[16] = t0, n0
 
     def _cut(self, state, run, code) -> int:
         """Halve the step after a failed one (its iterate is dropped; the state is the last converged);
@@ -332,17 +344,65 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                          if self.error_tolerance is None else f"with the step at dt_min = {self.dt_min:g} s")
             return code
         stats.cuts += 1
-        run.good = 0
-        run.ceiling = h  # the step grows back to below the one that failed, until the next output
+        par[ak.GOOD] = 0.0
+        par[ak.CEILING] = h  # the step grows back to below the one that failed, until the next output
         run.varying = True
-        run.h = h
+        par[ak.H_NEXT] = h
         return OK
 
     def _controlled(self, state, run, n_steps, rec) -> int:
         """Steps to the output time ``n_steps`` steps of ``dt`` ahead, each chosen by the error control
-        or growing back after a cut (:mod:`reference.algorithms.step_control`), the last landing on it."""
+        or growing back after a cut (:mod:`reference.algorithms.step_control`), the last landing on it: many
+        compiled steps per call (:func:`steps`), the factorisations and the step cuts here."""
+        if self.python_control:
+            return self._controlled_python(state, run, n_steps, rec)
+        par, angle = run.par, run.system.work.angle
+        par[ak.CONTROL] = ak.GROWING if self.error_tolerance is None else ak.ERROR_CONTROL
+        par[ak.TARGET] = (run.nominal + n_steps) * self.dt
+        par[ak.AFTER_REJECTION] = 0.0
+        while True:
+            code, _ = self._steps(state, run, 1 << 62, rec)
+            self._collect(run)
+            if code == OK:
+                break
+            angle[:] = run.held  # as at the failed step's start
+            if code not in RECOVERABLE:
+                return code
+            code = self._cut(state, run, code)
+            if code != OK:
+                return code
+        self._landed(state, run, n_steps)
+        return OK
+
+    def _collect(self, run) -> None:
+        """The compiled steps' statistics (:data:`reference.algorithms.alpha_steps.PAR_SIZE`) into ``run.stats``."""
+        par, stats = run.par, run.stats
+        stats.steps += int(par[ak.ACCEPTED])
+        stats.rejected += int(par[ak.REJECTED])
+        stats.h_min, stats.h_max = min(stats.h_min, par[ak.H_MIN]), max(stats.h_max, par[ak.H_MAX])
+        err = par[ak.ERROR]
+        if err == err:
+            stats.error = err if stats.error != stats.error else max(stats.error, err)
+        par[ak.ACCEPTED:] = [0.0, math.inf, 0.0, np.nan, 0.0]
+
+    def _landed(self, state, run, n_steps) -> None:
+        """The output time ``n_steps`` steps of ``dt`` ahead is reached: the cut step's ceiling doubles, and a
+        step grown back to ``dt`` returns to the fixed steps."""
+        par, clock = run.par, state.clock
+        run.nominal += n_steps
+        par[ak.CEILING] = min(2.0 * par[ak.CEILING], self.dt)
+        if self.error_tolerance is None and par[ak.H_NEXT] == self.dt:
+            set_step(par, self.dt, clock[0], clock[1])  # back to the fixed steps
+            par[ak.CONTROL] = ak.FIXED
+            run.varying = False
+
+    def _controlled_python(self, state, run, n_steps, rec) -> int:
+        """:meth:`_controlled` with the step control in Python (:mod:`reference.algorithms.step_control`'s
+        functions) around one compiled step of :data:`~reference.algorithms.alpha_steps.FIXED` mode per call:
+        the oracle of the compiled control (:attr:`python_control`)."""
         system, par, stats = run.system, run.par, run.stats
         x, q, v, w, f_prev, clock = state[:6]
+        par[ak.CONTROL] = ak.FIXED
         target = (run.nominal + n_steps) * self.dt
         control = self.error_tolerance is not None
         held = (x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers)  # what a rejected step restores
@@ -351,9 +411,9 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             left = target - clock[0]
             if left <= 1e-9 * self.dt:
                 break
-            h = run.h
-            h_use = left if left <= LANDING * h else (0.5 * left if left < 2.0 * h else h)
-            self._set_step(run, h_use, clock[0], clock[1])
+            h = par[ak.H_NEXT]
+            h_use = landing_step(left, h)
+            set_step(par, h_use, clock[0], clock[1])
             if control:
                 saved = [arr.copy() for arr in held]
             angle = system.work.angle.copy()
@@ -375,25 +435,22 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                     system.work.angle[:] = angle
                     par[11] = np.nan  # the last evaluation is no longer at the state
                     stats.rejected += 1
-                    run.h = h_next
+                    par[ak.H_NEXT] = h_next
                     rejected = True
                     continue
                 if rejected:
                     h_next, rejected = min(h_next, h_use), False  # no growth right after a rejection (HNW §II.4)
+                h_next = kept_step(h_use, h_next, self.dead_band)
                 stats.step(h_use, err)
                 # a step shortened to land on an output keeps the controller's step for the next
-                run.h = h_next if h_use >= h else max(h, h_next)
+                par[ak.H_NEXT] = h_next if h_use >= h else max(h, h_next)
             else:
                 stats.step(h_use)
-                run.good += 1
-                if run.h < run.ceiling and run.good >= GROW_AFTER:
-                    run.h, run.good = min(2.0 * run.h, run.ceiling), 0
+                par[ak.GOOD] += 1
+                if par[ak.H_NEXT] < par[ak.CEILING] and par[ak.GOOD] >= GROW_AFTER:
+                    par[ak.H_NEXT], par[ak.GOOD] = min(2.0 * par[ak.H_NEXT], par[ak.CEILING]), 0
         clock[0] = target
-        run.nominal += n_steps
-        run.ceiling = min(2.0 * run.ceiling, self.dt)
-        if not control and run.h == self.dt:
-            self._set_step(run, self.dt, clock[0], clock[1])  # back to the fixed steps
-            run.varying = False
+        self._landed(state, run, n_steps)
         return OK
 
     def recorded(self, run) -> dict:

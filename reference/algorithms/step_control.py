@@ -22,11 +22,27 @@ own increment, so neither the mesh's length scale nor the node count changes the
 **Controller** (Hairer, Nørsett & Wanner 1993, *Solving Ordinary Differential Equations I*, §II.4): a step with error
 norm ``err ≤ 1`` is accepted, one with ``err > 1`` is taken again from its start; either way the next
 step is ``h · min(MAX_GROWTH, max(MIN_SHRINK, SAFETY · err^(−1/3)))`` (local error O(h³)), within
-``[dt_min, dt_max]``, and no larger than the rejected one right after a rejection.  Steps are shortened to land on the output times (no interpolation).
+``[dt_min, dt_max]``, and no larger than the rejected one right after a rejection.
+
+**Dead band** (Hairer & Wanner 1996, *Solving Ordinary Differential Equations II*, §IV.8, RADAU5's
+``quot1``/``quot2`` rule): the step enters the Newton matrix's coefficients, so a new step costs a new
+factorisation; an accepted step after which the controller proposes a growth factor in ``[1, DEAD_BAND)`` is
+kept as it is (:func:`kept_step`), and so is its factor.
+
+**Landing on the outputs** (no interpolation): the time left to the next output is divided into the fewest
+equal steps no longer than the controller's step, or together at most ``(LANDING − 1) h`` longer
+(:func:`landing_step`).  Between outputs equally spaced, a controller's step that changes little then gives
+the same steps output after output, and the same factor.
+
+**Compiled.**  The loop that applies these rules step after step runs in compiled code
+(:func:`reference.algorithms.alpha_steps.steps`, many steps per call); the functions here are its
+documented source and the oracle the tests compare it with, bit for bit
+(:attr:`reference.algorithms.generalized_alpha.GeneralizedAlpha.python_control`).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,7 +58,11 @@ FLOOR = 1e-6
 (translations, L the model size) or ``FLOOR`` rad (rotations), so that a coordinate at rest is held to an
 absolute error of ``error_tolerance · FLOOR · L`` per step."""
 LANDING = 1.05
-"""A step within this factor of the time left to the next output is stretched to land on it."""
+"""The time left to the next output is divided into equal steps, together at most ``(LANDING − 1) h`` longer than
+steps of the controller's h (:func:`landing_step`)."""
+DEAD_BAND = 1.2
+"""An accepted step after which the controller proposes a growth factor in ``[1, DEAD_BAND)`` is kept, and its
+factorisation with it (Hairer & Wanner 1996, §IV.8: RADAU5's ``quot1 = 1``, ``quot2 = 1.2``)."""
 
 
 def error_norm(a_new: np.ndarray, a_old: np.ndarray, v: np.ndarray, w: np.ndarray, h: float, beta: float,
@@ -61,6 +81,19 @@ def next_step(h: float, err: float) -> float:
     """The controller's next step after a step h with error norm ``err`` (module docstring)."""
     factor = MAX_GROWTH if err <= 0.0 else min(MAX_GROWTH, max(MIN_SHRINK, SAFETY * err ** (-1.0 / 3.0)))
     return h * factor
+
+
+def landing_step(left: float, h: float) -> float:
+    """The next step when ``left`` [s] remain to the next output and the controller proposes h: ``left / n``, the
+    fewest equal steps that land on the output stretching none of them by more than ``(LANDING − 1) h / n``
+    (module docstring)."""
+    return left / max(1.0, math.ceil(left / h - (LANDING - 1.0)))
+
+
+def kept_step(h: float, h_next: float, band: float) -> float:
+    """The step after an accepted step h for which the controller proposes ``h_next``: h itself when the growth
+    ``h_next / h`` lies in ``[1, band)`` (the dead band, :data:`DEAD_BAND`; ``band = 1`` turns it off)."""
+    return h if h <= h_next < band * h else h_next
 
 
 @dataclass
