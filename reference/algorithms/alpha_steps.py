@@ -343,9 +343,11 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                                           model.nodes.mass, model.nodes.inertia, vdn)
             if not math.isfinite(size):
                 return DIVERGED, step
-            if previous >= 0.0 and size > contraction * previous:
-                return REFACTOR, step  # a new factor at this iterate (full Newton when it keeps happening)
             theta = size / previous if previous > 0.0 else 1.0
+            # left after this correction: θ/(1 − θ) of the imbalance it corrected (Hairer & Wanner 1996, §IV.8)
+            done = imbalance <= tol or (theta < 1.0 and theta * imbalance <= tol * (1.0 - theta)) or size <= floor
+            if previous >= 0.0 and size > contraction * previous and not done:
+                return REFACTOR, step  # a new factor at this iterate (full Newton when it keeps happening)
             previous = size
             par[13] += 1.0
             for i in range(N):
@@ -356,8 +358,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
             for k in range(m):
                 lamn[k] += bp * sol[n_free + k]
             par[10] += 1.0
-            # left after this correction: θ/(1 − θ) of the imbalance it corrected (Hairer & Wanner 1996, §IV.8)
-            if imbalance <= tol or (theta < 1.0 and theta * imbalance <= tol * (1.0 - theta)) or size <= floor:
+            if done:  # a slow contraction refactors only a step that has not converged
                 converged = True
                 break
         if not converged:
