@@ -63,7 +63,7 @@ def _step_study(ctx, r, error, plt) -> tuple[list[str], list[float]]:
         run = ctx.solve(d, f"dt={dt:g}")
         errors.append(float(np.max(np.abs(andrews.angles(run)[-1] - andrews.REFERENCE))))
         iterations.append(_iterations(run))
-    lines = ["### The error as the step falls (issue 22)", "",
+    lines = ["### The error as the step falls", "",
              "| dt [s] | max angle error at 0.03 s [rad] | ratio to the step before | Newton iterations a step |",
              "|---|---|---|---|"]
     for k, dt in enumerate(dts):
