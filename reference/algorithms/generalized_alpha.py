@@ -25,9 +25,9 @@ Newton iterates on the configuration correction δ (``h Δq += δ``,
 with the iteration matrix ``M + (γ'/β') C + K T/β'``, T the tangent operator
 ``J_r(h Δθ)`` of the exponential at each node (Brüls et al. 2012, §4).  The
 factor is kept over iterations and steps while every correction is below a
-tenth of the previous one (modified Newton); otherwise the matrix is refactored
-at the current iterate and the step goes on from there (full Newton if need
-be).  The convergence test is scaled to the problem (docs/formulation.md §10): Newton
+tenth of the previous one (modified Newton); otherwise, unless that correction
+already meets the convergence test, the matrix is refactored at the current
+iterate and the step goes on from there (full Newton if need be).  The convergence test is scaled to the problem (docs/formulation.md §10): Newton
 stops when the iterate is balanced — every free residual force below ``tolerance`` times
 the step's force scale (the largest free inertial force ``M V̇``, internal force S,
 external force F or ``r − S + F``, the joints' and the inertia's forces together;
