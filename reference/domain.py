@@ -27,7 +27,7 @@ import numpy as np
 from reference.algorithms import ALGORITHMS, Algorithm, SolverSettings
 from reference.elements import Element, Section
 from reference.elements.families import ALWAYS_PACKED, DEFAULT_FAMILY, ELEMENT_FAMILIES
-from reference.elements.formulation import vector_norms
+from reference.elements.formulation import formulation_groups, vector_norms
 from reference.elements.placement import add_lumped_masses, no_elements, place
 from reference.connector import GROUND
 from reference.forces import ForceElement, pack_force_elements
@@ -304,11 +304,11 @@ class Domain:
         limits = []
         if self.elements:
             ends = np.array([e.nodes[:2] for e in self.elements], dtype=np.int64)
-            x = self._configuration()[0]
+            x = np.array([n.position for n in self.nodes], dtype=float).reshape(-1, 3)
             lengths = vector_norms(x[ends[:, 1]] - x[ends[:, 0]])  # the elements' chords, each np.linalg.norm's
             # the limit of each (formulation, length) once: a uniform mesh repeats them
-            known = {(id(e.formulation), L): e.formulation for e, L in zip(self.elements, lengths.tolist())}
-            limits = [f.critical_time_step(L) for (_, L), f in known.items()]
+            for formulation, members in formulation_groups(self.elements):
+                limits += [formulation.critical_time_step(L) for L in np.unique(lengths[members]).tolist()]
         if self.force_elements:
             lumped = self._lumped_masses()
             for fe in self.force_elements:
@@ -322,16 +322,16 @@ class Domain:
         mass, inertia, _ = self._lumped()
         return list(zip(mass, inertia))
 
-    def _lumped(self):
+    def _lumped(self, configuration: tuple | None = None):
         """Node masses (N,) and rotary inertias (N,3,3, node frames) with the elements' lumped masses added
         (element after element, in the Domain's order), and each family's elements placed at t = 0
         (:class:`~reference.elements.formulation.PlacedElements`, by family name: node positions, section
         triads and the end offsets ``o_a = q_a⁰* ⊗ p_a⁰``).  Each family's elements at once
-        (:mod:`reference.elements.placement`)."""
+        (:mod:`reference.elements.placement`); ``configuration`` the nodes' ``(x, q)`` if already made."""
         N = len(self.nodes)
         mass = np.array([n.mass for n in self.nodes], dtype=float)
         inertia = np.array([n.inertia for n in self.nodes], dtype=float).reshape(N, 3, 3)
-        placed = place(self.elements, *self._configuration())
+        placed = place(self.elements, *(configuration or self._configuration()))
         add_lumped_masses(mass, inertia, placed)
         return mass, inertia, placed
 
@@ -354,7 +354,8 @@ class Domain:
         (:func:`reference.forces.pack_force_elements`).
         """
         N = len(self.nodes)
-        mass, inertia, placed = self._lumped()
+        configuration = self._configuration()
+        mass, inertia, placed = self._lumped(configuration)
         elements = self._element_families(placed)
         massless = [self.nodes[i].label for i in np.flatnonzero(~(mass > 0.0))]
         if massless:
@@ -380,7 +381,7 @@ class Domain:
         self._model = Model(nodes=nodes, elements=elements, loads=loads, gravity=gravity,
                             damping=float(self.solver.damping), time_functions=tfs.pack(),
                             force_elements=force_elements, **constraints)
-        setup.check_redundancy(self._model, setup.multiplier_joints(self.joints), *self._configuration())
+        setup.check_redundancy(self._model, setup.multiplier_joints(self.joints), *configuration)
         return self._model
 
     def _configuration(self, x=None, q=None):
@@ -466,8 +467,9 @@ class Domain:
         self.last_run = {"path": None, "status": "not started", "t": 0.0}
         joint_offsets(self)
         model = self.initialization()
-        problem = damping_problem(model.damping, algo.dt, self.critical_time_step()) if algo.explicit else ""
+        critical = self.critical_time_step()
+        problem = damping_problem(model.damping, algo.dt, critical) if algo.explicit else ""
         if problem:
             raise ValueError(f"solver damping: {problem}")
         state = self.initial_conditions()
-        return run(self, algo, model, state, n_total, results_path, progress, monitor, deck)
+        return run(self, algo, model, state, n_total, results_path, progress, monitor, deck, critical)

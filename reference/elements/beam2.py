@@ -311,7 +311,7 @@ class Beam2Formulation(ElementFormulation):
     def pack(cls, placed: PlacedElements) -> Beam2Data:
         """The family's plain data from its elements placed at t = 0 (reference states of the section frames,
         :meth:`rest_states`, all elements at once)."""
-        conn = placed.conn()
+        conn = np.asarray(placed.conn, dtype=np.int64).reshape(len(placed), 2)
         stiff = placed.sections("stiffness", 6)
         L0, psi0, gamma0 = cls.rest_states(placed.x, placed.p, stiff)
         offset = np.array(placed.offset, dtype=float).reshape(len(placed), 2, 4)

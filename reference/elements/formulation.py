@@ -61,10 +61,11 @@ class PlacedElements(Sequence):
     """The elements of one family placed at t = 0, as arrays over the family's E elements (Domain order):
     ``index`` (E,) their numbers in the Domain, ``elements`` the :class:`Element` objects, ``x`` (E, n, 3)
     node positions, ``p`` (E, n, 4) section triads, ``offset`` (E, n, 4) the end offsets.  A family's
-    ``pack`` may take the arrays at once or iterate: item e is element e's :class:`PlacedElement`."""
+    ``pack`` may take the arrays at once or iterate: item e is element e's :class:`PlacedElement`; ``conn``
+    (E, n) the elements' node numbers."""
 
-    def __init__(self, index, elements, x, p, offset):
-        self.index, self.elements, self.x, self.p, self.offset = index, elements, x, p, offset
+    def __init__(self, index, elements, conn, x, p, offset):
+        self.index, self.elements, self.conn, self.x, self.p, self.offset = index, elements, conn, x, p, offset
 
     def __len__(self) -> int:
         return len(self.elements)
@@ -74,20 +75,32 @@ class PlacedElements(Sequence):
             return [self[k] for k in range(len(self))[e]]
         return PlacedElement(int(self.index[e]), self.elements[e], self.x[e], self.p[e], self.offset[e])
 
-    def conn(self) -> np.ndarray:
-        """(E, n) the elements' node numbers."""
-        return np.array([element.nodes for element in self.elements], dtype=np.int64).reshape(self.x.shape[:2])
+    def groups(self) -> list:
+        """``[(formulation, element numbers (k,))]``: the family's elements by formulation
+        (:func:`formulation_groups`), computed once."""
+        if not hasattr(self, "_groups"):
+            self._groups = formulation_groups(self.elements)
+        return self._groups
 
     def sections(self, attribute: str, k: int) -> np.ndarray:
         """(E, k) a section property array (``"stiffness"``, k = 6; ``"rotary_inertia"``, k = 3) of every
         element, read once per formulation."""
-        rows, known = [], {}
-        for element in self.elements:
-            f = element.formulation
-            if id(f) not in known:
-                known[id(f)] = getattr(f.section, attribute)
-            rows.append(known[id(f)])
-        return np.array(rows, dtype=float).reshape(len(self), k)
+        out = np.empty((len(self), k))
+        for formulation, members in self.groups():
+            out[members] = getattr(formulation.section, attribute)
+        return out
+
+
+def formulation_groups(elements: list) -> list:
+    """``[(formulation, numbers)]``: the positions (k,) in ``elements`` of the elements of each formulation
+    (an object shared by the elements of a beam), in increasing order; the formulations in the order of their
+    first element."""
+    formulations = [element.formulation for element in elements]
+    ids = np.fromiter(map(id, formulations), dtype=np.int64, count=len(formulations))
+    _, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
+    order = np.argsort(inverse, kind="stable")
+    members = np.split(order, np.cumsum(np.bincount(inverse, minlength=len(first)))[:-1])
+    return [(formulations[first[g]], members[g]) for g in np.argsort(first)]
 
 
 class ElementFormulation(ABC):

@@ -31,14 +31,16 @@ def place(elements: list, x: np.ndarray, q: np.ndarray) -> dict:
         for k, element in enumerate(members):
             if element.frames is not None:
                 p[k] = element.frames
-        placed[family] = PlacedElements(np.array(numbers, dtype=np.int64), members, x[conn], p, end_offsets(q[conn], p))
+        placed[family] = PlacedElements(np.array(numbers, dtype=np.int64), members, conn, x[conn], p,
+                                         end_offsets(q[conn], p))
     return placed
 
 
 def no_elements(family) -> PlacedElements:
     """No element of ``family`` (a family the engine packs even when the model has none)."""
     n = family.n_nodes
-    return PlacedElements(np.zeros(0, dtype=np.int64), [], np.zeros((0, n, 3)), np.zeros((0, n, 4)), np.zeros((0, n, 4)))
+    return PlacedElements(np.zeros(0, dtype=np.int64), [], np.zeros((0, n), dtype=np.int64), np.zeros((0, n, 3)),
+                          np.zeros((0, n, 4)), np.zeros((0, n, 4)))
 
 
 def lumped_family(placed: PlacedElements) -> tuple[np.ndarray, np.ndarray]:
@@ -49,11 +51,8 @@ def lumped_family(placed: PlacedElements) -> tuple[np.ndarray, np.ndarray]:
     offset is not the identity (there ``O J Oᵀ`` is J, bit for bit)."""
     x, offset = placed.x, placed.offset
     mass, inertia = np.empty(x.shape[:2]), np.empty(x.shape[:2] + (3, 3))
-    groups: dict[int, list] = {}
-    for k, element in enumerate(placed.elements):
-        groups.setdefault(id(element.formulation), []).append(k)
-    for ks in groups.values():
-        mass[ks], inertia[ks] = placed.elements[ks[0]].formulation.lumped_masses(x[ks])
+    for formulation, members in placed.groups():
+        mass[members], inertia[members] = formulation.lumped_masses(x[members])
     turned = ~((offset[..., 0] == 1.0) & ~offset[..., 1:].any(axis=-1))
     if turned.any():
         O = rotation_matrices(offset[turned])
@@ -69,7 +68,7 @@ def add_lumped_masses(mass: np.ndarray, inertia: np.ndarray, placed: dict) -> No
     for item in placed.values():
         m, J = lumped_family(item)
         n = item.x.shape[1]
-        ends.append((np.repeat(item.index, n), item.conn().ravel(), m.ravel(), J.reshape(-1, 3, 3)))
+        ends.append((np.repeat(item.index, n), item.conn.ravel(), m.ravel(), J.reshape(-1, 3, 3)))
     if ends:
         number, node, m, J = (np.concatenate(column) for column in zip(*ends))
         order = np.argsort(number, kind="stable")
