@@ -112,3 +112,30 @@ def test_array_helpers_are_the_per_vector_calls_bit_for_bit():
         rm.quat_product(q[k] * np.array([1.0, -1.0, -1.0, -1.0]), p[k], one_by_one[k])
     assert same(end_offsets(q, p), one_by_one)
     assert same(rotation_matrices(p), [EulerParameters(u).matrix() for u in p])
+
+
+def one_triad(axis, hint):
+    """A straight beam's section triad, one beam at a time (the loop :func:`reference.mesh.beam_triads` replaces)."""
+    e1 = axis / np.linalg.norm(axis)
+    e2 = hint - hint.dot(e1) * e1
+    e2 = e2 / np.linalg.norm(e2)
+    return np.column_stack([e1, e2, np.cross(e1, e2)])
+
+
+def test_meshed_section_frames_are_one_beam_at_a_time_bit_for_bit():
+    """All four branches of Shepperd's method are taken (e0, e1, e2 or e3 the largest)."""
+    from reference.mesh import beam_triads, section_frames
+    from reference.rotation import shepperd
+
+    rng = np.random.default_rng(5)
+    axes = rng.standard_normal((4000, 3)) * rng.uniform(1e-3, 1e3, (4000, 1))
+    hint = np.array([0.3, 1.0, -0.2])
+    triads = np.array([one_triad(a, hint) for a in axes])
+    assert same(beam_triads(axes, hint), triads)
+    points = np.cumsum(axes, axis=0)
+    node_q, elem_q = section_frames(points, axes, hint)
+    assert same(node_q, [EulerParameters.from_matrix(R).q for R in triads])
+    assert same(elem_q, [EulerParameters.from_matrix(one_triad(b - a, hint)).q for a, b in zip(points, points[1:])])
+    trace = np.trace(triads, axis1=1, axis2=2)
+    assert set(np.argmax(np.column_stack([trace, *np.diagonal(triads, axis1=1, axis2=2).T]), axis=1)) == {0, 1, 2, 3}
+    assert (shepperd(triads)[:, 0] >= 0.0).all()
