@@ -89,7 +89,7 @@ def explicit_large(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEP
     ``pyelastica``): stable steps,
     errors against the half step, µs per element-step (alternating runs); returns the printed lines.  No
     target: the issue's one-thread target is at 768 elements (:func:`flexmbs.bench_throughput.beam_throughput`)."""
-    from flexmbs.bench_throughput import elastica_runner, flexmbs_runner, throughput_cantilever
+    from flexmbs.bench_throughput import elastica_runner, flexmbs_runner, solve_runner, throughput_cantilever
     from reference.jit import threads
 
     crit = throughput_cantilever(elements).critical_time_step()
@@ -98,7 +98,7 @@ def explicit_large(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEP
     if pyelastica and importlib.util.find_spec("elastica") is not None:
         makers["PyElastica"] = lambda h: elastica_runner(elements, h)
     runners = {name: make(dt) for name, make in makers.items()}
-    runners["flexmbs solve()"] = _solve_runner(elements, dt)
+    runners["flexmbs solve()"] = solve_runner(elements, dt)
     for run in runners.values():
         run(2)  # warm-up: compilation or cache load
     timed = _alternate(runners, repeat, steps)
@@ -132,21 +132,6 @@ def explicit_large(elements: int = EXPLICIT_ELEMENTS, steps: int = EXPLICIT_STEP
     else:
         lines.append("PyElastica not installed (pip install -e '.[bench]') or not asked for: comparison skipped")
     return lines + [""]
-
-
-def _solve_runner(elements: int, dt: float):
-    """flexmbs' whole ``Domain.solve`` on the throughput rod: ``run(steps) → (wall [s], tip z [m])``."""
-    from flexmbs.bench_throughput import throughput_cantilever
-
-    d = throughput_cantilever(elements)
-
-    def run(steps):
-        d.solver.dt, d.solver.t_end, d.solver.output_every = dt, steps * dt, steps
-        t0 = time.perf_counter()
-        r = d.solve()
-        return time.perf_counter() - t0, float(r.position("rod:end")[-1, 2])
-
-    return run
 
 
 def rollup_domain(algorithm: str, refine: int, dt: float, t_end: float, load_steps: int = 1, heavy: bool = False):

@@ -27,10 +27,10 @@ import numpy as np
 from reference.algorithms import ALGORITHMS, Algorithm, SolverSettings
 from reference.elements import Element, Section
 from reference.elements.families import ALWAYS_PACKED, DEFAULT_FAMILY, ELEMENT_FAMILIES
-from reference.elements.formulation import PlacedElement
+from reference.elements.formulation import formulation_groups, vector_norms
+from reference.elements.placement import add_lumped_masses, no_elements, place
 from reference.connector import GROUND
 from reference.forces import ForceElement, pack_force_elements
-from reference.generated import rotation_maps as rm
 from reference.interactions import (
     Constant, FixedCoordinates, Gravity, Interaction, LineLoad, NodalLoad, TimeFunction, TimeFunctionTable,
     pack_loads,
@@ -301,12 +301,14 @@ class Domain:
         ``1/m + r²/J_min`` (and ``uᵀJ⁻¹u`` about the axis u of a torsional
         stiffness): the element oscillating against the bodies it connects.
         """
-        limits, known = [], {}  # the limit of each (formulation, length) once: a uniform mesh repeats them
-        for e in self.elements:
-            key = (id(e.formulation), self._length(e))
-            if key not in known:
-                known[key] = e.formulation.critical_time_step(key[1])
-            limits.append(known[key])
+        limits = []
+        if self.elements:
+            ends = np.array([e.nodes[:2] for e in self.elements], dtype=np.int64)
+            x = np.array([n.position for n in self.nodes], dtype=float).reshape(-1, 3)
+            lengths = vector_norms(x[ends[:, 1]] - x[ends[:, 0]])  # the elements' chords, each np.linalg.norm's
+            # the limit of each (formulation, length) once: a uniform mesh repeats them
+            for formulation, members in formulation_groups(self.elements):
+                limits += [formulation.critical_time_step(L) for L in np.unique(lengths[members]).tolist()]
         if self.force_elements:
             lumped = self._lumped_masses()
             for fe in self.force_elements:
@@ -320,49 +322,28 @@ class Domain:
         mass, inertia, _ = self._lumped()
         return list(zip(mass, inertia))
 
-    def _lumped(self):
-        """Node masses (N,) and rotary inertias (N,3,3, node frames) with the elements' lumped
-        masses added, and each element placed at t = 0 (:class:`~reference.elements.formulation.PlacedElement`:
-        node positions, section triads and the end offsets ``o_a = q_a⁰* ⊗ p_a⁰``)."""
+    def _lumped(self, configuration: tuple | None = None):
+        """Node masses (N,) and rotary inertias (N,3,3, node frames) with the elements' lumped masses added
+        (element after element, in the Domain's order), and each family's elements placed at t = 0
+        (:class:`~reference.elements.formulation.PlacedElements`, by family name: node positions, section
+        triads and the end offsets ``o_a = q_a⁰* ⊗ p_a⁰``).  Each family's elements at once
+        (:mod:`reference.elements.placement`); ``configuration`` the nodes' ``(x, q)`` if already made."""
         N = len(self.nodes)
         mass = np.array([n.mass for n in self.nodes], dtype=float)
         inertia = np.array([n.inertia for n in self.nodes], dtype=float).reshape(N, 3, 3)
-        placed = []
-        for e, element in enumerate(self.elements):
-            ids = list(element.nodes)
-            xs = np.array([self.nodes[i].position for i in ids])
-            qs = np.array([self.nodes[i].rotation for i in ids])
-            ps = qs if element.frames is None else element.frames
-            offset = np.zeros((len(ids), 4))
-            for a in range(len(ids)):
-                rm.quat_product(qs[a] * np.array([1.0, -1.0, -1.0, -1.0]), ps[a], offset[a])
-            # lumped rotary inertia: the section-frame diagonal, rotated into the node frame (O J Oᵀ)
-            for a, (i, (m, J)) in enumerate(zip(ids, element.formulation.lumped_mass(xs))):
-                mass[i] += m
-                if offset[a, 0] == 1.0 and not offset[a, 1:].any():  # O = I: O J Oᵀ is J, bit for bit
-                    inertia[i] += J
-                else:
-                    O = EulerParameters(offset[a]).matrix()
-                    inertia[i] += O @ J @ O.T
-            placed.append(PlacedElement(e, element, xs, ps, offset))
+        placed = place(self.elements, *(configuration or self._configuration()))
+        add_lumped_masses(mass, inertia, placed)
         return mass, inertia, placed
-
-    def _length(self, element: Element) -> float:
-        a, b = (self.nodes[i].position for i in element.nodes[:2])
-        return float(np.linalg.norm(b - a))
 
     def _element_families(self, placed) -> tuple:
         """Each element family's plain data (:attr:`reference.state.Model.elements`), in registry order: the
         families the model uses and the engine's own (:data:`~reference.elements.families.ALWAYS_PACKED`)."""
-        by_family: dict[str, list] = {}
-        for item in placed:
-            by_family.setdefault(item.element.formulation.family, []).append(item)
-        unknown = sorted(set(by_family) - set(ELEMENT_FAMILIES))
+        unknown = sorted(set(placed) - set(ELEMENT_FAMILIES))
         if unknown:
             raise ValueError(f"element family {unknown[0]!r} is not registered; known: {', '.join(ELEMENT_FAMILIES)} "
                              "(reference.elements.families.register)")
-        return tuple(ELEMENT_FAMILIES[name].pack(by_family.get(name, [])) for name in ELEMENT_FAMILIES
-                     if name in by_family or name in ALWAYS_PACKED)
+        return tuple(ELEMENT_FAMILIES[name].pack(placed[name] if name in placed else no_elements(ELEMENT_FAMILIES[name]))
+                     for name in ELEMENT_FAMILIES if name in placed or name in ALWAYS_PACKED)
 
     def initialization(self) -> Model:
         """Assemble the plain-data model: lumped masses, references, loads (paper: Initialization).
@@ -373,12 +354,13 @@ class Domain:
         (:func:`reference.forces.pack_force_elements`).
         """
         N = len(self.nodes)
-        mass, inertia, placed = self._lumped()
+        configuration = self._configuration()
+        mass, inertia, placed = self._lumped(configuration)
         elements = self._element_families(placed)
-        massless = [n.label for n, m in zip(self.nodes, mass) if not m > 0.0]
+        massless = [self.nodes[i].label for i in np.flatnonzero(~(mass > 0.0))]
         if massless:
             raise ValueError(f"nodes without mass (attach them to an element or give them a mass): {massless[:5]}")
-        singular = [n.label for n, J in zip(self.nodes, inertia) if not np.linalg.det(J) > 0.0]
+        singular = [self.nodes[i].label for i in np.flatnonzero(~(np.linalg.det(inertia) > 0.0))]
         if singular:
             raise ValueError(f"nodes without positive rotary inertia: {singular[:5]}")
         free = np.ones((N, 6))
@@ -399,7 +381,7 @@ class Domain:
         self._model = Model(nodes=nodes, elements=elements, loads=loads, gravity=gravity,
                             damping=float(self.solver.damping), time_functions=tfs.pack(),
                             force_elements=force_elements, **constraints)
-        setup.check_redundancy(self._model, setup.multiplier_joints(self.joints), *self._configuration())
+        setup.check_redundancy(self._model, setup.multiplier_joints(self.joints), *configuration)
         return self._model
 
     def _configuration(self, x=None, q=None):
@@ -485,8 +467,9 @@ class Domain:
         self.last_run = {"path": None, "status": "not started", "t": 0.0}
         joint_offsets(self)
         model = self.initialization()
-        problem = damping_problem(model.damping, algo.dt, self.critical_time_step()) if algo.explicit else ""
+        critical = self.critical_time_step()
+        problem = damping_problem(model.damping, algo.dt, critical) if algo.explicit else ""
         if problem:
             raise ValueError(f"solver damping: {problem}")
         state = self.initial_conditions()
-        return run(self, algo, model, state, n_total, results_path, progress, monitor, deck)
+        return run(self, algo, model, state, n_total, results_path, progress, monitor, deck, critical)

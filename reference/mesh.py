@@ -13,26 +13,35 @@ import math
 
 import numpy as np
 
-from reference.rotation import EulerParameters
+from reference.elements.formulation import vector_norms
+from reference.rotation import check_rotation_matrices, shepperd
 
 ARC_TOLERANCE = 1e-6
 """Largest relative difference of the distances of an arc's two ends from its centre."""
 
 
 def beam_triad(axis: np.ndarray, axis2_hint) -> np.ndarray:
-    """Section triad ``[e1 e2 e3]`` (columns) of a straight beam.
+    """Section triad ``[e1 e2 e3]`` (columns) of a straight beam (:func:`beam_triads`).
 
     ``e1`` along the beam, ``e2`` the hint made orthogonal to ``e1``,
     ``e3 = e1 × e2``.
     """
-    e1 = np.asarray(axis, dtype=float)
-    e1 = e1 / np.linalg.norm(e1)
+    return beam_triads(np.asarray(axis, dtype=float)[None], axis2_hint)[0]
+
+
+def beam_triads(axes: np.ndarray, axis2_hint) -> np.ndarray:
+    """Section triads (K, 3, 3), columns ``e1 e2 e3``, of K straight beams along ``axes`` (K, 3): ``e1`` along
+    the axis, ``e2`` the hint made orthogonal to ``e1``, ``e3 = e1 × e2``; each the numbers of one beam alone
+    (the same norms and dot products, :func:`reference.elements.formulation.vector_norms`)."""
+    e1 = np.asarray(axes, dtype=float)
+    e1 = e1 / vector_norms(e1)[:, None]
     hint = np.asarray(axis2_hint, dtype=float)
-    e2 = hint - hint.dot(e1) * e1
-    if np.linalg.norm(e2) < 1e-9 * max(np.linalg.norm(hint), 1.0):
-        raise ValueError(f"section axis 2 {hint.tolist()} is parallel to the beam axis {e1.tolist()}")
-    e2 = e2 / np.linalg.norm(e2)
-    return np.column_stack([e1, e2, np.cross(e1, e2)])
+    e2 = hint - np.matmul(hint, e1[:, :, None])[:, 0][:, None] * e1
+    bad = np.flatnonzero(vector_norms(e2) < 1e-9 * max(np.linalg.norm(hint), 1.0))
+    if bad.size:
+        raise ValueError(f"section axis 2 {hint.tolist()} is parallel to the beam axis {e1[bad[0]].tolist()}")
+    e2 = e2 / vector_norms(e2)[:, None]
+    return np.stack([e1, e2, np.cross(e1, e2)], axis=-1)
 
 
 def straight_line(start: np.ndarray, end: np.ndarray, n_elements: int) -> tuple[np.ndarray, np.ndarray]:
@@ -84,7 +93,7 @@ def arc_geometry(start, end, center, n_elements: int) -> tuple[np.ndarray, np.nd
     return points, tangents
 
 
-def section_frames(points: np.ndarray, tangents: np.ndarray, axis2) -> tuple[list, list]:
+def section_frames(points: np.ndarray, tangents: np.ndarray, axis2) -> tuple[np.ndarray, np.ndarray]:
     """Euler parameters of the section triads (:func:`beam_triad` with the hint ``axis2``).
 
     Returns the nodes' triads, on the ``tangents`` (n + 1), and the elements'
@@ -95,7 +104,12 @@ def section_frames(points: np.ndarray, tangents: np.ndarray, axis2) -> tuple[lis
     ValueError
         ``axis2`` parallel to a tangent or a chord.
     """
-    node_q = [EulerParameters.from_matrix(beam_triad(t, axis2)).q for t in tangents]
-    elem_q = [EulerParameters.from_matrix(beam_triad(points[i + 1] - points[i], axis2)).q
-              for i in range(len(points) - 1)]
+    node_q, elem_q = (_euler_parameters(beam_triads(axes, axis2)) for axes in (tangents, np.diff(points, axis=0)))
     return node_q, elem_q
+
+
+def _euler_parameters(R: np.ndarray) -> np.ndarray:
+    """``EulerParameters.from_matrix(R_k).q`` (K, 4) of K rotation matrices, bit for bit (Shepperd's method and
+    the normalisation by the norm of each)."""
+    q = shepperd(check_rotation_matrices(R))
+    return q / vector_norms(q)[:, None]

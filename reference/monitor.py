@@ -91,20 +91,22 @@ class BlowUpMonitor:
     explicit : bool
         Whether the algorithm's step is bounded by the critical step (then a step above
         ``SAFETY ×`` the estimate is named as the likely cause).
+    critical : float, optional
+        The domain's critical step estimate [s] (:meth:`Domain.critical_time_step`), if already computed.
     """
 
-    def __init__(self, domain, dt: float, explicit: bool = True):
+    def __init__(self, domain, dt: float, explicit: bool = True, critical: float | None = None):
         model = domain.model
         # every element's end nodes and their initial distance (a two-node beam's reference length)
         self.conn = np.zeros((model.n_elements, 2), dtype=np.int64)
         for data in model.elements:
             self.conn[data.index] = data.conn[:, [0, -1]]
-        x0 = np.array([n.position for n in domain.nodes]).reshape(-1, 3)
+        x0 = np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3)
         self.L0 = np.linalg.norm(x0[self.conn[:, 1]] - x0[self.conn[:, 0]], axis=1)
         self.dt, self.explicit = dt, explicit
-        self.critical = domain.critical_time_step()
+        self.critical = domain.critical_time_step() if critical is None else critical
         self.labels = [e.label for e in domain.elements]
-        self.floor = energy_floor(model, np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3))
+        self.floor = energy_floor(model, x0)
         """The round-off floor of the energy scale [J] (:func:`energy_floor`)."""
         self.E0 = None
         self.scale = self.floor

@@ -362,17 +362,51 @@ Euler parameters are normalised only to a Newton tolerance, and rejects garbage.
 def _check_rotation_matrix(R) -> np.ndarray:
     """``R`` as a float 3×3 array, rejecting non-finite, reflected or far-from-orthogonal input
     (``|RᵀR − I|`` above :data:`ORTHOGONALITY_TOLERANCE`, or det ≤ 0, which Shepperd's method
-    would silently turn into some rotation).
+    would silently turn into some rotation; :func:`check_rotation_matrices`).
     """
     R = np.asarray(R, dtype=float)
     if R.shape != (3, 3):
         raise ValueError(f"a rotation matrix must be 3×3, got shape {R.shape}")
+    return check_rotation_matrices(R[None])[0]
+
+
+def check_rotation_matrices(R: np.ndarray) -> np.ndarray:
+    """:func:`_check_rotation_matrix` of K matrices ``R`` (K, 3, 3) at once, naming the first bad one."""
     if not np.all(np.isfinite(R)):
         raise ValueError("a rotation matrix must be finite")
-    err = np.max(np.abs(R.T @ R - np.eye(3)))
-    if err > ORTHOGONALITY_TOLERANCE or np.linalg.det(R) <= 0.0:
-        raise ValueError(f"not a proper rotation matrix (|RᵀR − I| = {err:.3g}, det = {np.linalg.det(R):.6g})")
+    err = np.max(np.abs(np.matmul(R.transpose(0, 2, 1), R) - np.eye(3)), axis=(1, 2))
+    det = np.linalg.det(R)
+    bad = np.flatnonzero((err > ORTHOGONALITY_TOLERANCE) | (det <= 0.0))
+    if bad.size:
+        raise ValueError(f"not a proper rotation matrix (|RᵀR − I| = {err[bad[0]]:.3g}, det = {det[bad[0]]:.6g})")
     return R
+
+
+def shepperd(R: np.ndarray) -> np.ndarray:
+    """Euler parameters (K, 4), ``e0 ≥ 0``, of K proper orthogonal matrices ``R`` (K, 3, 3) by Shepperd's
+    method (:meth:`EulerParameters.from_matrix`, which normalises them), not yet normalised.
+
+    Of ``4e0² = 1 + tr R`` and ``4ek² = 1 + 2 R_kk − tr R`` the largest (≥ 1) is taken by a square root;
+    the other three follow from the symmetric and antisymmetric parts of ``R`` divided by it (Shepperd
+    1978).  Each matrix takes its own branch, with the arithmetic of one matrix at a time.
+    """
+    tr = R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2]
+    branch = np.argmax(np.stack([tr, R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], axis=1), axis=1)
+    q = np.empty((len(R), 4))
+    for k in range(4):
+        m = branch == k
+        A, t = R[m], tr[m]
+        s = 2.0 * np.sqrt(1.0 + t) if k == 0 else 2.0 * np.sqrt(1.0 + 2.0 * A[:, k - 1, k - 1] - t)  # = 4 e_k
+        anti = [(A[:, 2, 1] - A[:, 1, 2]) / s, (A[:, 0, 2] - A[:, 2, 0]) / s, (A[:, 1, 0] - A[:, 0, 1]) / s]
+        sym = {(1, 2): A[:, 0, 1] + A[:, 1, 0], (1, 3): A[:, 0, 2] + A[:, 2, 0], (2, 3): A[:, 1, 2] + A[:, 2, 1]}
+        for j in range(4):
+            if j == k:
+                q[m, j] = 0.25 * s
+            elif 0 in (j, k):
+                q[m, j] = anti[j + k - 1]
+            else:
+                q[m, j] = sym[min(j, k), max(j, k)] / s
+    return np.where(q[:, :1] >= 0.0, q, -q)
 
 
 class EulerParameters(Rotation):
@@ -446,23 +480,7 @@ class EulerParameters(Rotation):
         ----------
         Shepperd (1978); Géradin & Cardona (2001), ch. 4.
         """
-        R = _check_rotation_matrix(R)
-        tr = R[0, 0] + R[1, 1] + R[2, 2]
-        k = int(np.argmax([tr, R[0, 0], R[1, 1], R[2, 2]]))
-        if k == 0:
-            s = 2.0 * np.sqrt(1.0 + tr)  # = 4 e0
-            q = [0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s]
-        elif k == 1:
-            s = 2.0 * np.sqrt(1.0 + 2.0 * R[0, 0] - tr)  # = 4 e1
-            q = [(R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s]
-        elif k == 2:
-            s = 2.0 * np.sqrt(1.0 + 2.0 * R[1, 1] - tr)  # = 4 e2
-            q = [(R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s]
-        else:
-            s = 2.0 * np.sqrt(1.0 + 2.0 * R[2, 2] - tr)  # = 4 e3
-            q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
-        q = np.array(q)
-        return cls(q if q[0] >= 0.0 else -q)
+        return cls(shepperd(_check_rotation_matrix(R)[None])[0])
 
     def product(self, other: "EulerParameters") -> "EulerParameters":
         """Quaternion product ``self ⊗ other``: matrix ``A_self A_other``.

@@ -123,17 +123,19 @@ def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, sec
 
 
 def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, results_path=None, progress=None,
-        monitor: bool = True, deck=None) -> Results:
+        monitor: bool = True, deck=None, critical: float | None = None) -> Results:
     """Advance ``state`` by ``n_total`` steps of ``algo``, recording every ``domain.solver.output_every`` steps.
 
     The parameters, the statuses and the errors are those of
     :meth:`reference.domain.Domain.solve`; ``domain.last_run`` is updated with
-    the results path, the status, the last time, the energy scale and the work.
+    the results path, the status, the last time, the energy scale and the work; ``critical`` is the
+    domain's critical step estimate [s] when the caller has it (else computed here).
     """
     every = max(int(domain.solver.output_every), 1)
     rec = Record.empty(len(domain.nodes), model.n_constraints)
     outputs = Outputs(model, domain.joints, rec)
-    watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True)) if monitor else None
+    critical = domain.critical_time_step() if critical is None else critical
+    watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True), critical) if monitor else None
     run_state = None
     if results_path is not None:
         from reference.io.results import ResultsWriter
@@ -147,8 +149,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     wall0 = _time.perf_counter()
     try:
         use_threads(nodes=len(domain.nodes))  # reference.jit: every core for a large model, one for a small one
-        run_state = algo.start(model, state, watch.critical if watch is not None else domain.critical_time_step(),
-                               watch.floor if watch is not None else None)
+        run_state = algo.start(model, state, critical, watch.floor if watch is not None else None)
         domain.last_run["solver"] = run_state
         done = 0
         while True:

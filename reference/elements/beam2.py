@@ -23,7 +23,8 @@ import numpy as np
 
 from reference.elements.element_type import Beam2, ElementType
 from reference.elements.formulation import (
-    ElementFormulation, PlacedElement, is_identity, section_quaternion, tangent_to_node_frames, to_node_frame,
+    ElementFormulation, PlacedElements, end_offsets, is_identity, section_quaternion, tangent_to_node_frames,
+    to_node_frame, vector_norms,
 )
 from reference.elements.section import Section
 from reference.generated import beam2 as generated_beam2
@@ -259,6 +260,20 @@ def _family_resultants(data, W, x, q, N, M):
     return 0.0
 
 
+@kernel
+def _rest_strains(x, p, L0, rel, stiff, psi0, gamma0):
+    """Each element's ``ψ0 = log(rel)`` (``rel = p1* ⊗ p2``) and ``Γ0``: the strain Γ of the generated
+    kernel at rest with ``ψ0`` and ``Γ0 = 0`` (:meth:`Beam2Formulation.rest_states`), into ``psi0``, ``gamma0``
+    (E, 3)."""
+    s, strain, stress, zero = np.empty(12), np.empty(6), np.empty(6), np.zeros(3)
+    for e in range(x.shape[0]):
+        rm.log_quaternion(rel[e], psi0[e])
+        generated_beam2.internal_forces(x[e, 0], x[e, 1], p[e, 0], p[e, 1], L0[e], psi0[e], zero, stiff[e], s,
+                                        strain, stress)
+        for k in range(3):
+            gamma0[e, k] = strain[k]
+
+
 class Beam2Formulation(ElementFormulation):
     """Geometrically exact two-node beam, one-point integration, lumped mass.
 
@@ -293,19 +308,15 @@ class Beam2Formulation(ElementFormulation):
         self._shape_integrals = None
 
     @classmethod
-    def pack(cls, placed: list[PlacedElement]) -> Beam2Data:
-        """The family's plain data from its elements placed at t = 0 (reference states of the section frames)."""
-        E = len(placed)
-        conn = np.array([item.element.nodes for item in placed], dtype=np.int64).reshape(E, 2)
-        index, offset, L0, psi0, gamma0, stiff = (np.zeros(E, dtype=np.int64), np.zeros((E, 2, 4)), np.zeros(E),
-                                                  np.zeros((E, 3)), np.zeros((E, 3)), np.zeros((E, 6)))
-        for e, item in enumerate(placed):
-            ref = item.element.formulation.reference_state(item.x, item.p)
-            index[e], offset[e] = item.index, item.offset
-            L0[e], psi0[e], gamma0[e] = ref["L0"], ref["psi0"], ref["gamma0"]
-            stiff[e] = item.element.formulation.section.stiffness
-        return Beam2Data(conn, index, offset, L0, psi0, gamma0, stiff, *node_incidence(conn), straight_elements(offset),
-                         soa_fixed_rows(L0, psi0, gamma0, stiff))
+    def pack(cls, placed: PlacedElements) -> Beam2Data:
+        """The family's plain data from its elements placed at t = 0 (reference states of the section frames,
+        :meth:`rest_states`, all elements at once)."""
+        conn = np.asarray(placed.conn, dtype=np.int64).reshape(len(placed), 2)
+        stiff = placed.sections("stiffness", 6)
+        L0, psi0, gamma0 = cls.rest_states(placed.x, placed.p, stiff)
+        offset = np.array(placed.offset, dtype=float).reshape(len(placed), 2, 4)
+        return Beam2Data(conn, np.asarray(placed.index, dtype=np.int64), offset, L0, psi0, gamma0, stiff,
+                         *node_incidence(conn), straight_elements(offset), soa_fixed_rows(L0, psi0, gamma0, stiff))
 
     @staticmethod
     def characteristic_energy(data: Beam2Data) -> float:
@@ -320,35 +331,48 @@ class Beam2Formulation(ElementFormulation):
         return np.zeros((data.conn.shape[0], 40))
 
     def lumped_mass(self, x_nodes):
-        """Row-sum lumping ``m_i = ∫ N_i ρA ds`` (the element type's mass points; its integrals of
-        ``N_i`` over [−1, 1] are computed once per formulation) and ``J_i`` likewise."""
-        length = float(np.linalg.norm(x_nodes[1] - x_nodes[0]))
+        """Row-sum lumping ``m_i = ∫ N_i ρA ds`` and ``J_i`` likewise, one element (:meth:`lumped_masses`)."""
+        mass, inertia = self.lumped_masses(np.asarray(x_nodes, dtype=float)[None])
+        return [(mass[0, a], inertia[0, a]) for a in range(mass.shape[1])]
+
+    def lumped_masses(self, x):
+        """Row-sum lumping of E elements, ``x`` (E, n, 3): ``m_i = ρA ∫ N_i ds`` (E, n) [kg] and
+        ``J_i = diag(ρJ1, ρJ2, ρJ3) ∫ N_i ds`` (E, n, 3, 3) [kg m²], section frame (the element type's mass
+        points; its integrals of ``N_i`` over [−1, 1] are computed once per formulation; ds = L/2 dξ)."""
+        length = vector_norms(x[:, 1] - x[:, 0])
         if self._shape_integrals is None:
             xi, w = self.element_type.mass_points()
             self._shape_integrals = [sum(wk * self.element_type.shape_functions(xk)[i] for xk, wk in zip(xi, w))
                                      for i in range(self.element_type.n_nodes)]
-        out = []
-        for integral in self._shape_integrals:
-            share = integral * length / 2
-            out.append((self.section.rhoA * share, np.diag(self.section.rotary_inertia * share)))
-        return out
+        share = np.array(self._shape_integrals, dtype=float)[None, :] * length[:, None] / 2
+        inertia = np.zeros(share.shape + (3, 3))
+        for k, rho_j in enumerate(self.section.rotary_inertia):
+            inertia[..., k, k] = rho_j * share
+        return self.section.rhoA * share, inertia
 
     def reference_state(self, x_nodes, q_nodes):
-        """Reference length ``L0``, relative rotation ``ψ0`` and ``Γ0 = Amᵀ x'``.
+        """Reference length ``L0``, relative rotation ``ψ0`` and ``Γ0 = Amᵀ x'`` of one element
+        (:meth:`rest_states`).
 
         With these the element is unstrained in its initial configuration
         (a curved or kinked reference is allowed).
         """
-        length = float(np.linalg.norm(x_nodes[1] - x_nodes[0]))
-        if length <= 0.0:
+        L0, psi0, gamma0 = self.rest_states(np.asarray(x_nodes, dtype=float)[None],
+                                            np.asarray(q_nodes, dtype=float)[None], self.section.stiffness[None])
+        return {"L0": float(L0[0]), "psi0": psi0[0], "gamma0": gamma0[0]}
+
+    @staticmethod
+    def rest_states(x, p, stiff):
+        """``L0`` (E,) [m], ``ψ0 = log(p1* ⊗ p2)`` and ``Γ0`` (E, 3) of E elements at rest, node positions
+        ``x`` (E, 2, 3), section triads ``p`` (E, 2, 4), stiffnesses ``stiff`` (E, 6): ``Γ0 = Amᵀ x'``
+        is the generated kernel's Γ evaluated with the reference itself and Γ0 = 0 (:func:`_rest_strains`)."""
+        x, p = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(p, dtype=float)
+        L0 = vector_norms(x[:, 1] - x[:, 0])
+        if (L0 <= 0.0).any():
             raise ValueError("Beam2 element of zero length")
-        r = np.empty(4)
-        rm.quat_product(q_nodes[0] * np.array([1, -1, -1, -1]), q_nodes[1], r)
-        psi0 = np.empty(3)
-        rm.log_quaternion(r, psi0)
-        # Γ0 = Am^T x' with the reference itself: evaluate with Γ0 = 0 and read Γ.
-        _, _, strain, _ = self._evaluate(x_nodes, q_nodes, {"L0": length, "psi0": psi0, "gamma0": np.zeros(3)})
-        return {"L0": length, "psi0": psi0, "gamma0": strain[:3].copy()}
+        psi0, gamma0 = np.empty((len(L0), 3)), np.empty((len(L0), 3))
+        _rest_strains(x, p, L0, end_offsets(p[:, 0], p[:, 1]), np.ascontiguousarray(stiff, dtype=float), psi0, gamma0)
+        return L0, psi0, gamma0
 
     def _evaluate(self, x_nodes, q_nodes, reference):
         s, strain, stress = np.empty(12), np.empty(6), np.empty(6)

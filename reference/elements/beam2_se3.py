@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from reference.elements.beam2 import PARALLEL_ELEMENTS, Beam2Formulation
-from reference.elements.formulation import section_quaternion, tangent_to_node_frames, to_node_frame
+from reference.elements.formulation import section_quaternion, tangent_to_node_frames, to_node_frame, vector_norms
 from reference.generated import beam2_se3 as generated
 from reference.generated import rotation_maps as rm
 from reference.jit import inlined, kernel, parallel_kernel, prange
@@ -192,7 +192,7 @@ class Beam2SE3Formulation(Beam2Formulation):
     def pack(cls, placed) -> Beam2SE3Data:
         """The family's plain data: Beam2's fields (but those of its vectorised loop, which this family has
         not), with this family's reference state."""
-        return Beam2SE3Data(*Beam2Formulation.pack(placed)[:len(Beam2SE3Data._fields)])
+        return Beam2SE3Data(*super().pack(placed)[:len(Beam2SE3Data._fields)])
 
     @staticmethod
     def rest_frames(node_frames, chord_frames, i):
@@ -200,14 +200,22 @@ class Beam2SE3Formulation(Beam2Formulation):
         (the arc's tangent frames), so the reference helicoid is the arc itself."""
         return node_frames[i], node_frames[i + 1]
 
-    def reference_state(self, x_nodes, q_nodes):
-        """``L0 = |U0|`` (the helicoid's arc length, the chord for a straight element),
-        ``ψ0 = log(Λ1ᵀΛ2)`` and ``Γ0 = U0/L0`` with ``U0 = B(ψ0) Λ1ᵀ(x2 − x1)`` at rest."""
-        _, _, strain, _ = self._evaluate(x_nodes, q_nodes, {"L0": 1.0, "psi0": np.zeros(3), "gamma0": np.zeros(3)})
-        length = float(np.linalg.norm(strain[:3]))
-        if length <= 0.0:
+    @staticmethod
+    def rest_states(x, p, stiff):
+        """``L0 = |U0|`` (E,) (the helicoid's arc length, the chord for a straight element),
+        ``ψ0 = log(Λ1ᵀΛ2)`` and ``Γ0 = U0/L0`` (E, 3) with ``U0 = B(ψ0) Λ1ᵀ(x2 − x1)`` at rest, of E elements
+        (``x`` (E, 2, 3), ``p`` (E, 2, 4)): the generated kernel's strains with ``L0 = 1`` and a zero
+        reference, element by element (the per-element :meth:`reference_state` is this with E = 1)."""
+        x, p = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(p, dtype=float)
+        stiff = np.ascontiguousarray(stiff, dtype=float)
+        strain, s, stress = np.empty((x.shape[0], 6)), np.empty(12), np.empty(6)
+        for e in range(x.shape[0]):
+            generated.internal_forces(x[e, 0], x[e, 1], p[e, 0], p[e, 1], 1.0, np.zeros(3), np.zeros(3), stiff[e],
+                                      s, strain[e], stress)
+        L0 = vector_norms(strain[:, :3])
+        if (L0 <= 0.0).any():
             raise ValueError("beam2_se3 element of zero length")
-        return {"L0": length, "psi0": strain[3:].copy(), "gamma0": strain[:3] / length}
+        return L0, strain[:, 3:].copy(), strain[:, :3] / L0[:, None]
 
     def _evaluate(self, x_nodes, q_nodes, reference):
         s, strain, stress = np.empty(12), np.empty(6), np.empty(6)

@@ -17,7 +17,9 @@ from typing import NamedTuple
 import numpy as np
 
 from reference.elements.beam2 import PARALLEL_ELEMENTS, Beam2Formulation
-from reference.elements.formulation import PlacedElement, section_quaternion, tangent_to_node_frames, to_node_frame
+from reference.elements.formulation import (
+    PlacedElements, section_quaternion, tangent_to_node_frames, to_node_frame, vector_norms,
+)
 from reference.generated import beam3 as generated
 from reference.jit import inlined, kernel, parallel_kernel, prange
 from reference.newton_blocks import store_block
@@ -170,8 +172,8 @@ class Beam3Formulation(Beam2Formulation):
     resultants = staticmethod(_resultants)
 
     @classmethod
-    def pack(cls, placed: list[PlacedElement]) -> Beam3Data:
-        """The family's plain data from its elements placed at t = 0."""
+    def pack(cls, placed: PlacedElements) -> Beam3Data:
+        """The family's plain data from its elements placed at t = 0 (element by element)."""
         E = len(placed)
         conn = np.array([item.element.nodes for item in placed], dtype=np.int64).reshape(E, 3)
         data = Beam3Data(conn, np.zeros(E, dtype=np.int64), np.zeros((E, 3, 4)), np.zeros(E), np.zeros((E, 6)),
@@ -208,15 +210,30 @@ class Beam3Formulation(Beam2Formulation):
         return node_frames[2 * i], node_frames[2 * i + 2], node_frames[2 * i + 1]
 
     def lumped_mass(self, x_nodes):
-        length = self._length(x_nodes)
-        return [(self.section.rhoA * share * length, np.diag(self.section.rotary_inertia * share * length))
-                for share in (1 / 6, 1 / 6, 2 / 3)]
+        """The lumped masses and rotary inertias (section frame) of one element (:meth:`lumped_masses`)."""
+        mass, inertia = self.lumped_masses(np.asarray(x_nodes, dtype=float)[None])
+        return [(mass[0, a], inertia[0, a]) for a in range(3)]
+
+    def lumped_masses(self, x):
+        """E elements' (``x`` (E, 3, 3)) shares 1/6, 1/6, 2/3 of ``ρA L`` (E, 3) [kg] and of
+        ``diag(ρJ1, ρJ2, ρJ3) L`` (E, 3, 3) [kg m²] (Simpson's weights), ``L`` the Gauss length (:meth:`_lengths`)."""
+        length = self._lengths(x)[:, None]
+        share = np.array([1 / 6, 1 / 6, 2 / 3])[None, :]
+        inertia = np.zeros(length.shape[:1] + (3, 3, 3))
+        for k, rho_j in enumerate(self.section.rotary_inertia):
+            inertia[..., k, k] = rho_j * share * length
+        return self.section.rhoA * share * length, inertia
 
     @staticmethod
     def _length(x_nodes) -> float:
         """Two-point Gauss length of the quadratic curve through the nodes (exact for a straight element)."""
-        x1, x2, x3 = (np.asarray(v, float) for v in x_nodes)
-        return float(sum(np.linalg.norm((xi - 0.5) * x1 + (xi + 0.5) * x2 - 2 * xi * x3) for xi in GAUSS))
+        return float(Beam3Formulation._lengths(np.asarray(x_nodes, dtype=float)[None])[0])
+
+    @staticmethod
+    def _lengths(x) -> np.ndarray:
+        """:meth:`_length` of E elements, ``x`` (E, 3, 3)."""
+        x1, x2, x3 = x[:, 0], x[:, 1], x[:, 2]
+        return sum(vector_norms((xi - 0.5) * x1 + (xi + 0.5) * x2 - 2 * xi * x3) for xi in GAUSS)
 
     def reference_state(self, x_nodes, q_nodes):
         """``L0`` (:meth:`_length`) and the strains ``Γ0``, ``K0`` at the Gauss points at rest."""

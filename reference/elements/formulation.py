@@ -17,6 +17,7 @@ and body-frame moments and tangents from the section frames back to the nodes'
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -56,12 +57,59 @@ class PlacedElement(NamedTuple):
     offset: np.ndarray
 
 
+class PlacedElements(Sequence):
+    """The elements of one family placed at t = 0, as arrays over the family's E elements (Domain order):
+    ``index`` (E,) their numbers in the Domain, ``elements`` the :class:`Element` objects, ``x`` (E, n, 3)
+    node positions, ``p`` (E, n, 4) section triads, ``offset`` (E, n, 4) the end offsets.  A family's
+    ``pack`` may take the arrays at once or iterate: item e is element e's :class:`PlacedElement`; ``conn``
+    (E, n) the elements' node numbers."""
+
+    def __init__(self, index, elements, conn, x, p, offset):
+        self.index, self.elements, self.conn, self.x, self.p, self.offset = index, elements, conn, x, p, offset
+
+    def __len__(self) -> int:
+        return len(self.elements)
+
+    def __getitem__(self, e):
+        if isinstance(e, slice):
+            return [self[k] for k in range(len(self))[e]]
+        return PlacedElement(int(self.index[e]), self.elements[e], self.x[e], self.p[e], self.offset[e])
+
+    def groups(self) -> list:
+        """``[(formulation, element numbers (k,))]``: the family's elements by formulation
+        (:func:`formulation_groups`), computed once."""
+        if not hasattr(self, "_groups"):
+            self._groups = formulation_groups(self.elements)
+        return self._groups
+
+    def sections(self, attribute: str, k: int) -> np.ndarray:
+        """(E, k) a section property array (``"stiffness"``, k = 6; ``"rotary_inertia"``, k = 3) of every
+        element, read once per formulation."""
+        out = np.empty((len(self), k))
+        for formulation, members in self.groups():
+            out[members] = getattr(formulation.section, attribute)
+        return out
+
+
+def formulation_groups(elements: list) -> list:
+    """``[(formulation, numbers)]``: the positions (k,) in ``elements`` of the elements of each formulation
+    (an object shared by the elements of a beam), in increasing order; the formulations in the order of their
+    first element."""
+    formulations = [element.formulation for element in elements]
+    ids = np.fromiter(map(id, formulations), dtype=np.int64, count=len(formulations))
+    _, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
+    order = np.argsort(inverse, kind="stable")
+    members = np.split(order, np.cumsum(np.bincount(inverse, minlength=len(first)))[:-1])
+    return [(formulations[first[g]], members[g]) for g in np.argsort(first)]
+
+
 class ElementFormulation(ABC):
     """Abstract element formulation; each subclass is an element *family* of the engine.
 
     Per element (Python, used at assembly and by tests and lessons):
 
     - ``lumped_mass(x_nodes)`` → list of ``(mass, inertia 3×3 section frame)`` per node;
+    - ``lumped_masses(x)`` → the same of E elements at once, arrays (by default element by element);
     - ``internal_forces(x, q, reference)`` → ``(S (n_nodes·6,), U)`` for one element;
     - ``reference_state(x, q)`` → what the unstrained configuration needs;
     - ``critical_time_step(length)`` → stability limit of the explicit scheme [s];
@@ -73,7 +121,8 @@ class ElementFormulation(ABC):
     - ``family``: the deck name; ``n_nodes``; ``Data``: the NamedTuple of the family's plain
       data in :attr:`reference.state.Model.elements`, whose first fields are ``conn`` (E, n)
       node numbers and ``index`` (E,) the elements' numbers in the Domain;
-    - ``pack(placed)`` → ``Data`` from a list of :class:`PlacedElement`;
+    - ``pack(placed)`` → ``Data`` from the family's :class:`PlacedElements` (arrays over its elements, or
+      one :class:`PlacedElement` after the other);
     - ``work(data)`` → the family's work array(s) for the compiled calls;
     - ``characteristic_energy(data)`` → the strain energy of a unit strain (and curvature) in every
       element [J], the scale of the energy guard's round-off floor (:func:`reference.monitor.energy_floor`);
@@ -121,6 +170,17 @@ class ElementFormulation(ABC):
     @abstractmethod
     def lumped_mass(self, x_nodes: np.ndarray) -> list: ...
 
+    def lumped_masses(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The lumped masses (E, n) [kg] and rotary inertias (E, n, 3, 3) [kg m²], section frames, of E
+        elements of this formulation with node positions ``x`` (E, n, 3): by default :meth:`lumped_mass`
+        element by element (a family may compute them at once, with the same numbers)."""
+        E, n = x.shape[0], x.shape[1]
+        mass, inertia = np.zeros((E, n)), np.zeros((E, n, 3, 3))
+        for e in range(E):
+            for a, (m, J) in enumerate(self.lumped_mass(x[e])):
+                mass[e, a], inertia[e, a] = m, J
+        return mass, inertia
+
     @abstractmethod
     def reference_state(self, x_nodes: np.ndarray, q_nodes: np.ndarray) -> dict: ...
 
@@ -143,13 +203,36 @@ def section_quaternion(q_node, o, out):
 
 
 def end_offsets(q_nodes, p_nodes) -> np.ndarray:
-    """The constant offsets ``o_a = q_a⁰* ⊗ p_a⁰`` (n, 4) of an element's ends from their nodes' Euler
-    parameters ``q_nodes`` and section triads ``p_nodes`` (n, 4) at rest (:class:`reference.state.Model`)."""
-    out = np.empty((len(q_nodes), 4))
-    for a, (qa, pa) in enumerate(zip(q_nodes, p_nodes)):
-        rm.quat_product(np.asarray(qa, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0]),
-                        np.asarray(pa, dtype=float), out[a])
+    """The constant offsets ``o_a = q_a⁰* ⊗ p_a⁰`` (…, 4) of element ends from their nodes' Euler
+    parameters ``q_nodes`` and section triads ``p_nodes`` (…, 4) at rest (:class:`reference.state.Model`):
+    the generated ``quat_product`` on the arrays of each component at once (the same arithmetic,
+    the same numbers as the compiled kernel one end at a time)."""
+    q = np.asarray(q_nodes, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0])
+    p = np.asarray(p_nodes, dtype=float)
+    out = np.empty(np.broadcast_shapes(q.shape, p.shape))
+    _quat_product(np.moveaxis(q, -1, 0), np.moveaxis(p, -1, 0), np.moveaxis(out, -1, 0))
     return out
+
+
+def vector_norms(v) -> np.ndarray:
+    """Euclidean norms (…,) of the vectors ``v`` (…, k): ``np.linalg.norm`` of each, bit for bit (the same
+    BLAS dot product per vector, through a stacked ``matmul``; a sum of squares may round differently)."""
+    v = np.asarray(v, dtype=float)
+    return np.sqrt(np.matmul(v[..., None, :], v[..., :, None])[..., 0, 0])
+
+
+def rotation_matrices(q) -> np.ndarray:
+    """``EulerParameters(q).matrix()`` (…, 3, 3) of Euler parameters ``q`` (…, 4), normalised first, bit for
+    bit (the generated ``rotation_matrix`` on the arrays of each component at once)."""
+    q = np.asarray(q, dtype=float)
+    q = q / vector_norms(q)[..., None]
+    out = np.empty(q.shape[:-1] + (9,))
+    _rotation_matrix(np.moveaxis(q, -1, 0), np.moveaxis(out, -1, 0))
+    return out.reshape(q.shape[:-1] + (3, 3))
+
+
+_quat_product = getattr(rm.quat_product, "py_func", rm.quat_product)
+_rotation_matrix = getattr(rm.rotation_matrix, "py_func", rm.rotation_matrix)
 
 
 @kernel
