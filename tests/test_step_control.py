@@ -154,8 +154,8 @@ def test_error_tolerance_is_proportional_on_the_three_bar():
     """Three-bar, 4 s, no dt (outputs every 0.01 s): at error_tolerance 1e-3, 1e-4, 1e-5 the coupler's
     mid-span deflection against a converged run (dt = 2.5e-4, whose own error is ~1e-5 of the peak by
     its h² trend) decreases and stays within 0.05–20 × the tolerance (issue acceptance; measured
-    2.9, 8.9 and 15.1 × with the step-increment norm, the dead band and equal landing steps; 3.0, 9.2 and
-    15.2 × before them)."""
+    3.0, 8.9 and 16.3 × with Newton's test relative to the forces; 2.9, 8.9 and 15.1 × with the former
+    absolute test)."""
     def domain(**solver):
         d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 4.0})
         d.solver.algorithm = "generalized_alpha"
