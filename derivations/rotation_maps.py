@@ -152,17 +152,11 @@ def kernels() -> list[Kernel]:
         Kernel("rotation_matrix", "``A(q)`` (body → inertial), row-major 3×3.",
                [("q", q, "unit Euler parameters")],
                [("out", _flat(rotation_matrix(q)), "A[0,0], A[0,1], …, A[2,2]")]),
-        Kernel("cayley_update",
-               "Euler parameters after one step of the trapezoidal rule (paper §3.3):\n"
-               "    ``q_new = q ⊗ p(h ω)``, ω in the body frame, held over the step.",
-               [("q", q, "Euler parameters at the start of the step"),
-                ("w", w, "body-frame angular velocity over the step [rad/s]"),
-                ("h", h, "time step [s]")],
-               [("out", q_new, "Euler parameters at the end of the step")]),
         Kernel("cayley_update_scalars",
-               "``cayley_update`` on numbers, not arrays: the explicit step's drift calls it once per node,\n"
-               "    and an array argument of a call inside a loop costs numba two atomic reference-count updates\n"
-               "    per call (reference/jit.py).  The same arithmetic, the same bits.",
+               "Euler parameters after one step of the trapezoidal rule (paper §3.3):\n"
+               "    ``q_new = q ⊗ p(h ω)``, ω in the body frame, held over the step.  On numbers, not arrays:\n"
+               "    the explicit step's drift calls it once per node, and an array argument of a call inside a\n"
+               "    loop costs numba two atomic reference-count updates per call (reference/jit.py).",
                [(f"q_{k}", q[k], f"Euler parameter {k} at the start of the step") for k in range(4)]
                + [(f"w_{k}", w[k], f"body-frame angular velocity {k} over the step [rad/s]") for k in range(3)]
                + [("h", h, "time step [s]")],

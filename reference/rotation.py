@@ -565,9 +565,8 @@ class EulerParameters(Rotation):
         Park et al. (1991); paper §3.3; docs/formulation.md §8 "Euler parameters by the
         trapezoidal rule".
         """
-        out = np.empty(4)
-        _rm.cayley_update(self.q, _vec(omega_body, 3, "angular velocity"), float(h), out)
-        return EulerParameters(out)
+        w = _vec(omega_body, 3, "angular velocity")
+        return EulerParameters(np.array(_rm.cayley_update_scalars(*self.q, *w, float(h))))
 
 
 class RotationVector(Rotation):

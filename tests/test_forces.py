@@ -401,8 +401,7 @@ def test_force_element_forces_are_the_energy_gradient():
                 else:
                     dth = np.zeros(3)
                     dth[a_ - 3] = s
-                    out = np.zeros(4)
-                    rm.cayley_update(q[n], dth, 1.0, out)
+                    out = np.array(rm.cayley_update_scalars(*q[n], *dth, 1.0))
                     qp[n] = out / np.linalg.norm(out)
                 pair.append(energy(xp, qp)[0])
             assert -(pair[0] - pair[1]) / (2 * eps) == pytest.approx(F[n, a_], rel=1e-6, abs=1e-8)
@@ -538,8 +537,7 @@ def _tangent_check(kind):
             else:
                 dth = np.zeros(3)
                 dth[comp - 3] = s
-                out = np.zeros(4)
-                rm.cayley_update(q[n], dth, 1.0, out)
+                out = np.array(rm.cayley_update_scalars(*q[n], *dth, 1.0))
                 qp[n] = out / np.linalg.norm(out)
                 wp[n, comp - 3] += s
             pair.append(force(xp, qp, v, w))

@@ -188,46 +188,11 @@ def rotation_matrix(q, out):
 
 
 @kernel
-def cayley_update(q, w, h, out):
-    """Euler parameters after one step of the trapezoidal rule (paper §3.3):
-    ``q_new = q ⊗ p(h ω)``, ω in the body frame, held over the step.
-
-    Parameters (in this order)
-    ----------
-    q : array (4,)
-        Euler parameters at the start of the step
-    w : array (3,)
-        body-frame angular velocity over the step [rad/s]
-    h : float
-        time step [s]
-    out : array (4,), written
-        Euler parameters at the end of the step
-    """
-    q_0 = q[0]
-    q_1 = q[1]
-    q_2 = q[2]
-    q_3 = q[3]
-    w_0 = w[0]
-    w_1 = w[1]
-    w_2 = w[2]
-    t0 = h**2*(w_0**2 + w_1**2 + w_2**2)
-    t1 = 1/(t0 + 16)
-    t2 = 8*h
-    t3 = t2*w_0
-    t4 = t2*w_1
-    t5 = t2*w_2
-    t6 = t0 - 16
-    out[0] = -t1*(q_0*t6 + q_1*t3 + q_2*t4 + q_3*t5)
-    out[1] = t1*(q_0*t3 - q_1*t6 + q_2*t5 - q_3*t4)
-    out[2] = t1*(q_0*t4 - q_1*t5 - q_2*t6 + q_3*t3)
-    out[3] = t1*(q_0*t5 + q_1*t4 - q_2*t3 - q_3*t6)
-
-
-@kernel
 def cayley_update_scalars(q_0, q_1, q_2, q_3, w_0, w_1, w_2, h):
-    """``cayley_update`` on numbers, not arrays: the explicit step's drift calls it once per node,
-    and an array argument of a call inside a loop costs numba two atomic reference-count updates
-    per call (reference/jit.py).  The same arithmetic, the same bits.
+    """Euler parameters after one step of the trapezoidal rule (paper §3.3):
+    ``q_new = q ⊗ p(h ω)``, ω in the body frame, held over the step.  On numbers, not arrays:
+    the explicit step's drift calls it once per node, and an array argument of a call inside a
+    loop costs numba two atomic reference-count updates per call (reference/jit.py).
 
     Parameters (in this order)
     ----------
