@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 
-
 from reference.generated import rotation_maps as rm
 from reference.jit import inlined, parallel_kernel, prange
 from reference.parallel import CHUNK, PARALLEL_NODES, n_chunks
