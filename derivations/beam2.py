@@ -54,7 +54,7 @@ from __future__ import annotations
 import sympy as sp
 
 from derivations.codegen import Kernel, Stager, render_kernel, render_module, vector
-from derivations.soa import render_series, render_soa_kernel
+from derivations.soa import render_short_series, render_soa_kernel
 from derivations.rotation_maps import (
     USER_FUNCTIONS,
     atan2_quadrant,
@@ -207,7 +207,7 @@ def generate_soa() -> str:
         constants += [f"ROW_{name.upper()} = {first}", f'"""First row of ``{name}``."""']
     for name, first, _ in layout["fixed"]:
         constants += [f"FIXED_{name.upper()} = {first}", f'"""First row of ``{name}`` in a block of ``u``."""']
-    series = [render_series(c) for c in COEFFICIENTS if c.name in source]
+    series = [render_short_series(c) for c in COEFFICIENTS if c.name in source]
     select = ('@inlined\ndef branch_sign_select(x):\n    """``branch_sign`` inlined: a select in a vector loop."""\n'
               "    if x >= 0.0:\n        return 1.0\n    return -1.0\n\n\n"
               "atan2_quadrant_vector = inlined(atan2_quadrant)\n"

@@ -16,11 +16,13 @@ statements are split into rounds; round r is a vector loop then a scalar loop:
   call alone: its arguments and what uses the angle are other statements); a kernel that calls a
   function of arithmetic only instead (the Beam2 kernels' ``atan2_quadrant``, derivations/atan2.py)
   keeps it in the vector loops, under the inlined name ``vector_names`` gives;
-* a statement with a coefficient function ``c_*(a)`` (a removable singularity at 0: Taylor series
-  below a threshold, the closed form with ``sin``/``cos`` above) is computed in the vector loop
-  with the series only (the two series joined by a select, ``c_*_series``), and the scalar loop
-  then recomputes it with the full function for the elements whose argument is at or beyond the
-  series' threshold (none for the small relative rotations of a fine mesh: a compare per element);
+* a statement with a coefficient function ``c_*(a)`` (a removable singularity at 0: a short Taylor
+  series, then a long one, below a threshold, the closed form with ``sin``/``cos`` above) is computed
+  in the vector loop with the short series only (``c_*_short``), and the scalar loop then recomputes
+  it with the full function for the elements whose argument is at or beyond the short series' range
+  (none for the small relative rotations of a fine mesh: a compare per element).  The long series is
+  not in the vector loop: a vector loop computes both sides of a select, so every element would pay
+  for the long series that a fine mesh never takes (measured: 48 → 37 ns per Beam2 element);
 * every other statement goes into the vector loop of the latest round that still precedes its
   first use (so that few values cross loops); a value used in another loop than its own is
   stored in a row of ``v``, the others stay in registers.
@@ -35,19 +37,17 @@ from sympy.printing.pycode import PythonCodePrinter
 from derivations.codegen import Coefficient, Kernel, _printer, _shared_subexpressions, coefficient_series
 
 
-def render_series(coef: Coefficient) -> str:
-    """An inlined ``<name>_series(a)``: ``coef``'s short and long Taylor series joined by a select, the
-    same text as the full function's two series branches (exact below ``coef.threshold`` only)."""
-    small, first, approx = coefficient_series(coef)
+def render_short_series(coef: Coefficient) -> str:
+    """An inlined ``<name>_short(a)``: ``coef``'s short Taylor series, the same text as the full function's
+    first branch (exact for |a| below the short series' threshold only: the kernel's scalar loop takes
+    the full function beyond it)."""
+    small, first, _ = coefficient_series(coef)
     return (
         "@inlined\n"
-        f"def {coef.name}_series(a):\n"
-        f'    """``{coef.name}(a)`` for |a| < {coef.threshold!r} without its closed form (no libm call, so the\n'
-        f"    loop calling it vectorises): the series of order {coef.short_order} for |a| < {small!r}, else\n"
-        f'    that of order {coef.order}."""\n'
-        f"    if abs(a) < {small!r}:\n"
-        f"        return {first}\n"
-        f"    return {approx}\n"
+        f"def {coef.name}_short(a):\n"
+        f'    """``{coef.name}(a)`` for |a| < {small!r}: its series of order {coef.short_order} alone (arithmetic, no select,\n'
+        f'    no libm call), so that the loop calling it vectorises and computes nothing more."""\n'
+        f"    return {first}\n"
     )
 
 
@@ -224,7 +224,7 @@ def render_soa_kernel(kernel: Kernel, coefficients: dict, block: int, user_funct
             if sym in stored:
                 body.append(f"        {at(sym)} = {sym.name}")
         for sym, expr in fixes:
-            limits = sorted({(scalar_printer.doprint(f.args[0]), coefficients[f.func.__name__].threshold)
+            limits = sorted({(scalar_printer.doprint(f.args[0]), coefficient_series(coefficients[f.func.__name__])[0])
                              for f in _calls(expr, set(coefficients))})
             cond = " or ".join(f"abs({arg}) >= {thr!r}" for arg, thr in limits)
             body.append(f"        if {cond}:")
@@ -256,11 +256,11 @@ def render_soa_kernel(kernel: Kernel, coefficients: dict, block: int, user_funct
 
 class PythonVectorPrinter:
     """The per-element kernel's printer for a vector loop: a coefficient function ``c`` is printed as
-    ``c_series`` (:func:`render_series`), ``branch_sign`` as the inlined ``branch_sign_select``."""
+    ``c_short`` (:func:`render_short_series`), ``branch_sign`` as the inlined ``branch_sign_select``."""
 
     def __init__(self, user_functions, coefficients, vector_names=None):
         names = {name: name for name in user_functions}
-        names.update({name: f"{name}_series" for name in coefficients})
+        names.update({name: f"{name}_short" for name in coefficients})
         names.update(vector_names or {})
         if "branch_sign" in names:
             names["branch_sign"] = "branch_sign_select"

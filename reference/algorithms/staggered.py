@@ -207,6 +207,8 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             _record(model, scratch, rec, x, q, v, w, v_new, w_new, n == 0, U, dD_fe, clock, n_rows)
         if n_steps == 0:
             break
+        if not math.isfinite(sums[5]):  # a new velocity is not finite: the state stays at the last finite step
+            return DIVERGED
         P_drive = 0.0
         if n_rows > 0:
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
@@ -217,8 +219,6 @@ def advance(model, state, h, n_steps, record, rec, scratch):
                                                scratch.guard):
             return BLOWUP
         clock[3] += 0.5 * dD_fe
-        if not math.isfinite(sums[5]):  # a new velocity is not finite: the state stays at the last finite step
-            return DIVERGED
         drift_nodes(x, q, v, w, v_new, w_new, f_prev, F, h)
         if n_ms > 0:
             master_slave_positions(model, x, q, scratch.A_m, scratch.A_s, q_tmp, scratch.r4)

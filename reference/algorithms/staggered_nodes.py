@@ -123,14 +123,21 @@ def _chunk_sums(k, mass, J, free, v, w, v_new, w_new, F, f_prev, damped, guarded
                 for b in range(3):
                     dD += w[i, a] * J[i, a, b] * 0.5 * (w[i, b] + w_new[i, b]) * free[i, 3 + a]
         if guarded:
+            # a principal-axes inertia (every node of a straight beam): T without its zero products, the
+            # same sum (a term ±0 leaves a sum of terms ≥ 0 as it is)
+            diagonal = J[i, 0, 1] == 0.0 and J[i, 0, 2] == 0.0 and J[i, 1, 0] == 0.0 and J[i, 1, 2] == 0.0 and \
+                J[i, 2, 0] == 0.0 and J[i, 2, 1] == 0.0
             for a in range(3):
                 va = c * v[i, a] + d * v_new[i, a]
                 T += 0.5 * mass[i] * va * va
                 P_old += F[i, a] * v[i, a] + F[i, 3 + a] * w[i, a]
                 P_new += F[i, a] * v_new[i, a] + F[i, 3 + a] * w_new[i, a]
                 wa = c * w[i, a] + d * w_new[i, a]
-                for b in range(3):
-                    T += 0.5 * wa * J[i, a, b] * (c * w[i, b] + d * w_new[i, b])
+                if diagonal:
+                    T += 0.5 * wa * J[i, a, a] * wa
+                else:
+                    for b in range(3):
+                        T += 0.5 * wa * J[i, a, b] * (c * w[i, b] + d * w_new[i, b])
     part[k, 0], part[k, 1], part[k, 2], part[k, 3], part[k, 4], part[k, 5] = dW, dD, T, P_old, P_new, total
 
 

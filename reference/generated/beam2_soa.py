@@ -43,53 +43,38 @@ FIXED_C = 7
 
 
 @inlined
-def c_sinc_series(a):
-    """``c_sinc(a)`` for |a| < 0.1 without its closed form (no libm call, so the
-    loop calling it vectorises): the series of order 8 for |a| < 0.05, else
-    that of order 14."""
-    if abs(a) < 0.05:
-        return a**2*(a**2*(1/120 - 1/5040*a**2) - 1/6) + 1
-    return a**2*(a**2*(a**2*(a**2*(a**2*((1/6227020800)*a**2 - 1/39916800) + 1/362880) - 1/5040) + 1/120) - 1/6) + 1
+def c_sinc_short(a):
+    """``c_sinc(a)`` for |a| < 0.05: its series of order 8 alone (arithmetic, no select,
+    no libm call), so that the loop calling it vectorises and computes nothing more."""
+    return a**2*(a**2*(1/120 - 1/5040*a**2) - 1/6) + 1
 
 
 @inlined
-def c_cosc_series(a):
-    """``c_cosc(a)`` for |a| < 1.0 without its closed form (no libm call, so the
-    loop calling it vectorises): the series of order 8 for |a| < 0.061, else
-    that of order 26."""
-    if abs(a) < 0.061:
-        return a**2*(a**2*(1/720 - 1/40320*a**2) - 1/24) + 1/2
-    return a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*((1/403291461126605635584000000)*a**2 - 1/620448401733239439360000) + 1/1124000727777607680000) - 1/2432902008176640000) + 1/6402373705728000) - 1/20922789888000) + 1/87178291200) - 1/479001600) + 1/3628800) - 1/40320) + 1/720) - 1/24) + 1/2
+def c_cosc_short(a):
+    """``c_cosc(a)`` for |a| < 0.061: its series of order 8 alone (arithmetic, no select,
+    no libm call), so that the loop calling it vectorises and computes nothing more."""
+    return a**2*(a**2*(1/720 - 1/40320*a**2) - 1/24) + 1/2
 
 
 @inlined
-def c_sinc3_series(a):
-    """``c_sinc3(a)`` for |a| < 1.0 without its closed form (no libm call, so the
-    loop calling it vectorises): the series of order 8 for |a| < 0.072, else
-    that of order 26."""
-    if abs(a) < 0.072:
-        return a**2*(a**2*(1/5040 - 1/362880*a**2) - 1/120) + 1/6
-    return a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*((1/10888869450418352160768000000)*a**2 - 1/15511210043330985984000000) + 1/25852016738884976640000) - 1/51090942171709440000) + 1/121645100408832000) - 1/355687428096000) + 1/1307674368000) - 1/6227020800) + 1/39916800) - 1/362880) + 1/5040) - 1/120) + 1/6
+def c_sinc3_short(a):
+    """``c_sinc3(a)`` for |a| < 0.072: its series of order 8 alone (arithmetic, no select,
+    no libm call), so that the loop calling it vectorises and computes nothing more."""
+    return a**2*(a**2*(1/5040 - 1/362880*a**2) - 1/120) + 1/6
 
 
 @inlined
-def c_jinv_series(a):
-    """``c_jinv(a)`` for |a| < 1.0 without its closed form (no libm call, so the
-    loop calling it vectorises): the series of order 8 for |a| < 0.067, else
-    that of order 26."""
-    if abs(a) < 0.067:
-        return a**2*(a**2*((1/1209600)*a**2 + 1/30240) + 1/720) + 1/12
-    return a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*(a**2*((657931/186134520519971831808000000)*a**2 + 236364091/1693824136731743669452800000) + 77683/14101100039391805440000) + 174611/802857662698291200000) + 43867/5109094217170944000) + 3617/10670622842880000) + 1/74724249600) + 691/1307674368000) + 1/47900160) + 1/1209600) + 1/30240) + 1/720) + 1/12
+def c_jinv_short(a):
+    """``c_jinv(a)`` for |a| < 0.067: its series of order 8 alone (arithmetic, no select,
+    no libm call), so that the loop calling it vectorises and computes nothing more."""
+    return a**2*(a**2*((1/1209600)*a**2 + 1/30240) + 1/720) + 1/12
 
 
 @inlined
-def c_asinc_series(a):
-    """``c_asinc(a)`` for |a| < 0.1 without its closed form (no libm call, so the
-    loop calling it vectorises): the series of order 8 for |a| < 0.029, else
-    that of order 14."""
-    if abs(a) < 0.029:
-        return a**2*(a**2*((31/15120)*a**2 + 7/360) + 1/6) + 1
-    return a**2*(a**2*(a**2*(a**2*(a**2*((1414477/653837184000)*a**2 + 73/3421440) + 127/604800) + 31/15120) + 7/360) + 1/6) + 1
+def c_asinc_short(a):
+    """``c_asinc(a)`` for |a| < 0.029: its series of order 8 alone (arithmetic, no select,
+    no libm call), so that the loop calling it vectorises and computes nothing more."""
+    return a**2*(a**2*((31/15120)*a**2 + 7/360) + 1/6) + 1
 
 
 @inlined
@@ -155,12 +140,12 @@ def internal_forces_soa(n, v, u):
         v[1920 + e] = t4
         coef_arg0 = atan2_quadrant_vector(math.sqrt(r_1**2 + r_2**2 + r_3**2), r_0*t4)
         v[1984 + e] = coef_arg0
-        t5 = 2*t4*c_asinc_series(coef_arg0)
+        t5 = 2*t4*c_asinc_short(coef_arg0)
         v[2048 + e] = t5
     for e in range(n):
         t4 = v[1920 + e]
         coef_arg0 = v[1984 + e]
-        if abs(coef_arg0) >= 0.1:
+        if abs(coef_arg0) >= 0.029:
             v[2048 + e] = 2*t4*c_asinc(coef_arg0)
     for e in range(n):
         r_1 = v[1728 + e]
@@ -183,24 +168,24 @@ def internal_forces_soa(n, v, u):
         v[2496 + e] = t9
         t10 = (1/2)*t9
         v[2560 + e] = t10
-        t11 = c_cosc_series(t10)
+        t11 = c_cosc_short(t10)
         v[2624 + e] = t11
-        t15 = 2*c_sinc_series(t10)
+        t15 = 2*c_sinc_short(t10)
         v[2688 + e] = t15
-        t34 = c_sinc3_series(t10)
+        t34 = c_sinc3_short(t10)
         v[2752 + e] = t34
-        t48 = c_jinv_series(t9)
+        t48 = c_jinv_short(t9)
         v[2816 + e] = t48
     for e in range(n):
         t9 = v[2496 + e]
         t10 = v[2560 + e]
-        if abs(t10) >= 1.0:
+        if abs(t10) >= 0.061:
             v[2624 + e] = c_cosc(t10)
-        if abs(t10) >= 0.1:
+        if abs(t10) >= 0.05:
             v[2688 + e] = 2*c_sinc(t10)
-        if abs(t10) >= 1.0:
+        if abs(t10) >= 0.072:
             v[2752 + e] = c_sinc3(t10)
-        if abs(t9) >= 1.0:
+        if abs(t9) >= 0.067:
             v[2816 + e] = c_jinv(t9)
     for e in range(n):
         L0 = u[e]
