@@ -170,7 +170,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     If ``record`` is true, the output record at the starting time ``t_n`` is
     written into ``rec`` (its integer-step velocities need the first kick).
     ``n_steps = 0`` with ``record`` only writes the record.  Returns ``OK``,
-    ``DIVERGED`` (non-finite state: the state is left at the last finite step),
+    ``DIVERGED`` (non-finite state, checked before the energy guard: the state is left at the last finite step),
     ``SINGULAR`` (the constraint matrix lost rank) or ``BLOWUP`` (the energy guard).
     """
     x, q, v, w, f_prev, clock = state.x, state.q, state.v, state.w, state.f_prev, state.clock
