@@ -28,6 +28,13 @@ external power at V^{n−½} and at V^{n+½}, and the sum of the new velocities 
 
 
 @inlined
+def _principal(a01, a02, a10, a12, a20, a21):
+    """True when the off-diagonal entries of a 3×3 node inertia (or its inverse) are all zero: principal axes,
+    a third of the products.  On numbers: it is called inside the loops over the nodes."""
+    return a01 == 0.0 and a02 == 0.0 and a10 == 0.0 and a12 == 0.0 and a20 == 0.0 and a21 == 0.0
+
+
+@inlined
 def kick_range(lo, hi, ids, by_id, c, J, Jinv, free, mass, constrained, v, w, S, F, hk, v_new, w_new, sweeps, extra,
                from_guess):
     """Stage 2 at the nodes ``lo … hi − 1`` (or ``ids[lo:hi]`` if ``by_id``): ``v* = v + h_k (m⁻¹(F − S_u) − c v)``
@@ -51,9 +58,8 @@ def kick_range(lo, hi, ids, by_id, c, J, Jinv, free, mass, constrained, v, w, S,
         if from_guess:
             n0, n1, n2 = w_new[i, 0], w_new[i, 1], w_new[i, 2]
         # a principal-axes inertia (every node of a straight beam) needs a third of the products
-        diagonal = J[i, 0, 1] == 0.0 and J[i, 0, 2] == 0.0 and J[i, 1, 2] == 0.0 and J[i, 1, 0] == 0.0 and \
-            J[i, 2, 0] == 0.0 and J[i, 2, 1] == 0.0 and Jinv[i, 0, 1] == 0.0 and Jinv[i, 0, 2] == 0.0 and \
-            Jinv[i, 1, 2] == 0.0 and Jinv[i, 1, 0] == 0.0 and Jinv[i, 2, 0] == 0.0 and Jinv[i, 2, 1] == 0.0
+        diagonal = _principal(J[i, 0, 1], J[i, 0, 2], J[i, 1, 0], J[i, 1, 2], J[i, 2, 0], J[i, 2, 1]) and \
+            _principal(Jinv[i, 0, 1], Jinv[i, 0, 2], Jinv[i, 1, 0], Jinv[i, 1, 2], Jinv[i, 2, 0], Jinv[i, 2, 1])
         for sweep in range(n_sweeps):
             b0, b1, b2 = 0.5 * (w0 + n0), 0.5 * (w1 + n1), 0.5 * (w2 + n2)
             if diagonal:
@@ -125,8 +131,7 @@ def _chunk_sums(k, mass, J, free, v, w, v_new, w_new, F, f_prev, damped, guarded
         if guarded:
             # a principal-axes inertia (every node of a straight beam): T without its zero products, the
             # same sum (a term ±0 leaves a sum of terms ≥ 0 as it is)
-            diagonal = J[i, 0, 1] == 0.0 and J[i, 0, 2] == 0.0 and J[i, 1, 0] == 0.0 and J[i, 1, 2] == 0.0 and \
-                J[i, 2, 0] == 0.0 and J[i, 2, 1] == 0.0
+            diagonal = _principal(J[i, 0, 1], J[i, 0, 2], J[i, 1, 0], J[i, 1, 2], J[i, 2, 0], J[i, 2, 1])
             for a in range(3):
                 va = c * v[i, a] + d * v_new[i, a]
                 T += 0.5 * mass[i] * va * va
