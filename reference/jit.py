@@ -56,19 +56,16 @@ again on entry with :func:`named`, which costs nothing in compiled code (a copy 
 on a named tuple it is the identity).  The explicit step kernel, called once per output for
 many steps, takes its named tuples as they are.
 
-numba's on-disk cache checks only the source file that defines a function, not
-the files of the functions it calls and inlines: after an edit of, say,
-``reference/interactions.py`` the cached step kernel of
-``reference/algorithms/staggered.py`` would silently keep running the old time
-functions.  So the cache lives in a folder named after a digest of every source
-file of the engine (``$XDG_CACHE_HOME/flexmbs/numba/<digest>``, or ``~/.cache/…``):
-any edit of the engine compiles afresh, an unchanged engine reuses its compiled
-kernels.  Setting ``NUMBA_CACHE_DIR`` yourself overrides this (and the protection).
+numba's on-disk cache checks only the source file that defines a function, not the files of the
+functions it calls and inlines: after an edit of, say, ``reference/interactions.py`` the cached step kernel
+of ``reference/algorithms/staggered.py`` would silently keep running the old time functions.  So every
+kernel here is cached by :mod:`reference.kernel_cache`, keyed by the engine modules its own module imports
+(directly or not) and by the element families it is compiled for: an edit compiles again the kernels that
+can reach the edited file, and only those.  ``NUMBA_CACHE_DIR`` moves the cache folder.
 """
 
 from __future__ import annotations
 
-import hashlib
 import os
 import time
 from pathlib import Path
@@ -80,8 +77,10 @@ from numba import prange, types
 from numba.core.imputils import impl_ret_borrowed
 from numba.extending import intrinsic
 
+from reference.kernel_cache import ROOT as CACHE_ROOT, enable as cached
+
 __all__ = ["CompileTimer", "available_cores", "boundary", "kernel", "inlined", "named", "parallel_kernel", "prange",
-           "threads", "use_threads", "source_digest", "vector_kernel"]
+           "threads", "use_threads", "vector_kernel"]
 
 THREADS_ENV = "FLEXMBS_THREADS"
 DEFAULT_PARALLEL_NODES = 8192
@@ -90,18 +89,8 @@ module docstring."""
 ENGINE = Path(__file__).resolve().parent
 
 
-def source_digest(root: Path = ENGINE) -> str:
-    """SHA-256 (16 hex digits) of the Python sources below ``root`` (the engine), names and contents."""
-    digest = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
-        digest.update(path.relative_to(root).as_posix().encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
-
-
 if not os.environ.get("NUMBA_CACHE_DIR"):
-    numba.config.CACHE_DIR = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-                                 / "flexmbs" / "numba" / source_digest())
+    numba.config.CACHE_DIR = str(CACHE_ROOT)
 
 
 class CompileTimer(numba.core.event.Listener):
@@ -140,7 +129,7 @@ class CompileTimer(numba.core.event.Listener):
 
 def kernel(func):
     """Compile ``func`` in nopython mode with an on-disk cache."""
-    return numba.njit(cache=True, fastmath=False)(func)
+    return cached(numba.njit(fastmath=False)(func))
 
 
 def inlined(func):
@@ -151,7 +140,7 @@ def inlined(func):
     py_func = getattr(func, "py_func", func)
     if numba.config.DISABLE_JIT:
         return py_func
-    return numba.njit(cache=True, fastmath=False, inline="always")(py_func)
+    return cached(numba.njit(fastmath=False, inline="always")(py_func))
 
 
 def vector_kernel(func):
@@ -159,12 +148,12 @@ def vector_kernel(func):
     numpy's error model, so that a float division carries no zero-divisor check and exception branch
     (which keeps LLVM from vectorising the loop); x/0 gives inf or nan instead of raising. The same
     IEEE arithmetic otherwise: results are bit for bit those of :func:`kernel`."""
-    return numba.njit(cache=True, fastmath=False, error_model="numpy")(func)
+    return cached(numba.njit(fastmath=False, error_model="numpy")(func))
 
 
 def parallel_kernel(func):
     """Compile ``func`` with its ``prange`` loops parallel (numba ``parallel=True``), cached."""
-    return numba.njit(cache=True, fastmath=False, parallel=True)(func)
+    return cached(numba.njit(fastmath=False, parallel=True)(func))
 
 
 def available_cores() -> int:

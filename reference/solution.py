@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from reference.algorithms import Algorithm
+from reference.algorithms.base import Algorithm
 from reference.elements.families import resultants
 from reference.io.results import MemoryRecorder, Results
 from reference.jit import boundary, inlined, kernel, named, use_threads

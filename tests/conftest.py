@@ -107,7 +107,7 @@ def _warm_up_jobs():
 def _shared_kernels(request):
     """Share the compilation of the kernels out between the pytest-xdist workers.
 
-    A cold numba cache (a fresh clone, or any edit of the engine: :mod:`reference.jit`) costs minutes of
+    A cold numba cache (a fresh clone, or an edit of a file the kernels reach: :mod:`reference.kernel_cache`) costs minutes of
     compilation, and the first tests of every worker need the same few kernels: left alone, both workers
     compiled the explicit step at once, then both the Newton loop (measured: a third of the suite's compile
     time done twice).  So a worker waits while another compiles a kernel it needs and then reads it from the

@@ -1,9 +1,9 @@
-"""The compiled-kernel cache follows every engine source file, not only the defining one; named tuples
+"""The compiled-kernel cache follows the engine source files a kernel reaches, not only the defining one; named tuples
 cross into kernels as plain tuples and are named again inside."""
 
 from __future__ import annotations
 
-import os
+import os  # noqa: F401
 import shutil
 from pathlib import Path
 from typing import NamedTuple
@@ -12,24 +12,74 @@ import numba
 import numpy as np
 import pytest
 
-from reference import jit
+from reference import jit, kernel_cache
+from reference.domain import Domain
 
 
-def test_digest_changes_with_any_engine_file(tmp_path):
+def test_a_kernel_is_keyed_by_what_its_module_reaches_and_nothing_else():
+    """The explicit step inlines the time functions of reference/interactions.py (an edit there must compile
+    it again), but neither the deck reader, the Domain nor another algorithm (an edit there must not)."""
+    step = kernel_cache.closure("reference.algorithms.staggered")
+    assert {"reference.interactions", "reference.jit", "reference.elements.families"} <= step
+    assert not step & {"reference.io.deck", "reference.domain", "reference.algorithms.static",
+                       "reference.algorithms.generalized_alpha"}
+    # the element families enter by the types a kernel is compiled for, not by the registry's imports
+    assert not step & {"reference.elements.beam3", "reference.elements.beam2_se3"}
+    assert kernel_cache.family_modules() == {"reference.elements.beam2", "reference.elements.beam2_se3",
+                                             "reference.elements.beam3"}
+    assert "reference.generated.beam3" in kernel_cache.closure("reference.elements.beam3")
+
+
+def test_an_edit_changes_the_digests_of_the_modules_that_reach_it(tmp_path, monkeypatch):
     copy = tmp_path / "reference"
-    shutil.copytree(jit.ENGINE, copy, ignore=shutil.ignore_patterns("__pycache__"))
-    assert jit.source_digest(copy) == jit.source_digest()
-    # an edit of a callee (time functions inlined into the step kernel) must give another cache
-    callee = copy / "interactions.py"
-    callee.write_text(callee.read_text() + "\n# edited\n")
-    assert jit.source_digest(copy) != jit.source_digest()
+    shutil.copytree(kernel_cache.ENGINE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+
+    def digests():
+        for cached in (kernel_cache.modules, kernel_cache.imports, kernel_cache.family_modules,
+                       kernel_cache.closure, kernel_cache.digest):
+            cached.cache_clear()
+        monkeypatch.setattr(kernel_cache, "ENGINE", copy)
+        names = ("reference.algorithms.staggered", "reference.algorithms.static", "reference.elements.beam3",
+                 "reference.elements.beam2")
+        out = {name: kernel_cache.digest(name) for name in names}
+        monkeypatch.setattr(kernel_cache, "ENGINE", kernel_cache.Path(kernel_cache.__file__).resolve().parent)
+        for cached in (kernel_cache.modules, kernel_cache.imports, kernel_cache.family_modules,
+                       kernel_cache.closure, kernel_cache.digest):
+            cached.cache_clear()
+        return out
+
+    before = digests()
+    (copy / "interactions.py").write_text((copy / "interactions.py").read_text() + "\n# edited\n")
+    callee = digests()
+    assert callee["reference.algorithms.staggered"] != before["reference.algorithms.staggered"]
+    assert callee["reference.elements.beam3"] == before["reference.elements.beam3"]
+    (copy / "elements" / "beam3.py").write_text((copy / "elements" / "beam3.py").read_text() + "\n# edited\n")
+    family = digests()
+    assert family["reference.elements.beam3"] != callee["reference.elements.beam3"]
+    for name in ("reference.algorithms.staggered", "reference.algorithms.static", "reference.elements.beam2"):
+        assert family[name] == callee[name]
 
 
-@pytest.mark.skipif(bool(os.environ.get("NUMBA_CACHE_DIR")), reason="the user chose the cache folder")
-def test_cache_folder_is_named_after_the_digest():
-    assert Path(numba.config.CACHE_DIR).name == jit.source_digest()
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="nothing is cached with NUMBA_DISABLE_JIT=1")
+def test_a_compiled_version_is_keyed_by_the_families_its_model_carries():
+    """A Beam2 model's kernels do not carry beam3's data, so their key holds beam2's digest and not beam3's;
+    a model with a beam3 beam has both (an edit of beam3 compiles again only the kernels of beam3 models)."""
+    from reference.algorithms.staggered import advance
+    from reference.elements import Section
 
-
+    section = Section(EA=1e7, GA2=1e6, GA3=1e6, GJ=1e3, EI2=1e3, EI3=1e3, rhoA=1.0, rhoJ1=1e-3, rhoJ2=1e-3,
+                      rhoJ3=1e-3)
+    carried = []
+    for element in ("beam2", "beam3"):
+        d = Domain("families")
+        d.add_beam("b", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 2, section, element=element)
+        model = d.initialization()
+        named_types, plain_types = numba.typeof(model), numba.typeof(jit.boundary(model))
+        assert kernel_cache.families_in((named_types,)) == kernel_cache.families_in((plain_types,))
+        carried.append(kernel_cache.families_in((plain_types,)))
+    assert carried == [{"beam2"}, {"beam2", "beam3"}]
+    assert isinstance(advance._cache, kernel_cache.EngineCache)
+    assert kernel_cache.family_digest("beam3") == kernel_cache.digest("reference.elements.beam3")
 class _Pair(NamedTuple):
     a: np.ndarray
     b: np.ndarray

@@ -29,6 +29,7 @@ from reference.elements.beam2 import Beam2Formulation
 from reference.elements.beam2_se3 import Beam2SE3Formulation
 from reference.elements.beam3 import Beam3Formulation
 from reference.elements.formulation import end_offsets, section_quaternion
+import reference.kernel_cache as kernel_cache
 from reference.jit import TAG
 
 ELEMENT_FAMILIES: dict[str, type] = {}
@@ -52,9 +53,11 @@ def register(formulation: type, always: bool = False) -> type:
     if known is not None and known is not formulation:
         raise ValueError(f"an element family named {name!r} is already registered ({known.__name__})")
     ELEMENT_FAMILIES[name] = formulation
+    kernel_cache.FAMILIES[name] = formulation  # a compiled kernel's cache key holds the families it carries
     _BY_DATA[formulation.Data] = formulation
     if always:
         ALWAYS_PACKED.add(name)
+        kernel_cache.ALWAYS.add(name)
     else:
         # two families' data of the same field types must not pass for each other in a compiled kernel
         # (reference.jit.boundary): the families a model carries only where it uses them are tagged
