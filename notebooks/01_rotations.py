@@ -14,9 +14,13 @@
 # flexmbs has three parametrisations of the same rotation matrix $A \in SO(3)$:
 #
 # * **Euler parameters** $q = (e_0, \mathbf e)$, $|q| = 1$ — the engine's state, no singularity:
+#
 #   $$A(q) = (2e_0^2 - 1)\,I + 2\,(\mathbf e\mathbf e^{\mathsf T} + e_0\tilde{\mathbf e});$$
+#
 # * the **rotation vector** $\psi$ (axis × angle, $a = |\psi|$), the exponential map
+#
 #   $$A = \exp(\tilde\psi) = I + \frac{\sin a}{a}\tilde\psi + \frac{1-\cos a}{a^2}\tilde\psi^2;$$
+#
 # * **Rodrigues parameters** $g = \tan(a/2)\,\hat\psi$, infinite at a half turn.
 #
 # Conventions (stated once, in `reference/rotation.py`): Euler parameters scalar first;
@@ -82,7 +86,9 @@ except ValueError as err:
 # ## Updating Euler parameters: the trapezoidal (Cayley) rule
 # The engine integrates the kinematic equation $\dot q = \tfrac12\,q\otimes(0, \omega)$ with $\omega$
 # (body frame) held over the step. The trapezoidal rule has a closed form,
+#
 # $$q^{n+1} = q^n\otimes p,\qquad p = \frac{\left(1 - h^2|\omega|^2/16,\ \tfrac h2\omega\right)}{1 + h^2|\omega|^2/16},$$
+#
 # exactly of unit norm and equal to the exact $q\otimes\exp(h\omega)$ up to third order in $h|\omega|$
 # (`docs/formulation.md` §8). Figure 2 measures that order.
 
@@ -112,8 +118,10 @@ plt.show()
 # %% [markdown]
 # ## The tangent operator
 # A small change $\delta\psi$ of the rotation vector is a body-frame rotation $J_r(\psi)\,\delta\psi$:
+#
 # $$\exp(\widetilde{\psi+\delta\psi}) \approx \exp(\tilde\psi)\,\exp(\widetilde{J_r\delta\psi}),\qquad
 # J_r(\psi) = I - \frac{1-\cos a}{a^2}\tilde\psi + \frac{a-\sin a}{a^3}\tilde\psi^2$$
+#
 # — the operator the Beam2 element uses for the exact variation of its relative rotation.
 
 # %%

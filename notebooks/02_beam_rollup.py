@@ -12,11 +12,15 @@
 #
 # The Beam2 element (Simo–Reissner kinematics, one-point integration; `docs/formulation.md` §3)
 # measures its strains at the midpoint of an element of length $L_0$:
+#
 # $$x' = \frac{x_2 - x_1}{L_0},\quad \psi = \log(A_1^{\mathsf T}A_2),\quad A_m = A_1\exp(\tilde\psi/2),\quad
 # \Gamma = A_m^{\mathsf T}x' - \Gamma_0,\quad K = \frac{\psi - \psi_0}{L_0},$$
+#
 # with the strain energy
+#
 # $$U = \frac{L_0}{2}\left(\Gamma^{\mathsf T}C_\Gamma\Gamma + K^{\mathsf T}C_K K\right),\qquad
 # C_\Gamma = \mathrm{diag}(EA, GA_2, GA_3),\ C_K = \mathrm{diag}(GJ, EI_2, EI_3).$$
+#
 # Its internal force is the **exact gradient** of $U$ with respect to the nodal displacements and
 # body-frame rotations — derived by sympy in `derivations/beam2.py` and generated into
 # `reference/generated/beam2.py`. First we check that claim numerically.
@@ -72,7 +76,9 @@ assert gap < 1e-8
 # ## The paper's first example: a beam rolled into a circle
 # A tip moment $M = k\pi EI/L$ bends the cantilever into an arc of angle $k\pi$ (the elastica of pure
 # bending is a circle of curvature $M/EI$):
+#
 # $$x_{tip} = L\frac{\sin k\pi}{k\pi},\qquad z_{tip} = L\frac{1 - \cos k\pi}{k\pi};$$
+#
 # at $k = 2$ it closes into a circle. With 12 elements every element carries the same curvature and no
 # force, so the discrete answer is a **regular polygon of unstrained chords** (`polygon_tip`); the
 # dynamic run (the load factor $k$ is the time, with damping) adds a small lag behind it.

@@ -11,7 +11,9 @@
 # # Lesson 3 — Joints, constraint Jacobians and Lagrange multipliers
 #
 # A spherical joint keeps a point of body $i$ on a point of body $j$:
+#
 # $$\Phi = x_j + A_j s'_j - x_i - A_i s'_i = 0,$$
+#
 # with $s'$ the joint point in each body's frame. The engine needs the velocity Jacobian $B$,
 # $\dot\Phi = B\,[v_i, \omega_i, v_j, \omega_j]$, with the angular velocities $\omega$ **in the body frames**.
 # A body-frame rotation perturbs $A \to A(I + \tilde{\delta\theta})$, so the columns of $B$ for $\omega_i$ are
@@ -51,7 +53,9 @@ assert phi_i.jacobian(x) == -sp.eye(3)  # and the v_i columns are −I
 # A rigid bar on a spherical joint to the ground, swinging around the vertical (a conical
 # pendulum started off its steady cone, so it also nods). The constraint forces are $B^{\mathsf T}\lambda$;
 # the stabilised multipliers (`docs/formulation.md` §7) solve
+#
 # $$\Big(B M^{-1}B^{\mathsf T} + \frac{\varepsilon}{h^2}I\Big)\lambda = \frac1h BV^* + \frac1{h^2}\Phi + \frac1h\Phi_t$$
+#
 # each step, which keeps $\|\Phi\|$ at one step's linearisation error, about $h^2v^2/(2l)$, instead of letting it drift.
 
 # %%

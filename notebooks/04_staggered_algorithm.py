@@ -92,7 +92,9 @@ plt.show()
 #
 # ## Constraint drift
 # The multipliers come from the stabilised backward-Euler relation
+#
 # $$\Big(BM^{-1}B^{\mathsf T} + \frac{\varepsilon}{h^2}I\Big)\lambda = \frac1h BV^* + \frac1{h^2}\Phi + \frac1h\Phi_t .$$
+#
 # The $\Phi/h^2$ term pulls the positions back onto the constraint each step; a pure velocity
 # projection (without it) lets the positions drift. The three-bar mechanism (paper §5.2) keeps
 # $\|\Phi\|$ near $4\times10^{-8}$ m:

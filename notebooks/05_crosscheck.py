@@ -43,7 +43,9 @@ work = Path(tempfile.mkdtemp(prefix="lesson5_"))
 # %% [markdown]
 # ## The three-bar mechanism in both codes
 # `run` solves the deck with both engines and judges each `[crosscheck]` observable:
+#
 # $$\text{measure} = \frac{\max_t |y_{ref}(t) - y_{Exudyn}(t)|}{\text{scale}} \le \text{tolerance},$$
+#
 # the scale being 1 (absolute), the model's size, or the observable's peak.
 
 # %%

@@ -23,6 +23,7 @@
 #
 # $$q_{n+1} = q_n \circ \exp\!\big(h\,\Delta q_n\big),\qquad
 # \Delta q_n = v_n + h(\tfrac12-\beta)a_n + h\beta a_{n+1},$$
+#
 # $$v_{n+1} = v_n + h(1-\gamma)a_n + h\gamma a_{n+1},\qquad
 # (1-\alpha_m)a_{n+1} + \alpha_m a_n = (1-\alpha_f)\dot v_{n+1} + \alpha_f \dot v_n,$$
 #
