@@ -50,9 +50,10 @@ def test_quick_site_builds_without_warnings(quick_site):
         assert f'id="reference.{name}"' in api, name
     # the deck reference is generated from the reader: its message for a wrong value is the reader's own
     keys = (ROOT / "docs" / "_generated" / "deck_keys.md").read_text(encoding="utf-8")
-    assert "| `rho_inf` | no | number ≥ 0 | `0.8` |" in keys
+    assert re.search(r"\| `rho_inf` \| generalized-α: spectral radius [^|]+ \| no \| number ≥ 0 \| `0.8` \|", keys)
     assert "deck.toml: solver.damping: must not be negative, got -1.0" in keys
-    assert "| `element` | no | one of `beam2`, `beam2_se3`, `beam3` | `'beam2'` |" in keys
+    assert re.search(r"\| `element` \| the element family[^|]+ \| no \| one of `beam2`, `beam2_se3`, `beam3` \| `'beam2'` \|",
+                     keys)
     lessons = sorted(p.stem for p in (out / "_generated" / "lessons").glob("*.html"))
     assert lessons == sorted(p.stem for p in (ROOT / "notebooks").glob("[0-9][0-9]_*.py"))
     gallery = (out / "_generated" / "gallery.html").read_text(encoding="utf-8")
@@ -138,3 +139,45 @@ def test_pages_render_offline_in_chromium(quick_site, tmp_path):
     problems = check_site(quick_site, screenshots=tmp_path)
     assert not problems, "\n".join(problems)
     assert len(list(tmp_path.glob("*.png"))) == len(PAGES)
+
+
+def test_every_deck_key_has_a_row_with_its_meaning():
+    """The deck reference (``python -m flexmbs.deck_reference``) has a table for every table the reader accepts and
+    a row for every key of each, the keys of every kind (time functions, springs, algorithms) included, each row
+    with a meaning; the keys no gallery deck uses are typed from the reader's checks too (a joint's ``reference``,
+    ``mode`` and ``formulation``, ``[[prescribed_displacements]]``), and the joints' ``kind`` says that a drive is
+    one equation that needs a joint beside it."""
+    from flexmbs.deck_reference import markdown
+    from reference.algorithms import ALGORITHMS
+    from reference.io.deck import TIME_FUNCTIONS, TOP_LEVEL
+    from reference.io.deck_connectors import SPRING_KEYS
+
+    rows: dict[str, dict[str, list[str]]] = {}
+    section = None
+    for line in markdown().splitlines():
+        if line.startswith("## ") or line.startswith("### "):
+            section = line.strip("# ")
+        elif line.startswith("| `"):
+            cells = [c.strip() for c in re.split(r"(?<!\\)\|", line)[1:-1]]
+            rows.setdefault(section, {})[cells[0].strip("`")] = cells[1:]
+    empty = [f"{s}: {k}" for s, keys in rows.items() for k, cells in keys.items() if not cells[0]]
+    assert not empty, f"keys without a meaning: {empty}"
+    assert set(rows["The deck's tables"]) == set(TOP_LEVEL)
+    tables = {s.split("`")[1].strip("[]").split(".")[0] for s in rows if s.startswith("`[")}
+    assert tables == set(TOP_LEVEL), set(TOP_LEVEL) ^ tables
+    for kind, (_, required, optional) in TIME_FUNCTIONS.items():
+        assert {*required, *optional} - {"kind"} <= set(rows[f'`kind = "{kind}"`']), kind
+    for kind, (required, optional) in SPRING_KEYS.items():
+        assert {*required, *optional} <= set(rows[f'`kind = "{kind}"`']), kind
+    for name, cls in ALGORITHMS.items():
+        assert {*cls.deck_required, *cls.deck_optional} <= set(rows[f'`algorithm = "{name}"`']), name
+    joints = rows["`[[joints]]`"]
+    assert joints["mode"][2] == "one of `position`, `velocity`" and joints["mode"][3] == "`'position'`"
+    assert joints["formulation"][2] == "one of `jacobian`, `master_slave`"
+    assert "unknown joint formulation '?'" in joints["formulation"][4]
+    assert joints["reference"][2].startswith("3 numbers")
+    assert "one equation" in joints["kind"][0] and "`revolute`" in joints["kind"][0]
+    prescribed = rows["`[[prescribed_displacements]]`"]
+    assert set(prescribed) == {"node", "direction", "time_function", "label", "point"}
+    assert prescribed["direction"][2] == "3 numbers, not all 0"
+    assert {"description", "tolerance", "reason", "observable"} <= set(rows["`[checks.NAME]`"])
