@@ -109,23 +109,27 @@ def write_generated_pages(out: Path, execute: bool = False) -> None:
 
 def read_lesson(text: str):
     """A lesson (jupytext percent format) as a notebook for MyST-NB, its cells highlighted as Python
-    (docs/conf.py ``nb_custom_formats``; the lesson files name their kernel but not its language)."""
+    (docs/conf.py ``nb_custom_formats``; the lesson files name their kernel but not its language); its answers
+    (cells tagged ``solution``) collapsed, its checks (``check``) left out of the page."""
     import jupytext
 
     nb = jupytext.reads(text, fmt="py:percent")
     nb.metadata.setdefault("language_info", {"name": "python", "pygments_lexer": "ipython3"})
-    for cell in nb.cells:  # an exercise's answer (collapsed in Jupyter) is collapsed on the page too
-        tags = cell.metadata.get("tags", [])
+    for cell in nb.cells:  # an exercise's answer (collapsed in Jupyter) is collapsed on the page too; the
+        tags = cell.metadata.get("tags", [])  # lesson's checks (its asserts, run by the tests) are left out
         if "solution" in tags and "hide-cell" not in tags:
             cell.metadata["tags"] = [*tags, "hide-cell"]
+        elif "check" in tags and "remove-cell" not in tags:
+            cell.metadata["tags"] = [*tags, "remove-cell"]
     return nb
 
 
-PAGES = ("index.html", "getting_started.html", "deck.html", "_generated/deck_keys.html", "api.html#reference.Domain",
+PAGES = ("index.html", "getting_started.html", "modelling.html", "deck.html", "_generated/deck_keys.html",
+         "api.html#reference.Domain",
          "formulation.html#7-stabilised-lagrange-multipliers-parkchiou-family-a-reconstruction",
          "_generated/lessons/02_beam_rollup.html", "_generated/lessons/10_modes_buckling.html")
-"""The pages ``make docs-check`` renders: the index, getting started, the deck reference (prose and key tables),
-the API's ``Domain``, formulation §7 (the multipliers), lesson 2 and lesson 10."""
+"""The pages ``make docs-check`` renders: the index, getting started, the modelling guide, the deck reference
+(prose and key tables), the API's ``Domain``, formulation §7 (the multipliers), lesson 2 and lesson 10."""
 
 _RAW_LATEX = r"\$\$|\\\(|\\\)|\\\[|\\\]|\$\\[a-zA-Z]|\\(?:frac|mathsf|mathbf|mathcal|tilde|qquad|quad|left|right)\b"
 """Raw LaTeX in a page's text: dollar or backslash delimiters, or a TeX command, outside the rendered equations."""
