@@ -5,6 +5,10 @@ deck's key tables (:mod:`flexmbs.deck_reference`), the gallery (one entry per ``
 ``[meta]``, its checks with their tolerances and reasons, and the report's figures of it), the
 lessons (``notebooks/*.py``, copied for MyST-NB to read as notebooks) and the verification report
 (``reports/verification.md``, the output of ``flexmbs report``).
+
+The built site is checked as a reader sees it by :func:`check_site` (``make docs-check``, ``python -m
+flexmbs.site check build/docs``): headless Chromium renders its main pages with no network, and any raw
+LaTeX, console error, failed load or broken link or anchor is reported.
 """
 
 from __future__ import annotations
