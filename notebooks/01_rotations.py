@@ -38,6 +38,8 @@ q = R.to_euler_parameters()
 print("rotation vector", psi, "angle", np.linalg.norm(psi))
 print("Euler parameters", q.q)
 print("Rodrigues", R.to(RodriguesParameters).g)
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 assert np.allclose(q.matrix(), R.matrix(), atol=1e-14) and np.allclose(q.matrix() @ q.matrix().T, np.eye(3), atol=1e-14)
 
 # %% [markdown]
@@ -47,8 +49,10 @@ assert np.allclose(q.matrix(), R.matrix(), atol=1e-14) and np.allclose(q.matrix(
 
 # %%
 p = RotationVector([0.0, 0.0, 0.5]).to_euler_parameters()
-assert np.allclose(q.product(p).matrix(), q.matrix() @ p.matrix(), atol=1e-14)
 print("‖A(q⊗p) − A(p⊗q)‖ =", np.linalg.norm(q.product(p).matrix() - p.product(q).matrix()))
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert np.allclose(q.product(p).matrix(), q.matrix() @ p.matrix(), atol=1e-14)
 
 # %% [markdown]
 # ## Near a half turn
@@ -57,7 +61,12 @@ print("‖A(q⊗p) − A(p⊗q)‖ =", np.linalg.norm(q.product(p).matrix() - p.
 # on its principal branch — while the Rodrigues parameters blow up as $\tan(a/2)$.
 
 # %%
+from pathlib import Path
+
 import matplotlib.pyplot as plt
+
+FIGURES = Path("figures") / "01_rotations"  # this lesson's figures, saved next to where it runs
+FIGURES.mkdir(parents=True, exist_ok=True)
 
 angles = np.linspace(0.0, 1.98 * np.pi, 400)
 axis = np.array([0.0, 0.6, 0.8])
@@ -73,6 +82,7 @@ ax.set_xlabel("rotation angle a [deg]")
 ax.set_ylabel("size of the parameters [–]")
 ax.set_title("Figure 1 — three parametrisations along one axis")
 ax.legend(fontsize=7)
+plt.savefig(FIGURES / "figure1.png", dpi=120)
 plt.show()
 
 half = RotationVector([0.0, 0.0, np.pi])
@@ -103,8 +113,6 @@ for h in steps:
 errors = np.array(errors)
 orders = np.log2(errors[:-1] / errors[1:])
 print("observed orders", orders)
-assert np.all(np.abs(orders - 3.0) < 0.1)
-assert abs(np.linalg.norm(q.cayley_update(w, 0.3).q) - 1.0) < 1e-15  # unit norm, exactly
 
 fig, ax = plt.subplots(figsize=(5.4, 3.8))
 ax.loglog(steps, errors, "o-", label="‖Cayley − exact‖")
@@ -113,7 +121,12 @@ ax.set_xlabel("time step h [s] (|ω| = 2.29 rad/s)")
 ax.set_ylabel("error of one update [–]")
 ax.set_title("Figure 2 — the Cayley update is third order per step")
 ax.legend(fontsize=8)
+plt.savefig(FIGURES / "figure2.png", dpi=120)
 plt.show()
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert np.all(np.abs(orders - 3.0) < 0.1)
+assert abs(np.linalg.norm(q.cayley_update(w, 0.3).q) - 1.0) < 1e-15  # unit norm, exactly
 
 # %% [markdown]
 # ## The tangent operator
@@ -127,8 +140,10 @@ plt.show()
 # %%
 d = 1e-6 * np.array([1.0, 2.0, -1.0])
 lhs = RotationVector.from_matrix(R.matrix().T @ RotationVector(psi + d).matrix()).psi
-assert np.allclose(lhs, right_jacobian(psi) @ d, atol=1e-11)
 print("J_r(ψ) =\n", right_jacobian(psi))
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert np.allclose(lhs, right_jacobian(psi) @ d, atol=1e-11)
 
 # %% [markdown]
 # ## Exercises

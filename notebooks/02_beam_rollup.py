@@ -38,6 +38,9 @@ from reference.domain import Domain
 from reference.elements import Beam2Formulation, Section
 from reference.rotation import EulerParameters, RotationVector
 
+FIGURES = Path("figures") / "02_beam_rollup"  # this lesson's figures, saved next to where it runs
+FIGURES.mkdir(parents=True, exist_ok=True)
+
 QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
 # the repository, wherever the notebook runs from (the editable install points here)
 ROOT = Path(reference.__file__).resolve().parents[1]
@@ -70,6 +73,8 @@ eps = 1e-6
 fd = np.array([(energy_after(k, eps) - energy_after(k, -eps)) / (2 * eps) for k in range(12)])
 gap = np.max(np.abs(fd - S.reshape(-1))) / np.max(np.abs(S))
 print("relative gap between S and central differences of U:", gap)
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 assert gap < 1e-8
 
 # %% [markdown]
@@ -101,7 +106,6 @@ lag = np.array([np.linalg.norm(p - polygon_tip(10, 12, k)) for p, k in zip(tip, 
 discretisation = np.array([np.linalg.norm(polygon_tip(10, 12, k) - elastica_tip(10, k)) for k in ks]) / 10
 worst_error_percent = float(100 * errors.max())
 print("worst tip error over the whole history: %.3f %% of L at k = %.2f" % (worst_error_percent, ks[errors.argmax()]))
-assert errors.max() < 5e-3
 
 fig, ax = plt.subplots(figsize=(6.0, 5.0))
 for k in (0.25, 0.5, 1.0, 1.5, 2.0):
@@ -116,6 +120,7 @@ ax.set_xlabel("x [m]")
 ax.set_ylabel("z [m]")
 ax.set_title("Figure 1 — roll-up: 12 Beam2 elements; dotted: elastica arcs")
 ax.legend(fontsize=8)
+plt.savefig(FIGURES / "figure1.png", dpi=120)
 plt.show()
 
 fig, ax = plt.subplots(figsize=(6.4, 3.6))
@@ -126,7 +131,11 @@ ax.set_xlabel("load factor k (= time) [–]")
 ax.set_ylabel("tip error / L [%]")
 ax.set_title("Figure 2 — where the error comes from")
 ax.legend(fontsize=8)
+plt.savefig(FIGURES / "figure2.png", dpi=120)
 plt.show()
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert errors.max() < 5e-3
 
 # %% [markdown]
 # Figure 2 separates the two error sources: the polygon's discretisation error (largest near
@@ -146,6 +155,8 @@ print(static_text[static_text.index("[solver]"):static_text.index("[checks.")].s
 static = Domain.from_deck(ROOT / "models" / "embedded_beam_static.toml").solve()
 static_lag = max(np.linalg.norm(p - polygon_tip(10, 12, k)) for p, k in zip(static.position("beam:12"), static.time)) / 10
 print(f"{len(static.time) - 1} load steps; largest distance of the tip from the 12-element polygon: {static_lag:.1e} L")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 assert static_lag < 1e-8  # no inertia, no lag: Newton converges to the discrete equilibrium
 
 # %% [markdown]
