@@ -82,7 +82,7 @@ ax.set_xlabel("rotation angle a [deg]")
 ax.set_ylabel("size of the parameters [–]")
 ax.set_title("Figure 1 — three parametrisations along one axis")
 ax.legend(fontsize=7)
-plt.savefig(FIGURES / "figure1.png", dpi=120)
+plt.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 half = RotationVector([0.0, 0.0, np.pi])
@@ -121,7 +121,7 @@ ax.set_xlabel("time step h [s] (|ω| = 2.29 rad/s)")
 ax.set_ylabel("error of one update [–]")
 ax.set_title("Figure 2 — the Cayley update is third order per step")
 ax.legend(fontsize=8)
-plt.savefig(FIGURES / "figure2.png", dpi=120)
+plt.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 # %% tags=["check"] jupyter={"source_hidden": true}

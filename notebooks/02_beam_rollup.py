@@ -120,7 +120,7 @@ ax.set_xlabel("x [m]")
 ax.set_ylabel("z [m]")
 ax.set_title("Figure 1 — roll-up: 12 Beam2 elements; dotted: elastica arcs")
 ax.legend(fontsize=8)
-plt.savefig(FIGURES / "figure1.png", dpi=120)
+plt.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 fig, ax = plt.subplots(figsize=(6.4, 3.6))
@@ -131,7 +131,7 @@ ax.set_xlabel("load factor k (= time) [–]")
 ax.set_ylabel("tip error / L [%]")
 ax.set_title("Figure 2 — where the error comes from")
 ax.legend(fontsize=8)
-plt.savefig(FIGURES / "figure2.png", dpi=120)
+plt.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 # %% tags=["check"] jupyter={"source_hidden": true}

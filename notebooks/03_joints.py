@@ -102,7 +102,7 @@ bx.set_xlabel("time t [s]")
 bx.set_ylabel("constraint violation, energy error")
 bx.set_title("Figure 2 — bounded drift, conserved energy", fontsize=10)
 bx.legend(fontsize=8)
-plt.savefig(FIGURES / "figure1.png", dpi=120)
+plt.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 # %% tags=["check"] jupyter={"source_hidden": true}

@@ -86,7 +86,7 @@ ax.set_xlabel("time step / critical-step estimate [–]")
 ax.set_ylabel("max tip displacement [m]")
 ax.set_title("Figure 1 — stable below the limit; dotted red: blew up", fontsize=10)
 ax.legend(fontsize=8)
-plt.savefig(FIGURES / "figure1.png", dpi=120)
+plt.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 # %% tags=["check"] jupyter={"source_hidden": true}
@@ -119,7 +119,7 @@ ax.set_xlabel("time t [s]")
 ax.set_ylabel("constraint violation")
 ax.set_title("Figure 2 — three-bar mechanism: bounded drift", fontsize=10)
 ax.legend(fontsize=8)
-plt.savefig(FIGURES / "figure2.png", dpi=120)
+plt.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 # %% tags=["check"] jupyter={"source_hidden": true}

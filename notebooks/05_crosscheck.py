@@ -71,7 +71,7 @@ axes[1].set_ylabel("coupler mid-span\ndeflection [mm]")
 axes[1].set_xlabel("time t [s]")
 axes[1].legend(fontsize=7)
 axes[0].set_title("Figure 1 — the three-bar in both codes (4 coupler elements)", fontsize=10)
-plt.savefig(FIGURES / "figure1.png", dpi=120)
+plt.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 # %% tags=["check"] jupyter={"source_hidden": true}
@@ -104,7 +104,7 @@ ax.set_xlabel("number of elements [–]")
 ax.set_ylabel("difference between the codes / L [–]")
 ax.set_title("Figure 2 — the codes converge to each other", fontsize=10)
 ax.legend(fontsize=8)
-plt.savefig(FIGURES / "figure2.png", dpi=120)
+plt.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 # %% tags=["check"] jupyter={"source_hidden": true}

@@ -88,7 +88,7 @@ ax.set_xlabel("kink angle [deg]")
 ax.set_ylabel(r"$|K|^2 L_0^2/\delta^2$")
 ax.set_title("Figure 1 — bending stiffness next to a kinked node")
 ax.legend()
-plt.savefig(FIGURES / "figure1.png", dpi=120)
+plt.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 # %% tags=["check"] jupyter={"source_hidden": true}
@@ -132,7 +132,7 @@ ax.set_xlabel("elements")
 ax.set_ylabel("relative error")
 ax.set_title("Figure 2 — chords on the arc converge at second order")
 ax.legend()
-plt.savefig(FIGURES / "figure2.png", dpi=120)
+plt.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 # %% tags=["check"] jupyter={"source_hidden": true}
@@ -173,7 +173,7 @@ for name in ("tip_300", "tip_450", "tip_600"):
     print(f"{name}: tip {tip[k].round(2)}, published {spec['value']}, distance {distances[name]:.2%} of R")
 ax.set_title("Figure 3 — 45° bend, equilibria (× Simo & Vu-Quoc)")
 ax.legend(fontsize=7)
-plt.savefig(FIGURES / "figure3.png", dpi=120)
+plt.savefig(FIGURES / "figure3.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 # %% tags=["check"] jupyter={"source_hidden": true}

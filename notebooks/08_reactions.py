@@ -100,7 +100,7 @@ fig.tight_layout()
 
 err = np.max(np.linalg.norm(F_pin[1:] - F_closed[1:], axis=1)) / (m * g)
 print(f"largest difference from the closed form after t = 0: {err:.1e} of the weight")
-fig.savefig(FIGURES / "figure1.png", dpi=120)
+fig.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 
 # %% tags=["check"] jupyter={"source_hidden": true}
 # O(h²): the central difference and the stabilised multipliers are second order (measured 8e-6 at h = 1e-3)
@@ -157,7 +157,7 @@ axes[1].set_ylabel("power [W]")
 axes[1].legend(fontsize=8)
 axes[0].set_title("Figure 2 — three-bar: driving torque, pin force and the power balance")
 fig.tight_layout()
-fig.savefig(FIGURES / "figure2.png", dpi=120)
+fig.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 
 # %% tags=["check"] jupyter={"source_hidden": true}
 # the integrated balance holds to the integrator's accuracy (output every 5 steps: trapezoid O(Δt²))

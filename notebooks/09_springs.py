@@ -105,7 +105,7 @@ fig.tight_layout()
 balance = E["kinetic"] + E["strain"] + E["dissipated"]
 energy_drift = float(np.max(np.abs(balance - balance[0])))
 print(f"energy balance: max |change of the sum| = {energy_drift:.2e} J of 0.5 J")
-fig.savefig(FIGURES / "figure1.png", dpi=120)
+fig.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 
 # %% [markdown]
 # The sum of mechanical and dissipated energy stays constant to 1.3e-5<!-- check energy_drift rel 0.2 --> J: the damper's
@@ -153,7 +153,7 @@ ax.set_ylabel("angle about y [rad]")
 ax.legend(fontsize=8, title="dotted: linear first mode", title_fontsize=8)
 ax.set_title("Figure 2: torsion-spring double pendulum in its first mode")
 fig.tight_layout()
-fig.savefig(FIGURES / "figure2.png", dpi=120)
+fig.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 
 # %% tags=["check"] jupyter={"source_hidden": true}
 # nonlinear and discretisation effects at 0.02 rad: measured 1.2e-4 of the amplitude; checked at 1e-3

@@ -114,7 +114,7 @@ ax.set_ylabel("|relative frequency error|")
 ax.legend(fontsize=8)
 ax.set_title("Figure 1: bending frequencies of a cantilever converge at order 2")
 fig.tight_layout()
-fig.savefig(FIGURES / "figure1.png", dpi=120)
+fig.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 
 # %% [markdown]
 # ## 2. A mechanism: the double pendulum
@@ -232,7 +232,7 @@ ax.set_ylabel("first frequency ω̄")
 ax.legend(fontsize=8)
 ax.set_title("Figure 2: a Campbell diagram (flexmbs campbell DECK --rates 0:12:13)")
 fig.tight_layout()
-fig.savefig(FIGURES / "figure2.png", dpi=120)
+fig.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 
 # %% [markdown]
 # ## 4. Linear buckling of an Euler column
@@ -359,7 +359,7 @@ ax.set_ylabel("P / P_cr")
 ax.legend(fontsize=8)
 ax.set_title("Figure 3: an Euler column past buckling")
 fig.tight_layout()
-fig.savefig(FIGURES / "figure3.png", dpi=120)
+fig.savefig(FIGURES / "figure3.png", dpi=120, bbox_inches="tight")
 
 # %% tags=["check"] jupyter={"source_hidden": true}
 assert not any(issubclass(w.category, ModelWarning) for w in caught)

@@ -215,7 +215,7 @@ ax.set_ylim(-1.4, 2.7)
 ax.legend(fontsize=7, loc="upper center", ncol=2)
 ax.set_title("Figure 1: the von Mises truss snaps through", fontsize=10)
 fig.tight_layout()
-fig.savefig(FIGURES / "figure1.png", dpi=120)
+fig.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 
 # %% [markdown]
 # The arc-length points lie on the closed form all the way, the limit points are found at
@@ -286,7 +286,7 @@ ax2.legend(fontsize=7, loc="lower right")
 ax2.set_title("the two paths through the bifurcation", fontsize=9)
 fig.suptitle("Figure 2: lateral–torsional buckling of the perfect cantilever", fontsize=10)
 fig.tight_layout()
-fig.savefig(FIGURES / "figure2.png", dpi=120)
+fig.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 
 # %% tags=["check"] jupyter={"source_hidden": true}
 assert list(primary.data("path/critical_kind")) == ["bifurcation"]
@@ -346,7 +346,7 @@ ax.set_ylabel("tip load P [N]")
 ax.legend(fontsize=7, loc="lower right")
 ax.set_title("Figure 3: imperfect cantilevers approach the perfect one's branches", fontsize=10)
 fig.tight_layout()
-fig.savefig(FIGURES / "figure3.png", dpi=120)
+fig.savefig(FIGURES / "figure3.png", dpi=120, bbox_inches="tight")
 
 # %% tags=["check"] jupyter={"source_hidden": true}
 for eps, (P, y) in imperfect.items():  # no critical point on an imperfect path: load and deflection rise together
@@ -419,7 +419,7 @@ ax2.legend(fontsize=8)
 ax2.set_title("Southwell plot", fontsize=9)
 fig.suptitle("Figure 4: the critical load from an imperfect column's path", fontsize=10)
 fig.tight_layout()
-fig.savefig(FIGURES / "figure4.png", dpi=120)
+fig.savefig(FIGURES / "figure4.png", dpi=120, bbox_inches="tight")
 
 # %% tags=["check"] jupyter={"source_hidden": true}
 # Beam2 at 16 elements buckles (kh)²/6 = 1.6e-3 high (lesson 10); the fit's own error (the sideways force's
