@@ -13,9 +13,18 @@ LaTeX, console error, failed load or broken link or anchor is reported.
 
 from __future__ import annotations
 
+import argparse
+import base64
+import json
+import os
+import re
+import select
 import shutil
+import subprocess
+import sys
 import tomllib
 from pathlib import Path
+from urllib.parse import unquote, urlsplit
 
 from flexmbs.deck_reference import markdown as deck_key_tables
 
@@ -165,9 +174,6 @@ class _Chromium:
     needed.  Every host name resolves to nothing: the pages are rendered as on a machine without a network."""
 
     def __init__(self, binary: str, width: int = 1280, height: int = 1600):
-        import os
-        import subprocess
-
         to_chrome, self._write = os.pipe()
         self._read, from_chrome = os.pipe()
 
@@ -195,10 +201,6 @@ class _Chromium:
                   deviceScaleFactor=1, mobile=False)
 
     def _message(self, timeout: float) -> dict:
-        import json
-        import os
-        import select
-
         while b"\0" not in self._buffer:
             ready, _, _ = select.select([self._read], [], [], timeout)
             if not ready:
@@ -212,9 +214,6 @@ class _Chromium:
 
     def call(self, method: str, session: bool = False, timeout: float = 60.0, **params) -> dict:
         """Send one command and return its result (the events that arrive meanwhile are kept)."""
-        import json
-        import os
-
         self._id += 1
         message = {"id": self._id, "method": method, "params": params}
         if session:
@@ -240,8 +239,6 @@ class _Chromium:
             self.events.append(seen)
 
     def close(self):
-        import os
-
         try:
             self.call("Browser.close", timeout=10)
         except (RuntimeError, TimeoutError, OSError):
@@ -250,7 +247,7 @@ class _Chromium:
             os.close(fd)
         try:
             self.proc.wait(timeout=10)
-        except Exception:
+        except subprocess.TimeoutExpired:
             self.proc.kill()
             self.proc.wait()
 
@@ -265,8 +262,6 @@ def chromium() -> str | None:
 
 def _ids(path: Path, cache: dict) -> set[str]:
     """The ``id`` and ``name`` attributes of an HTML file (the anchors a link's fragment may name)."""
-    import re
-
     if path not in cache:
         text = path.read_text(encoding="utf-8", errors="replace")
         cache[path] = set(re.findall(r'\b(?:id|name)="([^"]+)"', text))
@@ -283,10 +278,6 @@ def check_site(site: Path, pages=PAGES, screenshots: Path | None = None) -> list
     from the site, or a resource from the network), and links to a missing page or to an anchor the target page
     does not have.  ``screenshots``: a folder that receives one PNG per page, scrolled to the page's anchor.
     """
-    import base64
-    import json
-    from urllib.parse import unquote, urlsplit
-
     binary = chromium()
     if binary is None:
         raise FileNotFoundError("no Chromium on the PATH: install one (Debian: apt-get install chromium)")
@@ -354,9 +345,6 @@ def check_site(site: Path, pages=PAGES, screenshots: Path | None = None) -> list
 def main(argv=None) -> int:
     """``python -m flexmbs.site check [SITE] [--screenshots DIR]`` (``make docs-check``): exit 1 and one line per
     problem when a page fails, 0 and the pages checked when all pass."""
-    import argparse
-    import sys
-
     parser = argparse.ArgumentParser(prog="python -m flexmbs.site", description=main.__doc__)
     parser.add_argument("command", choices=["check"])
     parser.add_argument("site", nargs="?", default="build/docs", type=Path)
