@@ -20,6 +20,8 @@ from pathlib import Path
 
 import pytest
 
+from flexmbs.site import PAGES, check_site, chromium
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -127,15 +129,13 @@ def test_no_raw_latex_in_the_pages(quick_site):
     assert (quick_site / "_static" / "mathjax" / "tex-chtml.js").is_file()
 
 
+@pytest.mark.skipif(chromium() is None, reason="no Chromium on the PATH (Debian: apt-get install chromium; README.md, "
+                                               "`make docs-check`)")
 def test_pages_render_offline_in_chromium(quick_site, tmp_path):
     """``make docs-check`` on the quick site: the index, getting started, the deck reference, the API's Domain,
     formulation §7 and lessons 2 and 10 rendered in headless Chromium with every host name unresolvable: the
     equations typeset by the site's MathJax, no raw LaTeX in the rendered text, no console error or failed load,
     no link to a missing page or anchor."""
-    from flexmbs.site import PAGES, check_site, chromium
-
-    if chromium() is None:
-        pytest.skip("no Chromium on the PATH (Debian: apt-get install chromium; README.md, 'The documentation site')")
     problems = check_site(quick_site, screenshots=tmp_path)
     assert not problems, "\n".join(problems)
     assert len(list(tmp_path.glob("*.png"))) == len(PAGES)
