@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: report test fuzz signals bench derive notebooks clean families docs
+.PHONY: report test fuzz signals bench derive notebooks clean families docs docs-check
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
@@ -52,6 +52,13 @@ $(VENV)/.docs: $(STAMP)
 # the documentation site → build/docs/index.html: executes the lessons, embeds reports/verification.md
 docs: $(VENV)/.docs
 	FLEXMBS_DOCS_EXECUTE=1 $(BIN)/python -m sphinx -W --keep-going -b html docs build/docs
+
+# the built site in headless Chromium, offline (needs a Chromium: apt-get install chromium): the index, getting
+# started, the deck reference, the API's Domain, formulation §7 and lessons 2 and 10 — no raw LaTeX, no console
+# error, no broken link or anchor; screenshots of them into build/docs-check/
+docs-check: $(VENV)/.docs
+	test -f build/docs/index.html || $(MAKE) docs
+	$(BIN)/python -m flexmbs.site check build/docs --screenshots build/docs-check
 
 # JupyterLab on the lessons: right-click notebooks/NN_*.py → Open With → Jupytext Notebook
 notebooks: $(VENV)/.notebooks

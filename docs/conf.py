@@ -36,7 +36,10 @@ write_generated_pages(HERE / "_generated", execute=EXECUTE)
 
 project = "flexmbs"
 author = "flexmbs contributors"
-extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "sphinx.ext.mathjax"]
+# MathJax from the site's own files (_static/mathjax, copied from the sphinx-mathjax-offline package, MathJax
+# 3.2.2): the equations render without a network (a classroom, a cluster); it sets ``mathjax_path``, so it
+# comes after sphinx.ext.mathjax
+extensions = ["myst_nb", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "sphinx.ext.mathjax", "sphinx-mathjax-offline"]
 exclude_patterns = ["_build", "conf.py", "Thumbs.db", ".DS_Store"]
 source_suffix = {".md": "myst-nb", ".ipynb": "myst-nb"}
 nb_custom_formats = {".py": "flexmbs.site.read_lesson"}

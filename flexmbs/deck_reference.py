@@ -7,9 +7,12 @@ which notes every table's allowed and required keys (``Reader.keys``), every val
 value the reader used when a deck left a key out (its default), and which keys name nodes or time
 functions.  The keys of the kinds (time functions, springs) and of the algorithms come from the
 registries the reader looks them up in (``TIME_FUNCTIONS``, ``SPRING_KEYS``, ``ALGORITHMS``).  The
-message column is the reader's own message for a wrong value of that key.  A key the reader
-accepts but no gallery deck uses is listed with its type left blank, and a table no gallery deck has is
-only named among the deck's tables.
+message column is the reader's own message for a wrong value of that key.  Keys and tables that no
+gallery deck uses (a joint's ``reference``, ``[[prescribed_displacements]]``) are read from the small
+decks of :data:`PROBES` as well; the free keys of ``[checks.NAME]``, which the reader passes on to
+``flexmbs report``, are those the gallery decks use.  A key's meaning is the deck page's own
+(its ``| key | meaning |`` tables, ``docs/deck.md``), or, for the tables that page describes in prose,
+:data:`MEANINGS`.
 
 ``python -m flexmbs.deck_reference`` prints the Markdown; the documentation build writes it into
 the deck reference page (``docs/conf.py``).
@@ -37,6 +40,135 @@ _ENTRY = re.compile(r"^(?P<table>[a-z_]+)(?P<index>\[\d+\])?(?:\.(?P<rest>.+))?$
 _BAD = {"number": "x", "integer": 0, "vector": [1.0], "direction": [0.0, 0.0, 0.0], "rotation": [1.0, 1.0, 0.0, 0.0],
         "string": 1, "boolean": "yes", "choice": "?", "label": "a/b"}
 """A wrong value for each check, to show the reader's message for it."""
+PROBES = ("""
+[meta]
+name = "probe"
+[sections.bar]
+EA = 1.0
+GA2 = 1.0
+GA3 = 1.0
+GJ = 1.0
+EI2 = 1.0
+EI3 = 1.0
+rhoA = 1.0
+rhoJ1 = 0.01
+rhoJ2 = 0.01
+rhoJ3 = 0.01
+[time_functions.turn]
+kind = "ramp"
+t0 = 0.0
+t1 = 1.0
+[[beams]]
+label = "crank"
+start = [0.0, 0.0, 0.0]
+end = [1.0, 0.0, 0.0]
+section = "bar"
+rigid = true
+[[rigid_bodies]]
+label = "slider"
+mass = 1.0
+inertia = [0.01, 0.01, 0.01]
+position = [2.0, 0.0, 0.0]
+[[joints]]
+kind = "revolute"
+body_i = "crank"
+point = [0.0, 0.0, 0.0]
+reference = [1.0, 0.0, 0.0]
+[[joints]]
+kind = "rotation_drive"
+body_i = "crank"
+point = [0.0, 0.0, 0.0]
+reference = [1.0, 0.0, 0.0]
+time_function = "turn"
+[[prescribed_displacements]]
+label = "push"
+node = "slider"
+direction = [1.0, 0.0, 0.0]
+point = [2.0, 0.0, 0.0]
+time_function = "turn"
+[[fixed]]
+node = "slider"
+dofs = ["y", "z", "rx", "ry", "rz"]
+[solver]
+dt = 0.001
+t_end = 0.01
+""",)
+"""Decks that use what no gallery deck does (a joint's ``reference``, a drive's default ``mode``,
+``[[prescribed_displacements]]``): read with the gallery so that their keys are typed too."""
+
+MEANINGS = {
+    "[sections.NAME]": {
+        "EA": "axial stiffness [N]", "GA2": "shear stiffness along section axis 2 [N]",
+        "GA3": "shear stiffness along section axis 3 [N]", "GJ": "torsional stiffness [N m²]",
+        "EI2": "bending stiffness about section axis 2 [N m²]", "EI3": "bending stiffness about section axis 3 [N m²]",
+        "rhoA": "mass per length [kg/m]", "rhoJ1": "rotary inertia per length about the beam axis (axis 1) [kg m]",
+        "rhoJ2": "rotary inertia per length about section axis 2 [kg m]",
+        "rhoJ3": "rotary inertia per length about section axis 3 [kg m]"},
+    "[time_functions.NAME]": {
+        "kind": "the function's form; its parameters are in the table of that kind below",
+        "value": "the constant value", "t0": "start of the change [s] (static: load factor)",
+        "t1": "end of the change [s] (static: load factor)", "v0": "value before `t0`", "v1": "value after `t1` (or `t0`)",
+        "times": "increasing times of the table [s]", "values": "the values at `times` (linear in between, held outside)",
+        "amplitude": "amplitude A of `offset + A sin(omega t + phase)`", "omega": "angular frequency [rad/s]",
+        "phase": "phase φ [rad]", "offset": "constant added to the sine",
+        "expr": "a formula in `t` (sympy's parser, never executed as Python), e.g. `\"sin(3*t)**2\"`"},
+    "[[nodes]]": {
+        "label": "a unique name, used in references and in the results file",
+        "position": "inertial coordinates [m]",
+        "rotation": "initial orientation of the node frame, Euler parameters `[e0, e1, e2, e3]`; default: the "
+                    "section frame of the first beam at the node"},
+    "[[rigid_bodies]]": {
+        "label": "a unique name (references, results)", "mass": "mass [kg]",
+        "inertia": "inertia about the centre of mass, body frame [kg m²]: the diagonal `[J1, J2, J3]` or a 3×3 list",
+        "position": "centre of mass, inertial [m]", "rotation": "initial orientation, Euler parameters `[e0, e1, e2, e3]`",
+        "points": "named points of the body (a table), inertial coordinates at t = 0; joints and loads refer to "
+                  "them as `body.NAME`",
+        "points.NAME": "one named point: 3 inertial coordinates at t = 0 [m]"},
+    "[[clamps]]": {"node": "the node or body whose six coordinates are fixed"},
+    "[[fixed]]": {"node": "the node or body", "dofs": "the fixed coordinates: `x`, `y`, `z` (inertial translations), "
+                                                      "`rx`, `ry`, `rz` (rotations about the body axes)"},
+    "[gravity]": {"g": "gravitational acceleration, inertial [m/s²], acting on every nodal mass"},
+    "[[loads]]": {
+        "node": "the loaded node or body", "force": "force [N] (exactly one of `force` and `moment`)",
+        "moment": "moment [N m] (exactly one of `force` and `moment`)",
+        "frame": "`inertial`: a dead load fixed in space; `body`: a follower load turning with the node",
+        "time_function": "scales the load (default: constant 1)",
+        "point": "a force's point of application, inertial at t = 0, fixed in the body after (its moment about "
+                 "the node is added)"},
+    "[[line_loads]]": {
+        "beam": "a flexible beam's label", "force_per_length": "distributed force [N/m]",
+        "moment_per_length": "distributed moment [N m/m]",
+        "frame": "`inertial` (dead) or `body` (components in each node's section frame: a follower load)",
+        "time_function": "scales the load (default: constant 1)"},
+    "[[springs]]": {
+        "kind": "the force element; its keys are in the table of that kind below",
+        "label": "name used in messages and results", "body_i": "the first body (a node reference)",
+        "body_j": "the second body, or `\"ground\"` (the default)",
+        "point_i": "attachment on body i, inertial at t = 0, body-fixed after [m]",
+        "point_j": "attachment on body j (default the origin), inertial at t = 0, body-fixed after [m]",
+        "point": "the bushing's point, inertial at t = 0 [m]",
+        "stiffness": "k: [N/m] point to point, [N m/rad] rotational; a bushing's six values (3 in N/m, 3 in N m/rad)",
+        "damping": "c, in the stiffness's units times s (default 0)",
+        "rest_length": "ℓ0 [m] (default: the initial distance)",
+        "force_function": "a time function: an actuator force f_a(t) [N] added to the spring's",
+        "axis": "the axis u3 (default z)", "reference": "u1 of the element's frame (optional)",
+        "rest_angle": "φ0 [rad] (default 0)"},
+    "[[initial_velocities]]": {
+        "node": "the node or body", "velocity": "translational velocity, inertial [m/s]",
+        "angular_velocity": "angular velocity, body frame [rad/s]"},
+    "[solver]": {"algorithm": "the algorithm (the keys of each are in its table below); default "
+                              "`staggered_central_difference`"},
+    "[checks.NAME]": {
+        "description": "what is checked (free text)", "observable": "an observable of docs/observables.md, checked "
+                                                                   "against the model when the deck is loaded",
+        "reference": "the reference value's source", "value": "the reference value(s)",
+        "tolerance": "the largest accepted difference",
+        "relative_to": "what `tolerance` is a fraction of, in words (e.g. `model size`, `closed-form frequency`)",
+        "at": "the time (load factor) the check is made at", "reason": "why this tolerance",
+        "node": "the node the check is about"},
+}
+"""Meanings of the keys of the tables that the deck page describes in prose (``docs/deck.md`` tables the
+others' keys, and :func:`page_meanings` reads them from there)."""
 
 
 def _split(entry: str):
@@ -180,6 +312,13 @@ class _Book:
         if default is not _GIVEN:
             k["defaults"].append((self.kind.get(pattern, ""), default))
 
+    def free(self, pattern, key, value):
+        """A key the reader passes on unchecked (``[checks.NAME]``): its type from the value a deck gives."""
+        k = self.tables.setdefault(pattern, {}).setdefault(key, {"required": {False}, "checks": {}, "defaults": []})
+        kind = ("true or false" if isinstance(value, bool) else "a number" if isinstance(value, (int, float)) else
+                "a list" if isinstance(value, list) else "observable text" if key == "observable" else "text")
+        k["checks"].setdefault(kind, {})  # not a check of the reader's vocabulary: no message for a wrong value
+
     def node(self, entry, kind):
         where = _split(entry)
         if where and where[1]:
@@ -213,14 +352,46 @@ def _recording(book):
 
 
 def record(decks=None) -> _Book:
-    """Read every deck (default: ``models/*.toml``) with the recording reader."""
+    """Read every deck (default: ``models/*.toml`` and :data:`PROBES`) with the recording reader."""
+    import tempfile
+
     book = _Book()
-    with _recording(book):
+    with _recording(book), tempfile.TemporaryDirectory() as scratch:
         deck_module.Reader = lambda path: _Recorder(path, book)
-        for path in decks or sorted((ROOT / "models").glob("*.toml")):
+        paths = decks or sorted((ROOT / "models").glob("*.toml"))
+        if decks is None:
+            for i, text in enumerate(PROBES):
+                (Path(scratch) / f"probe{i}.toml").write_text(text, encoding="utf-8")
+            paths = [*paths, *sorted(Path(scratch).glob("probe*.toml"))]
+        for path in paths:
             book.start()
-            deck_module.load_deck(path)
+            deck = deck_module.load_deck(path)
+            for spec in deck.checks.values():  # free keys, passed on to `flexmbs report`
+                for key, value in spec.items():
+                    book.free("[checks.NAME]", key, value)
     return book
+
+
+def page_meanings(page: Path = ROOT / "docs" / "deck.md") -> dict[str, dict[str, str]]:
+    """The meaning of each key in the deck page's ``| key | meaning |`` tables, by the table named in the heading
+    above (``### `[[joints]]```); a row may name several keys (`` `start` / `start_node` ``)."""
+    out: dict[str, dict[str, str]] = {}
+    pattern, rows = None, False
+    for line in page.read_text(encoding="utf-8").splitlines():
+        if m := re.match(r"^#{2,4} `(\[\[?[a-z_]+(?:\.NAME)?\]\]?)`", line):
+            pattern, rows = m[1], False
+        elif line.startswith("#"):
+            pattern, rows = (pattern if line.startswith("####") else None), False
+        elif line.startswith("| key | meaning |"):
+            rows = True
+        elif rows and line.startswith("|") and pattern:
+            cells = [c.strip() for c in re.split(r"(?<!\\)\|", line)[1:-1]]
+            if len(cells) == 2 and set(cells[0]) - set("-"):
+                for key in re.findall(r"`([A-Za-z_0-9]+)`", cells[0]):
+                    out.setdefault(pattern, {})[key] = cells[1]
+        else:
+            rows = False
+    return out
 
 
 def _type(checks: dict) -> str:
@@ -281,9 +452,9 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
-def _rows(pattern: str, keys, info: dict, required=None, declared=None, kind=None) -> list[str]:
-    lines = ["| key | required | type and range | default when left out | message for a wrong value |",
-             "|---|---|---|---|---|"]
+def _rows(pattern: str, keys, info: dict, meanings: dict, required=None, declared=None, kind=None) -> list[str]:
+    lines = ["| key | meaning | required | type and range | default when left out | message for a wrong value |",
+             "|---|---|---|---|---|---|"]
     for key in keys:
         k = info.get(key, {"required": set(), "checks": {}, "defaults": []})
         req = (key in required) if required is not None else (
@@ -292,7 +463,7 @@ def _rows(pattern: str, keys, info: dict, required=None, declared=None, kind=Non
         table = pattern.strip("[]")
         entry = f"{table}[0].{key}" if pattern.startswith("[[") else f"{table}.{key}"
         default = "" if req == "yes" else _default(k, (declared or {}).get(key), kind)
-        lines.append(f"| `{key}` | {req} | {_cell(_type(k['checks']))} | {_cell(default)} | "
+        lines.append(f"| `{key}` | {meanings.get(key, '')} | {req} | {_cell(_type(k['checks']))} | {_cell(default)} | "
                      f"{_cell(_message(entry, k['checks']))} |")
     return lines
 
@@ -304,29 +475,39 @@ def markdown(book: _Book | None = None, deck_page: str = "docs/deck.md") -> str:
     out = ["Generated from the deck reader (`flexmbs/deck_reference.py`) when the documentation is built: "
            "a *type* is the reader's check of the value, a *default* the value it uses when the key is left out "
            "(\"depends on the deck\": computed from other keys), a *message* what it answers for a wrong value. "
-           "A key with no type is accepted but used by no deck of the gallery; its meaning is in the prose of "
-           f"[the deck page]({deck_page}).", ""]
+           f"The *meaning* is [the deck page]({deck_page})'s, which says more.", ""]
+    up = deck_page.rpartition("/")[0]
+    page = {pattern: {k: re.sub(r"\]\((?!https?:|#|\.\./)([^)]+)\)", rf"]({up}/\1)" if up else r"](\1)", v)
+                      for k, v in keys.items()} for pattern, keys in page_meanings().items()}
+    meanings = {p: {**MEANINGS.get(p, {}), **page.get(p, {})} for p in {*MEANINGS, *page, *book.tables}}
+    meanings["[deck]"] = {p.strip("[]").split(".")[0]: f"the `{p}` table{'s' if '.NAME' in p else ''}, below"
+                          for p in book.tables if p != "[deck]"}
     kind_tables = {"[time_functions.NAME]": {k: (req, list(opt), opt) for k, (_, req, opt) in
                                              deck_module.TIME_FUNCTIONS.items()},
                    "[[springs]]": {k: (req, opt, {}) for k, (req, opt) in SPRING_KEYS.items()},
                    "[solver]": {name: (list(cls.deck_required), list(cls.deck_optional), {})
                                 for name, cls in ALGORITHMS.items()}}
-    seen = {p.strip("[]").split(".")[0] for p in book.tables}
-    unseen = [key for key in book.tables.get("[deck]", {}) if key not in seen]
-    if unseen:
-        out += ["Tables the reader accepts whose keys no gallery deck shows (they are read by the reader's "
-                "own checks, described on the deck page): " + ", ".join(f"`{k}`" for k in unseen) + ".", ""]
     for pattern in book.order:
-        info = book.tables[pattern]
+        info, meaning = book.tables[pattern], meanings.get(pattern, {})
         out += [f"## `{pattern}`" if pattern != "[deck]" else "## The deck's tables", ""]
+        if pattern == "[checks.NAME]":
+            out += ["Read by `flexmbs report`: the reader checks `observable` against the model and passes the other "
+                    "keys on; the keys below are those the gallery's decks use.", ""]
         if pattern in kind_tables:
             disc = KINDS[pattern.strip("[]").split(".")[0]]
-            out += _rows(pattern, [disc], info) + [""]
+            out += _rows(pattern, [disc], info, meaning) + [""]
             for kind, (req, opt, declared) in kind_tables[pattern].items():
                 out += [f"### `{disc} = \"{kind}\"`", ""]
-                out += _rows(pattern, [k for k in [*req, *opt] if k != disc], info, set(req), declared, kind) + [""]
+                out += _rows(pattern, [k for k in [*req, *opt] if k != disc], info, meaning, set(req), declared,
+                             kind) + [""]
+        elif pattern == "[deck]":  # the deck's tables: each an array of tables, a table of named tables or a table
+            kinds = {p.strip("[]").split(".")[0]: "array of tables `[[…]]`" if p.startswith("[[") else
+                     "named tables `[….NAME]`" if ".NAME" in p else "table `[…]`" for p in book.tables}
+            for key in info:
+                info[key]["checks"].setdefault(kinds.get(key, "table"), {})
+            out += _rows(pattern, list(info), info, meaning) + [""]
         else:
-            out += _rows(pattern, list(info), info) + [""]
+            out += _rows(pattern, list(info), info, meaning) + [""]
     return "\n".join(out)
 
 

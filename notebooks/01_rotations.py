@@ -14,9 +14,13 @@
 # flexmbs has three parametrisations of the same rotation matrix $A \in SO(3)$:
 #
 # * **Euler parameters** $q = (e_0, \mathbf e)$, $|q| = 1$ — the engine's state, no singularity:
+#
 #   $$A(q) = (2e_0^2 - 1)\,I + 2\,(\mathbf e\mathbf e^{\mathsf T} + e_0\tilde{\mathbf e});$$
+#
 # * the **rotation vector** $\psi$ (axis × angle, $a = |\psi|$), the exponential map
+#
 #   $$A = \exp(\tilde\psi) = I + \frac{\sin a}{a}\tilde\psi + \frac{1-\cos a}{a^2}\tilde\psi^2;$$
+#
 # * **Rodrigues parameters** $g = \tan(a/2)\,\hat\psi$, infinite at a half turn.
 #
 # Conventions (stated once, in `reference/rotation.py`): Euler parameters scalar first;
@@ -34,6 +38,8 @@ q = R.to_euler_parameters()
 print("rotation vector", psi, "angle", np.linalg.norm(psi))
 print("Euler parameters", q.q)
 print("Rodrigues", R.to(RodriguesParameters).g)
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 assert np.allclose(q.matrix(), R.matrix(), atol=1e-14) and np.allclose(q.matrix() @ q.matrix().T, np.eye(3), atol=1e-14)
 
 # %% [markdown]
@@ -43,8 +49,10 @@ assert np.allclose(q.matrix(), R.matrix(), atol=1e-14) and np.allclose(q.matrix(
 
 # %%
 p = RotationVector([0.0, 0.0, 0.5]).to_euler_parameters()
-assert np.allclose(q.product(p).matrix(), q.matrix() @ p.matrix(), atol=1e-14)
 print("‖A(q⊗p) − A(p⊗q)‖ =", np.linalg.norm(q.product(p).matrix() - p.product(q).matrix()))
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert np.allclose(q.product(p).matrix(), q.matrix() @ p.matrix(), atol=1e-14)
 
 # %% [markdown]
 # ## Near a half turn
@@ -53,7 +61,12 @@ print("‖A(q⊗p) − A(p⊗q)‖ =", np.linalg.norm(q.product(p).matrix() - p.
 # on its principal branch — while the Rodrigues parameters blow up as $\tan(a/2)$.
 
 # %%
+from pathlib import Path
+
 import matplotlib.pyplot as plt
+
+FIGURES = Path("figures") / "01_rotations"  # this lesson's figures, saved next to where it runs
+FIGURES.mkdir(parents=True, exist_ok=True)
 
 angles = np.linspace(0.0, 1.98 * np.pi, 400)
 axis = np.array([0.0, 0.6, 0.8])
@@ -69,6 +82,7 @@ ax.set_xlabel("rotation angle a [deg]")
 ax.set_ylabel("size of the parameters [–]")
 ax.set_title("Figure 1 — three parametrisations along one axis")
 ax.legend(fontsize=7)
+plt.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 plt.show()
 
 half = RotationVector([0.0, 0.0, np.pi])
@@ -82,7 +96,9 @@ except ValueError as err:
 # ## Updating Euler parameters: the trapezoidal (Cayley) rule
 # The engine integrates the kinematic equation $\dot q = \tfrac12\,q\otimes(0, \omega)$ with $\omega$
 # (body frame) held over the step. The trapezoidal rule has a closed form,
+#
 # $$q^{n+1} = q^n\otimes p,\qquad p = \frac{\left(1 - h^2|\omega|^2/16,\ \tfrac h2\omega\right)}{1 + h^2|\omega|^2/16},$$
+#
 # exactly of unit norm and equal to the exact $q\otimes\exp(h\omega)$ up to third order in $h|\omega|$
 # (`docs/formulation.md` §8). Figure 2 measures that order.
 
@@ -97,8 +113,6 @@ for h in steps:
 errors = np.array(errors)
 orders = np.log2(errors[:-1] / errors[1:])
 print("observed orders", orders)
-assert np.all(np.abs(orders - 3.0) < 0.1)
-assert abs(np.linalg.norm(q.cayley_update(w, 0.3).q) - 1.0) < 1e-15  # unit norm, exactly
 
 fig, ax = plt.subplots(figsize=(5.4, 3.8))
 ax.loglog(steps, errors, "o-", label="‖Cayley − exact‖")
@@ -107,20 +121,29 @@ ax.set_xlabel("time step h [s] (|ω| = 2.29 rad/s)")
 ax.set_ylabel("error of one update [–]")
 ax.set_title("Figure 2 — the Cayley update is third order per step")
 ax.legend(fontsize=8)
+plt.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 plt.show()
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert np.all(np.abs(orders - 3.0) < 0.1)
+assert abs(np.linalg.norm(q.cayley_update(w, 0.3).q) - 1.0) < 1e-15  # unit norm, exactly
 
 # %% [markdown]
 # ## The tangent operator
 # A small change $\delta\psi$ of the rotation vector is a body-frame rotation $J_r(\psi)\,\delta\psi$:
+#
 # $$\exp(\widetilde{\psi+\delta\psi}) \approx \exp(\tilde\psi)\,\exp(\widetilde{J_r\delta\psi}),\qquad
 # J_r(\psi) = I - \frac{1-\cos a}{a^2}\tilde\psi + \frac{a-\sin a}{a^3}\tilde\psi^2$$
+#
 # — the operator the Beam2 element uses for the exact variation of its relative rotation.
 
 # %%
 d = 1e-6 * np.array([1.0, 2.0, -1.0])
 lhs = RotationVector.from_matrix(R.matrix().T @ RotationVector(psi + d).matrix()).psi
-assert np.allclose(lhs, right_jacobian(psi) @ d, atol=1e-11)
 print("J_r(ψ) =\n", right_jacobian(psi))
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert np.allclose(lhs, right_jacobian(psi) @ d, atol=1e-11)
 
 # %% [markdown]
 # ## Exercises

@@ -11,7 +11,9 @@
 # # Lesson 3 — Joints, constraint Jacobians and Lagrange multipliers
 #
 # A spherical joint keeps a point of body $i$ on a point of body $j$:
+#
 # $$\Phi = x_j + A_j s'_j - x_i - A_i s'_i = 0,$$
+#
 # with $s'$ the joint point in each body's frame. The engine needs the velocity Jacobian $B$,
 # $\dot\Phi = B\,[v_i, \omega_i, v_j, \omega_j]$, with the angular velocities $\omega$ **in the body frames**.
 # A body-frame rotation perturbs $A \to A(I + \tilde{\delta\theta})$, so the columns of $B$ for $\omega_i$ are
@@ -43,6 +45,8 @@ display(sp.Eq(sp.Symbol(r"\partial\Phi/\partial\omega_i"), B_omega, evaluate=Fal
 # %%
 textbook = A * skew(s)
 display(sp.Eq(sp.Symbol(r"A_i \tilde{s}'_i"), textbook, evaluate=False))
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 assert sp.simplify(B_omega - textbook) == sp.zeros(3, 3)
 assert phi_i.jacobian(x) == -sp.eye(3)  # and the v_i columns are −I
 
@@ -51,11 +55,14 @@ assert phi_i.jacobian(x) == -sp.eye(3)  # and the v_i columns are −I
 # A rigid bar on a spherical joint to the ground, swinging around the vertical (a conical
 # pendulum started off its steady cone, so it also nods). The constraint forces are $B^{\mathsf T}\lambda$;
 # the stabilised multipliers (`docs/formulation.md` §7) solve
+#
 # $$\Big(B M^{-1}B^{\mathsf T} + \frac{\varepsilon}{h^2}I\Big)\lambda = \frac1h BV^* + \frac1{h^2}\Phi + \frac1h\Phi_t$$
+#
 # each step, which keeps $\|\Phi\|$ at one step's linearisation error, about $h^2v^2/(2l)$, instead of letting it drift.
 
 # %%
 import os
+from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -63,6 +70,9 @@ import numpy as np
 from reference.domain import Domain, SolverSettings
 from reference.interactions import Gravity
 from reference.rotation import RotationVector
+
+FIGURES = Path("figures") / "03_joints"  # this lesson's figures, saved next to where it runs
+FIGURES.mkdir(parents=True, exist_ok=True)
 
 QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
 d = Domain("spherical pendulum")
@@ -79,7 +89,6 @@ r = d.solve()
 c = r.position("bar")
 E = r.energy["kinetic"] + 9.81 * c[:, 2]
 print("max ‖Φ‖ = %.2e m, energy error = %.2e" % (r.constraint_violation.max(), abs(E - E[0]).max() / abs(E[0])))
-assert r.constraint_violation.max() < 1e-5 and abs(E - E[0]).max() < 1e-3 * abs(E[0])
 
 fig, (ax, bx) = plt.subplots(1, 2, figsize=(9.0, 3.8))
 ax.plot(c[:, 0], c[:, 1], lw=0.8)
@@ -93,7 +102,11 @@ bx.set_xlabel("time t [s]")
 bx.set_ylabel("constraint violation, energy error")
 bx.set_title("Figure 2 — bounded drift, conserved energy", fontsize=10)
 bx.legend(fontsize=8)
+plt.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 plt.show()
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert r.constraint_violation.max() < 1e-5 and abs(E - E[0]).max() < 1e-3 * abs(E[0])
 
 # %% [markdown]
 # ## Exercises

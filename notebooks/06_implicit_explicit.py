@@ -23,6 +23,7 @@
 #
 # $$q_{n+1} = q_n \circ \exp\!\big(h\,\Delta q_n\big),\qquad
 # \Delta q_n = v_n + h(\tfrac12-\beta)a_n + h\beta a_{n+1},$$
+#
 # $$v_{n+1} = v_n + h(1-\gamma)a_n + h\gamma a_{n+1},\qquad
 # (1-\alpha_m)a_{n+1} + \alpha_m a_n = (1-\alpha_f)\dot v_{n+1} + \alpha_f \dot v_n,$$
 #
@@ -48,6 +49,9 @@ from reference.domain import Domain, SolverDiverged, SolverSettings
 from reference.elements import Section
 from reference.interactions import Clamp, NodalLoad, Step
 from reference.io.results import load_results
+
+FIGURES = Path("figures") / "06_implicit_explicit"  # this lesson's figures, saved next to where it runs
+FIGURES.mkdir(parents=True, exist_ok=True)
 
 QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
 MODELS = Path(reference.__file__).resolve().parents[1] / "models"
@@ -108,21 +112,18 @@ ax.set_ylabel("kinetic + strain energy [J]")
 ax.set_title("Figure 1 — the explicit scheme above its limit: geometric growth")
 ax.legend(fontsize=8)
 fig.tight_layout()
+plt.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 plt.show()
 print("largest energy / the stable run's largest strain energy: " + ", ".join(f"{f} h_crit: {g:.1e}" for f, g in growth.items()))
-assert blow_up[0.95].status == "completed" and growth[0.95] < 10
-assert all(blow_up[f].status != "completed" and growth[f] > 1e30 for f in (1.25, 1.5))
 
 implicit = cantilever("generalized_alpha", dt_implicit).solve()
 print(f"critical step {h_crit:.2e} s")
 print(f"explicit h = {dt_explicit:.2e} s ({explicit.wall_time:.2f} s), "
       f"generalized-alpha h = {dt_implicit:.2e} s = {dt_implicit / h_crit:.0f} h_crit ({implicit.wall_time:.2f} s)")
 tip_e, tip_i = explicit.position("beam:10")[:, 2], implicit.position("beam:10")[:, 2]
-assert np.allclose(explicit.time, implicit.time)
 peak = np.abs(tip_e).max()
 tip_difference_percent = float(100 * np.abs(tip_i - tip_e).max() / peak)
 print(f"largest tip difference: {tip_difference_percent:.2f} % of the peak deflection")
-assert tip_difference_percent <= 5.0  # the first mode (period 1.8 s) with ~32 steps per period
 
 fig, ax = plt.subplots(figsize=(6.4, 3.2))
 ax.plot(explicit.time, tip_e, label=f"explicit, h = {dt_explicit:.1e} s")
@@ -132,7 +133,14 @@ ax.set_ylabel("tip deflection [m]")
 ax.set_title("Figure 2 — a step load: explicit below its limit, implicit at 20 critical steps")
 ax.legend()
 fig.tight_layout()
+plt.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 plt.show()
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert blow_up[0.95].status == "completed" and growth[0.95] < 10
+assert all(blow_up[f].status != "completed" and growth[f] > 1e30 for f in (1.25, 1.5))
+assert np.allclose(explicit.time, implicit.time)
+assert tip_difference_percent <= 5.0  # the first mode (period 1.8 s) with ~32 steps per period
 
 # %% [markdown]
 # The implicit solution is not exact: its error is set by how well $h$ resolves the *motion*
@@ -184,11 +192,10 @@ def period_elongation(rho_inf, wh):
 whs = np.logspace(-2, 4, 200)
 rhos = np.linspace(0.0, 1.0, 21)
 fig, (ax, bx) = plt.subplots(1, 2, figsize=(9.6, 3.4))
+radii = {}
 for rho in (1.0, 0.8, 0.5, 0.0):
-    radius = [spectral_radius(rho, wh) for wh in whs]
-    ax.semilogx(whs, radius, label=f"ρ∞ = {rho:g}")
-    assert max(radius) <= 1.0 + 1e-12  # unconditionally stable
-    assert abs(spectral_radius(rho, 1e6) - rho) <= 1e-3  # the high-frequency limit is ρ∞
+    radii[rho] = [spectral_radius(rho, wh) for wh in whs]
+    ax.semilogx(whs, radii[rho], label=f"ρ∞ = {rho:g}")
 ax.set_xlabel("ω h")
 ax.set_ylabel("spectral radius")
 ax.set_title("Figure 3 — numerical dissipation")
@@ -196,18 +203,25 @@ ax.legend()
 for steps_per_period in (40, 20, 10):
     wh = 2 * np.pi / steps_per_period
     bx.plot(rhos, [100 * period_elongation(rho, wh) for rho in rhos], "o-", ms=3, label=f"{steps_per_period} steps per period")
-    # ρ∞ = 1 is the trapezoidal rule, whose phase per step is exactly 2 arctan(ωh/2)
-    assert abs(period_elongation(1.0, wh) - (wh / (2 * np.arctan(wh / 2)) - 1)) < 1e-12
 bx.set_xlabel("ρ∞")
 bx.set_ylabel("period elongation [%]")
 bx.set_title("Figure 4 — the price of dissipation: phase error")
 bx.legend(fontsize=8)
 fig.tight_layout()
+plt.savefig(FIGURES / "figure3.png", dpi=120, bbox_inches="tight")
 plt.show()
 elongation_rho1_percent = float(100 * period_elongation(1.0, 2 * np.pi / 10))
 elongation_rho0_percent = float(100 * period_elongation(0.0, 2 * np.pi / 10))
 print(f"period elongation at 10 steps per period: ρ∞ = 1: {elongation_rho1_percent:.2f} %, "
       f"ρ∞ = 0: {elongation_rho0_percent:.2f} %")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+for rho, radius in radii.items():
+    assert max(radius) <= 1.0 + 1e-12  # unconditionally stable
+    assert abs(spectral_radius(rho, 1e6) - rho) <= 1e-3  # the high-frequency limit is ρ∞
+for steps_per_period in (40, 20, 10):  # ρ∞ = 1 is the trapezoidal rule, whose phase per step is exactly 2 arctan(ωh/2)
+    wh = 2 * np.pi / steps_per_period
+    assert abs(period_elongation(1.0, wh) - (wh / (2 * np.arctan(wh / 2)) - 1)) < 1e-12
 
 # %% [markdown]
 # Resolved modes ($\omega h \ll 1$) keep $\rho \approx 1$ — the dissipation is of third order
@@ -248,7 +262,6 @@ diff = np.abs(dg - de).max() / np.abs(de).max()
 print(f"{t_end:g} s of motion: explicit {t_ex:.2f} s ({int(round(t_end / 2.5e-6))} steps), "
       f"generalized-alpha {t_ga:.3f} s ({int(round(t_end / 1e-3))} steps): {t_ex / t_ga:.0f} times faster; "
       f"deflections differ by {diff:.2%} of the peak")
-assert diff <= 0.01 and t_ex > t_ga
 
 fig, ax = plt.subplots(figsize=(6.4, 3.2))
 ax.plot(ex.time, 1e6 * de, label="explicit, h = 2.5e-6 s")
@@ -258,7 +271,11 @@ ax.set_ylabel("mid-span deflection [µm]")
 ax.set_title("Figure 5 — steel coupler: the same answer with 400 times fewer steps")
 ax.legend()
 fig.tight_layout()
+plt.savefig(FIGURES / "figure4.png", dpi=120, bbox_inches="tight")
 plt.show()
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert diff <= 0.01 and t_ex > t_ga
 
 # %% [markdown]
 # Each implicit step costs far more than an explicit one (a residual, a tangent, a sparse

@@ -44,6 +44,9 @@ from reference.interactions import Gravity
 from reference.observables import parse
 from reference.rotation import EulerParameters
 
+FIGURES = Path("figures") / "08_reactions"  # this lesson's figures, saved next to where it runs
+FIGURES.mkdir(parents=True, exist_ok=True)
+
 MODELS = Path(reference.__file__).resolve().parents[1] / "models"
 QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
 g = 9.81
@@ -97,6 +100,9 @@ fig.tight_layout()
 
 err = np.max(np.linalg.norm(F_pin[1:] - F_closed[1:], axis=1)) / (m * g)
 print(f"largest difference from the closed form after t = 0: {err:.1e} of the weight")
+fig.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 # O(h²): the central difference and the stabilised multipliers are second order (measured 8e-6 at h = 1e-3)
 assert err < 1e-3
 
@@ -108,6 +114,8 @@ assert err < 1e-3
 
 # %%
 print(f"max |M_y| = {np.max(np.abs(M_pin[:, 1])):.1e} N m,  max |M| = {np.max(np.linalg.norm(M_pin, axis=1)):.1e} N m")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 assert np.max(np.abs(M_pin[:, 1])) < 1e-9
 
 # %% [markdown]
@@ -149,6 +157,9 @@ axes[1].set_ylabel("power [W]")
 axes[1].legend(fontsize=8)
 axes[0].set_title("Figure 2 — three-bar: driving torque, pin force and the power balance")
 fig.tight_layout()
+fig.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 # the integrated balance holds to the integrator's accuracy (output every 5 steps: trapezoid O(Δt²))
 assert balance < 1e-3
 

@@ -36,12 +36,14 @@ from scipy.optimize import brentq
 from scipy.special import ellipk
 
 import reference
-from flexmbs.deckchecks.cantilever_modes import families
 from flexmbs.verification import analytic
 from reference.domain import Domain, SolverSettings
 from reference.elements import Section
 from reference.interactions import Clamp, Gravity, NodalLoad, Ramp
 from reference.validation import ModelWarning
+
+FIGURES = Path("figures") / "10_modes_buckling"  # this lesson's figures, saved next to where it runs
+FIGURES.mkdir(parents=True, exist_ok=True)
 
 QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
 MODELS = Path(reference.__file__).resolve().parents[1] / "models"
@@ -67,21 +69,36 @@ def cantilever(n):
 # $(kh)^2/24$ for wave number $k$ and element length $h$: the error falls **four times per halving of the
 # element** (order 2), as for the consistent mass matrix, which overestimates by about as much
 # (Strang & Fix 1973, §6.3) — a lumped matrix is diagonal and cheap, and its error is of the same order.
+#
+# The solver returns the modes in order of frequency, of every kind: bending in either plane, torsion,
+# extension. To compare like with like, each mode is named by the motion that carries most of its kinetic
+# energy: the largest of $\sqrt{\rho A}\,|u_x|$, $\sqrt{\rho A}\,|u_y|$, $\sqrt{\rho A}\,|u_z|$ and
+# $\sqrt{\rho J_1}\,|\theta_x|$ over the nodes (the bending rotations follow their translations).
 
 # %%
+def families(shapes, section):
+    """Each mode's family (a beam along x): "axial", "bending y", "bending z" or "torsion", by the largest
+    mass-weighted amplitude of its shape (modes/shape: per mode, per node, 3 displacements and 3 rotations)."""
+    weights = np.array([np.sqrt(section.rhoA)] * 3 + [np.sqrt(section.rhoJ1)])
+    amplitude = np.abs(shapes[:, :, :4]).max(axis=1) * weights  # (modes, 4): u_x, u_y, u_z, θ_x
+    return np.array(["axial", "bending y", "bending z", "torsion"])[amplitude.argmax(axis=1)]
+
+
 meshes = (16, 32) if QUICK else (16, 32, 64, 128)
 errors = {}
 for n in meshes:
     d, _ = cantilever(n)
     d.solver = SolverSettings(algorithm="modes", modes=8)
     r = d.solve()
-    kind = np.array(families(r.data("modes/shape"), SLENDER.rhoA, SLENDER.rhoJ1))
+    kind = families(r.data("modes/shape"), SLENDER)
     w = 2 * np.pi * r.data("modes/frequency")[kind == "bending z"][:3]
     exact = np.array(analytic.CANTILEVER_BETA_L[:3]) ** 2 * np.sqrt(SLENDER.EI2 / SLENDER.rhoA)
     errors[n] = w / exact - 1
     print(f"{n:4d} elements: bending towards z, relative errors", "  ".join(f"{e:+.2e}" for e in errors[n]))
 order = np.log2(np.abs(errors[meshes[-2]] / errors[meshes[-1]]))
 print("observed order", np.round(order, 2))
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 # the lumped Beam2 mesh error at 32 elements: measured -2.6e-4, -2.4e-4, +6.0e-4 (docs/formulation.md §11)
 assert np.all(np.abs(errors[32]) < 1e-3)
 # second order: the ratio of successive errors is 4 up to higher-order terms (measured 1.9-2.1)
@@ -97,6 +114,7 @@ ax.set_ylabel("|relative frequency error|")
 ax.legend(fontsize=8)
 ax.set_title("Figure 1: bending frequencies of a cantilever converge at order 2")
 fig.tight_layout()
+fig.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 
 # %% [markdown]
 # ## 2. A mechanism: the double pendulum
@@ -129,12 +147,14 @@ w_exact, _ = analytic.double_pendulum_frequencies(1.0, 0.5, J, 1.0, 1.0, 0.5, J,
 w = 2 * np.pi * r.data("modes/frequency")
 print("ω flexmbs    ", w, "rad/s\nω Lagrange   ", w_exact, "rad/s")
 print("mobility", int(r.data("modes/mobility")), " zero modes", int(r.data("modes/zero_modes")))
-# rigid bodies, no mesh: the same linear equations in other coordinates, equal to round-off (1e-9)
-assert np.allclose(w, w_exact, rtol=1e-9, atol=0.0)
-assert int(r.data("modes/mobility")) == 2 and int(r.data("modes/zero_modes")) == 0
 
 free = double_pendulum(False).solve()
 print("without gravity:", [str(k) for k in free.data("modes/kind")], " mobility", int(free.data("modes/mobility")))
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+# rigid bodies, no mesh: the same linear equations in other coordinates, equal to round-off (1e-9)
+assert np.allclose(w, w_exact, rtol=1e-9, atol=0.0)
+assert int(r.data("modes/mobility")) == 2 and int(r.data("modes/zero_modes")) == 0
 assert int(free.data("modes/zero_modes")) == int(free.data("modes/mobility")) == 2
 
 # %% [markdown]
@@ -149,33 +169,51 @@ assert int(free.data("modes/zero_modes")) == int(free.data("modes/mobility")) ==
 # bending out of the plane of rotation (**flap**); in the plane (**lead-lag**) the centrifugal force also pulls
 # the deflected beam outward, which cancels $\Omega^2$ of it: $\omega_\text{lag}^2 = \omega_\text{flap}^2 - \Omega^2$ for the
 # uniform beam. The published flapwise frequencies (Hodges & Rutkowski 1981), in $\bar\omega = \omega\sqrt{\rho AL^4/EI}$
-# against $\lambda = \Omega\sqrt{\rho AL^4/EI}$ — here $EI = \rho A = L = 1$, so rad/s are the table's units:
+# against $\lambda = \Omega\sqrt{\rho AL^4/EI}$ — here $EI = \rho A = L = 1$, so rad/s are the table's units.
+#
+# The solver does this when the deck (or `SolverSettings`) says `about = "rotation"` with a `spin_rate` and a
+# `spin_axis`: the shapes it returns are then complex (the Coriolis coupling puts the lead-lag motion a
+# quarter period out of phase with the stretching), stored as `modes/shape` and `modes/shape_imaginary`. A mode
+# is flapwise when its displacements along the spin axis $z$ are larger than those along $y$.
 
 # %%
-from flexmbs.deckchecks.rotating_cantilever import by_family
 from flexmbs.verification.analytic import ROTATING_CANTILEVER_FLAP
-from reference.linearization import at_steady_rotation, reduce
-from reference.modal import modes
 
 ROUND = Section(EA=1e7, GA2=1e7, GA3=1e7, GJ=0.8, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-6, rhoJ2=1e-8, rhoJ3=1e-8)
-d = Domain("spinning cantilever")
-nodes = d.add_beam("blade", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 16, ROUND, axis2=(0.0, 1.0, 0.0))
-d.add_interaction(Clamp(nodes[0]))
-model, state = d.initialization(), d.initial_conditions()
+
+
+def blade(n):
+    """A round cantilever of length 1 along x, clamped at the origin, n Beam2 elements."""
+    d = Domain("spinning cantilever")
+    nodes = d.add_beam("blade", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), n, ROUND, axis2=(0.0, 1.0, 0.0))
+    d.add_interaction(Clamp(nodes[0]))
+    return d
+
+
+def first_modes(d, rate):
+    """The first flapwise and lead-lag frequencies ω̄ of ``d`` spinning at ``rate`` about z through the root, and
+    the largest damping ratio of the two lowest modes (one of each family)."""
+    d.solver = SolverSettings(algorithm="modes", modes=2, about="rotation", spin_rate=rate, spin_axis=(0.0, 0.0, 1.0))
+    r = d.solve()
+    shape = np.abs(r.data("modes/shape"))
+    imaginary = r.data("modes/shape_imaginary")  # written when the problem is gyroscopic (Ω ≠ 0)
+    if imaginary.shape == shape.shape:
+        shape = shape + np.abs(imaginary)
+    amplitude = shape[:, :, :3].max(axis=1)  # (modes, 3): the largest |u_x|, |u_y|, |u_z| over the nodes
+    flapwise = amplitude[:, 2] >= amplitude[:, 1]  # flap is along the spin axis z, lead-lag along y
+    w = 2 * np.pi * r.data("modes/frequency")  # EI = ρA = L = 1: ω in rad/s is the table's ω̄
+    return float(w[flapwise][0]), float(w[~flapwise][0]), float(np.max(np.abs(r.data("modes/damping_ratio"))))
+
+
 rates = [0.0, 6.0, 12.0] if QUICK else [0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0]
-flap, lag, zeta = [], [], []
-for rate in rates:
-    lin = at_steady_rotation(model, state, rate, (0.0, 0.0, 1.0))  # spin about z: flap is z, lead-lag y
-    red = reduce(lin)
-    found = modes(red.M, red.D, red.K, 2)
-    fam = by_family(found.frequency, lin.nodal((red.Z @ found.phi).T), 1.0)
-    flap.append(fam["flap"][0])
-    lag.append(fam["lag"][0])
-    zeta.append(np.max(np.abs(found.damping_ratio)))
+flap, lag, zeta = zip(*(first_modes(blade(16), rate) for rate in rates))
 published = np.array([ROTATING_CANTILEVER_FLAP[int(r)][0] for r in rates])
 for rate, f, g, p in zip(rates, flap, lag, published):
     print(f"λ = {rate:4.1f}: flap {f:8.4f} (published {p:.4f}, {f / p - 1:+.1e})   "
           f"lag {g:8.4f} (√(ω̄² − λ²) = {np.sqrt(p**2 - rate**2):.4f})")
+print(f"largest damping ratio {max(zeta):.1e}: no damping anywhere, the gyroscopic roots are imaginary")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 # 16 elements: the second-order mesh error of the first mode, measured -1.0e-3 (λ = 0) to -2.5e-4 (λ = 12) flap,
 # -1.0e-3 to -1.4e-3 lead-lag; 2e-3 bounds it (32 elements quarter it: the report's 0.5 % check)
 assert np.all(np.abs(np.array(flap) / published - 1) < 2e-3)
@@ -194,6 +232,7 @@ ax.set_ylabel("first frequency ω̄")
 ax.legend(fontsize=8)
 ax.set_title("Figure 2: a Campbell diagram (flexmbs campbell DECK --rates 0:12:13)")
 fig.tight_layout()
+fig.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
 
 # %% [markdown]
 # ## 4. Linear buckling of an Euler column
@@ -223,13 +262,17 @@ def column(n, algorithm="buckling", t_end=1.0, steps=1, imperfection=0.0):
     return d
 
 
+factors = {}
 for n in (16, 32):
-    mu = column(n).solve().data("buckling/load_factor")
+    factors[n] = column(n).solve().data("buckling/load_factor")
     expected = (np.pi / 2 / n) ** 2 / 6
-    print(f"{n} elements: load factors {mu.round(6)}; error {mu[0] - 1:+.3e}, (kh)²/6 = {expected:.3e}")
-    # Beam2's error is (kh)²/6 to within 5 % (its next terms are of order (kh)⁴); the second factor is the
-    # other plane (EI3 = 4 EI2)
-    assert abs((mu[0] - 1) / expected - 1) < 0.05 and abs(mu[1] / (4 * mu[0]) - 1) < 1e-6
+    print(f"{n} elements: load factors {factors[n].round(6)}; error {factors[n][0] - 1:+.3e}, (kh)²/6 = {expected:.3e}"
+          "; the second factor is the stiff plane's (EI3 = 4 EI2)")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+# Beam2's error is (kh)²/6 to within 5 % (its next terms are of order (kh)⁴); the second factor is the other plane
+for n, mu in factors.items():
+    assert abs((mu[0] - 1) / ((np.pi / 2 / n) ** 2 / 6) - 1) < 0.05 and abs(mu[1] / (4 * mu[0]) - 1) < 1e-6
 
 # %% [markdown]
 # `models/lateral_buckling.toml` is the harder case: a cantilever loaded at the tip across its stiff plane
@@ -240,6 +283,8 @@ for n in (16, 32):
 mu = Domain.from_deck(MODELS / "lateral_buckling.toml").solve().data("buckling/load_factor")
 exact = analytic.lateral_buckling_cantilever(100.0, 1.0, 1.0, 1.0)
 print(f"lateral buckling: P_cr = {4 * mu[0]:.5f} N, rod bifurcation {exact:.5f} N ({4 * mu[0] / exact - 1:+.1e})")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 assert abs(4 * mu[0] / exact - 1) < 2e-3  # 32 elements' second-order error, measured +7.5e-4 (the deck's check)
 
 # %% [markdown]
@@ -268,6 +313,8 @@ count = perfect.data("stability/negative_eigenvalues")
 critical = perfect.data("stability/critical_load_factor")
 print("negative eigenvalues per load level:", count.astype(int))
 print("straight? max |tip z| =", np.max(np.abs(perfect.position("beam:end")[:, 2])))
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 assert len(lines) == 1 and "bifurcation, 1 negative eigenvalue" in lines[0]
 # load levels 0, 0.1, ..., 1.5: stable up to 1.0, one negative eigenvalue from 1.1 on
 assert list(count) == [0] * 11 + [1] * 5
@@ -289,8 +336,6 @@ with warnings.catch_warnings(record=True) as caught:
     bent = column(16, "static", 1.5, steps, imperfection=1e-3).solve()
 load = np.linspace(0.0, 1.5, steps + 1)
 tip = bent.position("beam:end")[:, 2]
-assert not any(issubclass(w.category, ModelWarning) for w in caught)
-assert not np.any(bent.data("stability/negative_eigenvalues"))
 
 
 def elastica_deflection(ratio):
@@ -301,8 +346,6 @@ def elastica_deflection(ratio):
 
 print(f"at 1.5 P_cr: tip deflection {tip[-1]:.5f} L, elastica {elastica_deflection(1.5):.5f} L "
       f"({tip[-1] / elastica_deflection(1.5) - 1:+.1e})")
-# 16 elements (Beam2's load +1.6e-3 high there) and the 1e-3 imperfection: measured -1.9e-5; 2e-3 bounds them
-assert abs(tip[-1] / elastica_deflection(1.5) - 1) < 2e-3
 
 fig, ax = plt.subplots(figsize=(5.4, 3.6))
 ax.plot(tip, load, "o-", label="imperfect column (static path)")
@@ -316,6 +359,13 @@ ax.set_ylabel("P / P_cr")
 ax.legend(fontsize=8)
 ax.set_title("Figure 3: an Euler column past buckling")
 fig.tight_layout()
+fig.savefig(FIGURES / "figure3.png", dpi=120, bbox_inches="tight")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert not any(issubclass(w.category, ModelWarning) for w in caught)
+assert not np.any(bent.data("stability/negative_eigenvalues"))
+# 16 elements (Beam2's load +1.6e-3 high there) and the 1e-3 imperfection: measured -1.9e-5; 2e-3 bounds them
+assert abs(tip[-1] / elastica_deflection(1.5) - 1) < 2e-3
 
 # %% [markdown]
 # ## Exercises
@@ -352,16 +402,8 @@ assert abs(mu_pinned / np.pi**2 - 1 - (np.pi / 32) ** 2 / 6) < 1e-4  # check of 
 # Exercise 2
 errors = {}
 for n in (16, 32):
-    d = Domain("spinning cantilever")
-    nodes = d.add_beam("blade", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), n, ROUND, axis2=(0.0, 1.0, 0.0))
-    d.add_interaction(Clamp(nodes[0]))
-    model, state = d.initialization(), d.initial_conditions()
     for rate in (0.0, 12.0):
-        lin = at_steady_rotation(model, state, rate, (0.0, 0.0, 1.0))
-        red = reduce(lin)
-        found = modes(red.M, red.D, red.K, 2)
-        f = by_family(found.frequency, lin.nodal((red.Z @ found.phi).T), 1.0)["flap"][0]
-        errors[n, rate] = f / ROTATING_CANTILEVER_FLAP[int(rate)][0] - 1
+        errors[n, rate] = first_modes(blade(n), rate)[0] / ROTATING_CANTILEVER_FLAP[int(rate)][0] - 1
 for rate in (0.0, 12.0):
     print(f"λ = {rate:4.1f}: flap error {errors[16, rate]:+.2e} (16 elements), {errors[32, rate]:+.2e} (32), "
           f"ratio {errors[16, rate] / errors[32, rate]:.2f}")

@@ -48,6 +48,9 @@ from reference.interactions import Clamp, FixedCoordinates, NodalLoad, Ramp
 from reference.io.results import load_results
 from reference.validation import ModelWarning
 
+FIGURES = Path("figures") / "11_equilibrium_paths"  # this lesson's figures, saved next to where it runs
+FIGURES.mkdir(parents=True, exist_ok=True)
+
 # the repository, wherever the notebook runs from (the editable install points here)
 MODELS = Path(reference.__file__).resolve().parents[1] / "models"
 
@@ -149,9 +152,7 @@ with tempfile.TemporaryDirectory() as scratch:  # a run that stops keeps every c
     stopped_levels, stopped_apex, stopped_status = stopped.time.copy(), stopped.position("left:1")[:, 2], stopped.status
 print(message)
 stopped_at = float(stopped_levels[-1])  # the last sub-level of the cut step
-assert stopping is None and "limit (buckling) point" in message and stopped_status.startswith("Newton did not converge")
-# the step of 0.15 from 0.9 halved 8 times: the last converged level within 0.15/256 below the limit
-assert 1.0 - 0.15 / 256 - 1e-9 <= stopped_at < 1.0
+stop_message = message
 
 jumping, message, lines = solve_quietly(truss(RISE, **load_control))
 apex_static = jumping.position("left:1")[:, 2]
@@ -160,6 +161,11 @@ h_before, h_after = float(apex_static[jump]), float(apex_static[jump + 1])
 print(f"default Newton: completed without a message ({message or 'none'}, {len(lines)} warnings); the apex jumps "
       f"from h = {h_before:.4f} m at λ = {jumping.time[jump]:.2f} to {h_after:.4f} m at λ = "
       f"{jumping.time[jump + 1]:.2f}")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert stopping is None and "limit (buckling) point" in stop_message and stopped_status.startswith("Newton did not converge")
+# the step of 0.15 from 0.9 halved 8 times: the last converged level within 0.15/256 below the limit
+assert 1.0 - 0.15 / 256 - 1e-9 <= stopped_at < 1.0
 assert jumping.status == "completed" and not lines and h_before > 0.0 > -RISE > h_after
 # both equilibria: the closed form holds at every level (Newton's tolerance 1e-10 of the forces)
 assert np.allclose(truss_load(apex_static, RISE) / P_max, jumping.time, atol=1e-6)
@@ -181,13 +187,15 @@ unstable = r.data("path/negative_eigenvalues") > 0
 critical = r.data("path/critical_load_factor")
 worst = float(np.max(np.abs(lam - truss_load(apex, RISE) / P_max)))
 print(f"{len(lam)} points, largest distance from the closed form {worst:.1e} P_max; limit points at λ = {critical}")
+first_limit = float(critical[0])
+
+# %% tags=["check"] jupyter={"source_hidden": true}
 assert r.status == "completed" and apex[-1] < -RISE and lam[-1] >= 1.5
 # on the closed form to Newton's tolerance (measured 2e-10; tests/test_arc_length.py holds 1e-6)
 assert worst < 1e-6
 assert list(r.data("path/critical_kind")) == ["limit point", "limit point"]
 # located by secant steps on the eigenvalue nearest zero (docs/formulation.md §12): measured 1e-9 and 3e-5
 assert np.allclose(critical, [1.0, -1.0], atol=1e-4)
-first_limit = float(critical[0])
 
 # %%
 fig, ax = plt.subplots(figsize=(6.0, 3.8))
@@ -207,6 +215,7 @@ ax.set_ylim(-1.4, 2.7)
 ax.legend(fontsize=7, loc="upper center", ncol=2)
 ax.set_title("Figure 1: the von Mises truss snaps through", fontsize=10)
 fig.tight_layout()
+fig.savefig(FIGURES / "figure1.png", dpi=120, bbox_inches="tight")
 
 # %% [markdown]
 # The arc-length points lie on the closed form all the way, the limit points are found at
@@ -251,20 +260,11 @@ P_bifurcation = 4.0 * float(primary.data("path/critical_load_factor")[0])
 bifurcation_error_percent = 100.0 * (P_bifurcation / rod - 1.0)
 print(f"bifurcation at P = {P_bifurcation:.4f} N; the rod's {rod:.4f} N ({bifurcation_error_percent:+.2f} %); "
       f"algorithm = 'buckling' {linear:.4f} N")
-assert list(primary.data("path/critical_kind")) == ["bifurcation"]
-assert np.all(primary.position("beam:end")[:, 1] == 0.0)  # the perfect beam never leaves its plane
-# Beam2's second-order mesh error at 16 elements, from above (the deck's notes: +3.2e-3 for the buckling
-# algorithm); 0.5 % bounds it
-assert 0.0 < P_bifurcation / rod - 1.0 < 5e-3 and 0.0 < linear / rod - 1.0 < 5e-3
 count = primary.data("path/negative_eigenvalues")
 first = int(np.argmax(count > 0))  # the first point past the bifurcation
-assert first > 0 and list(count) == [0] * first + [1] * (len(count) - first)
 sideways = switched.position("beam:end")[:, 1]
 branch = sideways != 0.0
 P_branch = 4.0 * switched.data("path/load_factor")[branch]
-# the post-buckled branch: stable, the tip further aside and the load higher at every point
-assert abs(sideways[-1]) > 0.05 and np.all(switched.data("path/negative_eigenvalues")[branch] == 0)
-assert np.all(np.diff(np.abs(sideways[branch])) > 0) and np.all(np.diff(P_branch) > 0)
 
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(8.4, 3.4))
 ax1.step(4.0 * primary.data("path/load_factor"), count, "o-", where="post", ms=3)
@@ -286,6 +286,18 @@ ax2.legend(fontsize=7, loc="lower right")
 ax2.set_title("the two paths through the bifurcation", fontsize=9)
 fig.suptitle("Figure 2: lateral–torsional buckling of the perfect cantilever", fontsize=10)
 fig.tight_layout()
+fig.savefig(FIGURES / "figure2.png", dpi=120, bbox_inches="tight")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert list(primary.data("path/critical_kind")) == ["bifurcation"]
+assert np.all(primary.position("beam:end")[:, 1] == 0.0)  # the perfect beam never leaves its plane
+# Beam2's second-order mesh error at 16 elements, from above (the deck's notes: +3.2e-3 for the buckling
+# algorithm); 0.5 % bounds it
+assert 0.0 < P_bifurcation / rod - 1.0 < 5e-3 and 0.0 < linear / rod - 1.0 < 5e-3
+assert first > 0 and list(count) == [0] * first + [1] * (len(count) - first)
+# the post-buckled branch: stable, the tip further aside and the load higher at every point
+assert abs(sideways[-1]) > 0.05 and np.all(switched.data("path/negative_eigenvalues")[branch] == 0)
+assert np.all(np.diff(np.abs(sideways[branch])) > 0) and np.all(np.diff(P_branch) > 0)
 
 # %% [markdown]
 # The bifurcation is found at $P$ = 4.071<!-- check P_bifurcation abs 1e-3 --> N,
@@ -305,23 +317,19 @@ fig.tight_layout()
 
 # %%
 sizes = (3e-3, 1e-2, 3e-2)
-imperfect = {}
+imperfect, critical_points = {}, {}
 for eps in sizes:
     d = lateral(imperfection=eps, arc_length=0.1, max_points=60, max_load_factor=1.5)
     d.solver.stop_when = (d.node(f"beam:{N_ELEMENTS}").id, 1, ">", 0.12, "position.y:beam:end > 0.12")
     run, _, lines = solve_quietly(d)
-    assert not lines and not np.any(run.data("path/negative_eigenvalues")), "no critical point on an imperfect path"
+    critical_points[eps] = len(lines) + int(np.count_nonzero(run.data("path/negative_eigenvalues")))
     imperfect[eps] = (4.0 * run.data("path/load_factor"), run.position("beam:end")[:, 1])
-    assert np.all(np.diff(imperfect[eps][0]) > 0.0) and np.all(np.diff(imperfect[eps][1]) > 0.0)  # no limit point
 at_tenth = {eps: float(np.interp(0.1, y, P)) for eps, (P, y) in imperfect.items()}
 for eps in sizes:
     print(f"ε = {eps:g}: P = {at_tenth[eps]:.4f} N with the tip 0.1 L aside "
           f"({at_tenth[eps] / P_bifurcation - 1:+.2%} from the bifurcation load)")
-# the smaller the imperfection, the closer the path to the perfect beam's: the loads at 0.1 L rise as ε falls
-assert at_tenth[3e-3] > at_tenth[1e-2] > at_tenth[3e-2]
 post_buckled = float(np.interp(0.1, np.abs(sideways[branch]), P_branch))
 imperfect_gap_percent = 100.0 * (1.0 - at_tenth[3e-3] / post_buckled)
-assert 0.0 < imperfect_gap_percent < 5.0
 
 fig, ax = plt.subplots(figsize=(6.0, 3.8))
 ax.plot(primary.position("beam:end")[:, 1], 4.0 * primary.data("path/load_factor"), "ko-", ms=3,
@@ -338,6 +346,14 @@ ax.set_ylabel("tip load P [N]")
 ax.legend(fontsize=7, loc="lower right")
 ax.set_title("Figure 3: imperfect cantilevers approach the perfect one's branches", fontsize=10)
 fig.tight_layout()
+fig.savefig(FIGURES / "figure3.png", dpi=120, bbox_inches="tight")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+for eps, (P, y) in imperfect.items():  # no critical point on an imperfect path: load and deflection rise together
+    assert critical_points[eps] == 0 and np.all(np.diff(P) > 0.0) and np.all(np.diff(y) > 0.0)
+# the smaller the imperfection, the closer the path to the perfect beam's: the loads at 0.1 L rise as ε falls
+assert at_tenth[3e-3] > at_tenth[1e-2] > at_tenth[3e-2]
+assert 0.0 < imperfect_gap_percent < 5.0
 
 # %% [markdown]
 # With the tip 0.1 L aside, the path with $\varepsilon = 0.3\,\%$ is 1.5<!-- check imperfect_gap_percent abs 0.1 --> %
@@ -384,10 +400,6 @@ southwell_error_percent = 100.0 * (P_southwell / P_euler - 1.0)
 print(f"Southwell: P_cr = {P_southwell:.4f} N; closed form π²EI/4L² = {P_euler:.4f} N "
       f"({southwell_error_percent:+.3f} %); algorithm = 'buckling' {P_linear:.4f} N ({P_linear / P_euler - 1:+.2e})")
 southwell_vs_buckling_percent = 100.0 * (P_southwell / P_linear - 1.0)
-# Beam2 at 16 elements buckles (kh)²/6 = 1.6e-3 high (lesson 10); the fit's own error (the sideways force's
-# first-order response is not exactly the buckling mode) measured +3.8e-4 against the buckling algorithm;
-# 0.5 % and 0.1 % bound them
-assert abs(P_southwell / P_euler - 1.0) < 5e-3 and abs(southwell_vs_buckling_percent) < 0.1
 
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(8.4, 3.4))
 mm = 1e3  # plotted in mm
@@ -407,6 +419,13 @@ ax2.legend(fontsize=8)
 ax2.set_title("Southwell plot", fontsize=9)
 fig.suptitle("Figure 4: the critical load from an imperfect column's path", fontsize=10)
 fig.tight_layout()
+fig.savefig(FIGURES / "figure4.png", dpi=120, bbox_inches="tight")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+# Beam2 at 16 elements buckles (kh)²/6 = 1.6e-3 high (lesson 10); the fit's own error (the sideways force's
+# first-order response is not exactly the buckling mode) measured +3.8e-4 against the buckling algorithm;
+# 0.5 % and 0.1 % bound them
+assert abs(P_southwell / P_euler - 1.0) < 5e-3 and abs(southwell_vs_buckling_percent) < 0.1
 
 # %% [markdown]
 # The straight line's slope gives $P_\text{cr}$ = 2.4724<!-- check P_southwell abs 1e-3 --> N,

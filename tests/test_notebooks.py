@@ -63,6 +63,11 @@ def test_notebook_executes_in_a_kernel(notebook, tmp_path, monkeypatch):
     client.execute()  # raises CellExecutionError, naming the cell, if any cell fails
     errors = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []) if o.output_type == "error"]
     assert not errors
+    # run as a notebook or as a script, a lesson saves its figures into figures/<lesson>/ where it runs
+    plots = sum(c.source.count("plt.subplots(") + c.source.count("plt.figure(") for c in nb.cells if c.cell_type == "code")
+    saved = sorted(p.name for p in (tmp_path / "figures" / notebook.stem).glob("*.png"))
+    assert len(saved) == plots and all(p.stat().st_size > 1000 for p in (tmp_path / "figures" / notebook.stem).glob("*.png")), (
+        f"{notebook.name}: {plots} figures drawn, saved: {saved}")
     printed = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
                       if o.output_type == "stream")
     assert "np.float64(" not in printed, "print plain numbers (float(...) or a format), not numpy reprs"
@@ -110,3 +115,25 @@ def test_quoted_numbers_are_read_with_their_unit_and_tolerance():
                         "# 1.3e-5 J<!-- check drift abs 1e-6 -->, moves 2.1 %<!-- check lag rel 0.1 -->\n",
                         fmt="py:percent")
     assert quoted_numbers(nb) == [("peak", 3.7, "rel", 0.05), ("drift", 1.3e-5, "abs", 1e-6), ("lag", 2.1, "rel", 0.1)]
+
+
+@pytest.mark.parametrize("notebook", NOTEBOOKS, ids=lambda p: p.stem)
+def test_student_cells_hold_no_checks(notebook):
+    """The code a student reads and edits teaches; the lesson's checks (its asserts, which the test above runs) are
+    in cells tagged ``check``, collapsed in Jupyter and left out of the site, or in the collapsed answers."""
+    import ast
+
+    jupytext = pytest.importorskip("jupytext", reason="the test extra installs jupytext")
+    nb = jupytext.read(notebook)
+    found = []
+    for i, cell in enumerate(nb.cells):
+        tags = cell.metadata.get("tags", [])
+        if cell.cell_type != "code" or "check" in tags or "solution" in tags:
+            continue
+        source = "\n".join("" if line.startswith(("%", "!")) else line for line in cell.source.split("\n"))
+        found += [f"cell {i}, line {node.lineno}: {ast.get_source_segment(source, node)[:80]}"
+                  for node in ast.walk(ast.parse(source)) if isinstance(node, ast.Assert)]
+    assert not found, f"{notebook.name}: asserts in student cells: {found}"
+    for i, cell in enumerate(nb.cells):
+        if "check" in cell.metadata.get("tags", []):
+            assert cell.metadata.get("jupyter", {}).get("source_hidden"), f"{notebook.name}: check cell {i} not collapsed"

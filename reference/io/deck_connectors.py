@@ -45,11 +45,9 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
             close = difflib.get_close_matches(kind, list(JOINT_KINDS), n=1)
             raise rd.fail(f"{entry}.kind", f"unknown joint kind {show(kind)}",
                           f"did you mean '{close[0]}'?" if close else f"one of: {', '.join(JOINT_KINDS)}")
-        formulation = jt.get("formulation", "jacobian")
-        if formulation not in ("jacobian", "master_slave"):
-            raise rd.fail(f"{entry}.formulation", f"unknown joint formulation {show(formulation)}",
-                          "'jacobian' (Lagrange multipliers, stabilised) or 'master_slave' (elimination; "
-                          "spherical and revolute joints, slave = body_i a beam node)")
+        formulation = rd.choice(jt.get("formulation", "jacobian"), f"{entry}.formulation", ("jacobian", "master_slave"),
+                                "joint formulation", "'jacobian' (Lagrange multipliers, stabilised) or 'master_slave' "
+                                "(elimination; spherical and revolute joints, slave = body_i a beam node)")
         body_i = refs.node(jt["body_i"], f"{entry}.body_i")
         body_j = None
         if jt.get("body_j", "ground") != "ground":
@@ -67,10 +65,8 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
             if name not in tfs:
                 raise rd.fail(f"{entry}.time_function", f"no time function {show(name)}", f"defined: {', '.join(tfs) or 'none'}")
             tf = tfs[name]
-        mode = jt.get("mode", "position")
-        if mode not in ("position", "velocity"):
-            raise rd.fail(f"{entry}.mode", f"unknown mode {show(mode)}",
-                          "'position' (the time function is the angle/displacement) or 'velocity' (its rate)")
+        mode = rd.choice(jt.get("mode", "position"), f"{entry}.mode", ("position", "velocity"), "mode",
+                         "'position' (the time function is the angle/displacement) or 'velocity' (its rate)")
         if tf is not None and mode == "velocity" and isinstance(tf, Expression) and not tf.with_integral:
             try:
                 tf = tfs[jt["time_function"]] = Expression(tf.expr, with_integral=True)
