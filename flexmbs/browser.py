@@ -184,8 +184,8 @@ def _visit(pipe: _Pipe, url: str, ready: str, timeout: float, settle: float, scr
         pipe.pump(0.05)
     pipe.pump(settle)
     if screenshot:
-        page.screenshot = base64.b64decode(pipe.send("Page.captureScreenshot", {"format": "png"},
-                                                     session=session)["data"])
+        page.screenshot = base64.b64decode(pipe.send("Page.captureScreenshot", {"format": "png"}, session=session,
+                                                     timeout=timeout)["data"])
     _collect(pipe.events, page)
     return page
 

@@ -1,4 +1,4 @@
-// flexmbs interactive view: draws every <div class="flexmbs-view"> of the page from the JSON scene in its
+// flexmbs interactive view: draws every div of class flexmbs-view on the page from the JSON scene in its
 // <script type="application/json"> child (written by flexmbs/view.py; its docstring describes the format).
 // Canvas 2D, orthographic; no library, no network: the page works offline.  Drag: turn; shift-drag or
 // right-drag: pan; wheel: zoom; double-click: the first view again.
@@ -23,6 +23,9 @@
     if (u < 0.5) { a = lo; b = mid; s = u / 0.5; } else { a = mid; b = hi; s = (u - 0.5) / 0.5; }
     return [0, 1, 2].map(function (k) { return Math.round(a[k] + (b[k] - a[k]) * s); });
   }
+
+  var PALETTE = [];  // the 256 levels of a colour channel as CSS colours
+  for (var level = 0; level < 256; level++) { PALETTE.push("rgb(" + coolwarm(level / 255).join(",") + ")"); }
 
   function matmul(a, b) {  // 3×3, row-major arrays of 9
     var c = new Array(9);
@@ -236,7 +239,7 @@
   };
 
   View.prototype.draw = function () {
-    var s = this.scene, q = s.sequences[this.sequence], c = this.canvas, g = c.getContext("2d");
+    var s = this.scene, q = s.sequences[this.sequence], c = this.canvas, g = c.getContext("2d", {willReadFrequently: true});
     if (!q || !q.positions16 || !this.R) { return; }
     var W = c.width, H = c.height, r = this.ratio, P = s.points, a = q.positions16, base = this.frame * P * 3;
     var lo = s.box[0], step = [0, 1, 2].map(function (k) { return (s.box[1][k] - s.box[0][k]) / 65535; });
@@ -263,41 +266,36 @@
     g.fillRect(0, 0, W, H);
     g.lineCap = "round";
     g.lineJoin = "round";
+    var style = null, path = 0;  // consecutive segments of one style are stroked as one path
+    function stroke(fill, width) {
+      if (style !== null && (fill !== style[0] || width !== style[1])) { g.stroke(); style = null; }
+      if (style === null) { g.beginPath(); g.strokeStyle = fill; g.lineWidth = width; style = [fill, width]; }
+      path++;
+    }
+    function finish() { if (style !== null) { g.stroke(); style = null; } }
     if (this.tubes) {  // a dark rim under every tube first, then the bodies: joined segments read as one tube
-      g.strokeStyle = "rgba(0,0,0,0.55)";
       for (var m = 0; m < order.length; m++) {
         var f = order[m];
         if (kind[f] < -1) { continue; }
-        g.lineWidth = (kind[f] === -1 ? 1.3 * tube : tube) + 2 * r;
-        g.beginPath();
+        stroke("rgba(0,0,0,0.55)", (kind[f] === -1 ? 1.3 * tube : tube) + 2 * r);
         g.moveTo(X[seg[2 * f]], Y[seg[2 * f]]);
         g.lineTo(X[seg[2 * f + 1]], Y[seg[2 * f + 1]]);
-        g.stroke();
       }
+      finish();
     }
     for (var j = 0; j < order.length; j++) {
-      var e = order[j], k = kind[e], A = seg[2 * e], B = seg[2 * e + 1], fill, width;
+      var e = order[j], k = kind[e], A = seg[2 * e], B = seg[2 * e + 1];
       if (k >= 0) {
-        fill = "#4a78b5";
-        if (colour) {
-          var rgb = coolwarm(colour.values[this.frame * E + k] / 255);
-          fill = "rgb(" + rgb.join(",") + ")";
-        }
-        width = tube;
+        stroke(colour ? PALETTE[colour.values[this.frame * E + k]] : "#4a78b5", tube);
       } else if (k === -1) {
-        fill = "#666";
-        width = 1.3 * tube;
+        stroke("#666", 1.3 * tube);
       } else {
-        fill = axisColours[-k - 2];
-        width = 1.5 * r;
+        stroke(axisColours[-k - 2], 1.5 * r);
       }
-      g.beginPath();
       g.moveTo(X[A], Y[A]);
       g.lineTo(X[B], Y[B]);
-      g.strokeStyle = fill;
-      g.lineWidth = width;
-      g.stroke();
     }
+    finish();
     this.drawn = order.length;
     this.overlay(g, W, H, r, q, colour);
     this.ready = true;
@@ -306,13 +304,14 @@
 
   View.prototype.overlay = function (g, W, H, r, q, colour) {
     var t = q.times[this.frame], font = Math.round(12 * r) + "px system-ui,sans-serif", R = this.R;
+    var clock = q.unit === "phase" ? "phase " + t.toFixed(3) : q.unit === "s" ? "t = " + t.toFixed(4) + " s" :
+      q.unit + " = " + t.toPrecision(5);
     g.fillStyle = "#222";
     g.font = font;
     g.textBaseline = "top";
     g.fillText(this.scene.title + (q.name ? " — " + q.name : ""), 8 * r, 6 * r);
-    g.fillText((q.unit === "phase" ? "phase " + t.toFixed(3) : "t = " + t.toFixed(4) + " s") + "   (" +
-               (this.frame + 1) + " / " + q.times.length + ")", 8 * r, 22 * r);
-    this.clock.textContent = q.unit === "phase" ? "phase " + t.toFixed(3) : "t = " + t.toFixed(4) + " s";
+    g.fillText(clock + "   (" + (this.frame + 1) + " / " + q.times.length + ")", 8 * r, 22 * r);
+    this.clock.textContent = clock;
     var ox = 34 * r, oy = H - 34 * r, L = 24 * r, names = ["x", "y", "z"], cols = ["#d62728", "#2ca02c", "#1f77b4"];
     for (var k = 0; k < 3; k++) {  // the inertial axes, bottom left
       g.strokeStyle = cols[k];

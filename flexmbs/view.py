@@ -20,7 +20,8 @@ The scene (the JSON in the page) holds
 - ``box`` (2, 3): the bounding box of every point of every frame [m]; ``points`` P, ``segments`` (2 S)
   point pairs, ``kinds`` (S,): the element's index (≥ 0, into ``elements``), −1 a rigid body, −2, −3, −4
   its axes e₁, e₂, e₃;
-- ``sequences``: the motion (``times`` [s]) and, for a modes or buckling file, one per mode over one
+- ``sequences``: the motion (``times`` [s]; an arc-length path's load factors, ``unit`` λ) and, for a modes
+  or buckling file, one per mode over one
   period of :func:`reference.io.mode_animation.mode_history` (``times``: the phase; amplitude as
   ``flexmbs plot --mode``: the largest displacement 10 % of the model size).  ``positions``: the points
   of every frame quantised to 16 bits on the box (at most 1/131,070 of the box's side off), stored as
@@ -52,6 +53,8 @@ AXES = 0.08
 """Length of a rigid body's drawn axes, as a fraction of the model's size (the box diagonal at t = 0)."""
 MODE_FRAMES = 48
 """Frames per period of a mode."""
+EMBEDDED_FRAMES = 200
+"""At most this many frames in a view that the report and the docs embed (every k-th output)."""
 
 
 class ViewError(OSError):
@@ -59,7 +62,7 @@ class ViewError(OSError):
 
 
 def _b64(data: bytes) -> str:
-    return base64.b64encode(zlib.compress(data, 9)).decode("ascii")
+    return base64.b64encode(zlib.compress(data, 6)).decode("ascii")
 
 
 def _rows(n: int, max_frames: int | None) -> np.ndarray:
@@ -135,7 +138,7 @@ def _modes(path, points: _Points) -> list[dict]:
     return out
 
 
-def scene(path, max_frames: int | None = None, title: str | None = None, height: int = 480) -> dict:
+def scene(path, max_frames: int | None = None, title: str | None = None, height: int = 480, domain=None) -> dict:
     """The scene of the results file ``path`` (the module docstring's format), as a JSON-ready dict.
 
     Parameters
@@ -149,6 +152,8 @@ def scene(path, max_frames: int | None = None, title: str | None = None, height:
         The view's title (default: the deck's name).
     height : int
         The drawing's height [CSS px].
+    domain : reference.domain.Domain, optional
+        The model the file was written for, when the file does not carry its deck (``Domain.solve``).
 
     Raises
     ------
@@ -170,7 +175,7 @@ def scene(path, max_frames: int | None = None, title: str | None = None, height:
     if n == 0:
         raise ViewError(f"{path}: the file has no records (status {r.status!r}): its run ended before the first "
                         "output; nothing to show")
-    domain = domain_of(r)
+    domain = domain_of(r) if domain is None else domain
     if domain is None:
         raise ViewError(f"{path}: the file carries no deck, so the model's elements are unknown; write it with "
                         "`flexmbs run DECK` (or Deck.solve), which records the deck")
@@ -194,7 +199,8 @@ def scene(path, max_frames: int | None = None, title: str | None = None, height:
                 continue
             level = np.rint(127.5 + 127.5 * np.nan_to_num(values) / scale)
             colours[key] = {"label": label, "scale": scale, "data": np.clip(level, 0, 255).astype(np.uint8)}
-        motion = {"name": "static path" if linearised else "", "times": times, "unit": "s", "loop": False, "start": 0,
+        unit = "λ" if domain.algorithm().name == "arc_length" else "s"  # an arc-length path's record: its load factor
+        motion = {"name": "static path" if linearised else "", "times": times, "unit": unit, "loop": False, "start": 0,
                   "duration": max(float(times[-1] - times[0]), 1e-9) if len(times) > 1 else 1.0,
                   "points": points.of(r.positions[rows], r.rotations[rows]),
                   "colours": colours}
@@ -216,11 +222,27 @@ def scene(path, max_frames: int | None = None, title: str | None = None, height:
             "elements": list(r.element_labels) or [e.label for e in domain.elements], "sequences": out}
 
 
-def fragment(data: dict) -> str:
-    """The view's ``<div>``: the scene as JSON and the viewer's script (safe to repeat on one page)."""
+def division(data: dict) -> str:
+    """The view's ``<div>``, the scene in it as JSON; :func:`script` draws every such ``<div>`` of a page."""
     text = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
-    return (f'<div class="flexmbs-view"><script type="application/json">{text}</script></div>'
-            f"<script>{SCRIPT.read_text(encoding='utf-8')}</script>")
+    return f'<div class="flexmbs-view"><script type="application/json">{text}</script></div>'
+
+
+def script() -> str:
+    """The viewer as a ``<script>`` element: once per page, after the views (a repeat draws only new ones)."""
+    return f"<script>{SCRIPT.read_text(encoding='utf-8')}</script>"
+
+
+def fragment(data: dict) -> str:
+    """The view's ``<div>`` and the viewer's script, on one line (a Markdown page's raw HTML)."""
+    return division(data) + script()
+
+
+def from_page(text: str) -> str:
+    """The ``<div>`` of the view in a page written by :func:`page` (the report and the docs embed the views
+    that ``flexmbs report`` wrote, and the script once)."""
+    start = text.index('<div class="flexmbs-view">')
+    return text[start:text.index("</script></div>", start) + len("</script></div>")]
 
 
 def page(data: dict) -> str:
@@ -238,10 +260,11 @@ def iframe(data: dict, height: int | None = None) -> str:
             f'srcdoc="{html.escape(page(data), quote=True)}"></iframe>')
 
 
-def write(path, out=None, max_frames: int | None = None, title: str | None = None) -> Path:
-    """Write the view of the results file ``path`` to ``out`` (default: beside it, ``NAME.html``); return it."""
+def write(path, out=None, max_frames: int | None = None, title: str | None = None, domain=None) -> Path:
+    """Write the view of the results file ``path`` to ``out`` (default: beside it, ``NAME.html``); return it.
+    ``max_frames``, ``title``, ``domain``: as :func:`scene`."""
     out = Path(out) if out else Path(path).with_suffix(".html")
-    text = page(scene(path, max_frames=max_frames, title=title))
+    text = page(scene(path, max_frames=max_frames, title=title, domain=domain))
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text, encoding="utf-8")
     return out

@@ -169,3 +169,44 @@ def test_unviewable_files_are_one_line(tmp_path, capsys, case, message):
     assert main(["view", str(path)]) == 2
     err = capsys.readouterr().err
     assert err == f"flexmbs: error: {path}: {message}" + err.split(message, 1)[1] and err.count("\n") == 1, err
+
+
+def test_report_embeds_each_deck_view_and_the_script_once(three_bar, tmp_path):
+    from flexmbs.html import markdown_to_html
+    from flexmbs.report import view_lines
+    from reference.io.deck import load_deck
+
+    deck = load_deck(ROOT / "models" / "three_bar.toml")
+    lines = view_lines(three_bar, tmp_path / "views" / "three_bar.html", deck)
+    assert lines[0].startswith("[Interactive 3D view of three_bar](views/three_bar.html): drag to turn it, play it")
+    page = (tmp_path / "views" / "three_bar.html").read_text(encoding="utf-8")
+    data = json.loads(re.search(r'<script type="application/json">(.*?)</script>', page, re.S).group(1))
+    assert len(data["sequences"][0]["times"]) <= 200  # flexmbs.view.EMBEDDED_FRAMES: every 6th of 1,001
+    report = markdown_to_html("\n".join(["# report", "## 1. Three bar", *lines, "## 2. The same again", *lines]),
+                              tmp_path)
+    assert report.count('<div class="flexmbs-view">') == 2 and report.count('"use strict"') == 1
+    assert '<a href="views/three_bar.html">Interactive 3D view of three_bar</a>' in report
+    if chromium() is None:
+        pytest.skip("no chromium executable: the embedded views were not opened (apt-get install chromium)")
+    (tmp_path / "report.html").write_text(report, encoding="utf-8")
+    seen = open_page(tmp_path / "report.html", ready="window.flexmbsViews && window.flexmbsViews.length === 2 && "
+                     "window.flexmbsViews.every(function (v) { return v.ready; }) && "
+                     "window.flexmbsViews.map(function (v) { return v.drawn; })", screenshot=False)
+    assert seen.value == [16, 16] and seen.errors == [] and seen.requests == []
+
+
+def test_docs_gallery_and_report_page_draw_the_committed_views(tmp_path):
+    from flexmbs import site
+
+    views = sorted(p.stem for p in site.VIEWS.glob("*.html") if (ROOT / "models" / f"{p.stem}.toml").exists())
+    assert "three_bar" in views and "cantilever_modes" in views  # written by `flexmbs report` (reports/views/)
+    page = site.gallery(tmp_path)
+    assert page.count('<div class="flexmbs-view">') == len(views) and page.count('"use strict"') == 1
+    # every view is one line of raw HTML followed by a blank line: a Markdown HTML block ends there
+    for line in page.splitlines():
+        if line.startswith('<div class="flexmbs-view">'):
+            assert line.endswith("</script></div>")
+    markdown = "Text.\n[Interactive 3D view of three_bar](views/three_bar.html): drag to turn it.\n"
+    embedded = site._views_in_place(markdown, site.VIEWS.parent)
+    assert embedded.count('<div class="flexmbs-view">') == 1 and "(views/three_bar.html)" not in embedded
+    assert "Interactive 3D view of three_bar: drag to turn it." in embedded
