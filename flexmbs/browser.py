@@ -173,7 +173,8 @@ def _visit(pipe: _Pipe, url: str, ready: str, timeout: float, settle: float, scr
     while True:
         result = pipe.send("Runtime.evaluate", {"expression": f"(function(){{try{{var v = ({ready}); "
                                                 f"return [!!v, v];}}catch(e){{return [false, null];}}}})()",
-                                                "returnByValue": True}, session=session)
+                                                "returnByValue": True}, session=session,
+                           timeout=max(timeout - (time.monotonic() - t0), 1.0))  # a busy page answers late
         truthy, value = result.get("result", {}).get("value") or (False, None)
         if truthy:
             page.load_seconds, page.value = time.monotonic() - t0, value

@@ -103,8 +103,10 @@ class _Points:
         """The points (k, P, 3) of k configurations: node positions X (k, N, 3), Euler parameters Q (k, N, 4)."""
         from reference.io.vtk import rotation_matrices
 
-        A = rotation_matrices(np.asarray(Q, dtype=float)[:, self.nodes])
-        out = np.asarray(X, dtype=float)[:, self.nodes] + np.einsum("kpij,pj->kpi", A, self.offsets)
+        out = np.asarray(X, dtype=float)[:, self.nodes]
+        off = np.any(self.offsets != 0.0, axis=1)  # beam nodes sit on their node: no rotation to apply
+        A = rotation_matrices(np.asarray(Q, dtype=float)[:, self.nodes[off]])
+        out[:, off] += np.einsum("kpij,pj->kpi", A, self.offsets[off])
         if self.layout.curves:
             for k in range(len(out)):
                 self.layout.curve_points(np.asarray(X[k], dtype=float), np.asarray(Q[k], dtype=float), out[k])
