@@ -79,7 +79,8 @@ class _Points:
     def __init__(self, domain):
         from reference.io.vtk import Layout
 
-        self.layout = lay = Layout(domain)
+        self.domain, self.layout = domain, Layout(domain)
+        lay = self.layout
         size = float(np.linalg.norm(np.ptp(lay.p0, axis=0))) or 1.0
         bodies = [body.id for body in lay.rigid]
         self.nodes = np.r_[lay.node_of_point, np.repeat(np.array(bodies, dtype=np.int64), 3)].astype(np.int64)
@@ -92,7 +93,9 @@ class _Points:
             kinds += [kind] * len(pairs)
         segments += [(v, v) for v in lay.vertices]  # a body drawn as its centre: a dot
         kinds += [-1] * len(lay.vertices)
-        centre = {node: k for k, node in enumerate(lay.node_of_point[:lay.node_points]) if node in bodies}
+        centre = {}  # a body's first point is its centre of mass (Layout), its named points follow
+        for k, node in enumerate(lay.node_of_point[:lay.node_points]):
+            centre.setdefault(int(node), k)
         for b, body in enumerate(bodies):
             first = lay.n_points + 3 * b
             segments += [(centre[body], first + axis) for axis in range(3)]
@@ -118,6 +121,7 @@ def _modes(path, points: _Points) -> list[dict]:
     import h5py
 
     from reference.io.mode_animation import SHAPES, amplitude, mode_history, read_mode
+    from reference.io.vtk import Layout
 
     with h5py.File(path, "r") as f:
         dataset = next((name for name in SHAPES if name in f), None)
@@ -127,7 +131,7 @@ def _modes(path, points: _Points) -> list[dict]:
     out = []
     for k in range(1, count + 1):
         mode = read_mode(path, k)
-        a = amplitude(points.layout, mode["q0"], mode["shape"])
+        a = amplitude(Layout(points.domain, mode["x0"], mode["q0"]), mode["q0"], mode["shape"])  # plot --mode's
         history = mode_history(mode, a, MODE_FRAMES)
         if mode["dataset"] == "modes/shape":
             kind = f", {kinds[k - 1]}" if k <= len(kinds) and kinds[k - 1] != "elastic" else ""

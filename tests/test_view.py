@@ -85,6 +85,20 @@ def test_three_bar_page_holds_every_output_within_quantisation(three_bar, tmp_pa
     level = decoded(m2["data"], values.shape, np.uint8)
     assert np.all(np.abs((level / 127.5 - 1.0) * m2["scale"] - values) <= m2["scale"] / 255 * (1 + 1e-9))
     assert data["kinds"].count(-1) == 6 and sorted(set(data["kinds"]) - {-1, -2, -3, -4}) == [0, 1, 2, 3]
+    # each rigid body's axes start at its centre of mass and point along its body axes e₁, e₂, e₃ (the columns
+    # of A(q)), 8 % of the model's size at t = 0 long
+    from reference.rotation import EulerParameters
+
+    segments, kinds = np.reshape(data["segments"], (-1, 2)), np.array(data["kinds"])
+    size = np.linalg.norm(np.ptp(exact[0, :13], axis=0))  # beam nodes, the bars' centres and named points
+    for b, body in enumerate(("crank", "rocker")):
+        n = r.labels.index(body)
+        for k in (0, 500, 1000):
+            A = EulerParameters(r.rotations[k, n]).matrix()
+            for axis in range(3):
+                start, tip = segments[kinds == -2 - axis][b]
+                assert np.allclose(exact[k, start], r.positions[k, n], rtol=0, atol=1e-12)
+                assert np.allclose(exact[k, tip] - exact[k, start], 0.08 * size * A[:, axis], rtol=0, atol=1e-12)
 
 
 def test_subsampled_view_keeps_the_last_output(three_bar):
@@ -133,12 +147,15 @@ def test_mode_sequences_follow_the_shapes(tmp_path):
     shown = scene(path)
     assert shown["kind"] == "modes" and len(shown["sequences"]) == 2  # one record: no static path to show
     from reference.io.mode_animation import amplitude, mode_history, read_mode
+    from reference.io.vtk import Layout
 
     points = _Points(data["domain"])
     side = np.subtract(shown["box"][1], shown["box"][0])
     for k in (1, 2):
         mode = read_mode(path, k)
-        history = mode_history(mode, amplitude(points.layout, mode["q0"], mode["shape"]), MODE_FRAMES)
+        # the amplitude of `flexmbs plot --mode`: about the configuration linearised about
+        history = mode_history(mode, amplitude(Layout(data["domain"], mode["x0"], mode["q0"]), mode["q0"],
+                                               mode["shape"]), MODE_FRAMES)
         exact = points.of(history.positions, history.rotations)
         assert np.all(np.abs(positions(shown, k - 1) - exact) <= side / 65535 * (0.5 + 1e-6)), k
         # a quarter period on, the beam's nodes are moved by the amplitude times the shape: not at rest
