@@ -239,7 +239,10 @@
   };
 
   View.prototype.draw = function () {
-    var s = this.scene, q = s.sequences[this.sequence], c = this.canvas, g = c.getContext("2d", {willReadFrequently: true});
+    // a software canvas: it rasterises each frame at once (10,000 thick strokes in milliseconds), where the
+    // GPU-backed canvas of a machine without a GPU (headless Chromium's software GL) took seconds a frame
+    var s = this.scene, q = s.sequences[this.sequence], c = this.canvas;
+    var g = c.getContext("2d", {willReadFrequently: true});
     if (!q || !q.positions16 || !this.R) { return; }
     var W = c.width, H = c.height, r = this.ratio, P = s.points, a = q.positions16, base = this.frame * P * 3;
     var lo = s.box[0], step = [0, 1, 2].map(function (k) { return (s.box[1][k] - s.box[0][k]) / 65535; });

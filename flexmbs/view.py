@@ -2,11 +2,11 @@
 
 The page turns, pans and zooms the model, scrubs its time with a slider and plays it, picks a mode of a
 modes or buckling file, and colours the beam elements by a section force or moment.  Its viewer is
-``flexmbs/view.js`` (Canvas 2D, orthographic, about 15 kB), written into the page with the data: no
-library, no network request.  It was chosen over k3d and pyvista by measurement (docs/benchmarks.md
-§ Interactive views): pyvista's standalone export has no time axis, and k3d's page carries 1.2 MB of
-script per view against this one's 15 kB, loads 3–6 s later and cannot put 20 views on one page
-(browsers keep about 16 WebGL contexts).
+``flexmbs/view.js`` (Canvas 2D on a software canvas, orthographic projection), written into the page with
+the data: no library, no network request.  It was chosen over k3d and pyvista by measurement
+(docs/benchmarks.md §8): pyvista's standalone export has no time axis, k3d's page carries its whole
+library with every view, and a page of many views (the report, the gallery) would exceed the browsers'
+limit on live WebGL contexts.
 
 What is drawn comes from the results file and the deck it carries (its elements): the points and
 polylines of ParaView's output (:class:`reference.io.vtk.Layout`: beam nodes, the inner points of
@@ -21,9 +21,11 @@ The scene (the JSON in the page) holds
   point pairs, ``kinds`` (S,): the element's index (≥ 0, into ``elements``), −1 a rigid body, −2, −3, −4
   its axes e₁, e₂, e₃;
 - ``sequences``: the motion (``times`` [s]; an arc-length path's load factors, ``unit`` λ) and, for a modes
-  or buckling file, one per mode over one
-  period of :func:`reference.io.mode_animation.mode_history` (``times``: the phase; amplitude as
-  ``flexmbs plot --mode``: the largest displacement 10 % of the model size).  ``positions``: the points
+  or buckling file, one per mode over one period of :func:`reference.io.mode_animation.mode_history`
+  (``times``: the phase; amplitude as ``flexmbs plot --mode``: the largest displacement 10 % of the model
+  size; ``loop``, shown first at a quarter period, ``start``), then its static path when it has more than
+  one record.  ``duration``: seconds one playing of the sequence takes at 1× (the motion: its own time; a
+  mode: 2 s a period).  ``positions``: the points
   of every frame quantised to 16 bits on the box (at most 1/131,070 of the box's side off), stored as
   differences from the previous frame (modulo 2¹⁶) and compressed with zlib, then base64; the page
   inflates it with the browser's ``DecompressionStream``.  ``colours``: per section component (axial
