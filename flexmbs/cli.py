@@ -1,4 +1,4 @@
-"""The ``flexmbs`` command: run, modes, campbell, crosscheck, report, derive, bench, sweep.
+"""The ``flexmbs`` command: run, modes, campbell, crosscheck, plot, view, report, derive, bench, sweep.
 
 Every failure is one line on stderr, ``flexmbs: error: …``, and its exit status is
 chosen by the exception's class (:func:`exit_status`; the first row that matches):
@@ -296,6 +296,10 @@ def cmd_plot(args) -> int:
         raise CommandError(f"{args.results}: --observable: {exc}") from None
 
 
+def cmd_view(args) -> int:
+    return _module("flexmbs.view", "view").main(args)
+
+
 def cmd_report(args) -> int:
     return _module("flexmbs.report", "report").main(args)
 
@@ -355,6 +359,14 @@ def animation_name(text: str) -> str:
     if Path(text).suffix.lower() != ".gif" or not Path(text).stem:
         raise argparse.ArgumentTypeError(f"{text[:80]!r}: the animation is written as a GIF; give a name "
                                          "ending in .gif, e.g. --animate motion.gif")
+    return text
+
+
+def view_name(text: str) -> str:
+    """``view --out``: a file name ending in ``.html`` (the view is one HTML page)."""
+    if Path(text).suffix.lower() not in (".html", ".htm") or not Path(text).stem:
+        raise argparse.ArgumentTypeError(f"{text[:80]!r}: the view is one HTML page; give a name ending in .html, "
+                                         "e.g. --out three_bar.html")
     return text
 
 
@@ -440,6 +452,13 @@ def parser() -> argparse.ArgumentParser:
     pl.add_argument("--out", help="folder for the figures (default: the results file's path without .h5, "
                     "e.g. out/three_bar/results/ for out/three_bar/results.h5)")
     pl.set_defaults(func=cmd_plot)
+    vw = sub.add_parser("view", help="an interactive 3D view of a results file: one HTML file that works offline")
+    vw.add_argument("results")
+    vw.add_argument("--out", metavar="FILE.html", type=view_name,
+                    help="the page to write (default: the results file's path with .html, e.g. out/three_bar/results.html)")
+    vw.add_argument("--max-frames", type=number(int, 2, low_ok=True, example="--max-frames 200"), metavar="N",
+                    help="show every k-th output so that at most N frames remain (default: every output)")
+    vw.set_defaults(func=cmd_view)
     rep = sub.add_parser("report", help="the verification report → reports/")
     rep.add_argument("--quick", action="store_true", help="reduced version (for the tests)")
     rep.add_argument("--out", help="report folder (default reports/)")

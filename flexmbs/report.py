@@ -332,6 +332,21 @@ def crosscheck_lines(ctx: Context, deck) -> tuple[list[str], list[Check]]:
     return lines, checks
 
 
+def view_lines(results: Path, page: Path, deck) -> list[str]:
+    """The interactive view of the deck's own run (:mod:`flexmbs.view`, at most
+    :data:`flexmbs.view.EMBEDDED_FRAMES` frames) as ``views/NAME.html`` and its Markdown line; the HTML report
+    draws it in place (:func:`flexmbs.html.markdown_to_html`).  Nothing when the deck's check module wrote no
+    results file."""
+    from flexmbs.view import EMBEDDED_FRAMES, write
+
+    if not results.exists():
+        return []
+    write(results, page, max_frames=EMBEDDED_FRAMES, domain=deck.domain)
+    what = "pick a mode, " if deck.domain.algorithm().linearised else "play it, scrub its time, colour it by a section force, "
+    return [f"[Interactive 3D view of {deck.domain.name}](views/{page.name}): drag to turn it, {what}"
+            "in the HTML report (`reports/verification.html`) or on its own.", ""]
+
+
 def deck_section(number: int, deck: Path, out: Path, figures: Path, quick: bool, timings: list):
     """One deck's section: data, sketch, its check module's checks, the Exudyn cross-check."""
     from flexmbs.deckchecks import module_for
@@ -341,6 +356,8 @@ def deck_section(number: int, deck: Path, out: Path, figures: Path, quick: bool,
     read = load_deck(deck)
     domain = read.domain
     ctx = Context(deck, out, figures, quick, timings, read.checks)
+    main_run = out / deck.stem / "results.h5"  # the deck's own run (Context.solve with results_file=True)
+    main_run.unlink(missing_ok=True)
     t0 = time.perf_counter()
     compile_time = warm_up(deck, domain)
     print(f"[{number}] {deck.name}: warm-up (compilation and set-up) {compile_time:.1f} s", file=sys.stderr)
@@ -351,7 +368,7 @@ def deck_section(number: int, deck: Path, out: Path, figures: Path, quick: bool,
     module = module_for(domain.name)
     if module is None:
         checks = []
-        r = ctx.solve(Domain.from_deck(deck))
+        r = ctx.solve(Domain.from_deck(deck), results_file=True)
         lines += [f"No check module (`flexmbs/deckchecks/{domain.name}.py`) evaluates this deck's `[checks]`: "
                   + (", ".join(f"`{k}`" for k in read.checks) + " are **not evaluated** here." if read.checks
                      else "it has none."), "",
@@ -359,6 +376,7 @@ def deck_section(number: int, deck: Path, out: Path, figures: Path, quick: bool,
     else:
         more, checks = module.evaluate(ctx)
         lines += more
+    lines += view_lines(main_run, figures.parent / "views" / f"{deck.stem}.html", read)
     xlines, xchecks = crosscheck_lines(ctx, read)
     lines += xlines
     checks += xchecks

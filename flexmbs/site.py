@@ -2,7 +2,7 @@
 
 What can drift from the code is generated when the site is built, never written by hand: the
 deck's key tables (:mod:`flexmbs.deck_reference`), the gallery (one entry per ``models/*.toml``: its
-``[meta]``, its checks with their tolerances and reasons, and the report's figures of it), the
+``[meta]``, its checks with their tolerances and reasons, the report's figures and interactive view of it), the
 lessons (``notebooks/*.py``, copied for MyST-NB to read as notebooks) and the verification report
 (``reports/verification.md``, the output of ``flexmbs report``).
 
@@ -30,6 +30,7 @@ from flexmbs.deck_reference import markdown as deck_key_tables
 
 ROOT = Path(__file__).resolve().parent.parent
 FIGURES = ROOT / "reports" / "figures"
+VIEWS = ROOT / "reports" / "views"
 
 
 def _cell(value) -> str:
@@ -44,12 +45,17 @@ def _provenance(meta: dict) -> str:
 
 
 def gallery(out: Path) -> str:
-    """The gallery page: every deck of ``models/`` with its checks and the report's figures of it."""
+    """The gallery page: every deck of ``models/`` with its checks, the report's figures of it and its interactive
+    view (``reports/views/NAME.html``, :mod:`flexmbs.view`), drawn in place."""
+    from flexmbs.view import from_page, script
+
     lines = ["# Gallery", "",
              "Every deck in `models/`, as `flexmbs report` verifies it: what it models and where it comes from, "
              "its checks (the reference, the tolerance and why), and the figures of the last report "
              "(`make report` redraws them; [the report](report.md) has the computed values).  Run one with "
-             "`flexmbs run models/NAME.toml`.", ""]
+             "`flexmbs run models/NAME.toml`, and look at it in 3D with `flexmbs view out/NAME/results.h5`: "
+             "each deck's view below turns with the mouse, plays, and colours the beams by a section force.", ""]
+    views = 0
     (out / "figures").mkdir(parents=True, exist_ok=True)
     for path in sorted((ROOT / "models").glob("*.toml")):
         deck = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -65,6 +71,11 @@ def gallery(out: Path) -> str:
         for fig in figures:
             shutil.copy2(fig, out / "figures" / fig.name)
             lines += [f"![{fig.stem}](figures/{fig.name})", ""]
+        view = VIEWS / f"{path.stem}.html"
+        if view.is_file():  # raw HTML on one line: a Markdown HTML block ends at the blank line after it
+            lines += [from_page(view.read_text(encoding="utf-8")), "", f"*Interactive view of the report's run of "
+                      f"`{path.stem}` (drag to turn, shift-drag to pan, wheel to zoom).*", ""]
+            views += 1
         checks = deck.get("checks", {})
         if checks:
             lines += ["| check | what | reference | tolerance | why this tolerance |", "|---|---|---|---|---|"]
@@ -81,6 +92,8 @@ def gallery(out: Path) -> str:
                 f"`{spec.get('observable', key)}` within {spec.get('tolerance')}"
                 + (f" of the {spec['relative_to']}" if spec.get("relative_to") else "") for key, spec in cross.items())
                 + ".", ""]
+    if views:
+        lines += [script(), ""]
     return "\n".join(lines)
 
 
@@ -99,7 +112,27 @@ def report(out: Path, embed: bool) -> str:
         shutil.copy2(fig, out / "figures" / fig.name)
     text = source.read_text(encoding="utf-8")
     body = text.split("\n", 1)[1] if text.startswith("# ") else text
-    return "\n".join(head) + "\n" + body.replace("](docs/", "](../").replace("`docs/", "`docs/")
+    body = body.replace("](docs/", "](../").replace("`docs/", "`docs/")
+    return "\n".join(head) + "\n" + _views_in_place(body, source.parent)
+
+
+def _views_in_place(markdown: str, base: Path) -> str:
+    """The report's links to its interactive views (``[…](views/NAME.html)`` opening a paragraph) as the views
+    themselves, the viewer's script once at the end; a link to a view that is not there loses its link."""
+    from flexmbs.html import VIEW
+    from flexmbs.view import from_page, script
+
+    lines, views = [], 0
+    for line in markdown.splitlines():
+        view = VIEW.match(line)
+        if view:
+            page = base / view.group(1)
+            line = VIEW.sub(lambda m: m.group(0)[1:m.group(0).index("](")], line, count=1)
+            if page.is_file():
+                lines += [from_page(page.read_text(encoding="utf-8")), ""]
+                views += 1
+        lines.append(line)
+    return "\n".join(lines + (["", script(), ""] if views else []))
 
 
 def write_generated_pages(out: Path, execute: bool = False) -> None:

@@ -172,6 +172,12 @@ def test_quick_report_runs_and_every_check_passes(tmp_path, capsys):
     for fig in ("rollup_fig12.png", "three_bar_fig14.png", "rollup_convergence.png", "rollup_history.png",
                 "embedded_beam_sketch.png", "three_bar_sketch.png"):
         assert (tmp_path / "figures" / fig).stat().st_size > 10_000
+    # every deck's section links its interactive view (views/NAME.html); the HTML report draws each in place
+    # and carries the viewer's script once
+    decks = sorted(p.stem for p in (ROOT / "models").glob("*.toml"))
+    assert sorted(re.findall(r"^\[Interactive 3D view of [^\]]+\]\(views/(\w+)\.html\)", text, re.M)) == decks
+    assert sorted(p.stem for p in (tmp_path / "views").glob("*.html")) == decks
+    assert html.count('<div class="flexmbs-view">') == len(decks) and html.count('"use strict"') == 1
 
 
 def test_plot_writes_histories_drift_energy_and_animation(tmp_path, capsys):

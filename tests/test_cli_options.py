@@ -24,6 +24,8 @@ BAD = [
     (["plot", "r.h5", "--drift", "--magnify"], ["nan", "0", "-50", "inf"]),
     (["plot", "r.h5", "--drift", "--every"], ["0", "-1", "nan"]),
     (["plot", "r.h5", "--animate"], ["a.txt", "motion", ".gif", "a.gif.png"]),
+    (["view", "r.h5", "--max-frames"], ["0", "1", "-5", "nan", "2.5"]),
+    (["view", "r.h5", "--out"], ["view.png", "view", ".html"]),
     (["bench", "--repeat"], ["0", "-3", "nan"]),
     (["sweep", "study.toml", "--workers"], ["0", "-1", "nan", "1000000"]),
     (["sweep", "study.toml", "--scheduler"], ["127.0.0.1", "tcp://127.0.0.1", "tcp://127.0.0.1:0", "host:x"]),

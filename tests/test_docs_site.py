@@ -62,6 +62,18 @@ def test_quick_site_builds_without_warnings(quick_site):
     decks = sorted((ROOT / "models").glob("*.toml"))
     assert all(f'id="{p.stem.replace("_", "-")}"' in gallery for p in decks)
     assert len(re.findall(r"<img ", gallery)) >= len(decks)
+    # each deck's interactive view (reports/views/, written by `flexmbs report`), drawn in place offline
+    from flexmbs.browser import chromium, open_page
+    from flexmbs.site import VIEWS
+
+    views = len([p for p in VIEWS.glob("*.html") if (ROOT / "models" / p.name).with_suffix(".toml").exists()])
+    assert gallery.count('<div class="flexmbs-view">') == views > 0
+    if chromium() is None:
+        pytest.skip("no chromium executable: the gallery's views were not opened (apt-get install chromium)")
+    seen = open_page(out / "_generated" / "gallery.html", screenshot=False, timeout=120,
+                     ready=f"window.flexmbsViews && window.flexmbsViews.length === {views} && "
+                     "window.flexmbsViews.every(function (v) { return v.ready && v.drawn > 0; })")
+    assert seen.requests == [] and seen.errors == [], (seen.requests, seen.errors)
 
 
 def test_examples_run_as_doctests():

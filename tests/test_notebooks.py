@@ -71,6 +71,10 @@ def test_notebook_executes_in_a_kernel(notebook, tmp_path, monkeypatch):
     printed = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
                       if o.output_type == "stream")
     assert "np.float64(" not in printed, "print plain numbers (float(...) or a format), not numpy reprs"
+    if notebook.stem == "10_modes_buckling":  # the cantilever's modes and the lateral buckling modes, interactive
+        views = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
+                 if "flexmbs-view-frame" in o.get("data", {}).get("text/html", "")]
+        assert len(views) == 2
     values = json.loads(printed.rsplit("QUOTED", 1)[1])
     for name, number, kind, tolerance in quoted:
         scale = abs(values[name]) if kind == "rel" else 1.0
