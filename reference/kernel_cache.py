@@ -207,7 +207,9 @@ class EngineCache(FunctionCache):
 
 def enable(dispatcher):
     """Cache the numba ``dispatcher`` on disk: an engine function's by :class:`EngineCache`, any other
-    function's by numba's own cache; returns it."""
+    function's by numba's own cache; returns it (with ``NUMBA_DISABLE_JIT=1``, the plain function)."""
+    if not hasattr(dispatcher, "py_func"):
+        return dispatcher
     if module_of(inspect.getfile(dispatcher.py_func)) is not None:
         dispatcher._cache = EngineCache(dispatcher.py_func)
     else:
