@@ -225,7 +225,7 @@ def buckling(K0, K1, n: int) -> tuple[np.ndarray, np.ndarray]:
     restrained structure) and ``K_g`` symmetric (conservative loads), by ``eigh``/``eigsh``; with a
     ``K_g`` that is not (follower loads: divergence), by ``eig``/``eigs`` on ``K_0⁻¹(−K_g)``, real roots
     only.  Raises ValueError when ``K_0`` is singular or not positive definite (a mechanism, an
-    unconstrained body) or when ``n`` exceeds the coordinates; returns fewer than n factors when fewer
+    unconstrained body, a reference state beyond a buckling load) or when ``n`` exceeds the coordinates; returns fewer than n factors when fewer
     are positive (the loads stiffen the structure in the other modes).
     """
     size = K0.shape[0]
@@ -261,8 +261,10 @@ def buckling(K0, K1, n: int) -> tuple[np.ndarray, np.ndarray]:
     return mu, phi / np.where(big != 0.0, big, 1.0)
 
 
-_NOT_RESTRAINED = ("the unloaded tangent is not positive definite (a mechanism or an unconstrained body): linear "
-                   "buckling needs a restrained structure; clamp or fix the free motions")
+_NOT_RESTRAINED = ("the tangent of the reference state (at t = 0, or without the loads) is not positive definite: a "
+                   "mechanism, an unconstrained body, or loads at t = 0 already beyond a buckling load; linear buckling "
+                   "needs a restrained structure, stable at t = 0: clamp or fix the free motions, or lower the loads "
+                   "at t = 0")
 
 
 def negative_eigenvalues(K, known: tuple | None = None) -> tuple[int, int]:

@@ -21,6 +21,7 @@ from reference.interactions import Gravity, NodalLoad, Ramp
 from reference.io.deck import DeckError, load_deck
 from reference.io.results import load_results
 from reference.modal import UNSTABLE_DAMPING
+from reference.solution import SolverDiverged
 from reference.validation import ModelWarning
 
 from conftest import cantilever
@@ -119,6 +120,23 @@ def test_more_modes_than_independent_coordinates_stops_before_the_static_path(tm
                              "constraints) at t = 0; ask at most 9" in err[0] and "ValueError" not in err[0], err
     r = load_results(tmp_path / "out" / "results.h5")
     assert r.status.startswith("failed: modes refused: 10 modes asked") and r.time[-1] == 0.0
+
+
+def test_buckling_about_a_reference_state_that_is_not_stable_is_a_one_line_refusal():
+    """Item 22: a column already at 1.5 times its Euler load at t = 0 (a constant load), with a small load
+    increment to t_end: its reference tangent is indefinite, which the buckling analysis cannot take; one line
+    that names the causes and the fixes, and a status, instead of "the run failed: ValueError"."""
+    d, nodes = cantilever(4, SLENDER)
+    d.add_interaction(NodalLoad(nodes[-1], (-1.5 * np.pi**2 / 4, 0.0, 0.0)))
+    d.add_interaction(NodalLoad(nodes[-1], (-0.1, 0.0, 0.0), time_function=Ramp(0.0, 1.0, 0.0, 1.0)))
+    d.solver = SolverSettings(algorithm="buckling", modes=1, t_end=1.0, load_steps=1, dt=1.0)
+    with pytest.warns(ModelWarning, match="the equilibrium at load factor 0 is unstable"):
+        with pytest.raises(SolverDiverged) as info:
+            d.solve()
+    text = str(info.value)
+    assert "\n" not in text and "not positive definite: a mechanism, an unconstrained body, or loads at t = 0 " \
+                               "already beyond a buckling load" in text, text
+    assert d.last_run["status"].startswith("failed: buckling refused: the tangent of the reference state")
 
 
 def test_modes_about_a_reference_that_is_no_equilibrium_or_moves_warn_in_one_line():
