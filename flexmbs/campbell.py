@@ -39,14 +39,20 @@ class Campbell:
                 "campbell/damping_ratio": self.damping_ratio, "campbell/kind": self.kind.astype(str)}
 
     def table(self) -> list[str]:
-        """Spin rate and the frequencies [Hz] (damping ratios that are not zero to 1e-9 after them)."""
+        """Spin rate and the frequencies [Hz], then the largest |damping ratio| and the unstable modes: a damping
+        ratio below ``−UNSTABLE_DAMPING`` (:data:`reference.modal.UNSTABLE_DAMPING`, relative to the root) is
+        unstable, within ``±UNSTABLE_DAMPING`` the roots are imaginary to round-off (undamped)."""
+        from reference.modal import UNSTABLE_DAMPING
+
         n = self.frequency.shape[1]
         lines = [f"{'spin rate [rad/s]':>17}  " + "  ".join(f"{'mode ' + str(j + 1) + ' [Hz]':>13}" for j in range(n))]
         for rate, f in zip(self.spin_rate, self.frequency):
             lines.append(f"{rate:>17.6g}  " + "  ".join(f"{x:>13.6g}" for x in f))
         zeta = float(np.max(np.abs(self.damping_ratio)))
-        lines.append(f"largest |damping ratio| {zeta:.2g}" + ("" if zeta > 1e-9 else " (undamped: imaginary roots)")
-                     + f"; unstable modes: {int(np.sum(self.kind == 'unstable'))}")
+        unstable = int(np.sum(self.kind == "unstable"))
+        lines.append(f"largest |damping ratio| {zeta:.2g}"
+                     + (f" (below {UNSTABLE_DAMPING:g}: undamped, imaginary roots)" if zeta <= UNSTABLE_DAMPING else "")
+                     + f"; unstable modes (damping ratio below -{UNSTABLE_DAMPING:g}): {unstable}")
         return lines
 
 

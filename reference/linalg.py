@@ -383,7 +383,10 @@ class SparseLU:
         self.fresh += 1
         code = refactor(self.f, matrix.indptr, matrix.indices, matrix.data, self.inv_perm_c, self.w, 0.0,
                         self.rs, self.cs)
-        if code == 2:
+        if code != 0:
+            # 1 at threshold 0: a pivot exactly zero (or not finite) on SuperLU's own permutations,
+            # where SuperLU's round-off left a nonzero one; the factor is incomplete (a compiled
+            # lu_solve would divide by its zero)
             self.f = None
             raise SingularMatrix(SINGULAR_MESSAGE)
         return self.f

@@ -17,7 +17,9 @@ independent coordinates):
   ``L D Lᵀ`` factorisation with symmetric ordering (Sylvester's law of inertia).
 
 A mode whose ``|ω²|`` is below :data:`ZERO_MODE` times the stiffness scale (the largest
-``K_ii/M_ii``) is a *zero* mode; a negative ``ω²`` beyond it an *unstable* one (a divergence).
+``K_ii/M_ii``) is a *zero* mode; a negative ``ω²`` beyond it an *unstable* one (a divergence); a root of
+the damped or gyroscopic problem whose damping ratio is below ``−``:data:`UNSTABLE_DAMPING` an unstable
+one (a flutter or a divergence).
 Mode shapes are mass-normalised (``φᵀ M_r φ = 1``; ``φᴴ M_r φ = 1`` for complex ones, rotated so that
 the largest entry is real and positive).
 """
@@ -51,6 +53,13 @@ densely (QZ of the pencil); above it shift-invert Arnoldi is faster: the 4 lowes
 32-element cantilever (size 384) in 0.018 s against 0.45 s dense, the frequencies equal to 1e-8; the real
 parts of its imaginary roots come out at up to 5e-9 |s| against 1e-16 dense (the shifted pencil of a stiff
 beam, EA/h ~ 3e8 against the bending stiffness, is ill-conditioned)."""
+UNSTABLE_DAMPING = 1e-6
+"""A root of the first-order problem is *unstable* when its damping ratio ``−Re s/|s|`` is below
+``−UNSTABLE_DAMPING`` (its amplitude grows by more than ``2π × 1e-6`` per cycle); a smaller ``|Re s|`` is the
+solver's round-off, relative to the root itself: the dense QZ leaves about 1e-12 |s| on the imaginary roots of
+the spinning cantilever (``models/rotating_cantilever.toml``), shift-invert Arnoldi up to 5e-9 |s|
+(:data:`DENSE_FIRST_ORDER`).  The same bound tells an undamped (imaginary) root from a damped one in the
+Campbell table (:mod:`flexmbs.campbell`)."""
 SMALL = 200
 """Tangents up to this size are counted densely by :func:`negative_eigenvalues` (faster than the sparse
 factorisation's set-up there: the static path counts at every load step)."""
@@ -187,7 +196,7 @@ def damped(M, D, K, n: int) -> ModeSet:
     picked = picked[:n]
     s, phi = s[picked], y[:size, picked]
     s[: min(n_zero, len(picked))] = 0.0
-    kind = np.where(np.abs(s) == 0.0, "zero", np.where(s.real > ZERO_MODE * np.abs(s), "unstable", "elastic"))
+    kind = np.where(np.abs(s) == 0.0, "zero", np.where(s.real > UNSTABLE_DAMPING * np.abs(s), "unstable", "elastic"))
     return ModeSet(s, _normalise(phi, M), kind, scale, True)
 
 
@@ -216,7 +225,7 @@ def buckling(K0, K1, n: int) -> tuple[np.ndarray, np.ndarray]:
     restrained structure) and ``K_g`` symmetric (conservative loads), by ``eigh``/``eigsh``; with a
     ``K_g`` that is not (follower loads: divergence), by ``eig``/``eigs`` on ``K_0⁻¹(−K_g)``, real roots
     only.  Raises ValueError when ``K_0`` is singular or not positive definite (a mechanism, an
-    unconstrained body) or when ``n`` exceeds the coordinates; returns fewer than n factors when fewer
+    unconstrained body, a reference state beyond a buckling load) or when ``n`` exceeds the coordinates; returns fewer than n factors when fewer
     are positive (the loads stiffen the structure in the other modes).
     """
     size = K0.shape[0]
@@ -252,8 +261,10 @@ def buckling(K0, K1, n: int) -> tuple[np.ndarray, np.ndarray]:
     return mu, phi / np.where(big != 0.0, big, 1.0)
 
 
-_NOT_RESTRAINED = ("the unloaded tangent is not positive definite (a mechanism or an unconstrained body): linear "
-                   "buckling needs a restrained structure; clamp or fix the free motions")
+_NOT_RESTRAINED = ("the tangent of the reference state (at t = 0, or without the loads) is not positive definite: a "
+                   "mechanism, an unconstrained body, or loads at t = 0 already beyond a buckling load; linear buckling "
+                   "needs a restrained structure, stable at t = 0: clamp or fix the free motions, or lower the loads "
+                   "at t = 0")
 
 
 def negative_eigenvalues(K, known: tuple | None = None) -> tuple[int, int]:
