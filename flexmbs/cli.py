@@ -113,13 +113,14 @@ def _run_deck(args, deck):
         raise RunFailed(f"{args.deck}: {exc} (results file: {results_path})") from None
     except (Stopped, KeyboardInterrupt) as exc:
         run = getattr(domain, "last_run", {}) or {}
-        where = (f"; results up to t = {run['t']:.6g} are kept in {run['path']} (status "
+        where = (f"; results up to {run.get('where') or 't = %.6g' % run['t']} are kept in {run['path']} (status "
                  f"{run['status']!r})") if run.get("path") and Path(run["path"]).exists() else ""
         raise Stopped(getattr(exc, "signum", signal.SIGINT)) from CommandError(where)
     except Exception as exc:
         run = getattr(domain, "last_run", {}) or {}
-        where = f"; results up to t = {run['t']:.6g} are kept in {run['path']}" if run.get("path") else ""
-        raise RunFailed(f"{args.deck}: the run failed at t = {run.get('t', 0.0):.6g}: "
+        at = run.get("where") or f"t = {run.get('t', 0.0):.6g}"
+        where = f"; results up to {at} are kept in {run['path']}" if run.get("path") else ""
+        raise RunFailed(f"{args.deck}: the run failed at {at}: "
                            f"{type(exc).__name__}: {exc}{where} (status 'failed')") from exc
     finally:
         warnings.showwarning = shown_before

@@ -139,9 +139,14 @@ print(f"rise H = {RISE} m, a = {A_HALF} m: limit point at h* = {h_star:.5f} m, P
 # converged level, $\lambda$ = 0.9996<!-- check stopped_at abs 1e-4 -->, is kept in the results file, and the message
 # names the likely cause. With the default 25 iterations Newton wanders off and converges on a *distant* equilibrium
 # of the same load — the mirrored, stable side of the truss: the apex **jumps** from $h$ =
-# 0.072<!-- check h_before abs 1e-3 --> m to $h$ = -0.116<!-- check h_after abs 1e-3 --> m between two load levels,
-# and the run goes on as if nothing happened (both equilibria are stable, so the stability count sees no change). The
-# real truss does snap through at $P_\text{max}$ — dynamically; load control skips the path in between.
+# 0.072<!-- check h_before abs 1e-3 --> m to $h$ = -0.116<!-- check h_after abs 1e-3 --> m between two load levels.
+# Both equilibria are stable, so the stability count sees no change. What gives the jump away is its size: the
+# step's displacement per unit load is many times the previous step's. The static algorithm then traces that load
+# interval again by arc length from the previous equilibrium (a few points); the load along that path rises to a
+# maximum and falls — a limit point — so the run says so in one line, with the limit load
+# ($\lambda$ = 1.0000<!-- check traced_limit abs 1e-3 -->) and what to use instead, records it under `/stability`,
+# and goes on. The real truss does snap through at $P_\text{max}$ — dynamically; load control skips the path in
+# between.
 
 # %%
 load_control = dict(algorithm="static", t_end=1.5, load_steps=10, dt=0.15)
@@ -158,15 +163,17 @@ jumping, message, lines = solve_quietly(truss(RISE, **load_control))
 apex_static = jumping.position("left:1")[:, 2]
 jump = int(np.argmax(np.abs(np.diff(apex_static))))
 h_before, h_after = float(apex_static[jump]), float(apex_static[jump + 1])
-print(f"default Newton: completed without a message ({message or 'none'}, {len(lines)} warnings); the apex jumps "
-      f"from h = {h_before:.4f} m at λ = {jumping.time[jump]:.2f} to {h_after:.4f} m at λ = "
-      f"{jumping.time[jump + 1]:.2f}")
+print(f"default Newton: the apex jumps from h = {h_before:.4f} m at λ = {jumping.time[jump]:.2f} to {h_after:.4f} m "
+      f"at λ = {jumping.time[jump + 1]:.2f}; {len(lines)} warning: {lines[0] if lines else 'none'}")
+traced_limit = float(jumping.data("stability/critical_load_factor")[0])
 
 # %% tags=["check"] jupyter={"source_hidden": true}
 assert stopping is None and "limit (buckling) point" in stop_message and stopped_status.startswith("Newton did not converge")
 # the step of 0.15 from 0.9 halved 8 times: the last converged level within 0.15/256 below the limit
 assert 1.0 - 0.15 / 256 - 1e-9 <= stopped_at < 1.0
-assert jumping.status == "completed" and not lines and h_before > 0.0 > -RISE > h_after
+assert jumping.status == "completed" and h_before > 0.0 > -RISE > h_after
+assert len(lines) == 1 and "passed a limit point" in lines[0]
+assert list(jumping.data("stability/critical_kind")) == ["limit point"]
 # both equilibria: the closed form holds at every level (Newton's tolerance 1e-10 of the forces)
 assert np.allclose(truss_load(apex_static, RISE) / P_max, jumping.time, atol=1e-6)
 

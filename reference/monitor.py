@@ -196,6 +196,8 @@ def nonfinite_load(domain, times) -> str:
     from reference.interactions import Gravity, LineLoad, NodalLoad
 
     for t in times:
+        if not math.isfinite(t):  # a step of no length in time (a linearised analysis's dt = inf)
+            continue
         with np.errstate(all="ignore"):
             for load in domain.loading:
                 if isinstance(load, Gravity):

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import time as _time
+import warnings
 from typing import NamedTuple
 
 import numpy as np
@@ -28,9 +29,11 @@ from reference.jit import boundary, inlined, kernel, named, use_threads
 from reference.joints.joint import PRESCRIBED
 from reference.joints.reactions import joint_reactions
 from reference.joints.reactions import scratch as reaction_scratch
+from reference.joints.setup import multiplier_joints
 from reference.monitor import BlowUpMonitor, nonfinite_load
 from reference.state import Model, Record, State, element_work
 from reference.status import OK
+from reference.validation import ModelWarning
 
 
 class SolverDiverged(RuntimeError):
@@ -122,6 +125,11 @@ def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, sec
     resultants(model.elements, element_work, x, q, section_force, section_moment)
 
 
+def _where(algo, t: float) -> str:
+    """``"t = 0.84"``, or ``"load factor 0.84"`` for a path whose time is its load factor (static, arc length)."""
+    return f"load factor {t:.6g}" if getattr(algo, "progress_name", "") == "load factor" else f"t = {t:.6g}"
+
+
 def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, results_path=None, progress=None,
         monitor: bool = True, deck=None, critical: float | None = None) -> Results:
     """Advance ``state`` by ``n_total`` steps of ``algo``, recording every ``domain.solver.output_every`` steps.
@@ -146,9 +154,11 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
         sink = MemoryRecorder(n_total // every + 2, [n.label for n in domain.nodes], [j.label for j in domain.joints],
                               [e.label for e in domain.elements])
     status = "failed: stopped before the first step"
+    unrecordable = None
     wall0 = _time.perf_counter()
     try:
         use_threads(nodes=len(domain.nodes))  # reference.jit: every core for a large model, one for a small one
+        algo.joint_labels = tuple(j.label for j in multiplier_joints(domain.joints))
         run_state = algo.start(model, state, critical, watch.floor if watch is not None else None)
         domain.last_run["solver"] = run_state
         done = 0
@@ -158,6 +168,8 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
             code = algo.advance(model, state, run_state, chunk, rec)
             entry, extra = outputs.record(t_record), algo.recorded(run_state)
             sink.append({**entry, **extra} if extra else entry)
+            if unrecordable is None and not np.all(np.isfinite(rec.constraint)):
+                unrecordable = _where(algo, t_record)
             why = watch.check(rec.energy, rec.x) if watch is not None and code == OK else ""
             if why:
                 status = f"diverged after t = {t_record:.6g}"
@@ -177,20 +189,26 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
                 break
         sink.add_datasets(algo.finish(model, state, run_state, True))
         status = "completed"
+        if unrecordable is not None:
+            status = f"completed with a non-finite constraint violation norm at {unrecordable}"
+            warnings.warn(f"the constraint violation norms (/constraints/violation_norm, velocity_violation_norm) are "
+                          f"not finite at {unrecordable}: a drive's or prescribed displacement's time function or its "
+                          "rate is not finite there (e.g. t**(1/3) at t = 0); the status says so", ModelWarning,
+                          stacklevel=2)
     except SolverDiverged:
         sink.add_datasets(algo.finish(model, state, run_state, False))
         raise
     except KeyboardInterrupt:
-        status = f"interrupted at t = {state.t:.6g}"
+        status = f"interrupted at {_where(algo, state.t)}"
         raise
     except Exception as exc:
         status = f"failed: {type(exc).__name__}: {exc}"[:500]
         raise
     except BaseException:
-        status = f"terminated at t = {state.t:.6g}"
+        status = f"terminated at {_where(algo, state.t)}"
         raise
     finally:
         domain.last_run.update(status=status, t=state.t, energy=float(getattr(run_state, "energy", math.nan)),
-                               work=float(state.clock[2]))
+                               work=float(state.clock[2]), where=_where(algo, state.t))
         sink.close(status)
     return sink.results(_time.perf_counter() - wall0)

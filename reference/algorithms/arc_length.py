@@ -29,6 +29,12 @@ non-finite), or that moves farther than :data:`WANDER` ds from the predicted poi
 again on another branch; not after a branch switch, whose corrector goes back to the critical load), is undone and the arc halved, up to :data:`MAX_CUTS` times; the arc never
 exceeds :data:`MAX_GROWTH` times the deck's, which so also sets the resolution of the path.
 
+The path does not start when the loads at ``t_end`` are zero (nothing to scale) or a rotation drive
+converged π from its angle (:func:`reference.algorithms.static.drive_alignment`); under ``control`` a
+point whose load factor's magnitude falls by more than :data:`reference.algorithms.static.JUMP` of its
+largest along the path is refused and the step cut (a snap-back in the controlled coordinate, which
+displacement control cannot pass); :meth:`ArcLength.summary` says why the path ended.
+
 Stability along the path (docs/formulation.md §11): at every converged point the number of negative
 eigenvalues of the tangent reduced to the constraints' null space
 (:func:`reference.modal.negative_eigenvalues`).  Where it changes between two points, the eigenvalue
@@ -46,6 +52,7 @@ from __future__ import annotations
 
 import math
 import operator
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,11 +60,12 @@ import numpy as np
 from reference.algorithms.critical_points import CriticalPoints
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
 from reference.algorithms.newton_steps import ENERGY, LAMBDA, NewtonArrays
-from reference.algorithms.static import _row_forces
+from reference.algorithms.static import JUMP, _fall, _row_forces, drive_alignment
 from reference.interactions import tf_value
 from reference.linalg import SingularMatrix
 from reference.observables import ObservableError, _Names, parse
-from reference.status import NO_CONVERGENCE, OK, SINGULAR
+from reference.status import NO_CONVERGENCE, OK, SINGULAR, newton_failure
+from reference.validation import ModelWarning
 
 MAX_CUTS = 10
 """Halvings of the arc length before the run stops (smallest arc 1/1024 of the one that failed)."""
@@ -70,6 +78,9 @@ MAX_GROWTH = 4.0
 WANDER = 0.5
 """A corrector that moves farther than this fraction of the arc along its plane is refused and the arc cut:
 on a long arc the normal plane may meet the path again on another branch (a jump across a snap-through)."""
+STILL = 1e-8
+"""Displacement control: the load does not move the controlled coordinate when its rate along the load tangent is
+below this fraction of the tangent's size (scaled norm): round-off, as for a coordinate across a plane of symmetry."""
 STOP_OPERATORS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
 """Comparisons of ``stop_when``."""
 
@@ -83,7 +94,9 @@ class ArcRun:
     increment from the point before (predictor orientation); ``slope`` dλ/ds there; ``points`` the
     stability data ``(x, q, μ, λ, s, count, slope)`` of the last point; ``events`` the changes of
     stability ``(s0, s1, λ_cr, kind, count)``; ``switch`` the critical mode (N, 6) the next predictor
-    follows; ``iterations`` the corrector iterations of the last point; ``done`` why the path ended.
+    follows; ``iterations`` the corrector iterations of the last point; ``done`` why the path ended;
+    ``peak`` the largest |λ| along a displacement-controlled path (:data:`reference.algorithms.static.JUMP`);
+    ``problem`` ``(status, message)`` of a path that cannot go on for a reason of the model, not of the arc.
     """
 
     system: NewtonSystem
@@ -114,6 +127,8 @@ class ArcRun:
     recorded: tuple = (0.0, 0.0, 0, -1)
     controlled: int = -1
     newton: NewtonArrays | None = None
+    peak: float = 0.0
+    problem: tuple = ()
 
 
 class ArcLength(CriticalPoints, ImplicitAlgorithm):
@@ -200,13 +215,46 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         loads = model.loads
         if self.control is not None:
             node, comp = self.control[:2]
-            if system.dof[node, comp] < 0:
-                raise ValueError(f"the controlled coordinate {self.control[-1]!r} is fixed: control a free one")
+            problem = self.setting_problem(model)
+            if problem:
+                raise ValueError(f"{problem[0]}: {problem[1]}; {problem[2]}")
             run.controlled = int(np.sum(system.free.ravel()[:6 * node + comp]))
         run.follower = [(int(loads.node[k]), int(loads.code[k]), int(loads.tf[k]), np.array(loads.vec[k]))
                         for k in range(loads.node.shape[0]) if loads.code[k] in (1, 2)]
         self._compiled_arrays(run)
         return run
+
+    def setting_problem(self, model) -> tuple[str, str, str] | None:
+        """``(deck entry, problem, fix)`` when the model makes a setting impossible: control of a fixed
+        coordinate (the deck reader's one-line error, :func:`reference.io.deck.load_deck`)."""
+        if self.control is None or model.nodes.free[self.control[0], self.control[1]] != 0.0:
+            return None
+        return ("solver.control", f"{self.control[-1]!r} is a fixed coordinate ([[fixed]] or [[clamps]]): nothing "
+                "can move it", "control a free coordinate that the load moves")
+
+    def failure(self, code: int, state, run) -> tuple[str, str]:
+        """``(status, message)`` of a path that stopped: the model's reason when there is one (``run.problem``),
+        else the corrector's failure at the last load factor (:func:`reference.status.newton_failure`)."""
+        if run.problem:
+            return run.problem
+        t = run.stopped_at if run.stopped_at is not None else state.t
+        if not run.started:
+            return newton_failure(code, "load factor 0", self.max_iterations, "",
+                                  "The path starts from the equilibrium at load factor 0 with the drives and "
+                                  "prescribed displacements at their values at t_end, imposed at once: reach that "
+                                  "state first (a static run, or a smaller t_end), or give them smaller values.")
+        fix = self.no_convergence_fix if self.control is None else (
+            f"Under control of {self.control[-1]!r} the path may turn back in that coordinate here (a snap-back), "
+            "which displacement control cannot pass: remove `control` (the arc length passes snap-backs), or lower "
+            "arc_length.")
+        return newton_failure(code, f"load factor {t:.6g}", self.max_iterations, self.cut_note, fix)
+
+    def summary(self, run) -> str:
+        """Why the path ended (its last point's load factor): ``stop_when``, ``max_load_factor`` or ``max_points``."""
+        if run is None or not run.started:
+            return ""
+        why = run.done or f"max_points = {self.max_points} points reached at load factor {run.lam:.6g}"
+        return f"path ended: {why}"
 
     def _compiled_arrays(self, run) -> None:
         """The compiled corrector's arrays (:func:`reference.algorithms.newton_steps.newton_loop`), with the
@@ -287,6 +335,23 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             if code != OK:
                 run.stopped_at = 0.0
                 return code
+            loads = system.work.F[system.free]
+            if not np.any(loads != 0.0):
+                run.problem = ("failed: no load to scale",
+                               f"arc_length scales the loads at t_end = {self.t_end:g} by the load factor, and "
+                               "they are zero (no [[loads]], [[line_loads]] or gravity, or their time functions "
+                               "vanish at t_end): the path would not move. Give a load nonzero at t_end; to "
+                               "follow a prescribed displacement alone, use algorithm = \"static\".")
+                return SINGULAR
+            for k, cos in drive_alignment(system.model, x, q, self.t_end):
+                if cos < 0.0:
+                    label = repr(self.joint_labels[k]) if k < len(self.joint_labels) else f"number {k}"
+                    run.problem = ("failed: drive π away at load factor 0",
+                                   f"the rotation drive {label} converged π away from its angle at t_end = "
+                                   f"{self.t_end:g} (the other root of sin(θ − θ(t)) = 0): the path starts with "
+                                   "the drives at their t_end values, imposed at once; reach that state with a "
+                                   "static run first, or give the drive a smaller angle at t_end.")
+                    return SINGULAR
             run.started, clock[0] = True, 0.0
             run.F = system.work.F.copy()
             run.P = _row_forces(system, run.mu)
@@ -320,6 +385,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         system = run.system
         saved = (x.copy(), q.copy(), run.mu.copy(), system.work.angle.copy())
         ds = run.ds
+        run.problem = ()  # kept through the cuts: a jump refused on a longer step explains a failed shorter one
         for _ in range(MAX_CUTS + 1):
             try:
                 if run.switch is not None:  # along the critical mode at a bifurcation, Δλ = 0
@@ -330,9 +396,15 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                 elif self.control is not None:  # the controlled coordinate moves by ds, λ follows
                     dF, muF = self._tangent(run, x, q, run.lam)
                     c = run.controlled
-                    t_c = self._scaled(run, dF)[c]
-                    if t_c == 0.0:
-                        raise SingularMatrix("the load moves the controlled coordinate not at all")
+                    t_all = self._scaled(run, dF)
+                    t_c = t_all[c]
+                    if abs(t_c) <= STILL * float(np.linalg.norm(t_all)):
+                        run.problem = ("failed: the load does not move the controlled coordinate",
+                                       f"the load does not move the controlled coordinate {self.control[-1]!r} at "
+                                       f"load factor {run.lam:.6g} (its rate along the load is zero: perpendicular "
+                                       "to the motion, or a plane of symmetry); control a coordinate the load "
+                                       "moves, e.g. the load point's along the load.")
+                        return SINGULAR
                     sgn = math.copysign(1.0, run.previous[c]) if run.previous is not None else math.copysign(1.0, t_c)
                     dlam = sgn * ds / t_c
                     step_u, step_mu = dlam * dF, dlam * muF
@@ -361,6 +433,8 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                 if code == OK and run.switch is None and self.control is None and \
                         float(np.linalg.norm(moved)) > WANDER * ds:
                     code = NO_CONVERGENCE  # the corrector wandered off along the plane: another branch
+                if code == OK and self.control is not None:
+                    code = self._jumped(run, lam)
             if code == OK:
                 increment = moved + np.append(self._scaled(run, step_u), dlam)
                 run.s += float(np.linalg.norm(increment))
@@ -368,6 +442,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                 dW, run.P = self._work(run, saved[0], saved[1], x, q, lam)
                 clock[2] += dW
                 run.lam, run.jumped, run.switch = lam, run.switch is not None, None
+                run.peak, run.problem = max(run.peak, abs(lam)), ()
                 if self.control is None:
                     factor = math.sqrt(TARGET_ITERATIONS / max(run.iterations, 1))
                     run.ds = min(ds * min(max(factor, 1.0 / GROWTH), GROWTH), MAX_GROWTH * self.arc_length)
@@ -375,6 +450,25 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             x[:], q[:], run.mu[:], system.work.angle[:] = saved
             ds *= 0.5
         return code
+
+    def _jumped(self, run, lam) -> int:
+        """Under displacement control: :data:`reference.status.NO_CONVERGENCE` (the point refused, the step cut)
+        when the magnitude of the load factor falls by more than :data:`reference.algorithms.static.JUMP` of its
+        largest along the path from the last point (across zero: all of it) — the controlled coordinate turned back
+        (a snap-back) and the corrector landed on another branch; ``run.problem`` says so should the cuts not
+        help.  OK otherwise."""
+        old = run.lam
+        peak = max(run.peak, abs(lam))
+        if peak > 0.0 and _fall(old, lam) > JUMP * peak:
+            text = self.control[-1]
+            run.problem = (f"failed: snap-back in {text}",
+                           f"the load factor jumps from {old:.6g} to {lam:.6g} past load factor {old:.6g} under "
+                           f"control of {text!r}, {self.cut_note} (more than {JUMP:g} of its largest magnitude "
+                           f"{peak:.6g}): that coordinate turns back along the path (a snap-back), which "
+                           "displacement control cannot pass; results up to there are kept. Remove `control` (the "
+                           "arc length passes snap-backs) or control a coordinate that grows monotonically.")
+            return NO_CONVERGENCE
+        return OK
 
     def _work(self, run, x0, q0, x, q, lam):
         """Trapezoidal work of the loads λF and the drives from the last point (last evaluation at the new one)."""
@@ -395,8 +489,12 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                 "path/negative_eigenvalues": float(count)}
 
     def finish(self, model, state, run, completed: bool) -> dict:
-        """The critical points along the path (none: empty datasets)."""
+        """The critical points along the path (none: empty datasets); one warning line when ``branch_switch``
+        found no bifurcation to switch at."""
         events = run.events
+        if completed and self.branch_switch and not any(e[3] == "bifurcation" for e in events):
+            warnings.warn(f"branch_switch = true, but the path met no bifurcation up to load factor {run.lam:.6g}: "
+                          "nothing was switched (the path is the primary one)", ModelWarning, stacklevel=2)
         return {"path/critical_load_factor": np.array([e[2] for e in events], dtype=float),
                 "path/critical_kind": np.array([e[3] for e in events], dtype=str),
                 "path/critical_bracket": np.array([e[:2] for e in events], dtype=float).reshape(-1, 2)}

@@ -46,9 +46,17 @@ class Algorithm(ABC):
     """A linearised analysis (:mod:`reference.algorithms.linear`): its results have a table (:meth:`table`)."""
     deck_required: tuple = ()
     deck_optional: tuple = ()
+    joint_labels: tuple = ()
+    """The labels of the model's joints with multipliers, in the model's order (set by the solution loop,
+    :func:`reference.solution.run`, for the messages that name a joint)."""
 
     @staticmethod
     def refusal(model) -> str | None:
+        return None
+
+    def setting_problem(self, model) -> tuple[str, str, str] | None:
+        """``(deck entry, problem, fix)`` when ``model`` makes one of this algorithm's settings impossible (the
+        deck reader's one-line error), None when it does not."""
         return None
 
     @classmethod

@@ -78,13 +78,19 @@ class CriticalPoints:
         run.mu = mu_now
         mu0 = nearest_zero(sps.csr_matrix(K0), M)[0]
         s1, lam1 = run.s, run.lam
-        frac = mu0 / (mu0 - mu1) if mu0 != mu1 else 1.0
+        frac = min(max(mu0 / (mu0 - mu1), 0.0), 1.0) if mu0 != mu1 else 1.0  # the critical point inside its bracket
         along = abs(phi @ F)
         size = math.sqrt(max(F @ spla.spsolve(M.tocsc(), F), 0.0)) * math.sqrt(max(phi @ (M @ phi), 0.0))
         if along <= BIFURCATION * size:
             kind = "bifurcation"
             lam_cr = lam0 + frac * (lam1 - lam0)
-            if self.branch_switch and not run.switched:
+            if self.branch_switch and not run.switched and count - old >= 2:
+                warnings.warn(f"branch_switch: the bifurcation between load factor {lam0:.6g} and {lam1:.6g} has "
+                              f"{count - old} critical modes at once (a multiple bifurcation, e.g. equal bending "
+                              "stiffnesses): the branch to follow is not unique, so the path stays on the primary "
+                              "branch; break the symmetry (a small imperfection load or unequal stiffnesses)",
+                              ModelWarning, stacklevel=3)
+            elif self.branch_switch and not run.switched:
                 mode = np.zeros((x.shape[0], 6))
                 mode[system.free] = Zm @ phi
                 run.switch, run.switched = mode, True

@@ -142,9 +142,13 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
         model = domain.initialization()
     except ValueError as exc:
         raise rd.fail("model", str(exc)) from None
-    problem = domain.algorithm().refusal(model)
+    algo = domain.algorithm()
+    problem = algo.refusal(model)
     if problem:
         raise rd.fail("solver.algorithm", f"{algorithm!r} cannot run this model: {problem}")
+    problem = algo.setting_problem(model)
+    if problem:
+        raise rd.fail(*problem)
     return Deck(domain, str(path), text, metadata, checks, crosscheck)
 
 

@@ -29,7 +29,7 @@ from reference.joints.assembly import (
     subtract_transpose,
 )
 from reference.joints.formulation import REGISTRY
-from reference.joints.joint import Joint
+from reference.joints.joint import PRESCRIBED, Joint
 from reference.state import Model, State
 
 DEPENDENT_PIVOT = 1e-10
@@ -218,7 +218,10 @@ def redundancy_message(lagrange: list[Joint], loops: dict) -> str:
     for labels, count in sorted(loops.items(), key=lambda item: min(order[x] for x in item[0])):
         loop = sorted(labels, key=order.__getitem__)
         stiff = [x for x in loop if kinds[x].formulation.epsilon == 0.0]
-        parts.append(f"{count} in the loop {', '.join(loop)}, fix: epsilon > 0 on {stiff[-1]}")
+        settable = [x for x in stiff if kinds[x].kind != PRESCRIBED]  # a prescribed displacement has no epsilon
+        fix = (f"epsilon > 0 on {settable[-1]}" if settable else
+               f"remove the prescribed displacement {stiff[-1]} or the constraint it repeats")
+        parts.append(f"{count} in the loop {', '.join(loop)}, fix: {fix}")
     shown = []
     for k, part in enumerate(parts):
         rest = len(parts) - k - 1
