@@ -134,7 +134,7 @@ def _run_deck(args, deck):
     # the solve is the whole call less the kernels' compilation inside it (which may also come before its
     # solution loop, where result.wall_time starts: subtracting it from that printed a negative solve)
     print(f"{domain.name}: {len(result.time)} outputs to t = {result.time[-1]:g} in {wall:.2f} s "
-          f"(solve {max(solving - timer.seconds, 0.0):.3f} s"
+          f"(solve {solving - timer.seconds:.3f} s"
           + (f", compiling the kernels {timer.seconds:.1f} s" if timer.kernels else "") + f") → {results_path}"
           + (f", {pvd}" if pvd else ""))
     solver = (getattr(domain, "last_run", {}) or {}).get("solver")

@@ -219,9 +219,8 @@ def model_suspect(domain) -> str:
             start = float(joint.time_function(0.0))
             if start != 0.0 and math.isfinite(start):
                 unit = "rad" if joint.kind == "rotation_drive" else "m"
-                return (f"likely cause: the drive {joint.label!r}, whose {'θ' if unit == 'rad' else 's'}(0) = "
-                        f"{start:.4g} {unit} moves the model by that much at t = 0; if its time function is a "
-                        "rate, set mode = \"velocity\"")
+                return (f"likely cause: the drive {joint.label!r} jumps to {'θ' if unit == 'rad' else 's'}(0) = "
+                        f"{start:.4g} {unit} at t = 0; a rate? set mode = \"velocity\"")
     return ""
 
 
@@ -236,12 +235,12 @@ def likely_cause(dt: float, critical: float, explicit: bool = True, domain=None)
     suspect = model_suspect(domain) if domain is not None else ""
     if suspect:
         return suspect
-    step = f" (dt = {ratio:.2f} × critical)" if explicit else ""
+    step = f"dt = {ratio:.2f} × critical" if explicit else ""
     if domain is not None and not (domain.loading or any(getattr(f, "force_function", None) is not None
                                                          for f in domain.force_elements)):
-        return (f"likely cause: the drives or the initial velocities (the model has no loads){step}; check "
-                "their rates and units, start them smoothly, or reduce dt")
-    return f"likely cause: the loads{step}; check their size and units, ramp them in, or reduce dt"
+        return (f"likely cause: the drives or initial velocities (no loads{'; ' + step if step else ''}); "
+                "check their rates and units, or reduce dt")
+    return f"likely cause: the loads{f' ({step})' if step else ''}; check their size and units, ramp them in, or reduce dt"
 
 
 def rediagnosed(message: str, domain, dt: float, critical: float, explicit: bool) -> str:

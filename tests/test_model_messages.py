@@ -19,7 +19,7 @@ from flexmbs.cli import main
 from reference.domain import Domain, SolverDiverged
 from reference.elements import Section
 from reference.io.deck import load_deck
-from reference.monitor import rediagnosed
+from reference.monitor import likely_cause, rediagnosed
 from reference.rotation import EulerParameters
 from reference.status import SINGULAR, explicit_failure
 from reference.validation import ModelWarning, joint_offsets, show_warning
@@ -133,7 +133,8 @@ def test_a_drive_without_mode_velocity_is_named_not_the_loads(tmp_path):
                      ('[time_functions.speed]', '[sections.rod]\nEA = 1e6\nGA2 = 1e6\nGA3 = 1e6\nGJ = 100.0\n'
                       'EI2 = 100.0\nEI3 = 100.0\nrhoA = 1.0\nrhoJ1 = 2e-3\nrhoJ2 = 1e-3\nrhoJ3 = 1e-3\n\n'
                       '[time_functions.speed]'),
-                     ('dt = 2e-4', 'dt = 1e-5'), ('t_end = 2.0 ', 't_end = 0.05 '), ('output_every = 10', 'output_every = 100')):
+                     ('dt = 2e-4', 'dt = 1e-5'), ('t_end = 2.0 ', 't_end = 0.05 '),
+                     ('output_every = 10', 'output_every = 100')):
         assert text.count(old) == 1, old
         text = text.replace(old, new)
     domain = load_deck(write(tmp_path, text)).domain
@@ -141,8 +142,14 @@ def test_a_drive_without_mode_velocity_is_named_not_the_loads(tmp_path):
     with pytest.raises(SolverDiverged) as info:
         domain.solve(results_path=tmp_path / "results.h5")
     message = str(info.value)
-    assert "likely cause: the drive 'drive', whose θ(0) = 10 rad" in message, message
-    assert 'set mode = "velocity"' in message and "the loads" not in message, message
+    assert "likely cause: the drive 'drive' jumps to θ(0) = 10 rad at t = 0; a rate? set mode = \"velocity\"" \
+        in message, message
+    assert "the loads" not in message and len(message) <= 200, message  # the blow-up messages' bound
+    # the drive given as a rate: nothing suspect is left, and a model without loads is not told "the loads"
+    next(j for j in domain.joints if j.label == "drive").mode = "velocity"
+    assert likely_cause(1e-5, 1e-4, True, domain) == (
+        "likely cause: the drives or initial velocities (no loads; dt = 0.10 × critical); check their rates and units, "
+        "or reduce dt")
 
 
 def test_singular_constraints_with_a_rod_end_in_mm_name_the_geometry():
@@ -180,9 +187,10 @@ def test_a_beam_along_y_gets_a_section_axis_without_being_told():
     along_x = d.add_beam("x", (0.0, 0.0, 1.0), (1.0, 0.0, 1.0), 2, section)
     given = d.add_beam("xg", (0.0, 0.0, 2.0), (1.0, 0.0, 2.0), 2, section, axis2=(0.0, 1.0, 0.0))
     assert all(np.array_equal(a.rotation, b.rotation) for a, b in zip(along_x, given))
-    arc = d.add_beam("arc", (1.0, 0.0, 3.0), (0.0, 1.0, 3.0), 4, section, center=(0.0, 0.0, 3.0))  # tangent along y at start
-    assert len(arc) == 5
-    bar = d.add_rigid_bar("bar", (5.0, 0.0, 0.0), (5.0, 2.0, 0.0), Section(rhoA=1.0, rhoJ1=1e-3, rhoJ2=1e-3, rhoJ3=1e-3))
+    arc = d.add_beam("arc", (1.0, 0.0, 3.0), (0.0, 1.0, 3.0), 4, section, center=(0.0, 0.0, 3.0))  # starts along y
+    assert EulerParameters(arc[0].rotation).matrix()[:, 1] == pytest.approx([0, 0, 1], abs=1e-15)  # its plane's normal
+    lean = Section(rhoA=1.0, rhoJ1=1e-3, rhoJ2=1e-3, rhoJ3=1e-3)  # a rigid bar's section: its mass data only
+    bar = d.add_rigid_bar("bar", (5.0, 0.0, 0.0), (5.0, 2.0, 0.0), lean)
     assert bar.mass == 2.0
     with pytest.raises(ValueError, match=r"^beam 'bad': section axis 2 \[0\.0, 1\.0, 0\.0\] is parallel to the beam "
                        r"axis \[0\.0, 1\.0, 0\.0\]; give another axis2, e\.g\. axis2 = \[-1\.0, 0\.0, 0\.0\]$"):
@@ -232,7 +240,8 @@ def test_the_api_takes_the_decks_node_references():
     (lambda d, s: d.add_joint("revolute", "rod:end", "rod:4", (1.0, 0.0, 0.0), label="hinge"),
      "joint 'hinge': body_i and body_j are the same body 'rod:4'; join two bodies, or a body and the ground "
      "(\"ground\" or None)"),
-    (lambda d, s: Section(**{**SECTION, "EA": "1e7"}), "Section: EA = '1e7' must be a positive number (a number, not a string)"),
+    (lambda d, s: Section(**{**SECTION, "EA": "1e7"}),
+     "Section: EA = '1e7' must be a positive number (a number, not a string)"),
     (lambda d, s: Section(**{**SECTION, "GJ": True}), "Section: GJ = True must be a positive number"),
 ])
 def test_api_type_errors_are_the_decks_one_line_messages(call, message):
@@ -297,7 +306,8 @@ def test_a_numeric_node_of_a_beam3_beam_is_warned_about_and_mid_end_are_offered(
         assert lines == ["loads[0].node: 'b:4' counts the nodes of beam3 elements: node 4 of 0…8, at 0.5 of the "
                          "beam; with another element family the same number is another node: write 'b:start', "
                          "'b:mid' or 'b:end' for a place that does not depend on it"], lines
-    native = write(tmp_path, text.replace('section = "steel_rod"', 'section = "steel_rod"\nelement = "beam3"'), "b3.toml")
+    native = write(tmp_path, text.replace('section = "steel_rod"', 'section = "steel_rod"\nelement = "beam3"'),
+                   "b3.toml")
     _, lines = model_warnings(lambda: load_deck(native, overrides={"beams.0.element": "beam2"}))
     assert len(lines) == 1 and "counts the nodes of beam2 elements: node 4 of 0…4, at 1 of the beam" in lines[0]
     for ref, x in (("b:end", 1.0), ("b:mid", 0.5)):
