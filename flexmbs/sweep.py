@@ -38,6 +38,7 @@ import signal
 import sys
 import time
 import tomllib
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -185,25 +186,33 @@ def run_case(deck, case: dict, out_dir) -> dict:
     """Run one case in this process; never raises: a failure is the row's status.
 
     Returns the summary row: the grid values, ``status``, ``wall_time`` [s],
-    ``results`` (the file) and :func:`case_values`.
+    ``results`` (the file) and :func:`case_values`.  Its warnings are one line each on stderr (the worker's),
+    ``flexmbs: warning: case_NNN: …``, as the command line shows them (:func:`reference.validation.show_warning`).
     """
     from reference.domain import SolverDiverged
     from reference.io.deck import load_deck
+    from reference.validation import show_warning
 
     out_dir = Path(out_dir)
     row = {**case, "status": "completed", "wall_time": math.nan, "results": ""}
     t0 = time.perf_counter()
-    try:
-        read = load_deck(deck, overrides=deck_overrides(case))
-        out_dir.mkdir(parents=True, exist_ok=True)
-        results_path = out_dir / "results.h5"
-        results = read.solve(results_path=results_path)
-        row["results"] = str(results_path)
-        row.update(case_values(read, results))
-    except (DeckError, SolverDiverged, ValueError, OSError, FloatingPointError) as exc:
-        row["status"] = "failed: " + " ".join(str(exc).split())
-    except Exception as exc:  # a bug still must not lose the study: record it
-        row["status"] = f"failed: {type(exc).__name__}: " + " ".join(str(exc).split())
+
+    def case_warning(message, category, *where, **named):  # one line naming the case, as the command line's
+        show_warning(f"{out_dir.name}: {message}", category, *where, **named)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = case_warning
+        try:
+            read = load_deck(deck, overrides=deck_overrides(case))
+            out_dir.mkdir(parents=True, exist_ok=True)
+            results_path = out_dir / "results.h5"
+            results = read.solve(results_path=results_path)
+            row["results"] = str(results_path)
+            row.update(case_values(read, results))
+        except (DeckError, SolverDiverged, ValueError, OSError, FloatingPointError) as exc:
+            row["status"] = "failed: " + " ".join(str(exc).split())
+        except Exception as exc:  # a bug still must not lose the study: record it
+            row["status"] = f"failed: {type(exc).__name__}: " + " ".join(str(exc).split())
     row["wall_time"] = time.perf_counter() - t0
     return row
 

@@ -20,6 +20,7 @@ tables, the redundancy check, consistent initial velocities) and
 
 from __future__ import annotations
 
+import difflib
 import math
 
 import numpy as np
@@ -38,8 +39,9 @@ from reference.interactions import (
 from reference.io.results import Results
 from reference.joints import Jacobian, Joint, joint_frame, setup
 from reference.monitor import damping_problem
-from reference.validation import direction, joint_offsets, vector
-from reference.mesh import arc_geometry, beam_triad, section_frames, straight_line
+from reference import validation
+from reference.validation import LabelError, direction, joint_offsets, vector
+from reference.mesh import DEFAULT_AXIS2, arc_geometry, beam_triad, default_axis2, section_frames, straight_line
 from reference.nodes import Node
 from reference.rotation import EulerParameters
 from reference.solution import SolverDiverged, run
@@ -82,6 +84,9 @@ class Domain:
         self.force_elements: list[ForceElement] = []
         self.solver = SolverSettings()
         self._labels: dict[str, Node] = {}
+        self.beams: dict[str, list[Node]] = {}
+        """Flexible beams by label: their nodes in order (what ``BEAM:start``, ``BEAM:mid``, ``BEAM:end``
+        and ``BEAM:i`` name, :meth:`node`)."""
         self._model: Model | None = None
         self.state: State | None = None
 
@@ -112,16 +117,45 @@ class Domain:
         return node
 
     def node(self, key) -> Node:
-        """Node by id (int) or label (str)."""
+        """Node by id (int), label (str) or beam reference, as a deck names it (``docs/deck.md``, "Node
+        references"): ``BEAM:start``, ``BEAM:mid``, ``BEAM:end``, ``BEAM:i`` of a beam of :attr:`beams`.
+
+        Raises
+        ------
+        reference.validation.LabelError
+            A ``KeyError`` of one line, the deck's wording: what is wrong and the fix (a close label).
+        """
         if isinstance(key, Node):
             return key
-        if isinstance(key, (int, np.integer)):
+        if isinstance(key, (int, np.integer)) and not isinstance(key, (bool, np.bool_)):
             if 0 <= key < len(self.nodes):
                 return self.nodes[int(key)]
-            raise KeyError(f"no node with id {key}; ids run from 0 to {len(self.nodes) - 1}")
+            raise LabelError(f"no node with id {key}", f"ids run from 0 to {len(self.nodes) - 1}")
+        if not isinstance(key, str):
+            raise LabelError(f"expected a node reference (a label like 'beam:end'), got {key!r}")
         if key in self._labels:
             return self._labels[key]
-        raise KeyError(f"no node labelled {key!r}")
+        beam, _, which = key.rpartition(":")
+        if beam in self.beams:
+            nodes = self.beams[beam]
+            if which in ("start", "end"):
+                return nodes[0 if which == "start" else -1]
+            if which == "mid":
+                if len(nodes) % 2 == 0:
+                    raise LabelError(f"beam '{beam}' has no node at mid-span ({len(nodes) - 1} segments)",
+                                     f"give it an even number of segments, or use an index 0…{len(nodes) - 1}")
+                return nodes[len(nodes) // 2]
+            if which.isascii() and which.isdigit() and int(which) < len(nodes):
+                return nodes[int(which)]
+            raise LabelError(f"beam '{beam}' has no node {which!r}",
+                             f"use '{beam}:start', '{beam}:mid', '{beam}:end' or an index 0…{len(nodes) - 1}")
+        if key in self.beams:  # a bare beam label: which of its nodes?
+            raise LabelError(f"{key!r} is a beam, not a node",
+                             f"use '{key}:start', '{key}:end' or an index '{key}:0'…'{key}:{len(self.beams[key]) - 1}'")
+        ends = [f"{b}:{w}" for b in self.beams for w in ("start", "end")]
+        close = difflib.get_close_matches(key, list(self._labels) + ends, n=1)
+        raise LabelError(f"no node {key!r}", f"did you mean '{close[0]}'?" if close else
+                         "reference a node label or '<beam>:start', '<beam>:end', '<beam>:<i>'")
 
     def add_element(self, formulation, nodes, label: str = "", frames=None) -> Element:
         """Add an element; ``frames`` its section triads at rest (Euler parameters per node, default: the node frames)."""
@@ -131,8 +165,8 @@ class Domain:
         self._model = None
         return element
 
-    def add_beam(self, label: str, start, end, n_elements: int, section: Section, *, axis2=(0.0, 1.0, 0.0),
-                 start_node: Node | None = None, end_node: Node | None = None, center=None,
+    def add_beam(self, label: str, start, end, n_elements: int | None = None, section: Section | None = None, *,
+                 axis2=None, start_node: Node | None = None, end_node: Node | None = None, center=None,
                  element: str = DEFAULT_FAMILY) -> list[Node]:
         """Mesh a straight beam, or a circular arc about ``center``, into ``n_elements`` elements of the
         family ``element`` (a name of :data:`reference.elements.families.ELEMENT_FAMILIES`, two-node).
@@ -140,7 +174,8 @@ class Domain:
         The family chooses each element's section frames at rest
         (``formulation.rest_frames``): by default straight in its own section
         frame (axis 1 along its chord, axis 2 the ``axis2`` hint made orthogonal
-        to it); a helicoidal ``beam2_se3`` takes the beam's triads at the nodes,
+        to it; ``axis2`` defaults to :data:`DEFAULT_AXIS2` where that is never parallel to the beam, else
+        :func:`default_axis2`); a helicoidal ``beam2_se3`` takes the beam's triads at the nodes,
         so its reference is the arc itself; a three-node family (``beam3``)
         gets a middle node per element (2 n_elements segments).  New nodes,
         labelled ``f"{label}:{i}"``, get the beam's section triad on the beam's
@@ -152,27 +187,50 @@ class Domain:
         set by an earlier beam) keeps it; otherwise it takes this beam's end
         frame.  Chord-frame arcs converge at second order in the element size
         to the circle (chords between nodes on the arc).
+
+        The checks and messages are the deck reader's (``beam 'rod': n_elements: expected an integer
+        ≥ 1, got 8.0``); ``n_elements`` and ``section`` are required.
         """
-        start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
-        if n_elements < 1:
-            raise ValueError(f"beam {label!r}: needs at least one element")
-        if element not in ELEMENT_FAMILIES:
-            raise ValueError(f"beam {label!r}: unknown element {element!r}; known: {', '.join(ELEMENT_FAMILIES)}")
+        what = f"beam {label!r}"
+        validation.label(label, "beam label")
+        if label in self.beams:
+            raise ValueError(f"{what}: a beam of this label exists; give each beam its own label")
+        if n_elements is None or isinstance(n_elements, Section):  # add_beam(label, start, end, section)
+            raise ValueError(f"{what}: missing n_elements (the number of elements, e.g. 8)")
+        if section is None:
+            raise ValueError(f"{what}: missing section (a reference.elements.Section)")
+        n_elements = validation.integer(n_elements, f"{what}: n_elements")
+        if not isinstance(section, Section):
+            raise ValueError(f"{what}: section: expected a reference.elements.Section, got {type(section).__name__}")
+        if section.missing_stiffness:
+            raise ValueError(f"{what}: the section has no {', '.join(section.missing_stiffness)}: a flexible beam "
+                             "needs its ten properties (a section of mass data alone is for rigid bars)")
+        if not isinstance(element, str) or element not in ELEMENT_FAMILIES:
+            close = difflib.get_close_matches(element, list(ELEMENT_FAMILIES), n=1) if isinstance(element, str) else []
+            raise ValueError(f"{what}: unknown element {element!r}; "
+                             + (f"did you mean '{close[0]}'?" if close else f"known: {', '.join(ELEMENT_FAMILIES)}"))
+        start, end = vector(start, f"{what}: start"), vector(end, f"{what}: end")
+        center = None if center is None else vector(center, f"{what}: center")
         if np.linalg.norm(end - start) <= 0.0:
-            raise ValueError(f"beam {label!r}: start and end coincide")
+            raise ValueError(f"{what}: start and end coincide")
+        start_node, end_node = (None if n is None else self.node(n) for n in (start_node, end_node))
         for node, point in ((start_node, start), (end_node, end)):
             if node is not None and np.linalg.norm(node.position - point) > 1e-12 * max(1.0, np.linalg.norm(point)):
-                raise ValueError(f"beam {label!r}: node {node.label!r} is not at the beam's end point {point.tolist()}")
+                raise ValueError(f"{what}: node {node.label!r} is not at the beam's end point {point.tolist()}")
         formulation = ELEMENT_FAMILIES[element](section)
         segments = n_elements * (formulation.n_nodes - 1)
         if center is None:
             points, tangents = straight_line(start, end, segments)
         else:
             points, tangents = arc_geometry(start, end, center, segments)
+        hint = DEFAULT_AXIS2 if axis2 is None else direction(axis2, f"{what}: axis2")
         try:
-            node_q, elem_q = section_frames(points, tangents, axis2)
+            node_q, elem_q = section_frames(points, tangents, hint)
         except ValueError as exc:
-            raise ValueError(f"beam {label!r}: {exc}; choose another axis2") from None
+            other = default_axis2(start, end, center)
+            if axis2 is not None:
+                raise ValueError(f"{what}: {exc}; give another axis2, e.g. axis2 = {other.tolist()}") from None
+            node_q, elem_q = section_frames(points, tangents, other)
         nodes = []
         for i in range(segments + 1):
             reuse = start_node if i == 0 else end_node if i == segments else None
@@ -186,6 +244,7 @@ class Domain:
         for i in range(n_elements):
             self.add_element(formulation, formulation.mesh_nodes(nodes, i), f"{label}/{i}",
                              frames=formulation.rest_frames(node_q, elem_q, i))
+        self.beams[label] = nodes
         return nodes
 
     def add_rigid_body(self, label: str, mass: float, inertia, position, *, rotation=None, points=None) -> Node:
@@ -213,20 +272,32 @@ class Domain:
         node.points = {name: np.asarray(p, dtype=float) for name, p in (points or {}).items()}
         return node
 
-    def add_rigid_bar(self, label: str, start, end, section: Section, *, axis2=(0.0, 1.0, 0.0)) -> Node:
+    def add_rigid_bar(self, label: str, start, end, section: Section, *, axis2=None) -> Node:
         """A beam declared rigid: one rigid body with the bar's mass distribution.
 
         Mass ``ρA L``; inertia about the centre in the section frame
         ``diag(ρJ1 L, ρJ2 L + ρA L³/12, ρJ3 L + ρA L³/12)`` — the uniform bar
         (the paper meshes its rigid bars with two beam elements; a rigid bar
         has no deformation, so one body carries exactly the same inertia).
-        Named points ``start``, ``end`` and ``centre``.
+        Named points ``start``, ``end`` and ``centre``.  The section needs only its mass data
+        (``rhoA``, ``rhoJ1``…``rhoJ3``); ``axis2`` as for :meth:`add_beam`.
         """
-        start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+        what = f"rigid bar {label!r}"
+        if not isinstance(section, Section):
+            raise ValueError(f"{what}: section: expected a reference.elements.Section, got {type(section).__name__}")
+        start, end = vector(start, f"{what}: start"), vector(end, f"{what}: end")
         length = float(np.linalg.norm(end - start))
         if length <= 0.0:
-            raise ValueError(f"rigid bar {label!r}: start and end coincide")
-        q = EulerParameters.from_matrix(beam_triad(end - start, axis2)).q
+            raise ValueError(f"{what}: start and end coincide")
+        hint = DEFAULT_AXIS2 if axis2 is None else direction(axis2, f"{what}: axis2")
+        try:
+            triad = beam_triad(end - start, hint)
+        except ValueError as exc:
+            other = default_axis2(start, end)
+            if axis2 is not None:
+                raise ValueError(f"{what}: {exc}; give another axis2, e.g. axis2 = {other.tolist()}") from None
+            triad = beam_triad(end - start, other)
+        q = EulerParameters.from_matrix(triad).q
         m = section.rhoA * length
         J = np.diag([section.rhoJ1 * length, section.rhoJ2 * length + m * length**2 / 12.0,
                      section.rhoJ3 * length + m * length**2 / 12.0])
@@ -236,7 +307,7 @@ class Domain:
 
     def add_joint(self, kind: str, body_i, body_j, point, *, axis=(0.0, 0.0, 1.0), reference=None, frame=None,
                   formulation=None, time_function: TimeFunction | None = None, mode: str = "position",
-                  label: str = "") -> Joint:
+                  label: str = "", intended_offset: bool = False) -> Joint:
         """Join ``body_i`` to ``body_j`` (a node, its id or label; ``"ground"`` or ``None``: the ground) at
         ``point`` about/along ``axis``.
 
@@ -245,6 +316,9 @@ class Domain:
         joint ``axis`` is the pin on body i (u1) and ``reference`` the pin on body j (u2).
         Drives take a ``time_function`` (θ(t) or s(t), or their rates with ``mode="velocity"``); so does a
         ``"prescribed_displacement"`` (s(t) [m] of ``point`` along ``axis``, inertial; ``body_j`` the ground).
+        Bodies are named as in a deck (:meth:`node`: ``"rod:start"``…); a joint of a body to itself is
+        refused here, by label.  ``intended_offset``: the point lies away from both bodies by design
+        (no warning, :func:`reference.validation.joint_offsets`).
         """
         what = f"joint {label or kind!r}"
         point, axis = vector(point, f"{what}: point"), direction(axis, f"{what}: axis")
@@ -259,9 +333,12 @@ class Domain:
         frame = joint_frame(axis, reference) if frame is None else np.asarray(frame, dtype=float)
         ends = [None if body is None or (isinstance(body, str) and body == GROUND) else self.node(body)
                 for body in (body_i, body_j)]
+        if ends[0] is not None and ends[0] is ends[1]:
+            raise ValueError(f"{what}: body_i and body_j are the same body {ends[0].label!r}; "
+                             "join two bodies, or a body and the ground (\"ground\" or None)")
         joint = Joint(kind, *ends, point, frame, formulation=formulation or Jacobian(),
                       time_function=time_function or Constant(0.0), mode=mode,
-                      label=label or f"{kind}:{len(self.joints)}")
+                      label=label or f"{kind}:{len(self.joints)}", intended_offset=bool(intended_offset))
         self.joints.append(joint)
         self._model = None
         return joint

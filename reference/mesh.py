@@ -20,6 +20,29 @@ ARC_TOLERANCE = 1e-6
 """Largest relative difference of the distances of an arc's two ends from its centre."""
 
 
+DEFAULT_AXIS2 = (0.0, 1.0, 0.0)
+"""The section axis 2 hint of a beam without ``axis2``, unless it is parallel to the beam
+(:func:`default_axis2`)."""
+
+
+def default_axis2(start, end, center=None) -> np.ndarray:
+    """The section axis 2 hint of a beam along which :data:`DEFAULT_AXIS2` is parallel somewhere (a straight
+    beam along y, an arc with a tangent or chord along y), never parallel to it: for a straight beam
+    ``z × e1``, the beam axis turned by +90° about z (``[-1, 0, 0]`` along +y, so that axis 3 is +z, as it is
+    for a beam along x with the default); for an arc the normal of its plane, ``(start − c) × (end − c)``,
+    orthogonal to every tangent and chord.  (A beam along z gets ``DEFAULT_AXIS2``, never parallel to it.)
+    Also the axis the messages suggest when a given ``axis2`` is parallel."""
+    start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    if center is None:
+        hint = np.cross([0.0, 0.0, 1.0], end - start)
+    else:
+        hint = np.cross(start - np.asarray(center, dtype=float), end - np.asarray(center, dtype=float))
+    norm = np.linalg.norm(hint)
+    if not norm > 1e-9 * np.linalg.norm(end - start):
+        return np.array(DEFAULT_AXIS2)
+    return np.round(hint / norm, 12) + 0.0
+
+
 def beam_triad(axis: np.ndarray, axis2_hint) -> np.ndarray:
     """Section triad ``[e1 e2 e3]`` (columns) of a straight beam (:func:`beam_triads`).
 

@@ -64,6 +64,8 @@ import math
 import numpy as np
 
 from reference.jit import kernel
+from reference.status import REGULARISE
+from reference.validation import far_joints
 
 TOLERANCE = 0.5
 """Energy-balance residual, as a fraction of the energy scale, that stops a run."""
@@ -96,6 +98,7 @@ class BlowUpMonitor:
     """
 
     def __init__(self, domain, dt: float, explicit: bool = True, critical: float | None = None):
+        self.domain = domain
         model = domain.model
         # every element's end nodes and their initial distance (a two-node beam's reference length)
         self.conn = np.zeros((model.n_elements, 2), dtype=np.int64)
@@ -162,7 +165,7 @@ class BlowUpMonitor:
 
     def cause(self, what: str) -> str:
         """``what`` happened; add the likely cause and the fix."""
-        return f"{what}: {likely_cause(self.dt, self.critical, self.explicit)}"
+        return f"{what}: {likely_cause(self.dt, self.critical, self.explicit, self.domain)}"
 
 
 @kernel
@@ -178,14 +181,81 @@ def _stretched(x, conn, L0, limit):
     return False
 
 
-def likely_cause(dt: float, critical: float, explicit: bool = True) -> str:
+LENGTH_SPREAD = 100.0
+"""Ratio of the longest to the shortest member (flexible beam or rigid bar) above which a failure's
+diagnosis names the geometry: a coordinate typed in mm in a model in m makes one member a thousand
+times the others (issue 38: a rod end in mm, 2828 m against a crank of 1 m); the shipped models
+span at most a factor 5 (Lee's frame, the three-bar mechanisms)."""
+
+
+def model_suspect(domain) -> str:
+    """What in the model's data most likely makes a run fail, as a clause with its fix, or ``""``:
+    read from what the model contains, not from the failure (issue 38 item 12):
+
+    - the geometry: members whose lengths span more than :data:`LENGTH_SPREAD` (a unit slip), or a
+      joint point far from both of its bodies (:func:`reference.validation.far_joints`);
+    - a position-mode drive whose θ(0) or s(0) is not zero: the configuration jumps at t = 0 (a rate
+      given without ``mode = "velocity"``).
+    """
+    lengths = []
+    for label, nodes in domain.beams.items():
+        lengths.append((float(np.linalg.norm(nodes[-1].position - nodes[0].position)), f"beam {label!r}"))
+    for node in domain.nodes:
+        points = getattr(node, "points", {})
+        if "start" in points and "end" in points:
+            lengths.append((float(np.linalg.norm(points["end"] - points["start"])), f"rigid bar {node.label!r}"))
+    if len(lengths) > 1:
+        (short, small), (long, big) = min(lengths), max(lengths)
+        if short > 0.0 and long > LENGTH_SPREAD * short:
+            return (f"likely cause: the geometry, {big} is {long / short:.3g} × as long as {small} "
+                    f"({long:.4g} against {short:.4g}); check the coordinates and their units")
+    far = far_joints(domain)
+    if far:
+        ratio, joint, distances, _ = far[0]
+        return (f"likely cause: the geometry, joint {joint.label!r}'s point is {min(distances):.3g} from its "
+                f"bodies ({ratio:.2g} × the model size); check the point and its units")
+    for joint in domain.joints:
+        if joint.kind.endswith("_drive") and joint.mode == "position":
+            start = float(joint.time_function(0.0))
+            if start != 0.0 and math.isfinite(start):
+                unit = "rad" if joint.kind == "rotation_drive" else "m"
+                return (f"likely cause: the drive {joint.label!r} jumps to {'θ' if unit == 'rad' else 's'}(0) = "
+                        f"{start:.4g} {unit} at t = 0; a rate? set mode = \"velocity\"")
+    return ""
+
+
+def likely_cause(dt: float, critical: float, explicit: bool = True, domain=None) -> str:
     """The likely cause of a blow-up, and the fix (one short clause): the time step when an explicit
-    step is above ``SAFETY ×`` the critical estimate, else the loads."""
+    step is above ``SAFETY ×`` the critical estimate; else, with the ``domain`` given, what its data
+    suggest (:func:`model_suspect`); else the loads, when it has any (loads, gravity, actuator forces),
+    or the drives and initial velocities when it has none."""
     ratio = dt / critical if critical > 0 else math.inf
     if explicit and ratio > SAFETY:
         return f"likely cause: the time step, dt = {ratio:.3g} × the critical {critical:.3g}; use dt ≤ {0.8 * critical:.3g}"
-    return ("likely cause: the loads" + (f" (dt = {ratio:.2f} × critical)" if explicit else "")
-            + "; check their size and units, ramp them in, or reduce dt")
+    suspect = model_suspect(domain) if domain is not None else ""
+    if suspect:
+        return suspect
+    step = f"dt = {ratio:.2f} × critical" if explicit else ""
+    if domain is not None and not (domain.loading or any(getattr(f, "force_function", None) is not None
+                                                         for f in domain.force_elements)):
+        return (f"likely cause: the drives or initial velocities (no loads{'; ' + step if step else ''}); "
+                "check their rates and units, or reduce dt")
+    return f"likely cause: the loads{f' ({step})' if step else ''}; check their size and units, ramp them in, or reduce dt"
+
+
+def rediagnosed(message: str, domain, dt: float, critical: float, explicit: bool) -> str:
+    """An algorithm's failure ``message`` with its generic likely cause (:func:`likely_cause` without the
+    model, or the singular constraints' advice to regularise) replaced by what the ``domain``'s data
+    suggest; ``message`` itself when they suggest nothing more (the algorithms see the plain-data
+    model only; the solution loop, which has the Domain, calls this)."""
+    generic = likely_cause(dt, critical, explicit)
+    if generic in message:
+        return message.replace(generic, likely_cause(dt, critical, explicit, domain))
+    if REGULARISE in message:
+        suspect = model_suspect(domain)
+        if suspect.startswith("likely cause: the geometry"):
+            return message.replace(REGULARISE, suspect[0].upper() + suspect[1:] + ".")
+    return message
 
 
 def nonfinite_load(domain, times) -> str:

@@ -30,10 +30,10 @@ from reference.joints.joint import PRESCRIBED
 from reference.joints.reactions import joint_reactions
 from reference.joints.reactions import scratch as reaction_scratch
 from reference.joints.setup import multiplier_joints
-from reference.monitor import BlowUpMonitor, nonfinite_load
+from reference.monitor import BlowUpMonitor, nonfinite_load, rediagnosed
 from reference.state import Model, Record, State, element_work
 from reference.status import OK
-from reference.validation import ModelWarning
+from reference.validation import ModelWarning, axial_strain
 
 
 class SolverDiverged(RuntimeError):
@@ -98,6 +98,11 @@ class Outputs:
         self.prescribed = [(k, j.frame[:, 2]) for k, j in enumerate(joints) if j.kind == PRESCRIBED]
         if self.prescribed:
             self.entry["prescribed_reaction"] = self.prescribed_reaction = np.full(J, np.nan)
+        self.inverse_EA = np.zeros(E)
+        """``1 / EA`` of every element, set by the caller (:func:`run`); the largest ``|N| / EA`` of the
+        records so far is :attr:`strain`."""
+        self.strain = (0.0, 0, 0.0)
+        """(largest axial strain ``|N| / EA`` at an element's midpoint over the records, its element, its time)."""
 
     def record(self, t: float) -> dict:
         """Complete the record at time ``t`` with the derived outputs; returns :attr:`entry`."""
@@ -107,6 +112,12 @@ class Outputs:
                         self.section_force, self.section_moment, self.element_work, *self.scratch)
         for k, u in self.prescribed:
             self.prescribed_reaction[k] = self.force[k] @ u
+        if self.inverse_EA.size:
+            with np.errstate(invalid="ignore"):
+                strain = np.abs(self.section_force[:, 0]) * self.inverse_EA
+            e = int(np.argmax(np.where(np.isfinite(strain), strain, 0.0)))
+            if strain[e] > self.strain[0]:
+                self.strain = (float(strain[e]), e, float(t))
         return self.entry
 
 
@@ -142,6 +153,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     every = max(int(domain.solver.output_every), 1)
     rec = Record.empty(len(domain.nodes), model.n_constraints)
     outputs = Outputs(model, domain.joints, rec)
+    outputs.inverse_EA = np.array([1.0 / e.formulation.section.EA for e in domain.elements], dtype=float)
     critical = domain.critical_time_step() if critical is None else critical
     watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True), critical) if monitor else None
     run_state = None
@@ -178,6 +190,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
                 if algo.record_last(model, state, run_state, rec):  # the last converged state, kept
                     sink.append({**outputs.record(state.t), **algo.recorded(run_state)})
                 status, message = algo.failure(code, state, run_state)
+                message = rediagnosed(message, domain, algo.dt, critical, bool(getattr(algo, "explicit", False)))
                 load = nonfinite_load(domain, (t_record, state.t, state.t + algo.dt))
                 if load:
                     status, message = f"failed: {load}", f"{load}; give a load finite over the run (results up to then are kept)"
@@ -195,6 +208,8 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
                           f"not finite at {unrecordable}: a drive's or prescribed displacement's time function or its "
                           "rate is not finite there (e.g. t**(1/3) at t = 0); the status says so", ModelWarning,
                           stacklevel=2)
+        strain, element, t_strain = outputs.strain
+        axial_strain(strain, domain.elements[element].label if domain.elements else "", t_strain)
     except SolverDiverged:
         sink.add_datasets(algo.finish(model, state, run_state, False))
         raise

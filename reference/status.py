@@ -24,14 +24,17 @@ REFACTOR = 5
 refactors the Newton matrix and resumes the step."""
 
 
+REGULARISE = "Regularise the joints (epsilon > 0) or remove the redundancy."
+"""The advice of singular constraints without a better diagnosis (:func:`reference.monitor.rediagnosed`)."""
+
+
 def explicit_failure(code: int, t_last: float, cause: str) -> tuple[str, str]:
     """``(status, message)`` of a failed explicit step after ``t_last`` [s]; ``cause`` the likely
     cause and fix of a blow-up (:func:`reference.monitor.likely_cause`)."""
     if code == SINGULAR:
         return (f"singular constraints after t = {t_last:.6g}",
                 f"the constraint matrix became singular after t = {t_last:.6g} "
-                "(redundant or degenerate joints); results up to that time are kept. "
-                "Regularise the joints (epsilon > 0) or remove the redundancy.")
+                f"(redundant or degenerate joints); results up to that time are kept. {REGULARISE}")
     what = "the energy balance failed" if code == BLOWUP else "the solution became non-finite"
     return (f"diverged after t = {t_last:.6g}",
             f"{what} after t = {t_last:.6g}: {cause}; results up to then kept")

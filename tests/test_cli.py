@@ -48,7 +48,7 @@ def test_bad_deck_in_a_real_process_gives_one_line_and_status_2(tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in proc.stderr
     assert lines[0] == f"flexmbs: error: {deck}: loads[0].node: beam 'b' has no node 'tip'; " \
-                       "use 'b:start', 'b:end' or an index 0…4"
+                       "use 'b:start', 'b:mid', 'b:end' or an index 0…4"
     assert not (tmp_path / "out" / "results.h5").exists()
 
 

@@ -156,7 +156,7 @@ def test_a_joint_far_from_both_bodies_is_warned_about_in_one_line(tmp_path, caps
 
 def test_no_shipped_model_has_a_far_joint():
     """The threshold (JOINT_OFFSET of the model size) is quiet on every shipped model."""
-    assert JOINT_OFFSET == 0.25
+    assert JOINT_OFFSET == 1e-3
     for deck in sorted(MODELS.glob("*.toml")):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ModelWarning)

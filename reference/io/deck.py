@@ -22,9 +22,9 @@ from __future__ import annotations
 import difflib
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 
@@ -39,6 +39,7 @@ from reference.interactions import (
 from reference.io.deck_connectors import read_joints, read_prescribed_displacements, read_springs
 from reference.io.deck_reader import DeckError, Reader, override_value, read_toml, show
 from reference.io.deck_solution import read_checks, read_solver
+from reference.validation import LabelError, ModelWarning
 
 TOP_LEVEL = {"meta", "sections", "time_functions", "nodes", "beams", "rigid_bodies", "joints", "clamps", "fixed",
              "loads", "line_loads", "springs", "gravity", "initial_velocities", "solver", "checks", "crosscheck",
@@ -113,6 +114,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     path = Path(path)
     text, deck = read_toml(path)
     rd = Reader(path)
+    written = _written_families(deck)
     overrides = dict(overrides or {})
     for key in list(overrides):
         if "." in key:
@@ -136,6 +138,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     read_prescribed_displacements(rd, deck, domain, refs)
     read_springs(rd, deck, domain, refs)
     _initial_velocities(rd, deck, refs)
+    refs.renumbered(written)
     algorithm, algo_cls = read_solver(rd, deck, domain, overrides, refine)
     checks, crosscheck = read_checks(rd, deck, domain)
     try:
@@ -150,6 +153,15 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     if problem:
         raise rd.fail(*problem)
     return Deck(domain, str(path), text, metadata, checks, crosscheck)
+
+
+def _written_families(deck: dict) -> dict:
+    """Beam label → its ``element`` family as the deck's text gives it (before overrides), for the beams
+    whose label and family are strings (the rest are refused when read)."""
+    beams = deck.get("beams", [])
+    return {bm["label"]: bm.get("element", DEFAULT_FAMILY) for bm in beams if isinstance(bm, dict)
+            and isinstance(bm.get("label"), str) and isinstance(bm.get("element", DEFAULT_FAMILY), str)
+            and bm.get("element", DEFAULT_FAMILY) in ELEMENT_FAMILIES} if isinstance(beams, list) else {}
 
 
 def warm_up(path, dt: float, overrides: dict | None = None) -> float:
@@ -173,35 +185,51 @@ class _References:
 
     def __init__(self, rd: Reader, domain: Domain, tfs: dict):
         self.rd, self.domain, self.tfs = rd, domain, tfs
-        self.beams: dict = {}
+        self.beams: dict = domain.beams
+        self.numbered: list = []
+        self.families: dict = {}
+        """The element family of every flexible beam, by label."""
+        """``(entry, reference, beam, i)`` of every numeric reference ``BEAM:i``, i > 0."""
+
+    def renumbered(self, written: dict) -> str:
+        """The line warning of the numeric references ``BEAM:i`` (i > 0) whose node depends on the element
+        family (issue 38: ``b:4`` is mid-span of a 4-element beam3, the tip of a Beam2), also issued as a
+        :class:`~reference.validation.ModelWarning`; ``""`` if none.  A reference is warned about when its beam's
+        family has more than two nodes per element (the numbers count the middle nodes), or when its family
+        has another count of nodes per element than the deck's own, ``written`` (beam label → family
+        name as written, before overrides: ``--element``, a sweep of ``beams.K.element``)."""
+        moved = []
+        for entry, ref, beam, i in self.numbered:
+            nodes = self.beams[beam]
+            family, own = (ELEMENT_FAMILIES[name] for name in (self.families[beam], written.get(beam, DEFAULT_FAMILY)))
+            if family.n_nodes > 2 or family.n_nodes != own.n_nodes:
+                moved.append((entry, ref, beam, i, len(nodes) - 1, family.family))
+        if not moved:
+            return ""
+        entry, ref, beam, i, segments, family = moved[0]
+        more = f" (and {len(moved) - 1} more)" if len(moved) > 1 else ""
+        line = (f"{entry}: {show(ref)}{more} counts the nodes of {family} elements: node {i} of 0…{segments}, "
+                f"at {i / segments:.3g} of the beam; with another element family the same number is another "
+                f"node: write '{beam}:start', '{beam}:mid' or '{beam}:end' for a place that does not depend on it")
+        warnings.warn(line, ModelWarning, stacklevel=3)
+        return line
 
     def node(self, ref, entry):
-        """The node named by ``ref``: a node label, ``BEAM:start``, ``BEAM:end`` or ``BEAM:i``."""
-        rd, beams, domain = self.rd, self.beams, self.domain
+        """The node named by ``ref``: a node label, ``BEAM:start``, ``BEAM:mid``, ``BEAM:end`` or ``BEAM:i``
+        (:meth:`reference.domain.Domain.node`, its problem and fix in the reader's line); a numeric
+        ``BEAM:i`` (i > 0) is kept in :attr:`numbered` for :meth:`renumbered`."""
+        rd = self.rd
         if not isinstance(ref, str):
             raise rd.fail(entry, f"expected a node reference (a label like 'beam:end'), got {show(ref)}")
-        if ":" in ref:
-            beam, _, which = ref.rpartition(":")
-            if beam in beams:
-                nodes = beams[beam]
-                if which == "start":
-                    return nodes[0]
-                if which == "end":
-                    return nodes[-1]
-                if which.isascii() and which.isdigit() and int(which) < len(nodes):
-                    return nodes[int(which)]
-                raise rd.fail(entry, f"beam '{beam}' has no node {show(which)}",
-                              f"use '{beam}:start', '{beam}:end' or an index 0…{len(nodes) - 1}")
-        if ref in beams and ref not in domain._labels:  # a bare beam label: which of its nodes?
-            raise rd.fail(entry, f"{show(ref)} is a beam, not a node",
-                          f"use '{ref}:start', '{ref}:end' or an index '{ref}:0'…'{ref}:{len(beams[ref]) - 1}'")
         try:
-            return domain.node(ref)
-        except KeyError:
-            labels = [n.label for n in domain.nodes]
-            close = difflib.get_close_matches(ref, labels + [f"{b}:start" for b in beams] + [f"{b}:end" for b in beams], n=1)
-            raise rd.fail(entry, f"no node {show(ref)}", f"did you mean '{close[0]}'?" if close else
-                          "reference a node label or '<beam>:start', '<beam>:end', '<beam>:<i>'") from None
+            node = self.domain.node(ref)
+        except LabelError as exc:
+            raise rd.fail(entry, exc.problem, exc.fix) from None
+        beam, _, which = ref.rpartition(":")
+        nodes = self.beams.get(beam, [])
+        if which.isascii() and which.isdigit() and 0 < int(which) < len(nodes) and nodes[int(which)] is node:
+            self.numbered.append((entry, ref, beam, int(which)))
+        return node
 
     def time_function(self, table, entry):
         """The time function named by ``table['time_function']`` (or ``force_function``; None if absent)."""
@@ -230,18 +258,9 @@ def _meta(rd: Reader, deck: dict) -> tuple[Domain, dict]:
     return Domain(rd.label(meta["name"], "meta.name"), meta.get("description", "")), dict(meta)
 
 
-class RigidBarSection(NamedTuple):
-    """The mass data of a section that only rigid bars use (:meth:`Domain.add_rigid_bar`)."""
-
-    rhoA: float
-    rhoJ1: float
-    rhoJ2: float
-    rhoJ3: float
-
-
 def _sections(rd: Reader, deck: dict) -> dict:
-    """``[sections.NAME]``: name → :class:`~reference.elements.Section`, or a :class:`RigidBarSection`
-    for a section that only ``rigid = true`` beams use (they need only its mass data)."""
+    """``[sections.NAME]``: name → :class:`~reference.elements.Section`; a section that only ``rigid = true``
+    beams use needs only its mass data (``rhoA``, ``rhoJ1``…``rhoJ3``)."""
     beams = deck.get("beams", [])
     beams = [bm for bm in beams if isinstance(bm, dict) and isinstance(bm.get("section"), str)] \
         if isinstance(beams, list) else []
@@ -255,9 +274,9 @@ def _sections(rd: Reader, deck: dict) -> dict:
             values = {k: rd.number(sec[k], f"{entry}.{k}", positive=True) for k in SECTION_KEYS}
             sections[name] = Section(**values)
         else:
-            rd.keys(sec, entry, required=RigidBarSection._fields, optional=SECTION_KEYS[:6])
+            rd.keys(sec, entry, required=SECTION_KEYS[6:], optional=SECTION_KEYS[:6])
             values = {k: rd.number(sec[k], f"{entry}.{k}", positive=True) for k in SECTION_KEYS if k in sec}
-            sections[name] = RigidBarSection(*(values[k] for k in RigidBarSection._fields))
+            sections[name] = Section(**values)
     return sections
 
 
@@ -343,7 +362,7 @@ def _beams(rd: Reader, deck: dict, domain: Domain, refs: _References, sections: 
                 ends.append((node.position, node))
         if np.linalg.norm(ends[1][0] - ends[0][0]) <= 0.0:
             raise rd.fail(entry, "start and end coincide (zero-length beam)")
-        axis2 = rd.direction(bm.get("axis2", [0.0, 1.0, 0.0]), f"{entry}.axis2")
+        axis2 = rd.direction(bm["axis2"], f"{entry}.axis2") if "axis2" in bm else None
         center = rd.vector(bm["center"], f"{entry}.center") if "center" in bm else None
         if center is not None and rigid:
             raise rd.fail(f"{entry}.center", "a rigid bar is straight", "remove `center` or `rigid`")
@@ -357,9 +376,9 @@ def _beams(rd: Reader, deck: dict, domain: Domain, refs: _References, sections: 
                                      "and join it to other bodies with [[joints]]")
                 domain.add_rigid_bar(label, ends[0][0], ends[1][0], sections[sec_name], axis2=axis2)
             else:
-                beams[label] = domain.add_beam(label, ends[0][0], ends[1][0], n, sections[sec_name], axis2=axis2,
-                                               start_node=ends[0][1], end_node=ends[1][1], center=center,
-                                               element=family)
+                domain.add_beam(label, ends[0][0], ends[1][0], n, sections[sec_name], axis2=axis2,
+                                start_node=ends[0][1], end_node=ends[1][1], center=center, element=family)
+                refs.families[label] = family
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
 

@@ -9,6 +9,7 @@ functions).  Every key is documented in ``docs/deck.md``.
 from __future__ import annotations
 
 import difflib
+import warnings
 
 import numpy as np
 
@@ -21,6 +22,7 @@ from reference.io.deck_reader import Reader, show
 from reference.joints import Jacobian, MasterSlave
 from reference.joints.joint import PRESCRIBED
 from reference.joints.joint import ROWS as JOINT_KINDS
+from reference.validation import ModelWarning
 
 SPRING_KEYS = {
     "point_to_point": (["body_i", "point_i", "stiffness"],
@@ -36,7 +38,8 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
     for i, jt in enumerate(rd.items(deck, "joints")):
         entry = f"joints[{i}]"
         rd.keys(jt, entry, required=["kind", "body_i", "point"],
-                optional=["label", "body_j", "axis", "reference", "epsilon", "formulation", "time_function", "mode"])
+                optional=["label", "body_j", "axis", "reference", "epsilon", "formulation", "time_function", "mode",
+                          "intended_offset"])
         kind = rd.string(jt["kind"], f"{entry}.kind")
         if kind == PRESCRIBED:
             raise rd.fail(f"{entry}.kind", "a prescribed displacement is not a [[joints]] kind",
@@ -73,6 +76,7 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
             except ExpressionError as exc:
                 raise rd.fail(f"time_functions.{jt['time_function']}.expr", str(exc)) from None
         eps = rd.number(jt.get("epsilon", 0.0), f"{entry}.epsilon", nonnegative=True)
+        intended = rd.boolean(jt.get("intended_offset", False), f"{entry}.intended_offset")
         reference = rd.vector(jt["reference"], f"{entry}.reference") if "reference" in jt else None
         label = rd.label(jt.get("label", f"{kind}:{i}"), f"{entry}.label")
         point = rd.vector(jt["point"], f"{entry}.point")
@@ -82,9 +86,18 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
         try:
             domain.add_joint(kind, body_i, body_j, point, axis=axis, reference=reference,
                              formulation=Jacobian(eps) if formulation == "jacobian" else MasterSlave(),
-                             time_function=tf, mode=mode, label=label)
+                             time_function=tf, mode=mode, label=label, intended_offset=intended)
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None
+    sliding = [j for j in domain.joints if j.kind == "displacement_drive"]
+    if sliding:
+        j = sliding[0]
+        more = f" (and the {len(sliding) - 1} other displacement drives)" if len(sliding) > 1 else ""
+        axis = ", ".join(f"{c:g}" for c in j.frame[:, 2] + 0.0)
+        warnings.warn(f"joint {j.label!r}{more}: displacement_drive: +s moves body_i {j.body_i.label!r} along +axis "
+                      f"[{axis}] relative to {'the ground' if j.body_j is None else repr(j.body_j.label)}; "
+                      "decks written for the former sign (body_i moved by −s) flip their time function",
+                      ModelWarning, stacklevel=3)
 
 
 def read_prescribed_displacements(rd: Reader, deck: dict, domain: Domain, refs) -> None:

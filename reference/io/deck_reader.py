@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from reference.validation import ZERO_DIRECTION
+from reference.validation import ZERO_DIRECTION, not_integer, unusable_label
 
 
 class DeckError(ValueError):
@@ -104,8 +104,7 @@ class Reader:
     def label(self, value, entry: str) -> str:
         """A name used in references, messages and file names: printable, no path separators."""
         self.string(value, entry)
-        bad = [c for c in value if unicodedata.category(c)[0] == "C" or c in "/\\"]
-        if not value.strip() or bad or value in (".", "..") or len(value) > 200:
+        if unusable_label(value):
             raise self.fail(entry, f"unusable name {show(value)}",
                             "give 1–200 printable characters without '/' or '\\' (e.g. 'arm_2')")
         return value
@@ -136,7 +135,7 @@ class Reader:
         return float(value)
 
     def integer(self, value, entry: str, minimum=1, maximum=None, fix: str = "") -> int:
-        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        if not_integer(value, minimum):
             raise self.fail(entry, f"expected an integer ≥ {minimum}, got {show(value)}")
         if maximum is not None and value > maximum:
             raise self.fail(entry, f"{value} is above the limit of {maximum}", fix)

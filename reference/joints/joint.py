@@ -89,6 +89,9 @@ class Joint(Connector):
     mode : str
         ``"position"`` or ``"velocity"`` (drives only).
     label : str
+    intended_offset : bool
+        The point lies away from both bodies by design (no warning of
+        :func:`reference.validation.joint_offsets`).
     """
 
     kind: str
@@ -101,6 +104,7 @@ class Joint(Connector):
     time_function: TimeFunction = field(default_factory=lambda: Constant(0.0))
     mode: str = "position"
     label: str = ""
+    intended_offset: bool = False
 
     def __post_init__(self):
         from reference.joints.formulation import Jacobian
