@@ -289,3 +289,21 @@ def test_a_drive_rate_infinite_at_the_start_is_not_a_silent_completion(tmp_path)
     assert not np.all(np.isfinite(r.data("constraints/velocity_violation_norm")))
     assert r.status == "completed with a non-finite constraint violation norm at load factor 0"
     assert len(lines) == 1 and "not finite at load factor 0" in lines[0]
+
+
+def test_a_linearised_analysis_is_not_blamed_on_a_drive_at_t_infinite():
+    """Item 21: a failed steady-rotation search (a linearised analysis, whose step is infinite) was blamed on
+    "the drive 'slider' … is not finite at t = inf": the failed run's diagnosis looked at its drives at the
+    last time plus the step.  A time that is not finite is no time of the run: the check passes it over, and
+    still names a drive that is not finite at a finite time."""
+    import math
+
+    from reference.interactions import Sine
+    from reference.monitor import nonfinite_load
+
+    d = slider_crank(1.0, 1)
+    d.joints[1].time_function = Sine(amplitude=1.0, omega=2.0)
+    assert not math.isfinite(d.joints[1].time_function(math.inf))  # sin(∞): what the old check reported
+    assert nonfinite_load(d, (0.0, math.inf)) == ""
+    d.joints[1].time_function = Sine(amplitude=math.inf)
+    assert nonfinite_load(d, (0.0, math.inf)).startswith("the drive 'drive' is not finite at t = 0")
