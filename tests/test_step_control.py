@@ -423,11 +423,18 @@ def test_heavy_top_under_error_control_ends_by_itself(tmp_path):
 def test_step_bounds_that_would_be_ignored_are_refused(tmp_path, solver, entry, problem):
     """Issue 38, item 23: dt_max without error_tolerance (every step is dt), dt_min not below dt without it
     (no step cut possible), dt_min above the output interval (dt_min > t_end gave steps 20,000 × below it:
-    the steps land on every output): one line naming the entry, with the fix."""
+    the steps land on every output): one line naming the entry, with the fix; the Python API refuses the same
+    settings with the same line."""
     with pytest.raises(DeckError) as info:
         load_deck(heavy_top_deck(tmp_path, "[solver]\n" + solver))
     message = str(info.value)
     assert "\n" not in message and f": {entry}: {problem}" in message and "; give" in message, message
+    d = Domain.from_deck(MODELS / "heavy_top.toml")  # the same settings through the Python API: the same line
+    d.solver = SolverSettings(**{k: float(v) if k != "algorithm" else v.strip('"') for k, v in
+                                 (line.split(" = ") for line in solver.strip().splitlines())})
+    with pytest.raises(ValueError) as api:
+        d.solve()
+    assert str(api.value) == message.split(": ", 1)[1], (str(api.value), message)  # the line without the file
 
 
 def test_dt_with_error_tolerance_every_output_says_the_step_cannot_grow(tmp_path, recwarn):
@@ -494,3 +501,17 @@ def test_andrews_squeezer_over_the_tolerance_at_dt_min_is_counted_and_warned_of(
     assert over.sum() == stats.over and np.nanmax(error) == stats.worst
     assert len(lines) == 1 and lines[0].startswith(f"{stats.over:,} step") and f"{stats.worst:.3g} ×" in lines[0]
     assert f"{stats.over:,} over the tolerance at dt_min" in stats.summary()
+
+
+def test_progress_is_reported_between_two_outputs(tmp_path):
+    """Issue 38, item 1: progress is shown between two outputs, after every compiled call (about every 0.1 s):
+    the heavy top under error control with one output interval of 1 s (about 21,000 steps) reports fractions
+    strictly between 0 and 1 before its last output, non-decreasing, with the model time."""
+    solver = HEAVY_TOP_SOLVER.replace("dt = 0.01\n", "dt = 0.01\noutput_every = 100\n")
+    d = load_deck(heavy_top_deck(tmp_path, solver)).domain
+    calls = []
+    r = d.solve(progress=lambda fraction, t: calls.append((fraction, t)))
+    inside = [(f, t) for f, t in calls if 0.0 < f < 1.0]
+    assert len(r.time) == 2 and len(inside) >= 3, calls
+    assert all(b[0] >= a[0] and b[1] >= a[1] for a, b in zip(calls, calls[1:])), calls
+    assert all(f == pytest.approx(t, abs=1e-12) for f, t in calls)  # t_end = 1: the fraction is the time

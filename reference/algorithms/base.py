@@ -27,6 +27,9 @@ class CallBudget:
 
     def __init__(self, size: int = 16, seconds: float = CALL_SECONDS):
         self.size, self.seconds, self._start = int(size), float(seconds), 0.0
+        self.tick = None
+        """Called (no arguments) after every call, or None: the solution loop's progress between two outputs
+        (:func:`reference.solution.run`)."""
 
     def start(self) -> int:
         """The steps the next call may take; its clock starts."""
@@ -38,6 +41,8 @@ class CallBudget:
         elapsed = time.perf_counter() - self._start
         if steps > 0 and elapsed > 0.0:
             self.size = max(1, min(self.GROWTH * self.size, int(self.seconds * steps / elapsed)))
+        if self.tick is not None:
+            self.tick()
 
 
 class Algorithm(ABC):

@@ -217,30 +217,37 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                           "give dt_min ≤ dt_max")
         return settings
 
-    @classmethod
-    def deck_check(cls, rd, solver: dict, settings) -> None:
-        """The step bounds against the run: ``dt_max`` only bounds the step ``error_tolerance`` chooses; with it,
-        ``dt_min`` above the output interval (every output is landed on, so no step can reach it), and without it,
-        ``dt_min`` not below ``dt`` (the step cuts halve ``dt`` down to it), are one-line errors; ``dt`` with
-        ``error_tolerance`` and ``output_every = 1`` is warned of (the step never exceeds the output interval
-        ``dt``: the control can only shorten it)."""
+    @staticmethod
+    def step_bounds(settings, dt_max: bool) -> tuple[str, str, str] | None:
+        """``(entry, problem, fix)`` when the step bounds of ``settings`` would be ignored, else None: ``dt_max``
+        (``dt_max`` True: given) only bounds the step ``error_tolerance`` chooses; with it, ``dt_min`` above the
+        output interval (every output is landed on, so no step can reach it), and without it, ``dt_min`` not below
+        ``dt`` (the step cuts halve ``dt`` down to it)."""
         interval = settings.dt * settings.output_every
         if settings.error_tolerance is None:
-            if "dt_max" in solver:
-                raise rd.fail("solver.dt_max", "dt_max bounds the step that error_tolerance chooses; without "
-                              f"error_tolerance every step is dt = {settings.dt:g}", "give error_tolerance, or leave "
-                              "dt_max out")
+            if dt_max:
+                return ("solver.dt_max", "dt_max bounds the step that error_tolerance chooses; without "
+                        f"error_tolerance every step is dt = {settings.dt:g}", "give error_tolerance, or leave dt_max out")
             if settings.dt_min is not None and settings.dt_min >= settings.dt:
-                raise rd.fail("solver.dt_min", f"dt_min = {settings.dt_min:g} is not below dt = {settings.dt:g}: "
-                              "without error_tolerance it bounds the step cuts, which halve dt",
-                              f"give dt_min < dt (default dt/1024 = {settings.dt / 1024:g}), or leave it out")
-            return
-        if settings.dt_min is not None and settings.dt_min > interval * (1.0 + 1e-12):
-            raise rd.fail("solver.dt_min", f"dt_min = {settings.dt_min:g} is above the output interval "
-                          f"output_every × dt = {interval:g} s (the steps land on every output)",
-                          f"give dt_min ≤ {interval:g}, e.g. the default {interval / 1024:g}"
-                          if "dt" in solver else f"give dt_min ≤ {interval:g}, or a coarser output grid with dt")
-        if "dt" in solver and settings.output_every == 1 and (settings.dt_max is None or settings.dt_max > interval):
+                return ("solver.dt_min", f"dt_min = {settings.dt_min:g} is not below dt = {settings.dt:g}: without "
+                        "error_tolerance it bounds the step cuts, which halve dt",
+                        f"give dt_min < dt (default dt/1024 = {settings.dt / 1024:g}), or leave it out")
+        elif settings.dt_min is not None and settings.dt_min > interval * (1.0 + 1e-12):
+            return ("solver.dt_min", f"dt_min = {settings.dt_min:g} is above the output interval output_every × dt = "
+                    f"{interval:g} s (the steps land on every output)",
+                    f"give dt_min ≤ {interval:g} (default {interval / 1024:g}), or a coarser output grid")
+        return None
+
+    @classmethod
+    def deck_check(cls, rd, solver: dict, settings) -> None:
+        """:meth:`step_bounds` as a one-line error; ``dt`` with ``error_tolerance`` and ``output_every = 1`` is warned
+        of (the step never exceeds the output interval ``dt``: the control can only shorten it)."""
+        problem = cls.step_bounds(settings, "dt_max" in solver)
+        if problem:
+            raise rd.fail(*problem)
+        interval = settings.dt * settings.output_every
+        if settings.error_tolerance is not None and "dt" in solver and settings.output_every == 1 and \
+                (settings.dt_max is None or settings.dt_max > interval):
             warnings.warn(f"solver.error_tolerance: with dt = {settings.dt:g} and output_every = 1 no step exceeds "
                           f"the output interval {interval:g} s (the steps land on every output), so the control "
                           "can only shorten dt; leave dt out, or raise output_every, to let the step grow",
@@ -248,6 +255,11 @@ class GeneralizedAlpha(ImplicitAlgorithm):
 
     @classmethod
     def from_settings(cls, settings, dt=None):
+        """The algorithm of ``settings`` (Python API and deck); ValueError of :meth:`step_bounds`'s line when the
+        step bounds would be ignored."""
+        problem = cls.step_bounds(settings, settings.dt_max is not None) if dt is None else None
+        if problem:
+            raise ValueError(f"{problem[0]}: {problem[1]}; {problem[2]}")
         return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or TOLERANCE, settings.max_iterations or 15,
                    settings.error_tolerance, settings.dt_min, settings.dt_max, settings.first_step)
 
