@@ -27,7 +27,7 @@ test: $(STAMP)
 fuzz: $(STAMP)
 	$(BIN)/python tests/fuzz_decks.py --cases 10000
 
-# 20 SIGKILL, 10 SIGTERM/SIGHUP and 20 early Ctrl-C trials of `flexmbs run` (the test suite runs a few)
+# 20 SIGKILL, 10 SIGTERM/SIGHUP, 20 early Ctrl-C and 4 long-interval (explicit, error control) trials of `flexmbs run` (the test suite runs a few)
 signals: $(STAMP)
 	$(BIN)/python tests/stop_runs.py --kills 20 --terms 10 --ints 20
 

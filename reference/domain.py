@@ -523,7 +523,8 @@ class Domain:
         results_path : path, optional
             HDF5 results file (:mod:`reference.io.results`).
         progress : callable(fraction, t), optional
-            Called after every output.
+            Called after every output, and between two outputs after every compiled call of a time-stepping
+            algorithm (about every 0.1 s: :class:`reference.algorithms.base.CallBudget`).
         monitor : bool
             Stop a run that blows up while finite (:mod:`reference.monitor`): the algorithm
             checks the energy balance every step (``Scratch.guard``), the solution loop

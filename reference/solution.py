@@ -173,7 +173,11 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
         algo.joint_labels = tuple(j.label for j in multiplier_joints(domain.joints))
         run_state = algo.start(model, state, critical, watch.floor if watch is not None else None)
         domain.last_run["solver"] = run_state
-        done = 0
+        done, t_record = 0, state.t
+        budget = getattr(run_state, "budget", None)
+        if progress is not None and budget is not None:
+            # between two outputs too, after every compiled call (reference.algorithms.base.CallBudget)
+            budget.tick = lambda: progress(min((done + (state.t - t_record) / algo.dt) / n_total, 1.0), state.t)
         while True:
             chunk = 0 if algo.done(run_state) else min(every, n_total - done)
             t_record = state.t

@@ -72,3 +72,43 @@ def test_writer_copies_each_record_and_flushes_in_blocks(tmp_path, monkeypatch):
         assert np.array_equal(f["time"][()], 0.1 * np.arange(10))
         assert np.array_equal(f["nodes/position"][()], np.arange(10.0)[:, None, None] * np.ones((10, 2, 3)))
         assert np.array_equal(f["energy/strain"][()], 10.0 * np.arange(10)) and f.attrs["status"] == "completed"
+
+
+STALLED_WRITER = """
+import sys, time
+import numpy as np
+from reference.io.results import ResultsWriter
+writer = ResultsWriter(sys.argv[1], labels=["a"], ids=[1])
+for k in range(3):  # three records within a few ms: none is written by an append
+    writer.append({"time": 0.1 * k, "position": np.full((1, 3), float(k))})
+print("appended", flush=True)
+time.sleep(60)  # a run stalled between two outputs
+"""
+
+
+def test_a_stalled_writer_killed_by_sigkill_keeps_its_records(tmp_path):
+    """Issue 38, item 28: the flush was driven by the next append, so the records of a run that stalled
+    after them were lost to SIGKILL.  Three records appended at once, then nothing: killed 1.5 s later (more
+    than FLUSH_SECONDS = 0.5 s, the age the timer thread guarantees, with margin for a loaded machine), the
+    file holds all three."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    path = tmp_path / "stalled.h5"
+    root = Path(__file__).resolve().parent.parent
+    proc = subprocess.Popen([sys.executable, "-c", STALLED_WRITER, str(path)], stdout=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONPATH": str(root)})
+    try:
+        assert proc.stdout.readline().strip() == "appended"
+        time.sleep(1.5)
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=60)
+    with h5py.File(path) as f:
+        assert f.attrs["status"] == "running"
+        assert np.array_equal(f["time"][()], [0.0, 0.1, 0.2])
+        assert np.array_equal(f["nodes/position"][:, 0, 0], [0.0, 1.0, 2.0])

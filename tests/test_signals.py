@@ -42,6 +42,16 @@ def test_signal_stops_the_run_with_a_status_and_one_line(tmp_path, sig):
     assert stop_runs.stop_trial(tmp_path, 0, sig, 0.3)
 
 
+@pytest.mark.parametrize("kind", list(stop_runs.LONG_INTERVALS))
+def test_ctrl_c_stops_a_run_between_two_outputs_within_a_second(tmp_path, kind):
+    """Issue 38, item 1: a compiled call looped to the next output (the error-controlled heavy top looped
+    forever at dt_min), and Python's handlers only run between calls: Ctrl-C and SIGTERM were ignored.  With
+    outputs 100 s (heavy top, error control) and 2,000 s (explicit) of model time apart, Ctrl-C 1 s after the
+    results file appeared ends the run within 1 s of CPU time (stop_runs.PROMPT: wall time on an idle machine),
+    exit 130, status "interrupted at t = …"."""
+    assert "ended" in stop_runs.stop_trial(tmp_path, 0, signal.SIGINT, 1.0, kind)
+
+
 def test_an_exception_during_the_run_records_failed(tmp_path, monkeypatch):
     """The crash of the issue (dt = 1e-300, t_end = 1e-299, which the deck refuses) forced through
     the API, and an exception thrown from inside the loop: the file says "failed: …", never "completed"."""

@@ -186,14 +186,15 @@ def _every_array(r):
     return arrays
 
 
-@pytest.mark.parametrize("case", ["error control", "error control, dead band", "step cuts"])
+@pytest.mark.parametrize("case", ["error control", "error control, dead band", "step cuts", "error control at dt_min"])
 def test_compiled_step_control_is_the_python_controller_bit_for_bit(case, tmp_path, monkeypatch):
     """The step control in compiled code (many steps per call, :func:`reference.algorithms.alpha_steps.steps`)
     against the Python controller of step_control's functions around one compiled step per call (the oracle,
     ``GeneralizedAlpha.python_control``): every result array, the statistics and the summary line the same bit
     for bit.  The three-bar, 1 s at error_tolerance 1e-3 (steps rejected for their error and steps landing on
-    the outputs), without and with the dead band; and the stiff spin-up at dt = 0.25 to 3.5 s (Newton fails at
-    t = 2.8: step cuts, steps growing back)."""
+    the outputs), without and with the dead band; the stiff spin-up at dt = 0.25 to 3.5 s (Newton fails at
+    t = 2.8: step cuts, steps growing back); and the issue 38 heavy top to 0.1 s at 1e-4 (steps at dt_min over the
+    tolerance, accepted and counted by the rule that ends the controller)."""
     deck = tmp_path / "spin_up.toml"
     deck.write_text(SPIN_UP)
 
@@ -202,6 +203,8 @@ def test_compiled_step_control_is_the_python_controller_bit_for_bit(case, tmp_pa
         monkeypatch.setattr(GeneralizedAlpha, "dead_band", 1.2 if "dead band" in case else 1.0)
         if case == "step cuts":
             d = load_deck(deck, overrides={"t_end": 3.5}).domain
+        elif case.endswith("dt_min"):
+            d = load_deck(heavy_top_deck(tmp_path), overrides={"t_end": 0.1}).domain
         else:
             d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 1.0})
             d.solver.algorithm, d.solver.dt, d.solver.output_every = "generalized_alpha", 0.01, 1
@@ -212,6 +215,7 @@ def test_compiled_step_control_is_the_python_controller_bit_for_bit(case, tmp_pa
     (r0, s0), (r1, s1) = run(True), run(False)
     assert r1.status == "completed" and s1.steps > 25
     assert (s1.rejected > 10 if case.startswith("error") else s1.cuts > 2), s1.summary()
+    assert (s1.over > 0) == case.endswith("dt_min"), s1.summary()
     a0, a1 = _every_array(r0), _every_array(r1)
     assert a0.keys() == a1.keys()
     for name in a0:
@@ -323,3 +327,191 @@ def test_bauchau_four_bar_deck_data_and_smooth_start():
     d.solver.error_tolerance = 1e-2
     d.solve()
     assert d.last_run["solver"].stats.steps < 200
+
+
+HEAVY_TOP_SOLVER = """[solver]
+algorithm = "generalized_alpha"
+error_tolerance = 1e-4
+dt = 0.01
+t_end = 1
+"""
+
+
+def heavy_top_deck(tmp_path, solver: str = HEAVY_TOP_SOLVER) -> Path:
+    """The gallery's heavy top (models/heavy_top.toml) with its ``[solver]`` table replaced by ``solver``
+    (default: the issue's generalized-α at error_tolerance 1e-4, dt = 0.01, t_end = 1) and no checks."""
+    text = (MODELS / "heavy_top.toml").read_text()
+    path = tmp_path / "heavy_top_ec.toml"
+    path.write_text(text[:text.index("[solver]")] + solver)
+    return path
+
+
+def test_the_controller_ends_at_dt_min():
+    """Issue 38, item 1: from one state whose every step has an error norm above 1, the steps tried fall to
+    dt_min and one is accepted, in at most ``log(h/dt_min)/log(1/0.95) + 2`` tries (step_control's "At dt_min":
+    an unclamped retry is at most 0.9/0.95 of the rejected step, a clamped one is dt_min landed, which is not
+    rejected twice).  The issue's case first: 0.01 s to the next output, dt_min = 0.01/1024, where the landing
+    stretches dt_min by 1.17e-5 and the former rule rejected it forever (the same step from the same state); then
+    2,000 random outputs, steps and error norms."""
+    from reference.algorithms.step_control import landing_step, next_step, rejected
+
+    def tries(left, h, dt_min, error):
+        """The compiled controller's tries from one state (_choose, _judge), the error norm ``error(h_use)``."""
+        for k in range(1, 10_000):
+            h_use = landing_step(left, h)
+            err = error(h_use)
+            h_next = max(next_step(h_use, err), dt_min)
+            if not rejected(err, h_use, landing_step(left, h_next), dt_min):
+                return k, h_use
+            h = h_next
+        raise AssertionError("the controller did not end")
+
+    dt_min = 0.01 / 1024
+    left = 500 * dt_min * 1.0000117  # the landing divides it into 500 steps of dt_min × 1.0000117
+    assert landing_step(left, dt_min) / dt_min == pytest.approx(1.0000117, abs=1e-9)
+    assert tries(left, dt_min, dt_min, lambda h: 19.0) == (1, landing_step(left, dt_min))
+    rng = np.random.default_rng(38)
+    for _ in range(2000):
+        dt_min = 10.0 ** rng.uniform(-9, -4)
+        h = dt_min * 10.0 ** rng.uniform(0, 5)
+        left = h * 10.0 ** rng.uniform(-0.5, 3)
+        scale = 10.0 ** rng.uniform(0, 3)
+        n, h_use = tries(left, h, dt_min, lambda step: 1.0 + scale * step / h)
+        assert n <= np.log(max(h, left) / dt_min) / np.log(1 / 0.95) + 2, (n, h, left, dt_min)
+        assert h_use <= max(landing_step(left, dt_min), dt_min) * (1 + 1e-12)  # accepted at dt_min only
+
+
+def test_heavy_top_under_error_control_ends_by_itself(tmp_path):
+    """Issue 38, items 1, 2 and 23: the heavy top with generalized-α at error_tolerance 1e-4, dt = 0.01,
+    t_end = 1 stayed at status "running" with no record, looping inside one compiled call.  It now ends by
+    itself (a subprocess, so that a hang fails the test after 300 s and does not stop the suite), with every
+    output, steps at dt_min over the tolerance counted in ``/solver/steps_over_tolerance`` and one warning line
+    giving their number and the largest ratio, and the warning that dt with output_every = 1 bounds the step."""
+    import subprocess
+    import sys
+
+    deck = heavy_top_deck(tmp_path)
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "flexmbs", "run", str(deck), "--out", str(out), "--no-vtk"],
+                          capture_output=True, text=True, timeout=300, cwd=MODELS.parent,
+                          env={**__import__("os").environ, "PYTHONPATH": str(MODELS.parent)})
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    with h5py.File(out / "results.h5") as f:
+        assert f.attrs["status"] == "completed"
+        assert f["time"].shape == (101,) and f["time"][-1] == pytest.approx(1.0, abs=1e-12)
+        over, error = f["solver/steps_over_tolerance"][()], f["solver/error_estimate"][()]
+    n_over = int(over.sum())
+    warnings_ = [line for line in proc.stderr.splitlines() if line.startswith("flexmbs: warning:")]
+    assert any("the control can only shorten dt" in line for line in warnings_), proc.stderr
+    assert n_over > 0 and np.nanmax(error) > 1.0  # the top's spin needs steps below dt/1024 at 1e-4
+    assert np.all((error[1:] <= 1.0) | (over[1:] > 0))  # an interval with an error above 1 counts its steps
+    line = next(line for line in warnings_ if "accepted over error_tolerance" in line)
+    assert line.startswith(f"flexmbs: warning: {n_over:,} steps at dt_min = 9.76563e-06 s were accepted"), line
+    assert f"up to {np.nanmax(error):.3g} × the tolerance" in line, line
+
+
+@pytest.mark.parametrize("solver, entry, problem", [
+    ('algorithm = "generalized_alpha"\ndt = 0.01\nt_end = 1\ndt_max = 0.001\n', "solver.dt_max",
+     "dt_max bounds the step that error_tolerance chooses"),
+    ('algorithm = "generalized_alpha"\ndt = 0.01\nt_end = 1\ndt_min = 0.01\n', "solver.dt_min",
+     "dt_min = 0.01 is not below dt = 0.01"),
+    ('algorithm = "generalized_alpha"\nerror_tolerance = 1e-4\nt_end = 1\ndt_min = 2\n', "solver.dt_min",
+     "dt_min = 2 is above the output interval output_every × dt = 0.001 s"),
+    ('algorithm = "generalized_alpha"\nerror_tolerance = 1e-4\ndt = 0.01\noutput_every = 10\nt_end = 1\n'
+     'dt_min = 0.5\n', "solver.dt_min", "dt_min = 0.5 is above the output interval output_every × dt = 0.1 s"),
+])
+def test_step_bounds_that_would_be_ignored_are_refused(tmp_path, solver, entry, problem):
+    """Issue 38, item 23: dt_max without error_tolerance (every step is dt), dt_min not below dt without it
+    (no step cut possible), dt_min above the output interval (dt_min > t_end gave steps 20,000 × below it:
+    the steps land on every output): one line naming the entry, with the fix; the Python API refuses the same
+    settings with the same line."""
+    with pytest.raises(DeckError) as info:
+        load_deck(heavy_top_deck(tmp_path, "[solver]\n" + solver))
+    message = str(info.value)
+    assert "\n" not in message and f": {entry}: {problem}" in message and "; give" in message, message
+    d = Domain.from_deck(MODELS / "heavy_top.toml")  # the same settings through the Python API: the same line
+    d.solver = SolverSettings(**{k: float(v) if k != "algorithm" else v.strip('"') for k, v in
+                                 (line.split(" = ") for line in solver.strip().splitlines())})
+    with pytest.raises(ValueError) as api:
+        d.solve()
+    assert str(api.value) == message.split(": ", 1)[1], (str(api.value), message)  # the line without the file
+
+
+def test_dt_with_error_tolerance_every_output_says_the_step_cannot_grow(tmp_path, recwarn):
+    """Issue 38, item 23: dt and error_tolerance with output_every = 1 bound every step by dt (the steps land
+    on every output), so the run can only refine the fixed-step one: one warning says so; without dt, or with
+    output_every > 1, none."""
+    from reference.validation import ModelWarning
+
+    load_deck(heavy_top_deck(tmp_path))
+    lines = [str(w.message) for w in recwarn if issubclass(w.category, ModelWarning)]
+    assert len(lines) == 1 and lines[0].startswith("solver.error_tolerance: with dt = 0.01 and output_every = 1"), lines
+    recwarn.clear()
+    load_deck(heavy_top_deck(tmp_path, HEAVY_TOP_SOLVER.replace("dt = 0.01\n", "output_every = 10\ndt = 0.01\n")))
+    load_deck(heavy_top_deck(tmp_path, HEAVY_TOP_SOLVER.replace("dt = 0.01\n", "")))
+    assert not [w for w in recwarn if issubclass(w.category, ModelWarning)]
+
+
+@pytest.mark.parametrize("algorithm", ["generalized_alpha", "error control", "staggered_central_difference"])
+def test_calls_bounded_in_steps_are_the_unbounded_run_bit_for_bit(tmp_path, monkeypatch, algorithm):
+    """Item 1's rule (every compiled loop returns to Python within a fraction of a second): the steps of an
+    output interval split into calls of at most 3 steps (CallBudget forced) give every result array of one
+    call per interval bit for bit — fixed-step and error-controlled generalized-α, the explicit scheme; the
+    heavy top, 20 steps an output."""
+    from reference.algorithms.base import CallBudget
+
+    solver = {"generalized_alpha": 'algorithm = "generalized_alpha"\ndt = 1e-3\nt_end = 0.4\noutput_every = 20\n',
+              "error control": 'algorithm = "generalized_alpha"\nerror_tolerance = 1e-3\ndt = 1e-3\nt_end = 0.4\n'
+                               'output_every = 20\n',
+              "staggered_central_difference": 'algorithm = "staggered_central_difference"\ndt = 1e-3\nt_end = 0.4\n'
+                                              'output_every = 20\n'}[algorithm]
+    deck = heavy_top_deck(tmp_path, "[solver]\n" + solver)
+
+    def run(size):
+        monkeypatch.setattr(CallBudget, "start", lambda self: size)
+        d = load_deck(deck).domain
+        return d.solve(), d.last_run["solver"]
+
+    (r0, s0), (r1, s1) = run(1 << 40), run(3)
+    a0, a1 = _every_array(r0), _every_array(r1)
+    assert r1.status == "completed" and len(r1.time) == 21 and a0.keys() == a1.keys()
+    for name in a0:
+        assert np.array_equal(a0[name], a1[name], equal_nan=True), name
+    if algorithm != "staggered_central_difference":
+        assert s0.stats.summary() == s1.stats.summary()
+
+
+def test_andrews_squeezer_over_the_tolerance_at_dt_min_is_counted_and_warned_of(tmp_path):
+    """Issue 38, item 2: the gallery's Andrews' squeezer under error control accepted steps at dt_min with error
+    estimates 2–19 × the tolerance and said only "completed".  Its first output interval (1e-4 s) at 1e-6:
+    the step falls to dt_min (1e-5/1024; ε-regularised joints, docs/formulation.md §13), where a step over the
+    tolerance (measured: 1, at 2.06 ×) is accepted, counted in ``/solver/steps_over_tolerance`` and in the
+    summary line, and warned of once with the count and the largest ratio."""
+    from reference.validation import ModelWarning
+
+    d = Domain.from_deck(MODELS / "andrews_squeezer.toml", overrides={"t_end": 1e-4})
+    d.solver.error_tolerance = 1e-6
+    with pytest.warns(ModelWarning) as caught:
+        r = d.solve(results_path=tmp_path / "andrews.h5")
+    stats = d.last_run["solver"].stats
+    lines = [str(w.message) for w in caught if "accepted over error_tolerance" in str(w.message)]
+    assert r.status == "completed" and stats.over >= 1 and stats.worst > 1.0
+    with h5py.File(tmp_path / "andrews.h5") as f:
+        over, error = f["solver/steps_over_tolerance"][()], f["solver/error_estimate"][()]
+    assert over.sum() == stats.over and np.nanmax(error) == stats.worst
+    assert len(lines) == 1 and lines[0].startswith(f"{stats.over:,} step") and f"{stats.worst:.3g} ×" in lines[0]
+    assert f"{stats.over:,} over the tolerance at dt_min" in stats.summary()
+
+
+def test_progress_is_reported_between_two_outputs(tmp_path):
+    """Issue 38, item 1: progress is shown between two outputs, after every compiled call (about every 0.1 s):
+    the heavy top under error control with one output interval of 1 s (about 21,000 steps) reports fractions
+    strictly between 0 and 1 before its last output, non-decreasing, with the model time."""
+    solver = HEAVY_TOP_SOLVER.replace("dt = 0.01\n", "dt = 0.01\noutput_every = 100\n")
+    d = load_deck(heavy_top_deck(tmp_path, solver)).domain
+    calls = []
+    r = d.solve(progress=lambda fraction, t: calls.append((fraction, t)))
+    inside = [(f, t) for f, t in calls if 0.0 < f < 1.0]
+    assert len(r.time) == 2 and len(inside) >= 3, calls
+    assert all(b[0] >= a[0] and b[1] >= a[1] for a, b in zip(calls, calls[1:])), calls
+    assert all(f == pytest.approx(t, abs=1e-12) for f, t in calls)  # t_end = 1: the fraction is the time

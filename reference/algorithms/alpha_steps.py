@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from reference.algorithms.implicit import compose, evaluate_named, write_record_named
-from reference.algorithms.step_control import FLOOR, GROW_AFTER, kept_step, landing_step, next_step
+from reference.algorithms.step_control import FLOOR, GROW_AFTER, kept_step, landing_step, next_step, rejected
 from reference.jit import inlined, kernel, named
 from reference.linalg import lu_solve
 from reference.state import Model, Record
@@ -31,8 +31,8 @@ from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR
 FIXED, GROWING, ERROR_CONTROL = 0.0, 1.0, 2.0
 """The modes of :func:`steps` (``par[CONTROL]``): fixed steps; a cut step growing back; error control."""
 (CONTROL, DT, TARGET, H_NEXT, DT_MIN, DT_MAX, ERROR_TOLERANCE, AFTER_REJECTION, GOOD, CEILING,
- DEAD_BAND, REUSE, H_FACTOR, ACCEPTED, H_MIN, H_MAX, ERROR, REJECTED) = range(17, 35)
-PAR_SIZE = 35
+ DEAD_BAND, REUSE, H_FACTOR, ACCEPTED, H_MIN, H_MAX, ERROR, REJECTED, OVER) = range(17, 36)
+PAR_SIZE = 36
 """The settings and counters ``par`` of :func:`steps`: [h, α_m, α_f, γ, β, Newton tolerance, L, contraction,
 max_iterations, fresh, iterations, U, resume, corrections of this step, record, t₀, n₀] (fresh: 1 the factor
 is new, −1 there is none for h; iterations counted in the kernel; U the strain energy of the last evaluation;
@@ -44,7 +44,7 @@ grid's step dt [s]; the output time to land on [s]; the controller's next step [
 last cut; the step a cut step grows back to [s]; the dead band (:func:`reference.algorithms.step_control.kept_step`);
 the relative change of the step within which the factor is kept; the step of the factor [s]; and the
 statistics since the caller last read them: accepted steps, smallest and largest accepted step [s], largest
-error norm (NaN: none), rejected steps."""
+error norm (NaN: none), rejected steps, accepted steps over the tolerance (at ``dt_min``)."""
 
 NO_FACTOR = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
              np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
@@ -215,6 +215,7 @@ def _error_norm(a, an, vdn, vd, Vn, h, beta, L, tol, am, af):
 _next_step = inlined(next_step)
 _kept_step = inlined(kept_step)
 _landing_step = inlined(landing_step)
+_rejected = inlined(rejected)
 
 
 def set_step(par, h, t0, n0):
@@ -254,13 +255,16 @@ def _count(par, h, err):
     par[H_MIN], par[H_MAX] = min(par[H_MIN], h), max(par[H_MAX], h)
     if err == err:
         par[ERROR] = err if par[ERROR] != par[ERROR] else max(par[ERROR], err)
+        if err > 1.0:
+            par[OVER] += 1.0
 
 
 @kernel
-def _judge(par, a, an, vdn, vd, Vn, angle, held, beta, L, am, af):
-    """The converged iterate of a step of ``par[0]`` in a controlled mode, before it is accepted: the statistics
-    and the next step (:mod:`reference.algorithms.step_control`); True when the step is rejected for its error
-    estimate (the state is left as it was at the step's start, the angles restored from ``held``)."""
+def _judge(par, clock, a, an, vdn, vd, Vn, angle, held, beta, L, am, af):
+    """The converged iterate of a step of ``par[0]`` from ``clock[0]`` in a controlled mode, before it is accepted:
+    the statistics and the next step (:mod:`reference.algorithms.step_control`); True when the step is rejected
+    for its error estimate (:func:`reference.algorithms.step_control.rejected`: the state is left as it was at the
+    step's start, the angles restored from ``held``)."""
     h_use, h = par[0], par[H_NEXT]
     if par[CONTROL] != ERROR_CONTROL:
         _count(par, h_use, math.nan)
@@ -270,7 +274,7 @@ def _judge(par, a, an, vdn, vd, Vn, angle, held, beta, L, am, af):
         return False
     err = _error_norm(a, an, vdn, vd, Vn, h_use, beta, L, par[ERROR_TOLERANCE], am, af)
     h_next = min(max(_next_step(h_use, err), par[DT_MIN]), par[DT_MAX])
-    if err > 1.0 and h_use > par[DT_MIN] * (1.0 + 1e-12):
+    if _rejected(err, h_use, _landing_step(par[TARGET] - clock[0], h_next), par[DT_MIN]):
         par[REJECTED] += 1.0
         par[H_NEXT], par[AFTER_REJECTION] = h_next, 1.0
         for k in range(angle.shape[0]):
@@ -297,7 +301,10 @@ def _coefficients(par):
 @kernel
 def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr, rec, held):
     """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton), or in a controlled
-    mode (``par[CONTROL]``) the steps to ``par[TARGET]``, each chosen by the step control; ``(status, steps)``.
+    mode (``par[CONTROL]``) up to ``n_steps`` tries of a step (accepted or rejected) towards ``par[TARGET]``, each
+    chosen by the step control; ``(status, steps)``, the steps those tried before the return (in a controlled mode
+    the clock is at ``par[TARGET]`` when it is reached; the caller bounds ``n_steps`` so that a call returns to
+    Python within a fraction of a second, :class:`reference.algorithms.base.CallBudget`).
 
     ``REFACTOR`` (a correction shrank by less than ``contraction``, or no factor for the step yet) leaves the
     unfinished step's iterate in ``arr`` (x1, q1, V, λ, h Δq): the caller factors the Newton matrix there at
@@ -320,7 +327,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     for step in range(n_steps):
         if control and par[12] != 1.0:  # a new step of a controlled mode
             if not _choose(par, clock, angle, held):
-                return OK, n_steps
+                return OK, step  # landed on the output time
             h, bp, gp, ck = _coefficients(par)
         t1 = clock[0] + h
         if not (step == 0 and par[12] == 1.0):
@@ -366,7 +373,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
             return NO_CONVERGENCE, step
         par[9] = 0.0
         par[12] = 0.0
-        if control and _judge(par, a, an, vdn, vd, Vn, angle, held, beta, L, am, af):
+        if control and _judge(par, clock, a, an, vdn, vd, Vn, angle, held, beta, L, am, af):
             par[11] = math.nan  # rejected: the state stays, the last evaluation is not at it
             continue
         _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe[8], h, am, af)

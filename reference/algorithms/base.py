@@ -3,8 +3,46 @@
 from __future__ import annotations
 
 import math
+import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+
+CALL_SECONDS = 0.1
+"""The wall time [s] a compiled stepping call aims at (:class:`CallBudget`): Python's signal handlers
+(Ctrl-C, SIGTERM), the results file's timed flush and the progress run between two calls only, so each
+returns within about twice this."""
+
+
+class CallBudget:
+    """How many steps the next compiled call of a stepping loop may take, so that the call lasts about
+    :data:`CALL_SECONDS` of wall time.
+
+    The size follows the measured time per step of the previous call (``size · CALL_SECONDS / elapsed``),
+    growing at most :attr:`GROWTH` times a call (a first call that compiled the kernels measures minutes a
+    step; the size then grows back in a few calls), never below one step.  A call costs a few µs to tens of
+    µs of Python and argument passing, a ten-thousandth of its budget.
+    """
+
+    GROWTH = 4
+
+    def __init__(self, size: int = 16, seconds: float = CALL_SECONDS):
+        self.size, self.seconds, self._start = int(size), float(seconds), 0.0
+        self.tick = None
+        """Called (no arguments) after every call, or None: the solution loop's progress between two outputs
+        (:func:`reference.solution.run`)."""
+
+    def start(self) -> int:
+        """The steps the next call may take; its clock starts."""
+        self._start = time.perf_counter()
+        return self.size
+
+    def took(self, steps: int) -> None:
+        """The call started by :meth:`start` took ``steps`` steps (fewer when it returned early)."""
+        elapsed = time.perf_counter() - self._start
+        if steps > 0 and elapsed > 0.0:
+            self.size = max(1, min(self.GROWTH * self.size, int(self.seconds * steps / elapsed)))
+        if self.tick is not None:
+            self.tick()
 
 
 class Algorithm(ABC):
@@ -119,6 +157,12 @@ class Algorithm(ABC):
         """The :class:`SolverSettings` fields read from this algorithm's own ``[solver]`` keys (``rd`` the
         deck reader, for one-line errors); none for most algorithms."""
         return {}
+
+    @classmethod
+    def deck_check(cls, rd, solver: dict, settings: "SolverSettings") -> None:
+        """Checks of the read settings together (``solver`` the deck's ``[solver]`` table, ``rd`` the deck
+        reader): a one-line error for a combination that cannot work, a :class:`~reference.validation.ModelWarning`
+        for one that does not do what it seems to; none for most algorithms."""
 
 
 @dataclass(kw_only=True)

@@ -56,6 +56,7 @@ actuators and drives), damping dissipation by the trapezoidal rule on
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -63,12 +64,14 @@ from dataclasses import dataclass, field
 
 from reference.algorithms import alpha_steps as ak
 from reference.algorithms.alpha_steps import NO_FACTOR, dissipation, power, set_step, steps
+from reference.algorithms.base import CallBudget
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem
 from reference.linalg import SingularMatrix
 from reference.state import Record
 from reference.algorithms.step_control import (DEAD_BAND, GROW_AFTER, MAX_CUTS, SolverStatistics, error_norm,
-                                               kept_step, landing_step, next_step)
+                                               kept_step, landing_step, next_step, rejected)
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR, newton_failure
+from reference.validation import ModelWarning
 
 
 def parameters(rho_inf: float) -> tuple[float, float, float, float]:
@@ -97,7 +100,9 @@ class GeneralizedAlphaRun:
     step (error control, or a cut step growing back); ``nominal`` the steps of ``dt`` reached (the
     output grid); ``stats`` the
     :class:`~reference.algorithms.step_control.SolverStatistics`; ``row`` its record of the last
-    output; ``stopped_at`` the time where a failed step stopped; ``tried`` what was tried then.
+    output; ``stopped_at`` the time where a failed step stopped; ``tried`` what was tried then; ``budget`` the
+    steps a compiled call may take (:class:`~reference.algorithms.base.CallBudget`: each returns to Python
+    within a fraction of a second, so that a signal stops the run).
     """
 
     system: NewtonSystem
@@ -119,6 +124,7 @@ class GeneralizedAlphaRun:
     stopped_at: float | None = None
     tried: str = ""
     history: list = field(default_factory=list)
+    budget: CallBudget = field(default_factory=CallBudget)
 
     @property
     def iterations(self) -> int:
@@ -211,8 +217,49 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                           "give dt_min ≤ dt_max")
         return settings
 
+    @staticmethod
+    def step_bounds(settings, dt_max: bool) -> tuple[str, str, str] | None:
+        """``(entry, problem, fix)`` when the step bounds of ``settings`` would be ignored, else None: ``dt_max``
+        (``dt_max`` True: given) only bounds the step ``error_tolerance`` chooses; with it, ``dt_min`` above the
+        output interval (every output is landed on, so no step can reach it), and without it, ``dt_min`` not below
+        ``dt`` (the step cuts halve ``dt`` down to it)."""
+        interval = settings.dt * settings.output_every
+        if settings.error_tolerance is None:
+            if dt_max:
+                return ("solver.dt_max", "dt_max bounds the step that error_tolerance chooses; without "
+                        f"error_tolerance every step is dt = {settings.dt:g}", "give error_tolerance, or leave dt_max out")
+            if settings.dt_min is not None and settings.dt_min >= settings.dt:
+                return ("solver.dt_min", f"dt_min = {settings.dt_min:g} is not below dt = {settings.dt:g}: without "
+                        "error_tolerance it bounds the step cuts, which halve dt",
+                        f"give dt_min < dt (default dt/1024 = {settings.dt / 1024:g}), or leave it out")
+        elif settings.dt_min is not None and settings.dt_min > interval * (1.0 + 1e-12):
+            return ("solver.dt_min", f"dt_min = {settings.dt_min:g} is above the output interval output_every × dt = "
+                    f"{interval:g} s (the steps land on every output)",
+                    f"give dt_min ≤ {interval:g} (default {interval / 1024:g}), or a coarser output grid")
+        return None
+
+    @classmethod
+    def deck_check(cls, rd, solver: dict, settings) -> None:
+        """:meth:`step_bounds` as a one-line error; ``dt`` with ``error_tolerance`` and ``output_every = 1`` is warned
+        of (the step never exceeds the output interval ``dt``: the control can only shorten it)."""
+        problem = cls.step_bounds(settings, "dt_max" in solver)
+        if problem:
+            raise rd.fail(*problem)
+        interval = settings.dt * settings.output_every
+        if settings.error_tolerance is not None and "dt" in solver and settings.output_every == 1 and \
+                (settings.dt_max is None or settings.dt_max > interval):
+            warnings.warn(f"solver.error_tolerance: with dt = {settings.dt:g} and output_every = 1 no step exceeds "
+                          f"the output interval {interval:g} s (the steps land on every output), so the control "
+                          "can only shorten dt; leave dt out, or raise output_every, to let the step grow",
+                          ModelWarning, stacklevel=2)
+
     @classmethod
     def from_settings(cls, settings, dt=None):
+        """The algorithm of ``settings`` (Python API and deck); ValueError of :meth:`step_bounds`'s line when the
+        step bounds would be ignored."""
+        problem = cls.step_bounds(settings, settings.dt_max is not None) if dt is None else None
+        if problem:
+            raise ValueError(f"{problem[0]}: {problem[1]}; {problem[2]}")
         return cls(dt or settings.dt, settings.rho_inf, settings.tolerance or TOLERANCE, settings.max_iterations or 15,
                    settings.error_tolerance, settings.dt_min, settings.dt_max, settings.first_step)
 
@@ -220,7 +267,9 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         """A run from ``state``: the Newton system; the initial accelerations are computed by the first
         :meth:`advance`."""
         h = self.dt if self.error_tolerance is None else min(max(self.first_step, self.dt_min), self.dt_max)
-        return GeneralizedAlphaRun(self.newton_system(model), self.length_scale(state.x), h)
+        run = GeneralizedAlphaRun(self.newton_system(model), self.length_scale(state.x), h)
+        run.stats.controlled = self.error_tolerance is not None
+        return run
 
     def _initial_accelerations(self, run, state) -> int:
         """Consistent initial accelerations and multipliers at the state's time."""
@@ -252,7 +301,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                         self.contraction, self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0, 0.0, t, clock[1]]
         run.par[ak.DT:ak.CEILING + 1] = [self.dt, 0.0, run.h, self.dt_min, self.dt_max,
                                          self.error_tolerance or 0.0, 0.0, 0.0, math.inf]
-        run.par[ak.DEAD_BAND:] = [self.dead_band, self.reuse, run.h, 0.0, math.inf, 0.0, np.nan, 0.0]
+        run.par[ak.DEAD_BAND:] = [self.dead_band, self.reuse, run.h, 0.0, math.inf, 0.0, np.nan, 0.0, 0.0]
         run.varying = self.error_tolerance is not None or run.h != self.dt
         run.nominal = int(round(t / self.dt))
         run.started = True
@@ -302,20 +351,26 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         return code
 
     def _steps(self, state, run, n_steps, rec) -> tuple[int, int]:
-        """Up to ``n_steps`` compiled steps (in a controlled mode: to the output time ``par[TARGET]``), the Newton
-        matrix factored when they ask; returns (status, steps done)."""
-        system, par = run.system, run.par
+        """Up to ``n_steps`` compiled steps (in a controlled mode: tries to the output time ``par[TARGET]``), the
+        Newton matrix factored when they ask, in calls of at most ``run.budget`` steps (each returns to Python
+        within a fraction of a second: a signal stops the run between two); returns (status, steps done)."""
+        system, par, budget = run.system, run.par, run.budget
         x, q, v, w, f_prev, clock = state[:6]
+        control = par[ak.CONTROL] != ak.FIXED
         left, done = n_steps, 0
         while left > 0:
             if run.factors is None:
                 par[9] = -1.0  # only predict: the factor is made at the predictor
+            size = min(left, budget.start())
             code, n = steps(system.arg, x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers, system.dof,
-                            par, left, NO_FACTOR if run.factors is None else run.factors, system.wt, run.arrays,
+                            par, size, NO_FACTOR if run.factors is None else run.factors, system.wt, run.arrays,
                             system.record_arg(rec), run.held)
+            budget.took(n)
             left -= n
             done += n
             if code == OK:
+                if control and clock[0] == par[ak.TARGET]:
+                    return OK, done  # landed on the output time
                 continue
             if code != REFACTOR:
                 return code, done
@@ -379,11 +434,13 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         par, stats = run.par, run.stats
         stats.steps += int(par[ak.ACCEPTED])
         stats.rejected += int(par[ak.REJECTED])
+        stats.over += int(par[ak.OVER])
         stats.h_min, stats.h_max = min(stats.h_min, par[ak.H_MIN]), max(stats.h_max, par[ak.H_MAX])
         err = par[ak.ERROR]
         if err == err:
             stats.error = err if stats.error != stats.error else max(stats.error, err)
-        par[ak.ACCEPTED:] = [0.0, math.inf, 0.0, np.nan, 0.0]
+            stats.worst = max(stats.worst, err)
+        par[ak.ACCEPTED:] = [0.0, math.inf, 0.0, np.nan, 0.0, 0.0]
 
     def _landed(self, state, run, n_steps) -> None:
         """The output time ``n_steps`` steps of ``dt`` ahead is reached: the cut step's ceiling doubles, and a
@@ -406,7 +463,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         target = (run.nominal + n_steps) * self.dt
         control = self.error_tolerance is not None
         held = (x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers)  # what a rejected step restores
-        saved, rejected = None, False
+        saved, after_rejection = None, False
         while True:
             left = target - clock[0]
             if left <= 1e-9 * self.dt:
@@ -429,17 +486,17 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             if control:
                 err = error_norm(run.a, saved[5], v, w, h_use, self.beta, run.L, self.error_tolerance)
                 h_next = min(max(next_step(h_use, err), self.dt_min), self.dt_max)
-                if err > 1.0 and h_use > self.dt_min * (1.0 + 1e-12):
+                if rejected(err, h_use, landing_step(left, h_next), self.dt_min):
                     for arr, old in zip(held, saved):
                         arr[...] = old
                     system.work.angle[:] = angle
                     par[11] = np.nan  # the last evaluation is no longer at the state
                     stats.rejected += 1
                     par[ak.H_NEXT] = h_next
-                    rejected = True
+                    after_rejection = True
                     continue
-                if rejected:
-                    h_next, rejected = min(h_next, h_use), False  # no growth right after a rejection (HNW §II.4)
+                if after_rejection:
+                    h_next, after_rejection = min(h_next, h_use), False  # no growth right after a rejection (HNW §II.4)
                 h_next = kept_step(h_use, h_next, self.dead_band)
                 stats.step(h_use, err)
                 # a step shortened to land on an output keeps the controller's step for the next
@@ -459,6 +516,18 @@ class GeneralizedAlpha(ImplicitAlgorithm):
 
     def summary(self, run) -> str:
         return run.stats.summary()
+
+    def finish(self, model, state, run, completed: bool) -> dict:
+        """No datasets; one warning when steps at ``dt_min`` were accepted over the error tolerance
+        (:func:`reference.algorithms.step_control.rejected`)."""
+        stats = getattr(run, "stats", None)
+        if stats is not None and stats.over:
+            warnings.warn(f"{stats.over:,} step{'s' * (stats.over != 1)} at dt_min = {self.dt_min:g} s "
+                          f"{'were' if stats.over != 1 else 'was'} accepted over error_tolerance = "
+                          f"{self.error_tolerance:g} (error estimate up to {stats.worst:.3g} × the tolerance; "
+                          "/solver/steps_over_tolerance counts them per output): lower dt_min, or raise "
+                          "error_tolerance", ModelWarning, stacklevel=2)
+        return {}
 
     def failure(self, code: int, state, run) -> tuple[str, str]:
         """``(status, message)``, saying what was tried (step cuts, dt_min) and what to change."""

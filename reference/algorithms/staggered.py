@@ -36,7 +36,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from reference.algorithms.base import Algorithm
+from reference.algorithms.base import Algorithm, CallBudget
 from reference.evaluation.forces import model_forces
 from reference.evaluation.force_elements import force_element_dissipation
 from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_nodes, kick_range, node_sums
@@ -260,24 +260,35 @@ class StaggeredCentralDifference(Algorithm):
         :func:`reference.monitor.energy_floor`) is given, and the critical step for the messages."""
         scratch = Scratch.for_model(model)
         scratch.guard[1:3] = (guard, GUARD_TOLERANCE) if guard is not None else (0.0, 0.0)
-        return ExplicitRun(scratch, float(critical_step))
+        return ExplicitRun(scratch, float(critical_step), CallBudget())
 
     def failure(self, code, state, run):
         status, message = explicit_failure(code, state.t, likely_cause(self.dt, run.critical_step))
         return status, message + BlowUpMonitor.guard_report(run.scratch.guard, state.clock[2])
 
     def advance(self, model: Model, state: State, run: "ExplicitRun", n_steps: int, record: Record | None) -> int:
+        """``n_steps`` steps in compiled calls of at most ``run.budget`` steps (each returns to Python within a
+        fraction of a second: a signal stops the run between two); the same steps as one call, bit for bit."""
         rec = record if record is not None else Record.empty(state.x.shape[0], model.n_constraints)
         use_threads(nodes=state.x.shape[0])
-        return advance(model, state, self.dt, int(n_steps), record is not None, rec, run.scratch)
+        left, write = int(n_steps), record is not None
+        while True:
+            size = min(left, run.budget.start())
+            code = advance(model, state, self.dt, size, write, rec, run.scratch)
+            run.budget.took(size)
+            left -= size
+            if code != OK or left <= 0:
+                return code
+            write = False
 
 
 class ExplicitRun(NamedTuple):
-    """The staggered scheme's run state: its work arrays and energy guard, and the Domain's critical
-    step estimate [s] (for the message of a blow-up)."""
+    """The staggered scheme's run state: its work arrays and energy guard, the Domain's critical
+    step estimate [s] (for the message of a blow-up) and the steps a compiled call may take."""
 
     scratch: Scratch
     critical_step: float
+    budget: CallBudget
 
     @property
     def energy(self) -> float:

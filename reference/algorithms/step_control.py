@@ -24,6 +24,16 @@ norm ``err ≤ 1`` is accepted, one with ``err > 1`` is taken again from its sta
 step is ``h · min(MAX_GROWTH, max(MIN_SHRINK, SAFETY · err^(−1/3)))`` (local error O(h³)), within
 ``[dt_min, dt_max]``, and no larger than the rejected one right after a rejection.
 
+**At dt_min** (:func:`rejected`): a step with ``err > 1`` is taken again only when the step that would replace it
+(the controller's, landed on the output) is shorter.  Unclamped, the controller's factor is below
+``SAFETY`` = 0.9 and landing stretches a step by at most ``1/(1 − (LANDING − 1))``, so the retry is at most
+0.95 of the rejected step; clamped at ``dt_min``, the retry is ``dt_min`` landed, which a second rejection cannot
+shorten.  So the steps tried from one state fall geometrically to ``dt_min`` and the controller ends: at
+``dt_min`` (or the landing step just above it) a step over the tolerance is accepted and counted
+(``/solver/steps_over_tolerance``), and the run ends with one warning giving their number and the largest
+error norm.  (Before, the landing stretched ``dt_min`` by a few 1e-6, the stretched step was rejected, and
+the controller clamped it back to ``dt_min``: the same step forever, from the same state.)
+
 **Dead band** (Hairer & Wanner 1996, *Solving Ordinary Differential Equations II*, §IV.8, RADAU5's
 ``quot1``/``quot2`` rule): the step enters the Newton matrix's coefficients, so a new step costs a new
 factorisation; an accepted step after which the controller proposes a growth factor in ``[1, DEAD_BAND)`` is
@@ -90,6 +100,13 @@ def landing_step(left: float, h: float) -> float:
     return left / max(1.0, math.ceil(left / h - (LANDING - 1.0)))
 
 
+def rejected(err: float, h_use: float, h_retry: float, dt_min: float) -> bool:
+    """Whether a step ``h_use`` [s] with error norm ``err`` is taken again: ``err > 1``, the step above ``dt_min``,
+    and the step that would replace it, ``h_retry`` (:func:`landing_step` of the controller's next step), shorter
+    (module docstring, "At dt_min": the rule that makes the controller end)."""
+    return err > 1.0 and h_use > dt_min * (1.0 + 1e-12) and h_retry < h_use
+
+
 def kept_step(h: float, h_next: float, band: float) -> float:
     """The step after an accepted step h for which the controller proposes ``h_next``: h itself when the growth
     ``h_next / h`` lies in ``[1, band)`` (the dead band, :data:`DEAD_BAND`; ``band = 1`` turns it off)."""
@@ -104,7 +121,9 @@ class SolverStatistics:
     ``steps`` accepted steps, ``iterations`` Newton corrections, ``cuts`` steps cut after a Newton
     failure, ``rejected`` steps taken again for their error estimate, ``factorizations`` Newton
     matrices factored; ``h_min``, ``h_max`` the smallest and largest accepted step [s]; ``error`` the
-    largest error estimate since the last output (NaN without error control).
+    largest error estimate since the last output (NaN without error control); ``over`` the accepted steps
+    whose error norm is above 1 (at ``dt_min``, :func:`rejected`), ``worst`` the largest error norm of the run
+    (0: none); ``controlled`` whether the records carry ``steps_over_tolerance`` (error control).
     """
 
     steps: int = 0
@@ -115,6 +134,9 @@ class SolverStatistics:
     h_min: float = np.inf
     h_max: float = 0.0
     error: float = np.nan
+    over: int = 0
+    worst: float = 0.0
+    controlled: bool = False
     last: dict = field(default_factory=dict)
 
     def step(self, h: float, err: float = np.nan) -> None:
@@ -123,16 +145,20 @@ class SolverStatistics:
         self.h_min, self.h_max = min(self.h_min, h), max(self.h_max, h)
         if err == err:
             self.error = err if self.error != self.error else max(self.error, err)
+            self.worst = max(self.worst, err)
+            self.over += err > 1.0
 
     def output(self, h: float, residual: float) -> dict:
         """The record of the steps since the last output (record keys of ``/solver/…``); restarts the
         interval's error estimate."""
-        totals = (self.steps, self.iterations, self.cuts, self.rejected, self.factorizations)
-        before = self.last.get("totals", (0, 0, 0, 0, 0))
+        totals = (self.steps, self.iterations, self.cuts, self.rejected, self.factorizations, self.over)
+        before = self.last.get("totals", (0, 0, 0, 0, 0, 0))
         d = [a - b for a, b in zip(totals, before)]
         row = {"step_size": float(h), "newton_iterations": float(d[1]), "residual_norm": float(residual),
                "step_cuts": float(d[2] + d[3]), "factorizations": float(d[4]), "error_estimate": float(self.error),
                "steps": float(d[0])}
+        if self.controlled:
+            row["steps_over_tolerance"] = float(d[5])
         self.last = {"totals": totals}
         self.error = np.nan
         return row
@@ -147,6 +173,8 @@ class SolverStatistics:
         cuts = f"{self.cuts:,} step cut{'s' * (self.cuts != 1)}"
         if self.rejected:
             cuts += f", {self.rejected:,} step{'s' * (self.rejected != 1)} rejected for their error"
+        if self.over:
+            cuts += f", {self.over:,} over the tolerance at dt_min (error up to {self.worst:.3g} × it)"
         noun = steps if self.steps != 1 else steps[:-1]
         return (f"{self.steps:,} {noun}, {span}, {self.iterations / self.steps:.1f} Newton iterations a step, "
                 f"{cuts}, {self.factorizations:,} factorisations")

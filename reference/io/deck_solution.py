@@ -91,6 +91,7 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
         **algo_cls.deck_settings(rd, sv, domain),
     )
     _check_step(rd, sv, domain, algo_cls, overrides, dt_entry, t_entry)
+    algo_cls.deck_check(rd, sv, domain.solver)
     return algorithm, algo_cls
 
 

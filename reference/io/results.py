@@ -28,9 +28,10 @@ Every output record is a dict; :data:`DATASETS` maps its keys to dataset paths
 (a key not listed is stored under its own name, so a new output is a new key of
 the record and nothing else).  The file is valid from the moment it appears: it
 is written under a temporary name with all datasets (empty) and flushed, then
-renamed; records are appended in blocks, flushed at least every
-``FLUSH_SECONDS``, so a run stopped in any way — even by SIGKILL — leaves a
-file that opens, with the records up to its last flush.
+renamed; records are appended in blocks, flushed by a timer thread within
+``FLUSH_SECONDS`` of their append (also when no record follows, as in a run
+stalled between two outputs), so a run stopped in any way — even by SIGKILL —
+leaves a file that opens, with the records up to its last flush.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ import datetime as _dt
 import hashlib
 import importlib.metadata
 import os
+import threading
 import time
 from pathlib import Path
 
@@ -74,6 +76,7 @@ DATASETS = {
     "step_cuts": "solver/step_cuts",
     "factorizations": "solver/factorizations",
     "error_estimate": "solver/error_estimate",
+    "steps_over_tolerance": "solver/steps_over_tolerance",
 }
 """Record key → dataset path."""
 
@@ -159,6 +162,21 @@ class ResultsWriter:
         self._block: dict[str, np.ndarray] = {}
         self._rows = 0
         self._flushed = time.monotonic()
+        self._lock, self._closing = threading.Lock(), threading.Event()
+        self._timer = threading.Thread(target=self._flush_on_time, name="results flush", daemon=True)
+        self._timer.start()
+
+    def _flush_on_time(self) -> None:
+        """The timer thread: every ``FLUSH_SECONDS / 4``, write the buffered records whose last flush is
+        ``FLUSH_SECONDS`` old, so that a record is on disk at most about ``FLUSH_SECONDS`` after its append
+        even when no append follows (a stalled run killed by SIGKILL keeps it).  It runs whenever the main
+        thread is in Python (the compiled stepping calls return within a fraction of a second,
+        :class:`reference.algorithms.base.CallBudget`); h5py serialises the HDF5 calls of both threads,
+        :attr:`_lock` the block.  Ends with :meth:`close`."""
+        while not self._closing.wait(FLUSH_SECONDS / 4):
+            with self._lock:
+                if self._rows and self.f.id.valid and time.monotonic() - self._flushed >= FLUSH_SECONDS:
+                    self._flush()
 
     def _create(self, key: str, shape: tuple) -> None:
         name = dataset_path(key)
@@ -175,21 +193,27 @@ class ResultsWriter:
         ``FLUSH_BYTES``, every ``FLUSH_SECONDS`` of wall time and on close (one HDF5
         resize per record would cost milliseconds).  The first record fixes the keys and shapes.
         """
-        if not self._block:
-            shapes = {k: np.shape(v) for k, v in entry.items()}
-            size = sum(int(np.prod(s)) for s in shapes.values()) * 8
-            capacity = FLUSH_BYTES // max(size, 1) + 1
-            self._block = {k: np.empty((capacity, *s)) for k, s in shapes.items()}
-        k = self._rows
-        for key, block in self._block.items():
-            block[k] = entry[key]
-        self._rows = k + 1
-        if self._rows == next(iter(self._block.values())).shape[0] or \
-                time.monotonic() - self._flushed > FLUSH_SECONDS:
-            self.flush()
+        with self._lock:
+            if not self._block:
+                shapes = {k: np.shape(v) for k, v in entry.items()}
+                size = sum(int(np.prod(s)) for s in shapes.values()) * 8
+                capacity = FLUSH_BYTES // max(size, 1) + 1
+                self._block = {k: np.empty((capacity, *s)) for k, s in shapes.items()}
+            k = self._rows
+            for key, block in self._block.items():
+                block[k] = entry[key]
+            self._rows = k + 1
+            if self._rows == next(iter(self._block.values())).shape[0] or \
+                    time.monotonic() - self._flushed > FLUSH_SECONDS:
+                self._flush()
 
     def flush(self) -> None:
         """Write the buffered records and flush the file."""
+        with self._lock:
+            self._flush()
+
+    def _flush(self) -> None:
+        """:meth:`flush`, the lock held."""
         if self._rows:
             n, k = self.n, self._rows
             for key, block in self._block.items():
@@ -208,22 +232,26 @@ class ResultsWriter:
     def add_datasets(self, datasets: dict) -> None:
         """Write datasets that are not time histories (path → array, e.g. ``"modes/frequency"``); an
         existing one of that path is replaced."""
-        for path, value in datasets.items():
-            if path in self.f:
-                del self.f[path]
-            value = np.asarray(value)
-            self.f.create_dataset(path, data=value.astype(h5py.string_dtype()) if value.dtype.kind == "U" else value)
-        if datasets:
-            self.f.flush()
+        with self._lock:
+            for path, value in datasets.items():
+                if path in self.f:
+                    del self.f[path]
+                value = np.asarray(value)
+                self.f.create_dataset(path, data=value.astype(h5py.string_dtype()) if value.dtype.kind == "U"
+                                      else value)
+            if datasets:
+                self.f.flush()
 
     def close(self, status: str = "completed") -> None:
-        """Write what is buffered, record ``status`` and close (safe to call twice)."""
-        if self.f.id.valid:
-            try:
-                self.flush()
-            finally:
-                self.f.attrs["status"] = status
-                self.f.close()
+        """Write what is buffered, record ``status`` and close (safe to call twice); the timer thread ends."""
+        self._closing.set()
+        with self._lock:
+            if self.f.id.valid:
+                try:
+                    self._flush()
+                finally:
+                    self.f.attrs["status"] = status
+                    self.f.close()
 
     def results(self, wall_time: float = 0.0):
         """The :class:`Results` of this file, read on demand."""
