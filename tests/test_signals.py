@@ -42,6 +42,13 @@ def test_signal_stops_the_run_with_a_status_and_one_line(tmp_path, sig):
     assert stop_runs.stop_trial(tmp_path, 0, sig, 0.3)
 
 
+@pytest.mark.parametrize("kind", ["error_controlled", "arc_length", "modes"])
+def test_sigterm_stops_every_kind_of_run_with_a_status_and_one_line(tmp_path, kind):
+    """An error-controlled generalized-α run, an arc-length path and the static path of a modes run
+    (issue 38): SIGTERM ends each in order (exit 143, one line, status "terminated at …")."""
+    assert stop_runs.stop_trial(tmp_path, 0, signal.SIGTERM, 0.3, kind)
+
+
 def test_an_exception_during_the_run_records_failed(tmp_path, monkeypatch):
     """The crash of the issue (dt = 1e-300, t_end = 1e-299, which the deck refuses) forced through
     the API, and an exception thrown from inside the loop: the file says "failed: …", never "completed"."""
