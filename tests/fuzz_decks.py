@@ -349,15 +349,14 @@ VARIANTS = {
                             "t_end": 0.02, "control": "position.z:b:end"}, {}, {}),
     "modes": ({"algorithm": "modes", "modes": 3}, {}, {}),
     "modes_static": ({"algorithm": "modes", "modes": 3, "about": "static", "t_end": 0.02, "load_steps": 2}, {}, {}),
-    "modes_rotation": ({"algorithm": "modes", "modes": 3, "about": "rotation", "spin_rate": 6.0,
-                        "spin_axis": [0.0, 0.0, 1.0]}, {}, {}),
     "buckling": ({"algorithm": "buckling", "modes": 2, "t_end": 0.02}, {}, {}),
     "beam3": ({}, {}, {"element": "beam3"}),
     "beam2_se3": ({}, {}, {"element": "beam2_se3"}),
 }
 """Base decks made from :data:`EVERY_TABLE`, so that every algorithm and element family is mutated from a
 deck that runs: name → (``[solver]`` in place of its own, or ``{}`` to keep it; keys set on every joint;
-keys set on the flexible beam ``b``)."""
+keys set on the flexible beam ``b``).  Modes about a rotation start from ``models/rotating_cantilever.toml``
+(this deck's pinned body has no steady rotation)."""
 
 
 def base_decks() -> dict[str, str]:
@@ -552,6 +551,21 @@ TIME_STEPPING = ("staggered_central_difference", "generalized_alpha", "static")
 """Algorithms whose run :func:`solve` shortens to :data:`STEPS` steps (the others' ``t_end`` is a load level)."""
 
 
+def finite(name: str, values) -> bool:
+    """Whether a dataset of a completed run holds numbers only, but for the NaN that docs/results.md
+    documents: ``/solver/error_estimate`` without error control or before the first step, and a column of
+    ``/joints/*`` that is NaN throughout (``prescribed_reaction`` of the joints that are not prescribed
+    displacements, the reactions of master/slave joints)."""
+    import numpy as np
+
+    if name == "solver/error_estimate":
+        return not np.any(np.isinf(values))
+    if name.startswith("joints/") and values.ndim >= 2:
+        columns = values.reshape(values.shape[0], -1)
+        return bool(np.all(np.isfinite(columns) | np.all(np.isnan(columns), axis=0)))
+    return bool(np.all(np.isfinite(values)))
+
+
 def solve(domain, results: Path) -> None:
     """Run a deck as ``flexmbs run`` does, shortened (:data:`STEPS` steps or arc-length points), into the
     results file ``results``; then the file must say how the run ended, and a run whose ``status`` is
@@ -579,7 +593,7 @@ def solve(domain, results: Path) -> None:
         if status == "completed":
             bad = []
             f.visititems(lambda name, obj: bad.append(name) if isinstance(obj, h5py.Dataset) and obj.dtype.kind == "f"
-                         and not np.all(np.isfinite(obj[()])) else None)
+                         and not finite(name, obj[()]) else None)
             assert not bad, f"non-finite values with status 'completed': /{bad[0]}"
     if settings.algorithm == "modes" and settings.about == "rotation":
         from flexmbs.campbell import campbell
@@ -689,10 +703,14 @@ def run(cases: int, seed: int, workdir: Path, report=None, start: int = 0, resul
     for name, text in base_decks().items():  # a base deck must itself load: mutations are made from valid decks
         path = workdir / "base.toml"
         path.write_text(text, encoding="utf-8")
-        if check(path, {}) == "accepted":
+        try:
+            answer = check(path, {}, workdir / "results.h5" if results else None)
+        except AssertionError as exc:
+            answer = f"fails ({exc})"
+        if answer == "accepted":
             bases[name] = text
         elif report:
-            report(f"base deck {name} does not load; left out")
+            report(f"base deck {name}: {answer}; left out")
     counts = {"error": 0, "accepted": 0}
     failures = []
     slowest = (0.0, "")
