@@ -292,7 +292,8 @@ def rigid_body_correction(model: Model, state: State, body: np.ndarray) -> None:
     ``y`` minimises the kinetic energy ``½ yᵀ (Tᵀ M T) y`` subject to ``B T y = −(B V0 + Φ_t)`` and the
     master/slave pairs' velocity constraints (least squares, dependent rows dropped by the SVD). A model
     whose drives cannot be followed by rigid bodies (a clamped beam driven at its tip) is left with the
-    residual that :func:`project_initial_velocities` then removes at the joints' nodes.
+    residual that :func:`project_initial_velocities` then removes at the joints' nodes; so is a model too
+    large for the dense problem (:data:`RIGID_SIZE`) or whose masses overflow it.
     """
     import scipy.linalg
 
@@ -343,8 +344,14 @@ def rigid_body_correction(model: Model, state: State, body: np.ndarray) -> None:
         A[row:row + len(C), columns(slave)] += C[:, 6:] @ maps[int(slave)]
         r[row:row + len(C)] = -C @ V
         row += len(C)
-    L = scipy.linalg.cholesky(scipy.linalg.block_diag(*Mr), lower=True)
-    u = scipy.linalg.lstsq(scipy.linalg.solve_triangular(L, A.T, lower=True).T, r)[0]
+    mass = scipy.linalg.block_diag(*Mr)
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(r)) and np.all(np.isfinite(mass))):
+        return  # an overflowing mass or a non-finite velocity: the nodal projection alone
+    try:
+        L = scipy.linalg.cholesky(mass, lower=True)
+        u = scipy.linalg.lstsq(scipy.linalg.solve_triangular(L, A.T, lower=True).T, r)[0]
+    except np.linalg.LinAlgError:
+        return  # masses too far apart for the dense factorisation: the nodal projection alone
     y = scipy.linalg.solve_triangular(L.T, u, lower=False)
     for n, Tn in maps.items():
         g = int(body[n]) if body[n] >= 0 else -1 - n
