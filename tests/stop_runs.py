@@ -40,6 +40,10 @@ SOLVERS = {
 }
 """The runs stopped: the documented example's ``[solver]`` (explicit, made long) or in its place an
 error-controlled generalized-α run, an arc-length path and modes about a long static path."""
+HEAD_START = {"explicit": 0.0, "error_controlled": 3.0, "arc_length": 3.0, "modes": 3.0}
+"""Seconds a signal waits after the results file appeared, before its random delay: the implicit
+algorithms' kernels load for a second or two after the file is created, and the signal is to stop the
+path or the steps, not the loading."""
 
 
 def deck(tmp: Path, kind: str = "explicit") -> Path:
@@ -83,6 +87,7 @@ def kill_trial(tmp: Path, k: int, delay: float, running: bool, kind: str = "expl
     proc = start(deck(tmp, kind), out)
     if running:
         wait_for(out / "results.h5", proc)
+        delay += HEAD_START[kind]
     time.sleep(delay)
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=60)
@@ -110,7 +115,7 @@ def stop_trial(tmp: Path, k: int, sig: int, delay: float, kind: str = "explicit"
     proc = start(deck(tmp, kind), out)
     path = out / "results.h5"
     wait_for(path, proc)
-    time.sleep(delay)
+    time.sleep(HEAD_START[kind] + delay)
     proc.send_signal(sig)
     try:
         _, err = proc.communicate(timeout=60)
