@@ -23,11 +23,14 @@ report: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n auto
 
-# 10,000 mutated decks through the deck reader (the test suite runs 1,000)
+# 10,000 mutated decks through the deck reader, each accepted one run as `flexmbs run` does and its results
+# file checked (the test suite runs 1,000, a few steps each)
 fuzz: $(STAMP)
-	$(BIN)/python tests/fuzz_decks.py --cases 10000
+	$(BIN)/python tests/fuzz_decks.py --cases 10000 --results
 
-# 20 SIGKILL, 10 SIGTERM/SIGHUP, 20 early Ctrl-C and 4 long-interval (explicit, error control) trials of `flexmbs run` (the test suite runs a few)
+# 20 SIGKILL, 10 SIGTERM/SIGHUP and 20 early Ctrl-C trials of `flexmbs run`: explicit, error-controlled
+# generalized-α, arc-length and modes runs in turn; and 4 long-interval trials (explicit, error control)
+# (the test suite runs a few)
 signals: $(STAMP)
 	$(BIN)/python tests/stop_runs.py --kills 20 --terms 10 --ints 20
 

@@ -15,7 +15,9 @@ is a case: the deck read with those overrides (:func:`reference.io.deck.load_dec
 so every value is validated as if written in the deck), solved, its results
 written to ``OUT/case_NNN/results.h5``.  The cases run as tasks on a Dask
 cluster — a local one of ``workers`` processes by default, or an existing
-scheduler (``scheduler = "tcp://host:8786"``).  ``OUT/summary.csv`` has one row
+scheduler (``scheduler = "tcp://host:8786"``).  They are made and submitted as
+others finish, :data:`IN_FLIGHT` per worker thread at a time, so that a grid of
+millions of cases starts at once, holds little memory and stops at a Ctrl-C.  ``OUT/summary.csv`` has one row
 per finished case: the grid values, the status (``completed`` or the error of a failed
 case), the wall time and the case's values (:func:`case_values`; a check's values
 are the columns ``check.NAME…``, so that no check can overwrite the summary's own).
@@ -23,7 +25,8 @@ It is rewritten as cases finish (whole, under its name at once): a study that is
 interrupted or killed leaves a valid summary of the cases finished so far.
 
 Dask is imported only here (the engine, ``reference/``, never needs it); the
-pieces are usable from Python: :func:`load_study` (or :func:`make_study`), :func:`cases`,
+pieces are usable from Python: :func:`load_study` (or :func:`make_study`), :func:`cases`
+(:func:`combinations` one at a time, :func:`n_cases`),
 :func:`run_case` (one case, in this process) and :func:`run_study`.
 """
 
@@ -51,7 +54,16 @@ SOLVER_KEYS = ("algorithm", "damping", "output_every", "consistent_initial_veloc
 CHECK_PREFIX = "check."
 """Prefix of the summary's columns of the deck's checks (a check may be called ``status``)."""
 SUMMARY_EVERY = 0.5
-"""Longest time [s] a finished case waits to be written to ``summary.csv``."""
+"""Longest time [s] a finished case waits to be written to ``summary.csv`` (longer once the file takes
+long to write: at most a tenth of the time goes to rewriting it)."""
+IN_FLIGHT = 2
+"""Cases submitted and not finished, per worker thread: the workers never wait for the next case, the
+scheduler holds a few tasks (not the whole grid: submitting 10⁷ tasks took longer than any Ctrl-C waited)."""
+POLL = 0.05
+"""Interval [s] at which a study looks for finished cases and for ``stop``."""
+QUIET = logging.CRITICAL + 1
+"""Log level of Dask's loggers in a local cluster: none of its messages (a task cancelled, a worker killed,
+a connection closed when a stopped study closes the cluster) is shown; a case that fails is its row."""
 
 
 @dataclass
@@ -122,7 +134,7 @@ def make_study(deck, grid: dict, description: str = "", path=None) -> Study:
     from reference.io.deck import load_deck
 
     try:
-        load_deck(deck, overrides=deck_overrides(cases(study)[0]))
+        load_deck(deck, overrides=deck_overrides(next(combinations(study))))
     except DeckError as exc:
         if path == deck:
             raise
@@ -130,10 +142,20 @@ def make_study(deck, grid: dict, description: str = "", path=None) -> Study:
     return study
 
 
-def cases(study: Study) -> list[dict]:
-    """Every combination of the grid, as ``{name: value}`` (the last name varying fastest)."""
+def combinations(study: Study):
+    """Every combination of the grid, as ``{name: value}`` (the last name varying fastest), one at a time."""
     names = list(study.grid)
-    return [dict(zip(names, combo)) for combo in itertools.product(*(study.grid[n] for n in names))]
+    return (dict(zip(names, combo)) for combo in itertools.product(*(study.grid[n] for n in names)))
+
+
+def cases(study: Study) -> list[dict]:
+    """Every combination of the grid (:func:`combinations`) as a list."""
+    return list(combinations(study))
+
+
+def n_cases(study: Study) -> int:
+    """The number of cases: the product of the grid's lengths."""
+    return math.prod(len(values) for values in study.grid.values())
 
 
 def deck_overrides(case: dict) -> dict:
@@ -239,7 +261,7 @@ def _client(workers: int | None, scheduler: str | None):
         # second study (or a test worker beside this one) would hold: "Port 8787 is already in use" otherwise
         cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
                                dashboard_address=None, scheduler_kwargs={"dashboard_address": ":0"},
-                               silence_logs=logging.CRITICAL)
+                               silence_logs=QUIET)
     finally:
         signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
@@ -250,6 +272,8 @@ def run_study(study: Study, out, workers: int | None = None, scheduler: str | No
     """Run every case of ``study`` on Dask, writing ``OUT/summary.csv`` as cases finish; return the
     rows of the finished cases (case order).
 
+    The cases are submitted as others finish, :data:`IN_FLIGHT` per worker thread of the cluster.
+
     Parameters
     ----------
     workers : int, optional
@@ -259,7 +283,7 @@ def run_study(study: Study, out, workers: int | None = None, scheduler: str | No
     progress : callable(str), optional
         Called with one line per finished case (default: print to stderr).
     stop : callable() -> bool, optional
-        Polled while the cases run (every 50 ms); when it returns true the cases not finished
+        Polled while the cases run (every :data:`POLL` s); when it returns true the cases not finished
         are dropped (the cluster is closed) and the study ends with the rows it has (the
         command's Ctrl-C).
 
@@ -272,62 +296,73 @@ def run_study(study: Study, out, workers: int | None = None, scheduler: str | No
     stop = stop or (lambda: False)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    todo = cases(study)
+    total, source = n_cases(study), enumerate(combinations(study))
     summary = out / "summary.csv"
-    rows: list[dict | None] = [None] * len(todo)
+    rows: dict[int, dict] = {}
     write_summary(summary, study, rows)  # an empty summary from the start: a previous study's never remains
     client, cluster = _client(workers, scheduler)
-    written = time.monotonic()
+    futures: dict = {}
     try:
-        futures = {}
-        for k, case in enumerate(todo):
-            f = client.submit(run_case, str(study.deck), case, str(out / f"case_{k:03d}"), pure=False,
-                              key=f"flexmbs-case-{k}-{time.time_ns()}")
-            futures[f] = k
-        progress(f"flexmbs sweep: {len(todo)} cases of {study.deck.name} on "
+        progress(f"flexmbs sweep: {total} cases of {study.deck.name} on "
                  f"{scheduler or f'a local cluster of {workers or 2} workers'}")
-        done, pending, unwritten = 0, as_completed(futures), False
-        while not pending.is_empty() and not stop():
+        pending, done, unwritten, wait = as_completed(), 0, False, SUMMARY_EVERY
+        written = counted = time.monotonic()
+        limit = IN_FLIGHT * max(1, sum(client.nthreads().values()))
+        while not stop():
+            if time.monotonic() - counted > 1.0:  # the workers of an external scheduler come and go
+                limit, counted = IN_FLIGHT * max(1, sum(client.nthreads().values())), time.monotonic()
+            while len(futures) < limit:
+                k, case = next(source, (None, None))
+                if case is None:
+                    break
+                f = client.submit(run_case, str(study.deck), case, str(out / f"case_{k:03d}"), pure=False,
+                                  key=f"flexmbs-case-{k}-{time.time_ns()}")
+                futures[f] = (k, case)
+                pending.add(f)
+            if not futures:
+                break
             finished = pending.next_batch(block=False)
             if not finished:
-                time.sleep(0.05)
+                time.sleep(POLL)
             for f in finished:
-                k = futures[f]
+                k, case = futures.pop(f)
                 try:
                     row = f.result()
                 except Exception as exc:  # the worker died, or the task could not run
-                    row = {**todo[k], "status": f"failed: {type(exc).__name__}: {exc}", "wall_time": math.nan,
+                    row = {**case, "status": f"failed: {type(exc).__name__}: {exc}", "wall_time": math.nan,
                            "results": ""}
                 rows[k], done, unwritten = row, done + 1, True
-                label = ", ".join(f"{n} = {v}" for n, v in todo[k].items())
-                progress(f"[{done}/{len(todo)}] case {k} ({label}): {row['status']} in {row['wall_time']:.2f} s")
-            if unwritten and time.monotonic() - written > SUMMARY_EVERY:
+                label = ", ".join(f"{n} = {v}" for n, v in case.items())
+                progress(f"[{done}/{total}] case {k} ({label}): {row['status']} in {row['wall_time']:.2f} s")
+            if unwritten and time.monotonic() - written > wait:
+                t = time.monotonic()
                 write_summary(summary, study, rows)
-                written, unwritten = time.monotonic(), False
+                written, unwritten, wait = time.monotonic(), False, max(SUMMARY_EVERY, 10 * (time.monotonic() - t))
     finally:
         write_summary(summary, study, rows)
+        if futures:
+            client.cancel(list(futures))
         client.close()
         if cluster is not None:
             cluster.close()
-    return [r for r in rows if r is not None]
+    return [rows[k] for k in sorted(rows)]
 
 
-def write_summary(path, study: Study, rows: list) -> None:
-    """One row per finished case (``None`` entries are the cases not finished): case number, grid
+def write_summary(path, study: Study, rows: dict) -> None:
+    """One row per finished case (``rows``: case number → row), in case order: case number, grid
     values, status, wall time, results file, then the values.
 
     The file is written beside and renamed over ``path``, so that it is whole at every instant.
     """
     fixed = ["case", *study.grid, "status", "wall_time", "results"]
-    extra = sorted({k for r in rows if r is not None for k in r} - set(fixed))
+    extra = sorted({k for r in rows.values() for k in r} - set(fixed))
     path = Path(path)
     partial = path.with_name(path.name + ".part")
     with open(partial, "w", newline="", encoding="utf-8") as fh:
         w = csv.DictWriter(fh, fieldnames=fixed + extra)
         w.writeheader()
-        for k, row in enumerate(rows):
-            if row is not None:
-                w.writerow({"case": k, **{key: (repr(v) if isinstance(v, float) else v) for key, v in row.items()}})
+        for k in sorted(rows):
+            w.writerow({"case": k, **{key: (repr(v) if isinstance(v, float) else v) for key, v in rows[k].items()}})
     os.replace(partial, path)
 
 
@@ -344,7 +379,7 @@ def main(args) -> int:
                          stop=lambda: request.signum is not None)
     if request.signum is not None:
         raise Stopped(request.signum) from CommandError(
-            f"; {len(rows)} of {len(cases(study))} cases had finished, their rows are in {summary}")
+            f"; {len(rows)} of {n_cases(study)} cases had finished, their rows are in {summary}")
     failed = sum(1 for r in rows if r["status"] != "completed")
     print(f"{len(rows)} cases, {len(rows) - failed} completed, {failed} failed → {summary}")
     return 1 if failed else 0

@@ -485,7 +485,8 @@ class Domain:
             angle=np.zeros(len(self.force_elements)),
         )
         if self.solver.consistent_initial_velocities and self.joints:
-            setup.project_initial_velocities(self._model or self.initialization(), self.state)
+            setup.project_initial_velocities(self._model or self.initialization(), self.state,
+                                             setup.flexible_bodies(N, [e.nodes for e in self.elements]))
         return self.state
 
     def algorithm(self, *, dt: float | None = None) -> Algorithm:

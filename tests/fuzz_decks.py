@@ -22,10 +22,12 @@ import argparse
 import copy
 import json
 import math
+import os
 import random
 import resource
 import signal
 import sys
+import threading
 import time
 import tomllib
 import warnings
@@ -274,13 +276,13 @@ VOCABULARY = {
                  "label": ["j", "pin"], "body_i": ["rb", "bar", "b:end", "b:start", "hub", "ground"],
                  "body_j": ["ground", "rb", "b:end", "bar"], "point": [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]],
                  "axis": [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]], "reference": [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
-                 "epsilon": [0.0, 1e-8], "formulation": ["jacobian", "master_slave"],
+                 "epsilon": [0.0, 1e-8, 1e-6], "formulation": ["jacobian", "master_slave"],
                  "time_function": ["sn", "r", "up"], "mode": ["position", "velocity"],
                  "intended_offset": [True, False, 1]},
     "prescribed_displacements[]": {"label": ["push", "pin"], "node": ["b:end", "rb", "bar", "hub", "b:1"],
                                    "direction": [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]],
                                    "point": [[1.0, 0.0, 0.0], [0.0, 2.5, 0.0]],
-                                   "time_function": ["tiny", "sn", "up"]},
+                                   "time_function": ["tiny", "sn", "up", "r"], "epsilon": [1e-6]},
     "clamps[]": {"node": ["hub", "b:start", "rb", "bar", "b:mid"]},
     "fixed[]": {"node": ["bar", "rb", "b:1"], "dofs": [["x"], ["x", "y", "z"], ["rz", "rx"]]},
     "loads[]": {"node": ["b:end", "rb", "bar", "b:mid"], "force": [[0.0, 0.0, 1.0]], "moment": [[0.0, 1.0, 0.0]],
@@ -305,13 +307,15 @@ VOCABULARY = {
                "allow_unsafe_dt": [True, False], "load_steps": [1, 3], "rho_inf": [0.0, 0.8, 1.0],
                "tolerance": [1e-8, 1e-14], "max_iterations": [1, 10],
                # keys of the algorithms to come (issues 19, 20, 22): refused in one line until they land
-               "modes": [1, 6], "about": ["reference", "static", "rotation"], "arc_length": [0.1, 1e-3],
+               "modes": [1, 6, 10**4], "about": ["reference", "static", "rotation"], "arc_length": [0.1, 1e-3],
                "spin_rate": [0.0, 6.0, -20.0], "spin_axis": [[0.0, 0.0, 1.0], [0.0, 0.0, 0.0]],
                "spin_point": [[0.0, 0.0, 0.0], [1.0, 2.0, 3.0]],
                "max_points": [10, 1000], "max_load_factor": [1.0, 10.0],
                "stop_when": ["position.z:b:end < -0.5", "load_factor > 2"], "branch_switch": [True, False],
-               "control": ["position.x:b:end", "position:b:end"],
-               "error_tolerance": [1e-3, 1e-6], "dt_min": [1e-6, 1e-4], "dt_max": [1e-2, 1e-3]},
+               "control": ["position.x:b:end", "position:b:end", "position.z:b:end", "position.z:b:2",
+                           "position.x:hub", "position.y:rb"],
+               "error_tolerance": [1e-3, 1e-6, 1e-7, 1e-4], "dt_min": [1e-6, 1e-4, 1.0], "dt_max": [1e-2, 1e-3],
+               "reference": ["increment", "total"]},
     "checks.*": {"observable": ["position:b:end"], "tolerance": [0.1], "reason": ["r"], "at": [[0.1]],
                  "description": ["d"], "node": ["b:end", "rb"], "reference": ["r"],
                  "relative_to": ["length", "peak", "absolute"]},
@@ -337,12 +341,39 @@ NASTY = [
 SCALES = [0.0, -1.0, 1e-9, 1e-3, 0.5, 1.01, 2.0, 1e3, 1e9, 1e300]
 
 
+VARIANTS = {
+    "alpha_error_epsilon": ({"algorithm": "generalized_alpha", "dt": 1e-3, "t_end": 0.02, "error_tolerance": 1e-4,
+                             "dt_min": 1e-6, "output_every": 5, "consistent_initial_velocities": True},
+                            {"epsilon": 1e-6}, {}),
+    "static": ({"algorithm": "static", "t_end": 0.02, "load_steps": 4}, {}, {}),
+    "arc_length_control": ({"algorithm": "arc_length", "arc_length": 1e-3, "max_points": 3, "max_load_factor": 10.0,
+                            "t_end": 0.02, "control": "position.z:b:end"}, {}, {}),
+    "modes": ({"algorithm": "modes", "modes": 3}, {}, {}),
+    "modes_static": ({"algorithm": "modes", "modes": 3, "about": "static", "t_end": 0.02, "load_steps": 2}, {}, {}),
+    "buckling": ({"algorithm": "buckling", "modes": 2, "t_end": 0.02}, {}, {}),
+    "beam3": ({}, {}, {"element": "beam3"}),
+    "beam2_se3": ({}, {}, {"element": "beam2_se3"}),
+}
+"""Base decks made from :data:`EVERY_TABLE`, so that every algorithm and element family is mutated from a
+deck that runs: name → (``[solver]`` in place of its own, or ``{}`` to keep it; keys set on every joint;
+keys set on the flexible beam ``b``).  Modes about a rotation start from ``models/rotating_cantilever.toml``
+(this deck's pinned body has no steady rotation)."""
+
+
 def base_decks() -> dict[str, str]:
-    """Name → TOML text: every ``models/*.toml``, the example of ``docs/deck.md`` and :data:`EVERY_TABLE`."""
+    """Name → TOML text: every ``models/*.toml``, the example of ``docs/deck.md``, :data:`EVERY_TABLE` and
+    its :data:`VARIANTS`."""
     decks = {p.name: p.read_text(encoding="utf-8") for p in sorted((ROOT / "models").glob("*.toml"))}
     doc = (ROOT / "docs" / "deck.md").read_text(encoding="utf-8")
     decks["docs/deck.md"] = doc.split("## A small example")[1].split("```toml\n")[1].split("```")[0]
     decks["every_table"] = EVERY_TABLE
+    for name, (solver, joint, beam) in VARIANTS.items():
+        deck = tomllib.loads(EVERY_TABLE)
+        deck["solver"] = solver or deck["solver"]
+        for entry in deck["joints"]:
+            entry.update(joint)
+        deck["beams"][0].update(beam)
+        decks[f"every_table/{name}"] = dumps(deck)
     return decks
 
 
@@ -517,8 +548,68 @@ def _alarm(signum, frame):
     raise CaseTimeout
 
 
-def check(path: Path, overrides: dict) -> str:
-    """Run one case; return ``"error"`` or ``"accepted"``, or raise AssertionError with the reason."""
+TIME_STEPPING = ("staggered_central_difference", "generalized_alpha", "static")
+"""Algorithms whose run :func:`solve` shortens to :data:`STEPS` steps (the others' ``t_end`` is a load level)."""
+
+
+def finite(name: str, values) -> bool:
+    """Whether a dataset of a completed run holds numbers only, but for the NaN that docs/results.md
+    documents: ``/solver/error_estimate`` without error control or before the first step, and a column of
+    ``/joints/*`` that is NaN throughout (``prescribed_reaction`` of the joints that are not prescribed
+    displacements, the reactions of master/slave joints)."""
+    import numpy as np
+
+    if name == "solver/error_estimate":
+        return not np.any(np.isinf(values))
+    if name.startswith("joints/") and values.ndim >= 2:
+        columns = values.reshape(values.shape[0], -1)
+        return bool(np.all(np.isfinite(columns) | np.all(np.isnan(columns), axis=0)))
+    return bool(np.all(np.isfinite(values)))
+
+
+def solve(domain, results: Path) -> None:
+    """Run a deck as ``flexmbs run`` does, shortened (:data:`STEPS` steps or arc-length points), into the
+    results file ``results``; then the file must say how the run ended, and a run whose ``status`` is
+    ``completed`` must have written finite numbers only. Modes about a rotation also run a two-rate
+    Campbell table (``flexmbs campbell``)."""
+    import h5py
+    import numpy as np
+
+    from reference.domain import SolverDiverged
+
+    settings = domain.solver
+    t_end = None
+    if settings.algorithm in TIME_STEPPING:
+        t_end = min(settings.t_end, STEPS * (settings.dt or settings.t_end / 1000))
+    if settings.algorithm == "arc_length":
+        settings.max_points = min(settings.max_points, STEPS)
+    results.unlink(missing_ok=True)
+    try:
+        domain.solve(t_end=t_end, results_path=results)
+    except SolverDiverged:
+        pass
+    with h5py.File(results, "r") as f:
+        status = str(f.attrs.get("status", ""))
+        assert status and status != "running", f"results file left with status {status!r}"
+        if status == "completed":
+            bad = []
+            f.visititems(lambda name, obj: bad.append(name) if isinstance(obj, h5py.Dataset) and obj.dtype.kind == "f"
+                         and not finite(name, obj[()]) else None)
+            assert not bad, f"non-finite values with status 'completed': /{bad[0]}"
+    if settings.algorithm == "modes" and settings.about == "rotation":
+        from flexmbs.campbell import campbell
+
+        table = campbell(domain, [0.0, settings.spin_rate])
+        assert np.all(np.isfinite(table.frequency)), "non-finite Campbell frequency"
+
+
+def check(path: Path, overrides: dict, results: Path | None = None) -> str:
+    """Run one case; return ``"error"`` or ``"accepted"``, or raise AssertionError with the reason.
+
+    An accepted deck takes :data:`STEPS` steps (:meth:`Domain.solve_at`, then its state must be finite),
+    or with ``results`` (a results file's path) runs as on the command line (:func:`solve`)."""
+    import numpy as np
+
     from reference.domain import SolverDiverged
     from reference.io.deck import DeckError, load_deck
     from reference.validation import ModelWarning
@@ -537,10 +628,15 @@ def check(path: Path, overrides: dict) -> str:
                 assert len(message) <= MAX_CHARS + len(str(path)), f"{len(message)}-character message: {message[:400]!r}"
                 assert message.startswith(str(path)), f"message without the file: {message[:400]!r}"
                 return "error"
+            if results is not None:
+                solve(domain, results)
+                return "accepted"
             try:
-                domain.solve_at(STEPS * domain.solver.dt)
+                state = domain.solve_at(STEPS * domain.solver.dt)
             except SolverDiverged:
-                pass
+                return "accepted"
+            assert all(np.all(np.isfinite(a)) for a in (state.x, state.q, state.v, state.w)), \
+                f"non-finite state at t = {state.t} without SolverDiverged"
             return "accepted"
     except CaseTimeout:
         raise AssertionError(f"hang: no answer in {TIME_LIMIT} s") from None
@@ -567,18 +663,55 @@ def warm_up() -> None:
         domain.solve()
 
 
-def run(cases: int, seed: int, workdir: Path, report=None) -> dict:
-    """Run ``cases`` cases from ``seed``; return counts, failures (with their decks) and timings."""
+HANG_LIMIT = 6 * TIME_LIMIT
+"""Wall time [s] of one case (compilation left out) after which the watchdog ends the fuzzer: a loop inside
+compiled code never returns to Python, so :data:`TIME_LIMIT`'s alarm cannot stop it."""
+
+
+class Watchdog(threading.Thread):
+    """Ends the process (exit 3), naming the case and keeping its deck, when a case runs past
+    :data:`HANG_LIMIT` outside numba's compiler; ``--start`` resumes after it."""
+
+    def __init__(self, workdir: Path, report):
+        super().__init__(daemon=True)
+        self.workdir, self.report, self.case, self.since = workdir, report or print, None, 0.0
+
+    def watch(self, case, text: str) -> None:
+        (self.workdir / "current.toml").write_text(text, encoding="utf-8", errors="surrogatepass")
+        self.case, self.since = case, time.monotonic()
+
+    def run(self) -> None:
+        while True:
+            time.sleep(1.0)
+            if _COMPILING.busy:
+                self.since = time.monotonic()
+            elif self.case is not None and time.monotonic() - self.since > HANG_LIMIT:
+                kept = self.workdir / f"hang_{self.case}.toml"
+                (self.workdir / "current.toml").replace(kept)
+                self.report(f"case {self.case}: hang, no return from compiled code in {HANG_LIMIT:.0f} s; deck {kept}; "
+                            f"resume with --start {self.case + 1}")
+                os._exit(3)
+
+
+def run(cases: int, seed: int, workdir: Path, report=None, start: int = 0, results: bool = False) -> dict:
+    """Run cases ``start`` … ``cases − 1`` of ``seed`` (``results``: as on the command line, :func:`solve`);
+    return counts, failures (with their decks) and timings."""
     rng = random.Random(seed)
     warm_up()
+    watchdog = Watchdog(workdir, report)
+    watchdog.start()
     bases = {}
     for name, text in base_decks().items():  # a base deck must itself load: mutations are made from valid decks
         path = workdir / "base.toml"
         path.write_text(text, encoding="utf-8")
-        if check(path, {}) == "accepted":
+        try:
+            answer = check(path, {}, workdir / "results.h5" if results else None)
+        except AssertionError as exc:
+            answer = f"fails ({exc})"
+        if answer == "accepted":
             bases[name] = text
         elif report:
-            report(f"base deck {name} does not load; left out")
+            report(f"base deck {name}: {answer}; left out")
     counts = {"error": 0, "accepted": 0}
     failures = []
     slowest = (0.0, "")
@@ -586,13 +719,17 @@ def run(cases: int, seed: int, workdir: Path, report=None) -> dict:
     t0 = time.perf_counter()
     for k in range(cases):
         name, text, overrides = make_case(rng, bases)
+        if k < start:
+            continue
         path.write_text(text, encoding="utf-8", errors="surrogatepass")
+        watchdog.watch(k, text)
         t = time.perf_counter()
         try:
-            counts[check(path, overrides)] += 1
+            counts[check(path, overrides, workdir / "results.h5" if results else None)] += 1
         except AssertionError as exc:
             failures.append({"case": k, "base": name, "overrides": overrides, "problem": str(exc), "deck": text})
             (workdir / f"failure_{k}.toml").write_text(text, encoding="utf-8", errors="surrogatepass")
+        watchdog.case = None
         dt = time.perf_counter() - t
         if dt > slowest[0]:
             slowest = (dt, name)
@@ -607,11 +744,15 @@ def main(argv=None) -> int:
     p.add_argument("--cases", type=int, default=10_000)
     p.add_argument("--seed", type=int, default=12)
     p.add_argument("--out", default="out/fuzz", help="folder for the failing decks")
+    p.add_argument("--start", type=int, default=0, help="skip the cases before this one (resume after a hang)")
+    p.add_argument("--results", action="store_true",
+                   help="run each accepted deck as `flexmbs run` does and check its results file")
     args = p.parse_args(argv)
     sys.path.insert(0, str(ROOT))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    res = run(args.cases, args.seed, out, report=lambda s: print(s, flush=True))
+    res = run(args.cases, args.seed, out, report=lambda s: print(s, flush=True), start=args.start,
+              results=args.results)
     for f in res["failures"][:20]:
         print(f"case {f['case']} ({f['base']}, overrides {f['overrides']}): {f['problem']}")
     print(f"{res['cases']} cases in {res['wall']:.1f} s: {res['error']} clean errors, {res['accepted']} accepted, "

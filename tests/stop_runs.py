@@ -4,7 +4,8 @@
   is either absent (killed before it was created) or opens, with its records up to the last flush;
 - SIGTERM / SIGHUP / SIGINT during the run: exit 128 + the signal, one line on stderr that names
   the file only when it exists, and a file whose status is ``"terminated at t = …"`` (or
-  ``"interrupted at t = …"`` for SIGINT);
+  ``"interrupted at t = …"`` for SIGINT) — explicit, error-controlled generalized-α, arc-length and
+  modes runs in turn (:data:`SOLVERS`);
 - Ctrl-C at any moment of the start-up: exit 130, at most one line, no traceback, and a results
   file only if its status is ``"interrupted at t = …"``;
 - SIGINT / SIGTERM in the middle of a long output interval (the documented example at one output per
@@ -33,12 +34,32 @@ import h5py
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def deck(tmp: Path) -> Path:
-    """The documented example, run long enough (about 2 s of stepping) to be stopped in the middle."""
+SOLVERS = {
+    "explicit": None,
+    "error_controlled": 'algorithm = "generalized_alpha"\ndt = 1e-3\nt_end = 400.0\nerror_tolerance = 1e-6\n'
+                        'output_every = 20\n',
+    "arc_length": 'algorithm = "arc_length"\narc_length = 1e-4\nmax_points = 1000000\nmax_load_factor = 1e9\n',
+    "modes": 'algorithm = "modes"\nmodes = 3\nabout = "static"\nt_end = 1.0\nload_steps = 1000000\n'
+             'output_every = 100\n',
+}
+"""The runs stopped: the documented example's ``[solver]`` (explicit, made long) or in its place an
+error-controlled generalized-α run, an arc-length path and modes about a long static path."""
+HEAD_START = {"explicit": 0.0, "error_controlled": 3.0, "arc_length": 3.0, "modes": 3.0}
+"""Seconds a signal waits after the results file appeared, before its random delay: the implicit
+algorithms' kernels load for a second or two after the file is created, and the signal is to stop the
+path or the steps, not the loading."""
+
+
+def deck(tmp: Path, kind: str = "explicit") -> Path:
+    """The documented example with the solver ``kind`` (:data:`SOLVERS`), run long enough (seconds) to be
+    stopped in the middle."""
     doc = (ROOT / "docs" / "deck.md").read_text()
     text = doc.split("## A small example")[1].split("```toml\n")[1].split("```")[0]
-    path = tmp / "long.toml"
-    path.write_text(text.replace("t_end = 0.02 ", "t_end = 400.0 ").replace("output_every = 5", "output_every = 20"))
+    path = tmp / f"long_{kind}.toml"
+    if SOLVERS[kind] is None:
+        path.write_text(text.replace("t_end = 0.02 ", "t_end = 400.0 ").replace("output_every = 5", "output_every = 20"))
+    else:
+        path.write_text(text.split("[solver]")[0] + "[solver]\n" + SOLVERS[kind])
     return path
 
 
@@ -106,13 +127,14 @@ def wait_for(path: Path, proc: subprocess.Popen) -> None:
         time.sleep(0.005)
 
 
-def kill_trial(tmp: Path, k: int, delay: float, running: bool) -> str:
-    """SIGKILL ``delay`` s after the start (or, if ``running``, after the results file appeared);
-    return what was left ("no file" or the status), or raise."""
+def kill_trial(tmp: Path, k: int, delay: float, running: bool, kind: str = "explicit") -> str:
+    """SIGKILL ``delay`` s after the start (or, if ``running``, after the results file appeared) of a run
+    of ``kind`` (:data:`SOLVERS`); return what was left ("no file" or the status), or raise."""
     out = tmp / f"kill{k}"
-    proc = start(deck(tmp), out)
+    proc = start(deck(tmp, kind), out)
     if running:
         wait_for(out / "results.h5", proc)
+        delay += HEAD_START[kind]
     time.sleep(delay)
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=60)
@@ -133,31 +155,37 @@ def _stop_lines(err: str) -> list[str]:
     return [line for line in err.strip().splitlines() if not line.startswith(COMPILING)]
 
 
-def stop_trial(tmp: Path, k: int, sig: int, delay: float, kind: str = "") -> str:
-    """``sig`` once the results file exists and ``delay`` s more; check exit status, message and file.  With
-    ``kind`` (:data:`LONG_INTERVALS`) the run's outputs are far apart and it must end within :data:`PROMPT` s
-    of the signal."""
+def stop_trial(tmp: Path, k: int, sig: int, delay: float, kind: str = "explicit",
+               long_interval: str = "") -> str:
+    """``sig`` once the results file of a run of ``kind`` (:data:`SOLVERS`) exists and ``delay`` s more;
+    check exit status, message and file.  With ``long_interval`` (:data:`LONG_INTERVALS`) the run's outputs
+    are far apart instead, and it must end within :data:`PROMPT` CPU s of the signal."""
     out = tmp / f"stop{k}"
-    proc = start(long_interval_deck(tmp, kind) if kind else deck(tmp), out)
+    proc = start(long_interval_deck(tmp, long_interval) if long_interval else deck(tmp, kind), out)
     path = out / "results.h5"
     wait_for(path, proc)
-    time.sleep(delay)
+    time.sleep((0.0 if long_interval else HEAD_START[kind]) + delay)
     reaped, used, sent = children_cpu(), cpu_seconds(proc.pid), time.monotonic()
     proc.send_signal(sig)
-    _, err = proc.communicate(timeout=60)
+    try:
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate(timeout=60)
+        raise AssertionError(f"{signal.Signals(sig).name} ignored for 60 s (killed)") from None
     took, cpu = time.monotonic() - sent, children_cpu() - reaped - used
-    if kind:
-        assert cpu <= PROMPT, f"{kind}: ended {cpu:.2f} CPU s ({took:.2f} s) after the signal"
+    if long_interval:
+        assert cpu <= PROMPT, f"{long_interval}: ended {cpu:.2f} CPU s ({took:.2f} s) after the signal"
     lines = _stop_lines(err)
     word = "interrupted" if sig == signal.SIGINT else "terminated"
     assert proc.returncode == 128 + sig, (proc.returncode, err[-2000:])
     assert len(lines) == 1 and lines[0].startswith(f"flexmbs: {word}"), err[-2000:]
     assert "Traceback" not in err
     status, n_time, _ = open_results(path)
-    assert status.startswith(f"{word} at t = "), status
+    assert status.startswith(f"{word} at "), status
     assert str(path) in lines[0] and status in lines[0], lines[0]
     return f"{status} ({n_time} records)" + (f", ended {cpu:.2f} CPU s ({took:.2f} s) after the signal"
-                                              if kind else "")
+                                              if long_interval else "")
 
 
 def early_interrupt_trial(tmp: Path, k: int, delay: float) -> str:
@@ -229,28 +257,32 @@ def main(argv=None) -> int:
     failures = 0
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
+        kinds = list(SOLVERS)
         for k in range(args.kills):
             running = k >= args.kills // 2
+            kind = kinds[k % len(kinds)] if running else "explicit"
             delay = rng.uniform(0.0, 1.5) if running else rng.uniform(0.0, 0.5)
-            when = f"{delay:.2f} s after {'the file appeared' if running else 'the start'}"
+            when = f"{delay:.2f} s after {'the file appeared' if running else 'the start'} ({kind})"
             try:
-                print(f"SIGKILL {when}: {kill_trial(tmp, k, delay, running)}", flush=True)
+                print(f"SIGKILL {when}: {kill_trial(tmp, k, delay, running, kind)}", flush=True)
             except Exception as exc:
                 failures += 1
                 print(f"SIGKILL {when}: FAILED {type(exc).__name__}: {exc}", flush=True)
         failures += early_interrupts(tmp, args.terms // 2, rng, span=3.0) if args.terms // 2 else 0
         for k in range(args.terms):
             sig = signal.SIGTERM if k % 5 else signal.SIGHUP
+            kind = kinds[k % len(kinds)]
             try:
-                print(f"{signal.Signals(sig).name}: {stop_trial(tmp, k, sig, rng.uniform(0.0, 1.0))}", flush=True)
+                print(f"{signal.Signals(sig).name} ({kind}): {stop_trial(tmp, k, sig, rng.uniform(0.0, 1.0), kind)}",
+                      flush=True)
             except Exception as exc:
                 failures += 1
-                print(f"{signal.Signals(sig).name}: FAILED {type(exc).__name__}: {exc}", flush=True)
+                print(f"{signal.Signals(sig).name} ({kind}): FAILED {type(exc).__name__}: {exc}", flush=True)
         failures += early_interrupts(tmp, args.ints, rng) if args.ints else 0
         for k, kind in enumerate(LONG_INTERVALS):
             for j, sig in enumerate((signal.SIGINT, signal.SIGTERM)):
                 try:
-                    outcome = stop_trial(tmp, 100 + 2 * k + j, sig, rng.uniform(0.5, 2.0), kind)
+                    outcome = stop_trial(tmp, 100 + 2 * k + j, sig, rng.uniform(0.5, 2.0), long_interval=kind)
                     print(f"{signal.Signals(sig).name}, {kind}: {outcome}", flush=True)
                 except Exception as exc:
                     failures += 1

@@ -49,7 +49,14 @@ def test_ctrl_c_stops_a_run_between_two_outputs_within_a_second(tmp_path, kind):
     outputs 100 s (heavy top, error control) and 2,000 s (explicit) of model time apart, Ctrl-C 1 s after the
     results file appeared ends the run within 1 s of CPU time (stop_runs.PROMPT: wall time on an idle machine),
     exit 130, status "interrupted at t = …"."""
-    assert "ended" in stop_runs.stop_trial(tmp_path, 0, signal.SIGINT, 1.0, kind)
+    assert "ended" in stop_runs.stop_trial(tmp_path, 0, signal.SIGINT, 1.0, long_interval=kind)
+
+
+@pytest.mark.parametrize("kind", ["error_controlled", "arc_length", "modes"])
+def test_sigterm_stops_every_kind_of_run_with_a_status_and_one_line(tmp_path, kind):
+    """An error-controlled generalized-α run, an arc-length path and the static path of a modes run
+    (issue 38): SIGTERM ends each in order (exit 143, one line, status "terminated at …")."""
+    assert stop_runs.stop_trial(tmp_path, 0, signal.SIGTERM, 0.3, kind)
 
 
 def test_an_exception_during_the_run_records_failed(tmp_path, monkeypatch):

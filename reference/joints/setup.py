@@ -233,7 +233,137 @@ def redundancy_message(lagrange: list[Joint], loops: dict) -> str:
     return head + "; ".join(shown) + tail
 
 
-def project_initial_velocities(model: Model, state: State) -> None:
+RIGID_SIZE = 2 * 10**7
+"""Largest ``rows × columns`` of the dense least-squares problem of :func:`rigid_body_correction`
+(160 MB); a larger model skips it and gets the nodal projection only."""
+
+
+def flexible_bodies(n_nodes: int, element_nodes) -> np.ndarray:
+    """Per node (N,) the number of its flexible body — the nodes joined by elements — or −1 for a node
+    of no element (a rigid body, a point mass). ``element_nodes``: each element's node ids."""
+    import scipy.sparse
+    import scipy.sparse.csgraph
+
+    pairs = np.array([(e[0], n) for e in element_nodes for n in e[1:]], dtype=np.int64).reshape(-1, 2)
+    graph = scipy.sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n_nodes, n_nodes))
+    _, label = scipy.sparse.csgraph.connected_components(graph, directed=False)
+    body = np.full(n_nodes, -1, dtype=np.int64)
+    used = np.unique(pairs)
+    body[used] = np.unique(label[used], return_inverse=True)[1]
+    return body
+
+
+def _rigid_maps(model: Model, x, q, nodes) -> np.ndarray:
+    """(n, 6, 6): for each of ``nodes`` the map from a rigid motion ``(v_c, ω)`` of their body (velocity of
+    its centre of mass c, inertial angular velocity) to the node's ``(v_n, ω_n)``:
+    ``v_n = v_c + ω × (x_n − x_c)``, ``ω_n = A_nᵀ ω`` (body frame, A_n the node's rotation matrix)."""
+    from reference.rotation import EulerParameters, skew
+
+    mass = model.nodes.mass[nodes]
+    centre = mass @ x[nodes] / mass.sum()
+    T = np.zeros((len(nodes), 6, 6))
+    for k, n in enumerate(nodes):
+        T[k, :3, :3] = np.eye(3)
+        T[k, :3, 3:] = -skew(x[n] - centre)
+        T[k, 3:, 3:] = EulerParameters(q[n]).matrix().T
+    return T
+
+
+def _pair_constraints(model: Model, q) -> list:
+    """Each master/slave pair's velocity constraints: ``(C, master, slave)`` with ``C [V_m; V_s] = 0``
+    (rows spanning the complement of the pair's motions ``V = T u``, :mod:`reference.joints.master_slave`)."""
+    import scipy.linalg
+
+    from reference.joints.master_slave import _pair_matrices
+
+    pair_matrices = getattr(_pair_matrices, "py_func", _pair_matrices)
+    out = []
+    T, A_m, A_s = np.zeros((12, 9)), np.zeros(9), np.zeros(9)
+    for k in range(model.master_slave.master.shape[0]):
+        d = pair_matrices(model, k, q, T, A_m, A_s)
+        out.append((scipy.linalg.null_space(T[:, :d].T).T, model.master_slave.master[k], model.master_slave.slave[k]))
+    return out
+
+
+def rigid_body_correction(model: Model, state: State, body: np.ndarray) -> None:
+    """Add to the initial velocities the rigid motions of the bodies that make the velocity constraints
+    hold with least kinetic energy, in place: each flexible body moves as one rigid body, each other node
+    of a joint as itself.
+
+    ``body`` (N,): :func:`flexible_bodies`. The correction is ``ΔV = T y``, ``T`` the rigid motions of the
+    bodies (:func:`_rigid_maps`, restricted to those their fixed coordinates allow) and of the other nodes;
+    ``y`` minimises the kinetic energy ``½ yᵀ (Tᵀ M T) y`` subject to ``B T y = −(B V0 + Φ_t)`` and the
+    master/slave pairs' velocity constraints (least squares, dependent rows dropped by the SVD). A model
+    whose drives cannot be followed by rigid bodies (a clamped beam driven at its tip) is left with the
+    residual that :func:`project_initial_velocities` then removes at the joints' nodes; so is a model too
+    large for the dense problem (:data:`RIGID_SIZE`) or whose masses overflow it.
+    """
+    import scipy.linalg
+
+    N = state.x.shape[0]
+    pairs = _pair_constraints(model, state.q)
+    joint_nodes = [n for n in (*model.joints.i, *model.joints.j, *(p[1] for p in pairs), *(p[2] for p in pairs))
+                   if n >= 0]
+    groups = sorted({int(body[n]) if body[n] >= 0 else -1 - int(n) for n in joint_nodes})
+    if not any(g >= 0 for g in groups):
+        return
+    maps, column = {}, {}  # node → (its map to the group's columns (6, k)), group → first column
+    Mr, cols = [], 0
+    for g in groups:
+        nodes = np.flatnonzero(body == g) if g >= 0 else np.array([-1 - g])
+        T = _rigid_maps(model, state.x, state.q, nodes) if g >= 0 else np.eye(6)[None]
+        fixed = np.concatenate([T[k][model.nodes.free[n] == 0.0] for k, n in enumerate(nodes)])
+        basis = scipy.linalg.null_space(fixed) if len(fixed) else np.eye(6)
+        mass = np.zeros((basis.shape[1], basis.shape[1]))
+        for k, n in enumerate(nodes):
+            Tn = T[k] @ basis
+            maps[int(n)] = Tn
+            Mn = np.zeros((6, 6))
+            Mn[:3, :3], Mn[3:, 3:] = model.nodes.mass[n] * np.eye(3), model.nodes.inertia[n]
+            mass += Tn.T @ Mn @ Tn
+        column[g], cols = cols, cols + basis.shape[1]
+        Mr.append(mass)
+    m = model.n_constraints + sum(p[0].shape[0] for p in pairs)
+    if m * cols > RIGID_SIZE or cols == 0:
+        return
+
+    def columns(n):
+        g = int(body[n]) if body[n] >= 0 else -1 - int(n)
+        return slice(column[g], column[g] + maps[int(n)].shape[1])
+
+    _, PHIt, Bj, _ = constraint_blocks(model, state.x, state.q, state.t)
+    A, r = np.zeros((m, cols)), np.zeros(m)
+    jacobian_times(model, Bj, state.v, state.w, r[:model.n_constraints])
+    r[:model.n_constraints] = -(r[:model.n_constraints] + PHIt)
+    for k in range(Bj.shape[0]):
+        r0, mk = model.joints.row0[k], model.joints.neq[k]
+        for side, n in enumerate((model.joints.i[k], model.joints.j[k])):
+            if n >= 0:
+                A[r0:r0 + mk, columns(n)] += Bj[k, :mk, 6 * side:6 * side + 6] @ maps[int(n)]
+    row = model.n_constraints
+    for C, master, slave in pairs:
+        V = np.concatenate([state.v[master], state.w[master], state.v[slave], state.w[slave]])
+        A[row:row + len(C), columns(master)] += C[:, :6] @ maps[int(master)]
+        A[row:row + len(C), columns(slave)] += C[:, 6:] @ maps[int(slave)]
+        r[row:row + len(C)] = -C @ V
+        row += len(C)
+    mass = scipy.linalg.block_diag(*Mr)
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(r)) and np.all(np.isfinite(mass))):
+        return  # an overflowing mass or a non-finite velocity: the nodal projection alone
+    try:
+        L = scipy.linalg.cholesky(mass, lower=True)
+        u = scipy.linalg.lstsq(scipy.linalg.solve_triangular(L, A.T, lower=True).T, r)[0]
+    except np.linalg.LinAlgError:
+        return  # masses too far apart for the dense factorisation: the nodal projection alone
+    y = scipy.linalg.solve_triangular(L.T, u, lower=False)
+    for n, Tn in maps.items():
+        g = int(body[n]) if body[n] >= 0 else -1 - n
+        dV = Tn @ y[column[g]:column[g] + Tn.shape[1]]
+        state.v[n] += dV[:3]
+        state.w[n] += dV[3:]
+
+
+def project_initial_velocities(model: Model, state: State, body: np.ndarray | None = None) -> None:
     """Make the initial velocities consistent: ``V = V0 − M⁻¹Bᵀ (B M⁻¹ Bᵀ)⁻¹ (B V0 + Φ_t)``, in place.
 
     The M-orthogonal projection changes the kinetic energy least; for a
@@ -241,7 +371,15 @@ def project_initial_velocities(model: Model, state: State) -> None:
     Solved with the sparse factor of the step's pattern; dependent
     (regularised redundant) rows are dropped, which leaves the projection
     unchanged when the velocity constraints are consistent.
+
+    The projection moves only the nodes of the joints: a flexible body's other nodes would stay
+    behind, and its elements start with a strain rate of the order of the drive's speed over an
+    element's length. With ``body`` (:func:`flexible_bodies`) the velocities first get the rigid motions
+    of the bodies that satisfy the constraints (:func:`rigid_body_correction`), and the projection then
+    removes only what rigid bodies cannot follow.
     """
+    if body is not None:
+        rigid_body_correction(model, state, body)
     _, PHIt, Bj, BMj = constraint_blocks(model, state.x, state.q, state.t)
     Lx, _ = dependent_rows(model, Bj, BMj)
     rhs = np.zeros(model.n_constraints)
