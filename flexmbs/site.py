@@ -7,25 +7,22 @@ lessons (``notebooks/*.py``, copied for MyST-NB to read as notebooks) and the ve
 (``reports/verification.md``, the output of ``flexmbs report``).
 
 The built site is checked as a reader sees it by :func:`check_site` (``make docs-check``, ``python -m
-flexmbs.site check build/docs``): headless Chromium renders its main pages with no network, and any raw
-LaTeX, console error, failed load or broken link or anchor is reported.
+flexmbs.site check build/docs``): headless Chromium (:mod:`flexmbs.browser`) renders its main pages with no
+network, and any raw LaTeX, console error, failed load or broken link or anchor is reported.
 """
 
 from __future__ import annotations
 
 import argparse
-import base64
 import json
-import os
 import re
-import select
 import shutil
-import subprocess
 import sys
 import tomllib
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
+from flexmbs.browser import Browser, BrowserError, chromium
 from flexmbs.deck_reference import markdown as deck_key_tables
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -181,7 +178,7 @@ _RAW_LATEX = r"\$\$|\\\(|\\\)|\\\[|\\\]|\$\\[a-zA-Z]|\\(?:frac|mathsf|mathbf|mat
 """Raw LaTeX in a page's text: dollar or backslash delimiters, or a TeX command, outside the rendered equations."""
 
 _SURVEY = r"""
-(async () => {
+document.readyState === "complete" && (async () => { try {
   if (window.MathJax && MathJax.startup && MathJax.startup.promise) { await MathJax.startup.promise; }
   const raw = new RegExp(%s);
   const skip = new Set(["SCRIPT", "STYLE", "CODE", "PRE", "TEXTAREA", "MJX-CONTAINER", "MJX-ASSISTIVE-MML"]);
@@ -196,101 +193,14 @@ _SURVEY = r"""
   const rendered = document.querySelectorAll("mjx-container").length;
   const errors = [...document.querySelectorAll("mjx-merror")].map(e => e.getAttribute("data-mjx-error") || e.textContent);
   const links = [...document.querySelectorAll("a[href]")].map(a => a.href);
+  const anchor = location.hash && document.getElementById(decodeURIComponent(location.hash.slice(1)));
+  if (anchor) { anchor.scrollIntoView(); }
   return JSON.stringify({raw: found, math, rendered, errors, links});
-})()
+} catch (e) { return JSON.stringify({failed: String(e)}); } })()
 """
-
-
-class _Chromium:
-    """Headless Chromium driven over its DevTools pipe (``--remote-debugging-pipe``: the protocol's JSON
-    messages, each ended by a NUL byte, on file descriptors 3 and 4), so no WebSocket client or network port is
-    needed.  Every host name resolves to nothing: the pages are rendered as on a machine without a network."""
-
-    def __init__(self, binary: str, width: int = 1280, height: int = 1600):
-        to_chrome, self._write = os.pipe()
-        self._read, from_chrome = os.pipe()
-
-        def descriptors():  # copies first: a pipe end may already be 3 or 4 (and dup2 onto itself keeps close-on-exec)
-            ends = os.dup(to_chrome), os.dup(from_chrome)
-            os.dup2(ends[0], 3)
-            os.dup2(ends[1], 4)
-
-        self.proc = subprocess.Popen(
-            [binary, "--headless", "--no-sandbox", "--disable-gpu", "--remote-debugging-pipe", "--hide-scrollbars",
-             "--host-resolver-rules=MAP * ~NOTFOUND", "--allow-file-access-from-files", "--no-first-run",
-             f"--window-size={width},{height}", "about:blank"],
-            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, close_fds=False,
-            preexec_fn=descriptors)
-        os.close(to_chrome)
-        os.close(from_chrome)
-        self._buffer = b""
-        self._id = 0
-        self.events: list[dict] = []
-        target = self.call("Target.createTarget", url="about:blank")["targetId"]
-        self.session = self.call("Target.attachToTarget", targetId=target, flatten=True)["sessionId"]
-        for domain in ("Page", "Runtime", "Log"):
-            self.call(f"{domain}.enable", session=True)
-        self.call("Emulation.setDeviceMetricsOverride", session=True, width=width, height=height,
-                  deviceScaleFactor=1, mobile=False)
-
-    def _message(self, timeout: float) -> dict:
-        while b"\0" not in self._buffer:
-            ready, _, _ = select.select([self._read], [], [], timeout)
-            if not ready:
-                raise TimeoutError("Chromium did not answer")
-            chunk = os.read(self._read, 1 << 20)
-            if not chunk:
-                raise RuntimeError("Chromium closed its DevTools pipe")
-            self._buffer += chunk
-        message, self._buffer = self._buffer.split(b"\0", 1)
-        return json.loads(message)
-
-    def call(self, method: str, session: bool = False, timeout: float = 60.0, **params) -> dict:
-        """Send one command and return its result (the events that arrive meanwhile are kept)."""
-        self._id += 1
-        message = {"id": self._id, "method": method, "params": params}
-        if session:
-            message["sessionId"] = self.session
-        os.write(self._write, json.dumps(message).encode() + b"\0")
-        while True:
-            answer = self._message(timeout)
-            if answer.get("id") == self._id:
-                if "error" in answer:
-                    raise RuntimeError(f"{method}: {answer['error'].get('message')}")
-                return answer.get("result", {})
-            self.events.append(answer)
-
-    def wait_for(self, event: str, timeout: float = 60.0) -> dict:
-        """Wait for an event (one that already arrived counts)."""
-        for i, seen in enumerate(self.events):
-            if seen.get("method") == event:
-                return self.events.pop(i)
-        while True:
-            seen = self._message(timeout)
-            if seen.get("method") == event:
-                return seen
-            self.events.append(seen)
-
-    def close(self):
-        try:
-            self.call("Browser.close", timeout=10)
-        except (RuntimeError, TimeoutError, OSError):
-            pass
-        for fd in (self._write, self._read):
-            os.close(fd)
-        try:
-            self.proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-
-
-def chromium() -> str | None:
-    """The Chromium (or Chrome) executable on the PATH, or None."""
-    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable", "chrome"):
-        if path := shutil.which(name):
-            return path
-    return None
+"""What :func:`check_site` waits for on each page (the ready expression of :meth:`flexmbs.browser.Browser.open`, its
+``%s`` filled with :data:`_RAW_LATEX`): once the page has loaded and MathJax has typeset it, the page's raw LaTeX,
+equations, typeset equations, MathJax errors and links as JSON, the page scrolled to its anchor for the screenshot."""
 
 
 def _ids(path: Path, cache: dict) -> set[str]:
@@ -311,14 +221,10 @@ def check_site(site: Path, pages=PAGES, screenshots: Path | None = None) -> list
     from the site, or a resource from the network), and links to a missing page or to an anchor the target page
     does not have.  ``screenshots``: a folder that receives one PNG per page, scrolled to the page's anchor.
     """
-    binary = chromium()
-    if binary is None:
-        raise FileNotFoundError("no Chromium on the PATH: install one (Debian: apt-get install chromium)")
     site = Path(site).resolve()
     problems: list[str] = []
     anchors: dict = {}
-    browser = _Chromium(binary)
-    try:
+    with Browser(width=1280, height=1600) as browser:
         for page in pages:
             name, _, fragment = page.partition("#")
             path = site / name
@@ -327,32 +233,25 @@ def check_site(site: Path, pages=PAGES, screenshots: Path | None = None) -> list
                 continue
             if fragment and fragment not in _ids(path, anchors):
                 problems.append(f"{page}: no anchor #{fragment} in the page")
-            browser.events.clear()
-            browser.call("Page.navigate", session=True, url=path.as_uri() + (f"#{fragment}" if fragment else ""))
-            browser.wait_for("Page.loadEventFired")
-            survey = browser.call("Runtime.evaluate", session=True, expression=_SURVEY % json.dumps(_RAW_LATEX),
-                                  awaitPromise=True, returnByValue=True)
-            if "exceptionDetails" in survey:
-                problems.append(f"{page}: the survey script failed: {survey['exceptionDetails'].get('text')}")
+            try:  # the load's messages arrive before the survey's answer: a short settle
+                seen = browser.open(path, ready=_SURVEY % json.dumps(_RAW_LATEX), fragment=fragment, settle=0.1,
+                                    screenshot=screenshots is not None)
+            except BrowserError as error:
+                problems.append(f"{page}: {error}")
                 continue
-            found = json.loads(survey["result"]["value"])
+            found = json.loads(seen.value)
+            if "failed" in found:
+                problems.append(f"{page}: the survey script failed: {found['failed']}")
+                continue
             problems += [f"{page}: raw LaTeX in the text: {text!r}" for text in found["raw"]]
             problems += [f"{page}: MathJax error: {text}" for text in found["errors"]]
             if found["rendered"] < found["math"]:
                 problems.append(f"{page}: {found['math'] - found['rendered']} of {found['math']} equations "
                                 "not typeset (MathJax did not load?)")
-            for event in browser.events:
-                method, params = event.get("method"), event.get("params", {})
-                if method == "Runtime.consoleAPICalled" and params.get("type") in ("error", "assert"):
-                    text = " ".join(str(a.get("value", a.get("description", ""))) for a in params.get("args", []))
-                    problems.append(f"{page}: console error: {text}")
-                elif method == "Runtime.exceptionThrown":
-                    details = params.get("exceptionDetails", {})
-                    text = details.get("exception", {}).get("description") or details.get("text")
-                    problems.append(f"{page}: uncaught exception: {text}")
-                elif method == "Log.entryAdded" and params.get("entry", {}).get("level") == "error":
-                    entry = params["entry"]
-                    problems.append(f"{page}: {entry.get('text')} {entry.get('url', '')}".rstrip())
+            problems += [f"{page}: {'uncaught exception' if level == 'exception' else 'console error'}: "
+                         + " ".join(str(text).split())  # a stack trace on the same line
+                         for level, text in seen.console if level in ("error", "exception")]
+            problems += [f"{page}: loaded from the network: {url}" for url in seen.requests]
             for link in dict.fromkeys(found["links"]):
                 url = urlsplit(link)
                 if url.scheme != "file":
@@ -363,15 +262,9 @@ def check_site(site: Path, pages=PAGES, screenshots: Path | None = None) -> list
                 elif url.fragment and target.suffix == ".html" and unquote(url.fragment) not in _ids(target, anchors):
                     problems.append(f"{page}: link to a missing anchor {target.name}#{url.fragment}")
             if screenshots is not None:
-                if fragment:
-                    browser.call("Runtime.evaluate", session=True, expression=(
-                        f"document.getElementById({json.dumps(fragment)})?.scrollIntoView()"))
-                shot = browser.call("Page.captureScreenshot", session=True, format="png")
                 Path(screenshots).mkdir(parents=True, exist_ok=True)
                 stem = name.removesuffix(".html").replace("/", "_").removeprefix("_generated_")
-                (Path(screenshots) / f"{stem}.png").write_bytes(base64.b64decode(shot["data"]))
-    finally:
-        browser.close()
+                (Path(screenshots) / f"{stem}.png").write_bytes(seen.screenshot)
     return problems
 
 
@@ -390,7 +283,11 @@ def main(argv=None) -> int:
     if not (args.site / "index.html").exists():
         print(f"flexmbs: error: {args.site}: no built site here; build it with `make docs`", file=sys.stderr)
         return 2
-    problems = check_site(args.site, screenshots=args.screenshots)
+    try:
+        problems = check_site(args.site, screenshots=args.screenshots)
+    except BrowserError as error:
+        print(f"flexmbs: error: {error}", file=sys.stderr)
+        return 2
     for line in problems:
         print(line)
     if problems:

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import pytest
 
-from flexmbs.site import PAGES, check_site, chromium
+from flexmbs.browser import chromium, open_page
+from flexmbs.site import PAGES, VIEWS, check_site
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -63,9 +64,6 @@ def test_quick_site_builds_without_warnings(quick_site):
     assert all(f'id="{p.stem.replace("_", "-")}"' in gallery for p in decks)
     assert len(re.findall(r"<img ", gallery)) >= len(decks)
     # each deck's interactive view (reports/views/, written by `flexmbs report`), drawn in place offline
-    from flexmbs.browser import chromium, open_page
-    from flexmbs.site import VIEWS
-
     views = len([p for p in VIEWS.glob("*.html") if (ROOT / "models" / p.name).with_suffix(".toml").exists()])
     assert gallery.count('<div class="flexmbs-view">') == views > 0
     if chromium() is None:
@@ -145,12 +143,41 @@ def test_no_raw_latex_in_the_pages(quick_site):
                                                "`make docs-check`)")
 def test_pages_render_offline_in_chromium(quick_site, tmp_path):
     """``make docs-check`` on the quick site: the index, getting started, the deck reference, the API's Domain,
-    formulation §7 and lessons 2 and 10 rendered in headless Chromium with every host name unresolvable: the
+    formulation §7 and lessons 2 and 10 rendered in headless Chromium with the network cut off: the
     equations typeset by the site's MathJax, no raw LaTeX in the rendered text, no console error or failed load,
     no link to a missing page or anchor."""
     problems = check_site(quick_site, screenshots=tmp_path)
     assert not problems, "\n".join(problems)
     assert len(list(tmp_path.glob("*.png"))) == len(PAGES)
+
+
+@pytest.mark.skipif(chromium() is None, reason="no Chromium on the PATH (Debian: apt-get install chromium)")
+def test_site_check_reports_what_a_reader_would_see(tmp_path):
+    """The site check on a page with every fault it looks for, written at the end of the page where the check's
+    answer comes right after them (a console message or exception that arrived together with a reply of the
+    browser was once dropped): each fault is one line, and a page or anchor missing from the site is named."""
+    (tmp_path / "index.html").write_text('<html><body><p id="here">fine</p></body></html>', encoding="utf-8")
+    (tmp_path / "bad.html").write_text(
+        '<html><body><p>raw $$x^2$$ here</p><a href="gone.html">a</a><a href="index.html#nowhere">b</a>'
+        '<a href="index.html#here">c</a><img src="https://example.org/x.png"><img src="missing.png">'
+        '<script>console.error("boom"); setTimeout(function () { null.x; }, 0);</script></body></html>',
+        encoding="utf-8")
+    problems = check_site(tmp_path, pages=("bad.html", "index.html#here", "index.html#elsewhere", "absent.html"))
+    expected = ["bad.html: raw LaTeX in the text: 'raw $$x^2$$ here'",
+                "bad.html: console error: boom",
+                "bad.html: uncaught exception: TypeError: Cannot read properties of null (reading 'x')",
+                "bad.html: console error: Failed to load resource: net::ERR_INTERNET_DISCONNECTED "
+                "https://example.org/x.png",
+                "bad.html: console error: Failed to load resource: net::ERR_FILE_NOT_FOUND "
+                + (tmp_path / "missing.png").as_uri(),
+                "bad.html: loaded from the network: https://example.org/x.png",
+                "bad.html: broken link to gone.html",
+                "bad.html: link to a missing anchor index.html#nowhere",
+                "index.html#elsewhere: no anchor #elsewhere in the page",
+                "absent.html: not in the site"]
+    for line in expected:
+        assert any(problem.startswith(line) for problem in problems), (line, problems)
+    assert len(problems) == len(expected), problems
 
 
 def test_every_deck_key_has_a_row_with_its_meaning():
