@@ -141,6 +141,40 @@ def _where(algo, t: float) -> str:
     return f"load factor {t:.6g}" if getattr(algo, "progress_name", "") == "load factor" else f"t = {t:.6g}"
 
 
+def inverse_axial_stiffness(elements) -> np.ndarray:
+    """``1 / EA`` [1/N] of every element, for the axial strain ``|N| / EA`` of the records; 0 for an element whose
+    formulation has no :class:`~reference.elements.Section` (a family of its own data: not checked)."""
+    return np.array([1.0 / section.EA if (section := getattr(e.formulation, "section", None)) is not None else 0.0
+                     for e in elements], dtype=float)
+
+
+def _failure(domain, algo: Algorithm, code: int, state: State, run_state, t_record: float, critical: float):
+    """``(status, message)`` of a run whose algorithm stopped with ``code``: the algorithm's own, the blow-up's cause
+    read from the model (:func:`reference.monitor.rediagnosed`), or a load that is not finite over the step."""
+    status, message = algo.failure(code, state, run_state)
+    message = rediagnosed(message, domain, algo.dt, critical, bool(getattr(algo, "explicit", False)))
+    load = nonfinite_load(domain, (t_record, state.t, state.t + algo.dt))
+    if load:
+        status, message = f"failed: {load}", f"{load}; give a load finite over the run (results up to then are kept)"
+    return status, message
+
+
+def _completed(domain, outputs: Outputs, unrecordable: str | None) -> str:
+    """The status of a run that reached its end, and the one-line warnings its records call for: constraint norms
+    that are not finite (a time function's rate infinite, e.g. ``t**(1/3)`` at t = 0), an axial strain beyond
+    what a slender structure's units make plausible (:func:`reference.validation.axial_strain`)."""
+    status = "completed"
+    if unrecordable is not None:
+        status = f"completed with a non-finite constraint violation norm at {unrecordable}"
+        warnings.warn(f"the constraint violation norms (/constraints/violation_norm, velocity_violation_norm) are "
+                      f"not finite at {unrecordable}: a drive's or prescribed displacement's time function or its "
+                      "rate is not finite there (e.g. t**(1/3) at t = 0); the status says so", ModelWarning,
+                      stacklevel=3)
+    strain, element, t_strain = outputs.strain
+    axial_strain(strain, domain.elements[element].label if domain.elements else "", t_strain)
+    return status
+
+
 def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, results_path=None, progress=None,
         monitor: bool = True, deck=None, critical: float | None = None) -> Results:
     """Advance ``state`` by ``n_total`` steps of ``algo``, recording every ``domain.solver.output_every`` steps.
@@ -153,7 +187,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     every = max(int(domain.solver.output_every), 1)
     rec = Record.empty(len(domain.nodes), model.n_constraints)
     outputs = Outputs(model, domain.joints, rec)
-    outputs.inverse_EA = np.array([1.0 / e.formulation.section.EA for e in domain.elements], dtype=float)
+    outputs.inverse_EA = inverse_axial_stiffness(domain.elements)
     critical = domain.critical_time_step() if critical is None else critical
     watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True), critical) if monitor else None
     run_state = None
@@ -193,11 +227,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
             if code != OK:
                 if algo.record_last(model, state, run_state, rec):  # the last converged state, kept
                     sink.append({**outputs.record(state.t), **algo.recorded(run_state)})
-                status, message = algo.failure(code, state, run_state)
-                message = rediagnosed(message, domain, algo.dt, critical, bool(getattr(algo, "explicit", False)))
-                load = nonfinite_load(domain, (t_record, state.t, state.t + algo.dt))
-                if load:
-                    status, message = f"failed: {load}", f"{load}; give a load finite over the run (results up to then are kept)"
+                status, message = _failure(domain, algo, code, state, run_state, t_record, critical)
                 raise SolverDiverged(message)
             done += chunk
             if progress is not None and chunk > 0:
@@ -205,15 +235,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
             if chunk == 0:
                 break
         sink.add_datasets(algo.finish(model, state, run_state, True))
-        status = "completed"
-        if unrecordable is not None:
-            status = f"completed with a non-finite constraint violation norm at {unrecordable}"
-            warnings.warn(f"the constraint violation norms (/constraints/violation_norm, velocity_violation_norm) are "
-                          f"not finite at {unrecordable}: a drive's or prescribed displacement's time function or its "
-                          "rate is not finite there (e.g. t**(1/3) at t = 0); the status says so", ModelWarning,
-                          stacklevel=2)
-        strain, element, t_strain = outputs.strain
-        axial_strain(strain, domain.elements[element].label if domain.elements else "", t_strain)
+        status = _completed(domain, outputs, unrecordable)
     except SolverDiverged:
         sink.add_datasets(algo.finish(model, state, run_state, False))
         raise
