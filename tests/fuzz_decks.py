@@ -654,13 +654,17 @@ def warm_up() -> None:
     a first compilation can take longer than :data:`TIME_LIMIT` and is not a hang of the case."""
     from reference.algorithms import ALGORITHMS
     from reference.io.deck import load_deck
+    from reference.solution import SolverDiverged
 
     deck = ROOT / "models" / "three_bar.toml"
     for name in ALGORITHMS:
         domain = load_deck(deck, overrides={"t_end": 0.02}).domain
         domain.solver.algorithm, domain.solver.dt, domain.solver.t_end, domain.solver.load_steps = name, 2e-4, 1e-3, 5
         domain.solver.arc_length, domain.solver.max_points, domain.solver.max_load_factor = 1e-3, 5, 1.0
-        domain.solve()
+        try:
+            domain.solve()
+        except SolverDiverged:  # arc length and buckling refuse the unloaded three-bar: nothing to compile there
+            pass
 
 
 HANG_LIMIT = 6 * TIME_LIMIT

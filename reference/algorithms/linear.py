@@ -441,7 +441,7 @@ def _reference_warning(system, state, lam) -> None:
     system.evaluate(state.x, state.q, zero, zero, np.zeros((N, 6)), lam, state.t, False)
     unbalanced = float(np.max(np.abs(system.work.r[free]), initial=0.0))
     scale = max(float(np.max(np.abs(getattr(system.work, k)[free]), initial=0.0)) for k in ("F", "S", "G"))
-    if unbalanced > EQUILIBRIUM * scale:
+    if scale > 0.0 and unbalanced > EQUILIBRIUM * scale:  # unloaded and unstrained: no loads to balance
         warnings.warn(f"modes about the reference state: it is not an equilibrium of the loads at t = {state.t:g} "
                       f"(unbalanced force {unbalanced:.3g} against loads up to {scale:.3g}); the modes are those of "
                       "the structure without the loads' effect: use about = \"static\" for the modes under the loads",
