@@ -12,15 +12,16 @@ coordinates and of the Euler parameters) is done by the
 :class:`~reference.algorithms.Algorithm` on plain arrays (:mod:`reference.state`),
 so that it can be compiled and tested one step at a time.
 
-This module assembles the model; beside it, :mod:`reference.mesh` gives the
-beams' geometry, :mod:`reference.joints.setup` the constraint set-up (joint
-tables, the redundancy check, consistent initial velocities) and
-:mod:`reference.solution` the solution loop (records, monitor, how a run ends).
+This module assembles the model; beside it, :mod:`reference.building` checks what
+the ``add_*`` calls are given and resolves node references (``"rod:start"``),
+:mod:`reference.mesh` gives the beams' geometry, :mod:`reference.joints.setup` the
+constraint set-up (joint tables, the redundancy check, consistent initial
+velocities) and :mod:`reference.solution` the solution loop (records, monitor,
+how a run ends).
 """
 
 from __future__ import annotations
 
-import difflib
 import math
 
 import numpy as np
@@ -39,9 +40,9 @@ from reference.interactions import (
 from reference.io.results import Results
 from reference.joints import Jacobian, Joint, joint_frame, setup
 from reference.monitor import damping_problem
-from reference import validation
-from reference.validation import LabelError, direction, joint_offsets, vector
-from reference.mesh import DEFAULT_AXIS2, arc_geometry, beam_triad, default_axis2, section_frames, straight_line
+from reference.building import beam_arguments, resolve_node, with_axis2
+from reference.validation import direction, joint_offsets, vector
+from reference.mesh import arc_geometry, beam_triad, default_axis2, section_frames, straight_line
 from reference.nodes import Node
 from reference.rotation import EulerParameters
 from reference.solution import SolverDiverged, run
@@ -118,44 +119,15 @@ class Domain:
 
     def node(self, key) -> Node:
         """Node by id (int), label (str) or beam reference, as a deck names it (``docs/deck.md``, "Node
-        references"): ``BEAM:start``, ``BEAM:mid``, ``BEAM:end``, ``BEAM:i`` of a beam of :attr:`beams`.
+        references"): ``BEAM:start``, ``BEAM:mid``, ``BEAM:end``, ``BEAM:i`` of a beam of :attr:`beams`
+        (:func:`reference.building.resolve_node`).
 
         Raises
         ------
         reference.validation.LabelError
             A ``KeyError`` of one line, the deck's wording: what is wrong and the fix (a close label).
         """
-        if isinstance(key, Node):
-            return key
-        if isinstance(key, (int, np.integer)) and not isinstance(key, (bool, np.bool_)):
-            if 0 <= key < len(self.nodes):
-                return self.nodes[int(key)]
-            raise LabelError(f"no node with id {key}", f"ids run from 0 to {len(self.nodes) - 1}")
-        if not isinstance(key, str):
-            raise LabelError(f"expected a node reference (a label like 'beam:end'), got {key!r}")
-        if key in self._labels:
-            return self._labels[key]
-        beam, _, which = key.rpartition(":")
-        if beam in self.beams:
-            nodes = self.beams[beam]
-            if which in ("start", "end"):
-                return nodes[0 if which == "start" else -1]
-            if which == "mid":
-                if len(nodes) % 2 == 0:
-                    raise LabelError(f"beam '{beam}' has no node at mid-span ({len(nodes) - 1} segments)",
-                                     f"give it an even number of segments, or use an index 0…{len(nodes) - 1}")
-                return nodes[len(nodes) // 2]
-            if which.isascii() and which.isdigit() and int(which) < len(nodes):
-                return nodes[int(which)]
-            raise LabelError(f"beam '{beam}' has no node {which!r}",
-                             f"use '{beam}:start', '{beam}:mid', '{beam}:end' or an index 0…{len(nodes) - 1}")
-        if key in self.beams:  # a bare beam label: which of its nodes?
-            raise LabelError(f"{key!r} is a beam, not a node",
-                             f"use '{key}:start', '{key}:end' or an index '{key}:0'…'{key}:{len(self.beams[key]) - 1}'")
-        ends = [f"{b}:{w}" for b in self.beams for w in ("start", "end")]
-        close = difflib.get_close_matches(key, list(self._labels) + ends, n=1)
-        raise LabelError(f"no node {key!r}", f"did you mean '{close[0]}'?" if close else
-                         "reference a node label or '<beam>:start', '<beam>:end', '<beam>:<i>'")
+        return resolve_node(key, self.nodes, self._labels, self.beams)
 
     def add_element(self, formulation, nodes, label: str = "", frames=None) -> Element:
         """Add an element; ``frames`` its section triads at rest (Euler parameters per node, default: the node frames)."""
@@ -174,7 +146,7 @@ class Domain:
         The family chooses each element's section frames at rest
         (``formulation.rest_frames``): by default straight in its own section
         frame (axis 1 along its chord, axis 2 the ``axis2`` hint made orthogonal
-        to it; ``axis2`` defaults to :data:`DEFAULT_AXIS2` where that is never parallel to the beam, else
+        to it; ``axis2`` defaults to :data:`reference.mesh.DEFAULT_AXIS2` where that is never parallel to the beam, else
         :func:`default_axis2`); a helicoidal ``beam2_se3`` takes the beam's triads at the nodes,
         so its reference is the arc itself; a three-node family (``beam3``)
         gets a middle node per element (2 n_elements segments).  New nodes,
@@ -192,27 +164,8 @@ class Domain:
         ≥ 1, got 8.0``); ``n_elements`` and ``section`` are required.
         """
         what = f"beam {label!r}"
-        validation.label(label, "beam label")
-        if label in self.beams:
-            raise ValueError(f"{what}: a beam of this label exists; give each beam its own label")
-        if n_elements is None or isinstance(n_elements, Section):  # add_beam(label, start, end, section)
-            raise ValueError(f"{what}: missing n_elements (the number of elements, e.g. 8)")
-        if section is None:
-            raise ValueError(f"{what}: missing section (a reference.elements.Section)")
-        n_elements = validation.integer(n_elements, f"{what}: n_elements")
-        if not isinstance(section, Section):
-            raise ValueError(f"{what}: section: expected a reference.elements.Section, got {type(section).__name__}")
-        if section.missing_stiffness:
-            raise ValueError(f"{what}: the section has no {', '.join(section.missing_stiffness)}: a flexible beam "
-                             "needs its ten properties (a section of mass data alone is for rigid bars)")
-        if not isinstance(element, str) or element not in ELEMENT_FAMILIES:
-            close = difflib.get_close_matches(element, list(ELEMENT_FAMILIES), n=1) if isinstance(element, str) else []
-            raise ValueError(f"{what}: unknown element {element!r}; "
-                             + (f"did you mean '{close[0]}'?" if close else f"known: {', '.join(ELEMENT_FAMILIES)}"))
-        start, end = vector(start, f"{what}: start"), vector(end, f"{what}: end")
-        center = None if center is None else vector(center, f"{what}: center")
-        if np.linalg.norm(end - start) <= 0.0:
-            raise ValueError(f"{what}: start and end coincide")
+        n_elements, start, end, center = beam_arguments(label, self.beams, n_elements, section, element,
+                                                        start, end, center)
         start_node, end_node = (None if n is None else self.node(n) for n in (start_node, end_node))
         for node, point in ((start_node, start), (end_node, end)):
             if node is not None and np.linalg.norm(node.position - point) > 1e-12 * max(1.0, np.linalg.norm(point)):
@@ -223,14 +176,8 @@ class Domain:
             points, tangents = straight_line(start, end, segments)
         else:
             points, tangents = arc_geometry(start, end, center, segments)
-        hint = DEFAULT_AXIS2 if axis2 is None else direction(axis2, f"{what}: axis2")
-        try:
-            node_q, elem_q = section_frames(points, tangents, hint)
-        except ValueError as exc:
-            other = default_axis2(start, end, center)
-            if axis2 is not None:
-                raise ValueError(f"{what}: {exc}; give another axis2, e.g. axis2 = {other.tolist()}") from None
-            node_q, elem_q = section_frames(points, tangents, other)
+        node_q, elem_q = with_axis2(what, axis2, lambda hint: section_frames(points, tangents, hint),
+                                    lambda: default_axis2(start, end, center))
         nodes = []
         for i in range(segments + 1):
             reuse = start_node if i == 0 else end_node if i == segments else None
@@ -289,14 +236,7 @@ class Domain:
         length = float(np.linalg.norm(end - start))
         if length <= 0.0:
             raise ValueError(f"{what}: start and end coincide")
-        hint = DEFAULT_AXIS2 if axis2 is None else direction(axis2, f"{what}: axis2")
-        try:
-            triad = beam_triad(end - start, hint)
-        except ValueError as exc:
-            other = default_axis2(start, end)
-            if axis2 is not None:
-                raise ValueError(f"{what}: {exc}; give another axis2, e.g. axis2 = {other.tolist()}") from None
-            triad = beam_triad(end - start, other)
+        triad = with_axis2(what, axis2, lambda hint: beam_triad(end - start, hint), lambda: default_axis2(start, end))
         q = EulerParameters.from_matrix(triad).q
         m = section.rhoA * length
         J = np.diag([section.rhoJ1 * length, section.rhoJ2 * length + m * length**2 / 12.0,
