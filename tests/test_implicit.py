@@ -275,6 +275,27 @@ def test_parameters_of_chung_hulbert():
     assert (am, af, g, b) == (-1.0, 0.0, 1.5, 1.0)
 
 
+def test_iterate_configuration_is_the_lie_group_update():
+    """The iterate of a generalized-α step (:func:`reference.algorithms.alpha_steps._configuration`, the first
+    step of every Newton iteration and of the acceptance): ``x + h Δx`` and ``q ⊗ exp(h Δθ)`` on SO(3), checked
+    against the rotation matrices ``A(q) A(exp(h Δθ))``.  1e-13: products of unit matrices, a few round-offs."""
+    from reference.algorithms.alpha_steps import _configuration
+    from reference.rotation import EulerParameters
+
+    rng = np.random.default_rng(3)
+    N, h = 5, 0.01
+    x, dq = rng.normal(size=(N, 3)), 40.0 * rng.normal(size=(N, 6))
+    q = np.empty((N, 4))
+    compose(np.tile([1.0, 0.0, 0.0, 0.0], (N, 1)), rng.normal(size=(N, 3)), q, np.empty(4))
+    x1, q1, psi = np.empty((N, 3)), np.empty((N, 4)), np.empty((N, 3))
+    _configuration(x, q, dq, h, x1, q1, np.empty(4), psi)
+    assert np.array_equal(x1, x + h * dq[:, :3])
+    for n in range(N):
+        expected = EulerParameters(q[n]).matrix() @ RotationVector(h * dq[n, 3:]).matrix()
+        assert np.allclose(EulerParameters(q1[n]).matrix(), expected, rtol=0.0, atol=1e-13)
+        assert abs(np.linalg.norm(q1[n]) - 1.0) < 1e-15
+
+
 def test_failures_end_with_one_message_and_a_valid_file(tmp_path):
     """Singular tangent (a free beam under a load: rigid-body motions), a load step that does
     not converge even halved, and a Newton failure of generalized-α: each raises one message

@@ -26,7 +26,7 @@ from reference.algorithms.step_control import FLOOR, GROW_AFTER, kept_step, land
 from reference.jit import inlined, kernel, named
 from reference.linalg import lu_solve
 from reference.state import Model, Record
-from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR
+from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR
 
 FIXED, GROWING, ERROR_CONTROL = 0.0, 1.0, 2.0
 """The modes of :func:`steps` (``par[CONTROL]``): fixed steps; a cut step growing back; error control."""
@@ -45,6 +45,10 @@ last cut; the step a cut step grows back to [s]; the dead band (:func:`reference
 the relative change of the step within which the factor is kept; the step of the factor [s]; and the
 statistics since the caller last read them: accepted steps, smallest and largest accepted step [s], largest
 error norm (NaN: none), rejected steps, accepted steps over the tolerance (at ``dt_min``)."""
+
+RECOVERABLE = (NO_CONVERGENCE, DIVERGED, SINGULAR)
+"""Step failures that a smaller step may cure (:mod:`reference.algorithms.step_control`): Newton's, and a singular
+Newton matrix at the step's iterate."""
 
 NO_FACTOR = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
              np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
@@ -107,16 +111,23 @@ def _predict(v, w, vd, a, lam, an, vdn, dq, Vn, lamn, h, am, gamma, beta):
 
 
 @inlined
+def _configuration(x, q, dq, h, x1, q1, tmp, psi):
+    """The configuration of the iterate ``h Δq``: ``x_{n+1} = x_n + h Δx``, ``q_{n+1} = q_n ⊗ exp(h Δθ)`` into
+    ``x1``, ``q1`` (``psi`` the rotation vectors ``h Δθ`` [rad], ``tmp`` work)."""
+    for i in range(x.shape[0]):
+        for k in range(3):
+            x1[i, k] = x[i, k] + h * dq[i, k]
+            psi[i, k] = h * dq[i, 3 + k]
+    compose(q, psi, q1, tmp)
+
+
+@inlined
 def _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe_out, h, am, af):
     """The converged step: the energy bookkeeping with its last evaluation (within the Newton
     tolerance of the step's end) and the new state ``x, q, V, V̇, a, λ`` from the iterate in ``arr``."""
     dq, Vn, vdn, an, _, _, _, lamn, _, _, _, _, x1, q1, tmp, psi = arr
     N = x.shape[0]
-    for i in range(N):
-        for k in range(3):
-            x1[i, k] = x[i, k] + h * dq[i, k]
-            psi[i, k] = h * dq[i, 3 + k]
-    compose(q, psi, q1, tmp)
+    _configuration(x, q, dq, h, x1, q1, tmp, psi)
     P1 = _power_inlined(model, Bl, lamn, Vn[:, :3], Vn[:, 3:])
     D1 = _dissipation_inlined(model, Vn[:, :3], Vn[:, 3:]) + fe_out[0]
     dW = 0.0
@@ -338,11 +349,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
         previous = -1.0
         converged = False
         while par[13] < max_it:
-            for i in range(N):
-                for k in range(3):
-                    x1[i, k] = x[i, k] + h * dq[i, k]
-                    psi[i, k] = h * dq[i, 3 + k]
-            compose(q, psi, q1, tmp)
+            _configuration(x, q, dq, h, x1, q1, tmp, psi)
             par[11] = _evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
             if par[9] < 0.0:
                 return REFACTOR, step

@@ -63,14 +63,14 @@ import numpy as np
 from dataclasses import dataclass, field
 
 from reference.algorithms import alpha_steps as ak
-from reference.algorithms.alpha_steps import NO_FACTOR, dissipation, power, set_step, steps
+from reference.algorithms.alpha_python_control import controlled_python
+from reference.algorithms.alpha_steps import NO_FACTOR, RECOVERABLE, dissipation, power, set_step, steps
 from reference.algorithms.base import CallBudget
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem
 from reference.linalg import SingularMatrix
 from reference.state import Record
-from reference.algorithms.step_control import (DEAD_BAND, GROW_AFTER, MAX_CUTS, SolverStatistics, error_norm,
-                                               kept_step, landing_step, next_step, rejected)
-from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR, newton_failure
+from reference.algorithms.step_control import DEAD_BAND, MAX_CUTS, SolverStatistics
+from reference.status import OK, REFACTOR, SINGULAR, newton_failure
 from reference.validation import ModelWarning
 
 
@@ -138,9 +138,6 @@ class GeneralizedAlphaRun:
 TOLERANCE = 1e-9
 """The default Newton tolerance: the imbalance left, relative to the step's forces (module docstring)."""
 
-RECOVERABLE = (NO_CONVERGENCE, DIVERGED, SINGULAR)
-"""Step failures that a smaller step may cure (:mod:`reference.algorithms.step_control`)."""
-
 
 class GeneralizedAlpha(ImplicitAlgorithm):
     """Lie-group generalized-α (Brüls, Cardona & Arnold 2012) with Newton on the sparse tangent.
@@ -185,7 +182,8 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     tight tolerances (three-bar at 1e-5: 4.5 times the steps)."""
     python_control = False
     """True: the step control runs in Python around one compiled step per call
-    (:meth:`_controlled_python`), the oracle the tests compare the compiled control with."""
+    (:func:`reference.algorithms.alpha_python_control.controlled_python`), the oracle the tests compare the
+    compiled control with."""
 
     def __init__(self, dt: float, rho_inf: float = 0.8, tolerance: float = TOLERANCE, max_iterations: int = 15,
                  error_tolerance: float | None = None, dt_min: float | None = None, dt_max: float | None = None,
@@ -410,7 +408,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         or growing back after a cut (:mod:`reference.algorithms.step_control`), the last landing on it: many
         compiled steps per call (:func:`steps`), the factorisations and the step cuts here."""
         if self.python_control:
-            return self._controlled_python(state, run, n_steps, rec)
+            return controlled_python(self, state, run, n_steps, rec)
         par, angle = run.par, run.system.work.angle
         par[ak.CONTROL] = ak.GROWING if self.error_tolerance is None else ak.ERROR_CONTROL
         par[ak.TARGET] = (run.nominal + n_steps) * self.dt
@@ -452,63 +450,6 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             set_step(par, self.dt, clock[0], clock[1])  # back to the fixed steps
             par[ak.CONTROL] = ak.FIXED
             run.varying = False
-
-    def _controlled_python(self, state, run, n_steps, rec) -> int:
-        """:meth:`_controlled` with the step control in Python (:mod:`reference.algorithms.step_control`'s
-        functions) around one compiled step of :data:`~reference.algorithms.alpha_steps.FIXED` mode per call:
-        the oracle of the compiled control (:attr:`python_control`)."""
-        system, par, stats = run.system, run.par, run.stats
-        x, q, v, w, f_prev, clock = state[:6]
-        par[ak.CONTROL] = ak.FIXED
-        target = (run.nominal + n_steps) * self.dt
-        control = self.error_tolerance is not None
-        held = (x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers)  # what a rejected step restores
-        saved, after_rejection = None, False
-        while True:
-            left = target - clock[0]
-            if left <= 1e-9 * self.dt:
-                break
-            h = par[ak.H_NEXT]
-            h_use = landing_step(left, h)
-            set_step(par, h_use, clock[0], clock[1])
-            if control:
-                saved = [arr.copy() for arr in held]
-            angle = system.work.angle.copy()
-            code, done = self._steps(state, run, 1, rec)
-            if code != OK:
-                system.work.angle[:] = angle
-                if code not in RECOVERABLE:
-                    return code
-                code = self._cut(state, run, code)
-                if code != OK:
-                    return code
-                continue
-            if control:
-                err = error_norm(run.a, saved[5], v, w, h_use, self.beta, run.L, self.error_tolerance)
-                h_next = min(max(next_step(h_use, err), self.dt_min), self.dt_max)
-                if rejected(err, h_use, landing_step(left, h_next), self.dt_min):
-                    for arr, old in zip(held, saved):
-                        arr[...] = old
-                    system.work.angle[:] = angle
-                    par[11] = np.nan  # the last evaluation is no longer at the state
-                    stats.rejected += 1
-                    par[ak.H_NEXT] = h_next
-                    after_rejection = True
-                    continue
-                if after_rejection:
-                    h_next, after_rejection = min(h_next, h_use), False  # no growth right after a rejection (HNW §II.4)
-                h_next = kept_step(h_use, h_next, self.dead_band)
-                stats.step(h_use, err)
-                # a step shortened to land on an output keeps the controller's step for the next
-                par[ak.H_NEXT] = h_next if h_use >= h else max(h, h_next)
-            else:
-                stats.step(h_use)
-                par[ak.GOOD] += 1
-                if par[ak.H_NEXT] < par[ak.CEILING] and par[ak.GOOD] >= GROW_AFTER:
-                    par[ak.H_NEXT], par[ak.GOOD] = min(2.0 * par[ak.H_NEXT], par[ak.CEILING]), 0
-        clock[0] = target
-        self._landed(state, run, n_steps)
-        return OK
 
     def recorded(self, run) -> dict:
         """The solver statistics of the steps up to each output (:mod:`reference.algorithms.step_control`)."""
