@@ -11,8 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import reference.algorithms.path_checks as path_checks
 import reference.algorithms.static as static
-from reference.algorithms import SolverSettings, Static
+from reference.algorithms import SolverSettings
 from reference.domain import Domain, SolverDiverged
 from reference.elements import Section
 from reference.interactions import Clamp, NodalLoad, Ramp
@@ -75,7 +76,7 @@ def test_driven_crank_in_one_load_step_ends_at_its_angle(monkeypatch):
     assert r.status == "completed" and not lines
     print(f"crank at {crank_angle(r):.12f} rad, θ(t) mod 2π = {target:.12f}")
     assert abs(crank_angle(r) - target) < 1e-8
-    monkeypatch.setattr(static, "drive_alignment", lambda *args: [])
+    monkeypatch.setattr(path_checks, "drive_alignment", lambda *args: [])
     wrong, _ = solve(slider_crank(148.5, 1))
     assert abs(abs(crank_angle(wrong) - target) - np.pi) < 1e-8  # the silent answer this test guards against
 
@@ -111,8 +112,8 @@ def test_an_imperfect_column_just_past_its_critical_load_is_not_a_limit_point(mo
     fires, the interval is traced), but the path rises through P_cr (a stable symmetric bifurcation made
     smooth): no line, no /stability event."""
     traced = []
-    trace = Static._trace
-    monkeypatch.setattr(Static, "_trace", lambda self, *args: traced.append(args[-2:]) or trace(self, *args))
+    trace = static.limit_point_trace
+    monkeypatch.setattr(static, "limit_point_trace", lambda *args: traced.append(args[-2:]) or trace(*args))
     d = Domain("column")
     nodes = d.add_beam("beam", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 8, COLUMN)
     d.add_interaction(Clamp(nodes[0]))
@@ -175,7 +176,7 @@ def test_lee_frame_pushed_past_the_snap_back_stops_there(tmp_path):
         reaction = kept.data("joints/prescribed_reaction", kept.joint_index("push"))
         peak = np.max(np.abs(reaction))
         assert peak * 120.0**2 / 1440.0 > 18.0  # through the first limit point (P L²/EI = 18.5)
-        assert np.all(-np.diff(reaction) * np.sign(reaction[:-1]) <= static.JUMP * peak)
+        assert np.all(-np.diff(reaction) * np.sign(reaction[:-1]) <= path_checks.JUMP * peak)
         if steps == 40:
             assert "jumps from" in message and kept.status.startswith("step refused at load factor")
 

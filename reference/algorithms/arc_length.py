@@ -29,11 +29,10 @@ non-finite), or that moves farther than :data:`WANDER` ds from the predicted poi
 again on another branch; not after a branch switch, whose corrector goes back to the critical load), is undone and the arc halved, up to :data:`MAX_CUTS` times; the arc never
 exceeds :data:`MAX_GROWTH` times the deck's, which so also sets the resolution of the path.
 
-The path does not start when the loads at ``t_end`` are zero (nothing to scale) or a rotation drive
-converged π from its angle (:func:`reference.algorithms.static.drive_alignment`); under ``control`` a
-point whose load factor's magnitude falls by more than :data:`reference.algorithms.static.JUMP` of its
-largest along the path is refused and the step cut (a snap-back in the controlled coordinate, which
-displacement control cannot pass); :meth:`ArcLength.summary` says why the path ended.
+The path does not start when the loads at ``t_end`` are zero or a rotation drive converged π from its
+angle; under ``control`` a point whose load factor's magnitude falls by more than
+:data:`reference.algorithms.path_checks.JUMP` of its largest is refused and the step cut (a snap-back);
+:mod:`reference.algorithms.path_checks` holds these checks and why the path ended (:func:`path_end`).
 
 Stability along the path (docs/formulation.md §11): at every converged point the number of negative
 eigenvalues of the tangent reduced to the constraints' null space
@@ -51,7 +50,6 @@ critical mode (Δλ = 0, length ds; Wriggers 2008, §7.4.3), onto the post-buckl
 from __future__ import annotations
 
 import math
-import operator
 import warnings
 from dataclasses import dataclass, field
 
@@ -60,7 +58,9 @@ import numpy as np
 from reference.algorithms.critical_points import CriticalPoints
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
 from reference.algorithms.newton_steps import ENERGY, LAMBDA, NewtonArrays
-from reference.algorithms.static import JUMP, _fall, _row_forces, drive_alignment
+from reference.algorithms.path_checks import (START_FIX, STILL, STOP_OPERATORS, load_factor_jump, path_end,
+                                              start_problem, unmoved)
+from reference.algorithms.static import _row_forces
 from reference.interactions import tf_value
 from reference.linalg import SingularMatrix
 from reference.observables import ObservableError, _Names, parse
@@ -78,11 +78,6 @@ MAX_GROWTH = 4.0
 WANDER = 0.5
 """A corrector that moves farther than this fraction of the arc along its plane is refused and the arc cut:
 on a long arc the normal plane may meet the path again on another branch (a jump across a snap-through)."""
-STILL = 1e-8
-"""Displacement control: the load does not move the controlled coordinate when its rate along the load tangent is
-below this fraction of the tangent's size (scaled norm): round-off, as for a coordinate across a plane of symmetry."""
-STOP_OPERATORS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
-"""Comparisons of ``stop_when``."""
 
 
 @dataclass
@@ -95,7 +90,7 @@ class ArcRun:
     stability data ``(x, q, μ, λ, s, count, slope)`` of the last point; ``events`` the changes of
     stability ``(s0, s1, λ_cr, kind, count)``; ``switch`` the critical mode (N, 6) the next predictor
     follows; ``iterations`` the corrector iterations of the last point; ``done`` why the path ended;
-    ``peak`` the largest |λ| along a displacement-controlled path (:data:`reference.algorithms.static.JUMP`);
+    ``peak`` the largest |λ| along a displacement-controlled path (:data:`reference.algorithms.path_checks.JUMP`);
     ``problem`` ``(status, message)`` of a path that cannot go on for a reason of the model, not of the arc.
     """
 
@@ -239,10 +234,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             return run.problem
         t = run.stopped_at if run.stopped_at is not None else state.t
         if not run.started:
-            return newton_failure(code, "load factor 0", self.max_iterations, "",
-                                  "The path starts from the equilibrium at load factor 0 with the drives and "
-                                  "prescribed displacements at their values at t_end, imposed at once: reach that "
-                                  "state first (a static run, or a smaller t_end), or give them smaller values.")
+            return newton_failure(code, "load factor 0", self.max_iterations, "", START_FIX)
         fix = self.no_convergence_fix if self.control is None else (
             f"Under control of {self.control[-1]!r} the path may turn back in that coordinate here (a snap-back), "
             "which displacement control cannot pass: remove `control` (the arc length passes snap-backs), or lower "
@@ -335,23 +327,9 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             if code != OK:
                 run.stopped_at = 0.0
                 return code
-            loads = system.work.F[system.free]
-            if not np.any(loads != 0.0):
-                run.problem = ("failed: no load to scale",
-                               f"arc_length scales the loads at t_end = {self.t_end:g} by the load factor, and "
-                               "they are zero (no [[loads]], [[line_loads]] or gravity, or their time functions "
-                               "vanish at t_end): the path would not move. Give a load nonzero at t_end; to "
-                               "follow a prescribed displacement alone, use algorithm = \"static\".")
+            run.problem = start_problem(system, x, q, self.t_end, self.joint_labels)
+            if run.problem:
                 return SINGULAR
-            for k, cos in drive_alignment(system.model, x, q, self.t_end):
-                if cos < 0.0:
-                    label = repr(self.joint_labels[k]) if k < len(self.joint_labels) else f"number {k}"
-                    run.problem = ("failed: drive π away at load factor 0",
-                                   f"the rotation drive {label} converged π away from its angle at t_end = "
-                                   f"{self.t_end:g} (the other root of sin(θ − θ(t)) = 0): the path starts with "
-                                   "the drives at their t_end values, imposed at once; reach that state with a "
-                                   "static run first, or give the drive a smaller angle at t_end.")
-                    return SINGULAR
             run.started, clock[0] = True, 0.0
             run.F = system.work.F.copy()
             run.P = _row_forces(system, run.mu)
@@ -371,12 +349,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             clock[1] += 1
             clock[0] = run.lam
             self._stability(run, x, q)
-            if abs(run.lam) >= self.max_load_factor:
-                run.done = f"|load factor| {abs(run.lam):.6g} reached max_load_factor {self.max_load_factor:g}"
-            elif self.stop_when is not None:
-                node, comp, op, value, text = self.stop_when
-                if STOP_OPERATORS[op](x[node, comp], value):
-                    run.done = f"stop_when {text!r} met at load factor {run.lam:.6g}"
+            run.done = path_end(x, run.lam, self.max_load_factor, self.stop_when)
         state.angle[:] = system.work.angle
         return OK
 
@@ -399,11 +372,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                     t_all = self._scaled(run, dF)
                     t_c = t_all[c]
                     if abs(t_c) <= STILL * float(np.linalg.norm(t_all)):
-                        run.problem = ("failed: the load does not move the controlled coordinate",
-                                       f"the load does not move the controlled coordinate {self.control[-1]!r} at "
-                                       f"load factor {run.lam:.6g} (its rate along the load is zero: perpendicular "
-                                       "to the motion, or a plane of symmetry); control a coordinate the load "
-                                       "moves, e.g. the load point's along the load.")
+                        run.problem = unmoved(self.control[-1], run.lam)
                         return SINGULAR
                     sgn = math.copysign(1.0, run.previous[c]) if run.previous is not None else math.copysign(1.0, t_c)
                     dlam = sgn * ds / t_c
@@ -434,7 +403,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                         float(np.linalg.norm(moved)) > WANDER * ds:
                     code = NO_CONVERGENCE  # the corrector wandered off along the plane: another branch
                 if code == OK and self.control is not None:
-                    code = self._jumped(run, lam)
+                    code = load_factor_jump(run, lam, self.control[-1], self.cut_note)
             if code == OK:
                 increment = moved + np.append(self._scaled(run, step_u), dlam)
                 run.s += float(np.linalg.norm(increment))
@@ -450,25 +419,6 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             x[:], q[:], run.mu[:], system.work.angle[:] = saved
             ds *= 0.5
         return code
-
-    def _jumped(self, run, lam) -> int:
-        """Under displacement control: :data:`reference.status.NO_CONVERGENCE` (the point refused, the step cut)
-        when the magnitude of the load factor falls by more than :data:`reference.algorithms.static.JUMP` of its
-        largest along the path from the last point (across zero: all of it) — the controlled coordinate turned back
-        (a snap-back) and the corrector landed on another branch; ``run.problem`` says so should the cuts not
-        help.  OK otherwise."""
-        old = run.lam
-        peak = max(run.peak, abs(lam))
-        if peak > 0.0 and _fall(old, lam) > JUMP * peak:
-            text = self.control[-1]
-            run.problem = (f"failed: snap-back in {text}",
-                           f"the load factor jumps from {old:.6g} to {lam:.6g} past load factor {old:.6g} under "
-                           f"control of {text!r}, {self.cut_note} (more than {JUMP:g} of its largest magnitude "
-                           f"{peak:.6g}): that coordinate turns back along the path (a snap-back), which "
-                           "displacement control cannot pass; results up to there are kept. Remove `control` (the "
-                           "arc length passes snap-backs) or control a coordinate that grows monotonically.")
-            return NO_CONVERGENCE
-        return OK
 
     def _work(self, run, x0, q0, x, q, lam):
         """Trapezoidal work of the loads λF and the drives from the last point (last evaluation at the new one)."""

@@ -22,12 +22,13 @@ iterations, factorisations, step cuts: :class:`reference.algorithms.step_control
 go to ``/solver/…`` at every output and into the run's summary line, as generalized-α's.
 
 A converged step is refused (and cut like a failed one) when its equilibrium is not the path's:
-a rotation drive at the other root of ``sin(θ − θ(t)) = 0``, π from θ(t) (:func:`drive_alignment`), or
-the reaction of a displacement drive or prescribed displacement whose magnitude falls by more than
-:data:`JUMP` of its largest along the path (a jump across a snap-back).  Under load control a step
-whose displacement per unit load exceeds :data:`RATIO` times the previous step's is traced again by
-arc length (:meth:`Static._trace`): a limit point passed without a change of the stability count
-(both sides stable) becomes a warning line and a ``/stability`` event.
+a rotation drive at the other root of ``sin(θ − θ(t)) = 0``, π from θ(t), or the reaction of a
+displacement drive or prescribed displacement whose magnitude falls by more than
+:data:`reference.algorithms.path_checks.JUMP` of its largest along the path (a jump across a snap-back:
+:func:`reference.algorithms.path_checks.why_refused`).  Under load control a step whose displacement per
+unit load exceeds :data:`reference.algorithms.path_checks.RATIO` times the previous step's is traced again
+by arc length (:func:`reference.algorithms.path_checks.limit_point_trace`): a limit point passed without a
+change of the stability count (both sides stable) becomes a warning line and a ``/stability`` event.
 
 Records: velocities and kinetic energy 0; strain energy; external work by the
 trapezoidal rule along the load path, ``½(F_old + F_new)·(Δx, Δθ)``, plus the
@@ -47,7 +48,6 @@ written to ``/stability/critical_load_factor`` and ``/stability/critical_kind`` 
 
 from __future__ import annotations
 
-import math
 import warnings
 from dataclasses import dataclass, field
 
@@ -57,9 +57,8 @@ import scipy.sparse.linalg as spla
 
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, relative_rotation
 from reference.algorithms.newton_steps import ENERGY, SIGN, TANGENT, NewtonArrays
+from reference.algorithms.path_checks import PUSHED_FIX, RATIO, limit_point_trace, moved, why_refused
 from reference.algorithms.step_control import SolverStatistics
-from reference.generated.joints import joint_primitives
-from reference.interactions import tf_integral, tf_value
 from reference.linalg import null_space
 from reference.modal import SMALL, nearest_zero, negative_eigenvalues
 from reference.status import NO_CONVERGENCE, OK, newton_failure
@@ -67,19 +66,6 @@ from reference.validation import ModelWarning
 
 MAX_CUTS = 8
 """Halvings of a load step before the run stops (smallest step 1/256 of the nominal)."""
-JUMP = 0.5
-"""A load step is refused and cut when the magnitude of the reaction of a displacement drive or prescribed
-displacement falls by more than this fraction of its largest magnitude along the path (across zero: all of
-its magnitude before the step, :func:`_fall`): a jump across a snap-back, where the pushed displacement
-itself turns back and Newton lands on another branch of the path.
-A smooth path changes its reaction by a small fraction per step (the von Mises truss pushed in 29 steps: a
-quarter at most)."""
-RATIO = 4.0
-"""Under load control, a step whose displacement per unit load (scaled norm: translations over the model size,
-rotations in rad) exceeds this multiple of the previous step's is traced again by arc length from the previous
-equilibrium (:meth:`Static._trace`) to see whether it passed a limit point."""
-TRACE_POINTS = 40
-"""Arc-length points of that trace before it gives up (an eighth of the step's chord each, adaptive)."""
 BIFURCATION = 1e-3
 """A change of stability is a bifurcation when the load increment's component along the critical mode is
 below this fraction of its size (mass metric): exactly zero on a perfect symmetric structure (the
@@ -197,7 +183,7 @@ class Static(ImplicitAlgorithm):
             if code != OK:
                 run.stopped_at = clock[0]
                 return code
-            run.refused = self._refused(run, x, q, lam, clock[0], clock[0])
+            run.refused = why_refused(run, self.joint_labels, x, q, lam, clock[0], clock[0])
             if run.refused:
                 run.stopped_at = clock[0]
                 return NO_CONVERGENCE
@@ -220,13 +206,13 @@ class Static(ImplicitAlgorithm):
                 t_try = min(t + sub, target)
                 saved = (x.copy(), q.copy(), lam.copy(), system.work.angle.copy())
                 code = self._equilibrium(run, x, q, lam, t_try)
-                refused = self._refused(run, x, q, lam, t, t_try) if code == OK else ""
+                refused = why_refused(run, self.joint_labels, x, q, lam, t, t_try) if code == OK else ""
                 if refused:  # kept through the load step's cuts: it explains a shorter step's failure too
                     run.refused, code = refused, NO_CONVERGENCE
                 if code == OK:
-                    rate = _moved(system, saved[0], saved[1], x, q, run.L) / (t_try - t)
+                    rate = moved(system, saved[0], saved[1], x, q, run.L) / (t_try - t)
                     if run.rate > 0.0 and rate > RATIO * run.rate:
-                        self._trace(model, state, run, saved, f_prev, (x, q, lam), t, t_try)
+                        limit_point_trace(self, model, state, run, saved, f_prev, (x, q, lam), t, t_try)
                     run.rate = rate
                     dW, run.P = _work_increment(system, saved[0], saved[1], f_prev, run.P, x, q, lam)
                     clock[2] += dW
@@ -251,7 +237,7 @@ class Static(ImplicitAlgorithm):
         return OK
 
     def failure(self, code: int, state, run) -> tuple[str, str]:
-        """``(status, message)`` of a failed load step: a refused one (:meth:`_refused`) says why; a
+        """``(status, message)`` of a failed load step: a refused one (:func:`reference.algorithms.path_checks.why_refused`) says why; a
         displacement-controlled path that stops is sent to the arc length, not to the displacement control
         it already has."""
         t = run.stopped_at if run.stopped_at is not None else state.t
@@ -263,95 +249,6 @@ class Static(ImplicitAlgorithm):
             return newton_failure(code, f"{self.progress_name} {t:.6g}", self.max_iterations, self.cut_note,
                                   PUSHED_FIX)
         return super().failure(code, state, run)
-
-    def _refused(self, run, x, q, lam, t0, t1) -> str:
-        """Why the equilibrium just converged at load factor ``t1`` (from ``t0``) is not the path's ("" when it
-        is): a rotation drive at the other root of its equation, ``sin(θ − θ(t)) = 0`` solved by
-        ``θ = θ(t) + π`` (``cos(θ − θ(t)) < 0``, from the primitives' rows 5 and 9: docs/formulation.md §5),
-        or the reaction of a displacement drive or prescribed displacement falling by more than
-        :data:`JUMP` of its largest magnitude along the path (a jump across a snap-back).  Sets
-        ``run.refused_fix``, the advice of the failure that follows when no shorter step helps."""
-        model, system = run.system.model, run.system
-        labels = self.joint_labels
-        for k, cos in drive_alignment(model, x, q, t1):
-            if cos < 0.0:
-                run.refused_fix = ("Raise load_steps so that the drive turns less than π/2 per load step, or "
-                                   "start the drive nearer its angle at t = 0.")
-                return (f"the rotation drive {_label(labels, k)} converged π away from its angle θ(t) at load factor "
-                        f"{t1:.6g} (the other root of sin(θ − θ(t)) = 0; cos(θ − θ(t)) = {cos:.3g}): refused")
-        rows = model.joints.row0[np.isin(model.joints.drive, DISPLACEMENT_DRIVES)]
-        if not rows.size:
-            return ""
-        values = lam[rows]
-        if run.reactions is None:
-            run.reactions, run.peaks = values.copy(), np.abs(values)
-            return ""
-        wk = system.work
-        noise = 1e-8 * max(float(np.max(np.abs(wk.S), initial=0.0)), float(np.max(np.abs(wk.F), initial=0.0)))
-        for n, (old, new) in enumerate(zip(run.reactions, values)):
-            peak = max(run.peaks[n], abs(new))
-            if peak > noise and _fall(old, new) > JUMP * peak:
-                k = int(np.flatnonzero(np.isin(model.joints.drive, DISPLACEMENT_DRIVES))[n])
-                run.refused_fix = ("The pushed displacement turns back along the path there (a snap-back): trace it "
-                                   "with algorithm = \"arc_length\", or stop t_end before it.")
-                return (f"the reaction of {_label(labels, k)} jumps from {old:.6g} to {new:.6g} between load factor "
-                        f"{t0:.6g} and {t1:.6g} (more than {JUMP:g} of its largest magnitude {peak:.6g}): a jump to "
-                        "another branch of the path, refused")
-        run.reactions, run.peaks = values.copy(), np.maximum(run.peaks, np.abs(values))
-        return ""
-
-    def _trace(self, model, state, run, saved, F0, now, t0, t1) -> None:
-        """The load interval ``[t0, t1]`` of a step whose displacement per unit load jumped (:data:`RATIO`),
-        traced again by arc length from the equilibrium before it (``saved``: x, q, λ, the force elements'
-        angles; ``F0`` its loads): when the load factor along that path reaches a maximum below ``t1`` and
-        falls, the step passed a limit point onto another branch — one warning line with the limit load, and
-        an event of ``/stability`` (kind ``"limit point"``).  Only for proportional loads (``F(t0) = c F(t1)``,
-        0 ≤ c < 1) and drives that do not move over the step; the run's state is left as it is."""
-        from reference.algorithms.arc_length import ArcLength
-
-        system = run.system
-        F1 = system.work.F[system.free]
-        F_0 = F0[system.free]
-        top = float(F1 @ F1)
-        c = float(F_0 @ F1) / top if top > 0.0 else -1.0
-        if not (0.0 <= c < 1.0) or np.max(np.abs(F_0 - c * F1), initial=0.0) > 1e-12 * math.sqrt(top):
-            return
-        for k, _ in _drives(model):
-            tf = int(model.joints.tf[k])
-            if _drive_value(model, k, tf, t0) != _drive_value(model, k, tf, t1):
-                return
-        x1, q1, _ = now
-        x0, q0, lam0, angle0 = saved
-        chord = math.sqrt(_moved(system, x0, q0, x1, q1, run.L) ** 2 + (1.0 - c) ** 2)
-        arc = ArcLength(chord / 8.0, TRACE_POINTS, math.inf, t1, self.tolerance, self.max_iterations)
-        trace = arc.start(model, state)
-        trace.L = run.L
-        x, q = x0.copy(), q0.copy()
-        trace.mu[:] = lam0
-        trace.system.work.angle[:] = angle0
-        if arc._correct(trace, x, q, c, None)[0] != OK:
-            return
-        trace.lam, trace.F, trace.P = c, trace.system.work.F.copy(), _row_forces(trace.system, trace.mu)
-        path = [(0.0, c)]
-        clock = np.zeros(3)
-        for _ in range(TRACE_POINTS):
-            if arc._point(trace, x, q, clock) != OK:
-                return
-            path.append((trace.s, trace.lam))
-            if trace.lam >= 1.0:
-                return
-            if trace.lam < path[-2][1]:
-                break
-        else:
-            return
-        (s0, l0), (s1, l1), (s2, l2) = path[-3:] if len(path) >= 3 else [path[0]] + path[-2:]
-        peak = _vertex(s0, l0, s1, l1, s2, l2)
-        t_lim = t0 + (peak - c) / (1.0 - c) * (t1 - t0)
-        run.events.append((t0, t1, t_lim, "limit point", run.negative))
-        warnings.warn(f"the load step from load factor {t0:.6g} to {t1:.6g} passed a limit point at load factor "
-                      f"{t_lim:.6g} (traced by arc length) and jumped to another branch of the path: use algorithm = "
-                      "\"arc_length\" to follow it, or push the structure ([[prescribed_displacements]])",
-                      ModelWarning, stacklevel=3)
 
     def record_last(self, model, state, run, record) -> bool:
         """After a failed step: the last converged load level (a sub-level of the cut step, or a whole
@@ -415,74 +312,6 @@ class Static(ImplicitAlgorithm):
         warnings.warn(f"{change} between load factor {t0:.6g} and {t:.6g}: {kind}, {_eigenvalues(count)} "
                       f"(critical load factor {t_cr:.6g}, interpolated from the lowest eigenvalue)",
                       ModelWarning, stacklevel=2)
-
-
-DISPLACEMENT_DRIVES = (3, 4, 5)
-"""Drive codes whose multiplier is the force that pushes a displacement (docs/formulation.md §5)."""
-PUSHED_FIX = ("The pushed displacement may have reached a snap-back point (where it turns back along the path) or "
-              "the step is too large: raise load_steps or max_iterations, or stop t_end before it; past a snap-back, "
-              "trace the path with algorithm = \"arc_length\".")
-"""The advice of a displacement-controlled static run that stops (the deck already pushes)."""
-
-
-def _drives(model):
-    """``(joint index, drive code)`` of the model's drives and prescribed displacements."""
-    return [(k, int(code)) for k, code in enumerate(model.joints.drive) if code > 0]
-
-
-def _drive_value(model, k, tf, t) -> float:
-    """θ(t) [rad] or s(t) [m] of drive k: its time function's value, or its integral for a drive given by its
-    rate (``mode = "velocity"``: codes 2 and 4)."""
-    kind, par = model.time_functions.kind[tf], model.time_functions.par[tf]
-    code = int(model.joints.drive[k])
-    return float(tf_integral(kind, par, t) if code in (2, 4) else tf_value(kind, par, t))
-
-
-def drive_alignment(model, x, q, t):
-    """``(joint index, cos(θ − θ(t)))`` of every rotation drive at (x, q, t): θ the rotation of body i relative
-    to body j about the drive's axis from the primitives' rows 5 and 9 (sin θ and cos θ,
-    :mod:`derivations.joints`), θ(t) the prescribed angle.  The drive's equation ``sin(θ − θ(t)) = 0`` holds
-    at both roots; this is +1 at the prescribed one and −1 at the one π away."""
-    out = []
-    phi, B = np.zeros(10), np.zeros(120)
-    jt = model.joints
-    for k, code in _drives(model):
-        if code not in (1, 2):
-            continue
-        j = int(jt.j[k])
-        xj, qj = (x[j], q[j]) if j >= 0 else (np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))
-        par = jt.par[k]
-        joint_primitives(x[int(jt.i[k])], q[int(jt.i[k])], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], phi, B)
-        th = _drive_value(model, k, int(jt.tf[k]), t)
-        out.append((k, float(phi[9] * math.cos(th) + phi[5] * math.sin(th))))
-    return out
-
-
-def _label(labels, k) -> str:
-    return repr(labels[k]) if k < len(labels) else f"number {k}"
-
-
-def _moved(system, x0, q0, x, q, L) -> float:
-    """The scaled size of the move from (x0, q0) to (x, q): ``√(Σ|Δx/L|² + Σ|Δθ|²)`` over the free coordinates
-    (the arc length's norm without its load part)."""
-    dth = np.empty_like(x)
-    relative_rotation(q0, q, dth, np.empty(4))
-    d = np.concatenate([(x - x0) / L, dth], axis=1)[system.free]
-    return float(np.sqrt(d @ d))
-
-
-def _fall(old: float, new: float) -> float:
-    """How far ``|old|`` falls towards zero on the way to ``new``: ``|old| − |new|`` of the same sign, all of
-    ``|old|`` across zero (a rise, or a start from zero, is no fall)."""
-    return abs(old) - (abs(new) if old * new > 0.0 else 0.0)
-
-
-def _vertex(s0, f0, s1, f1, s2, f2) -> float:
-    """The largest value of the parabola through three points (s, f), s0 < s1 < s2 (the largest of the three
-    values when the parabola has no maximum)."""
-    a, b, c = np.polyfit([s0, s1, s2], [f0, f1, f2], 2)
-    top = max(f0, f1, f2)
-    return float(c - b * b / (4.0 * a)) if a < 0.0 else top
 
 
 def _eigenvalues(count: int) -> str:

@@ -1,0 +1,281 @@
+"""Converged equilibria that are not the path's, and why a path cannot start or go on: the checks the static
+load stepping (:class:`reference.algorithms.static.Static`) and the arc length
+(:class:`reference.algorithms.arc_length.ArcLength`) share.
+
+Newton converges to *an* equilibrium, not necessarily to the next one along the path asked for.  The checks:
+
+* a rotation drive at the other root of its equation ``sin(θ − θ(t)) = 0``, π from θ(t)
+  (:func:`drive_alignment`): a static step is refused, an arc-length path does not start;
+* a jump to another branch across a snap-back: the reaction of a displacement drive or prescribed displacement
+  (static, :func:`why_refused`) or the load factor under displacement control (arc length,
+  :func:`load_factor_jump`) falling by more than :data:`JUMP` of its largest magnitude along the path;
+* a limit point passed inside one load step under load control, traced again by arc length
+  (:func:`limit_point_trace`);
+* an arc-length path with nothing to scale or a controlled coordinate the load does not move
+  (:func:`start_problem`, :data:`START_FIX`, :func:`unmoved`), and why a path that went well ended (:func:`path_end`).
+
+They are their own module because both algorithms use them and the trace runs the arc length from inside the
+static algorithm: imported by both, this module imports neither at load time.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+import warnings
+
+import numpy as np
+
+from reference.algorithms.implicit import relative_rotation
+from reference.generated.joints import joint_primitives
+from reference.interactions import tf_integral, tf_value
+from reference.status import NO_CONVERGENCE, OK
+from reference.validation import ModelWarning
+
+JUMP = 0.5
+"""A load step is refused and cut when the magnitude of the reaction of a displacement drive or prescribed
+displacement falls by more than this fraction of its largest magnitude along the path (across zero: all of
+its magnitude before the step, :func:`fall`): a jump across a snap-back, where the pushed displacement
+itself turns back and Newton lands on another branch of the path.
+A smooth path changes its reaction by a small fraction per step (the von Mises truss pushed in 29 steps: a
+quarter at most)."""
+RATIO = 4.0
+"""Under load control, a step whose displacement per unit load (scaled norm: translations over the model size,
+rotations in rad) exceeds this multiple of the previous step's is traced again by arc length from the previous
+equilibrium (:func:`limit_point_trace`) to see whether it passed a limit point."""
+TRACE_POINTS = 40
+"""Arc-length points of that trace before it gives up (an eighth of the step's chord each, adaptive)."""
+STILL = 1e-8
+"""Displacement control: the load does not move the controlled coordinate when its rate along the load tangent is
+below this fraction of the tangent's size (scaled norm): round-off, as for a coordinate across a plane of symmetry."""
+DISPLACEMENT_DRIVES = (3, 4, 5)
+"""Drive codes whose multiplier is the force that pushes a displacement (docs/formulation.md §5)."""
+PUSHED_FIX = ("The pushed displacement may have reached a snap-back point (where it turns back along the path) or "
+              "the step is too large: raise load_steps or max_iterations, or stop t_end before it; past a snap-back, "
+              "trace the path with algorithm = \"arc_length\".")
+"""The advice of a displacement-controlled static run that stops (the deck already pushes)."""
+START_FIX = ("The path starts from the equilibrium at load factor 0 with the drives and prescribed displacements at "
+             "their values at t_end, imposed at once: reach that state first (a static run, or a smaller t_end), or "
+             "give them smaller values.")
+"""The advice of an arc-length path whose equilibrium at load factor 0 is not found."""
+STOP_OPERATORS = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
+"""Comparisons of ``stop_when``."""
+
+
+def why_refused(run, labels, x, q, lam, t0, t1) -> str:
+    """Why the static equilibrium just converged at load factor ``t1`` (from ``t0``) is not the path's ("" when
+    it is): a rotation drive at the other root of its equation, ``sin(θ − θ(t)) = 0`` solved by
+    ``θ = θ(t) + π`` (``cos(θ − θ(t)) < 0``, from the primitives' rows 5 and 9: docs/formulation.md §5),
+    or the reaction of a displacement drive or prescribed displacement falling by more than
+    :data:`JUMP` of its largest magnitude along the path (a jump across a snap-back).  Sets
+    ``run.refused_fix``, the advice of the failure that follows when no shorter step helps, and keeps the
+    reactions and their largest magnitudes in ``run.reactions`` and ``run.peaks``; ``labels`` the joints'."""
+    model, system = run.system.model, run.system
+    for k, cos in drive_alignment(model, x, q, t1):
+        if cos < 0.0:
+            run.refused_fix = ("Raise load_steps so that the drive turns less than π/2 per load step, or "
+                               "start the drive nearer its angle at t = 0.")
+            return (f"the rotation drive {joint_label(labels, k)} converged π away from its angle θ(t) at load "
+                    f"factor {t1:.6g} (the other root of sin(θ − θ(t)) = 0; cos(θ − θ(t)) = {cos:.3g}): "
+                    "refused")
+    rows = model.joints.row0[np.isin(model.joints.drive, DISPLACEMENT_DRIVES)]
+    if not rows.size:
+        return ""
+    values = lam[rows]
+    if run.reactions is None:
+        run.reactions, run.peaks = values.copy(), np.abs(values)
+        return ""
+    wk = system.work
+    noise = 1e-8 * max(float(np.max(np.abs(wk.S), initial=0.0)), float(np.max(np.abs(wk.F), initial=0.0)))
+    for n, (old, new) in enumerate(zip(run.reactions, values)):
+        peak = max(run.peaks[n], abs(new))
+        if peak > noise and fall(old, new) > JUMP * peak:
+            k = int(np.flatnonzero(np.isin(model.joints.drive, DISPLACEMENT_DRIVES))[n])
+            run.refused_fix = ("The pushed displacement turns back along the path there (a snap-back): trace it "
+                               "with algorithm = \"arc_length\", or stop t_end before it.")
+            return (f"the reaction of {joint_label(labels, k)} jumps from {old:.6g} to {new:.6g} between load factor "
+                    f"{t0:.6g} and {t1:.6g} (more than {JUMP:g} of its largest magnitude {peak:.6g}): a jump to "
+                    "another branch of the path, refused")
+    run.reactions, run.peaks = values.copy(), np.maximum(run.peaks, np.abs(values))
+    return ""
+
+
+def limit_point_trace(static, model, state, run, saved, F0, now, t0, t1) -> None:
+    """The load interval ``[t0, t1]`` of a static step whose displacement per unit load jumped (:data:`RATIO`),
+    traced again by arc length from the equilibrium before it (``saved``: x, q, λ, the force elements'
+    angles; ``F0`` its loads; ``now`` the step's x, q, λ; ``static`` the algorithm, for its Newton settings):
+    when the load factor along that path reaches a maximum below ``t1`` and falls, the step passed a limit
+    point onto another branch — one warning line with the limit load, and an event of ``/stability`` (kind
+    ``"limit point"``).  Only for proportional loads (``F(t0) = c F(t1)``, 0 ≤ c < 1) and drives that do not
+    move over the step; the run's state is left as it is."""
+    from reference.algorithms.arc_length import ArcLength
+    from reference.algorithms.static import _row_forces
+
+    system = run.system
+    F1 = system.work.F[system.free]
+    F_0 = F0[system.free]
+    top = float(F1 @ F1)
+    c = float(F_0 @ F1) / top if top > 0.0 else -1.0
+    if not (0.0 <= c < 1.0) or np.max(np.abs(F_0 - c * F1), initial=0.0) > 1e-12 * math.sqrt(top):
+        return
+    for k, _ in drives(model):
+        tf = int(model.joints.tf[k])
+        if drive_value(model, k, tf, t0) != drive_value(model, k, tf, t1):
+            return
+    x1, q1, _ = now
+    x0, q0, lam0, angle0 = saved
+    chord = math.sqrt(moved(system, x0, q0, x1, q1, run.L) ** 2 + (1.0 - c) ** 2)
+    arc = ArcLength(chord / 8.0, TRACE_POINTS, math.inf, t1, static.tolerance, static.max_iterations)
+    trace = arc.start(model, state)
+    trace.L = run.L
+    x, q = x0.copy(), q0.copy()
+    trace.mu[:] = lam0
+    trace.system.work.angle[:] = angle0
+    if arc._correct(trace, x, q, c, None)[0] != OK:
+        return
+    trace.lam, trace.F, trace.P = c, trace.system.work.F.copy(), _row_forces(trace.system, trace.mu)
+    path = [(0.0, c)]
+    clock = np.zeros(3)
+    for _ in range(TRACE_POINTS):
+        if arc._point(trace, x, q, clock) != OK:
+            return
+        path.append((trace.s, trace.lam))
+        if trace.lam >= 1.0:
+            return
+        if trace.lam < path[-2][1]:
+            break
+    else:
+        return
+    (s0, l0), (s1, l1), (s2, l2) = path[-3:] if len(path) >= 3 else [path[0]] + path[-2:]
+    peak = vertex(s0, l0, s1, l1, s2, l2)
+    t_lim = t0 + (peak - c) / (1.0 - c) * (t1 - t0)
+    run.events.append((t0, t1, t_lim, "limit point", run.negative))
+    warnings.warn(f"the load step from load factor {t0:.6g} to {t1:.6g} passed a limit point at load factor "
+                  f"{t_lim:.6g} (traced by arc length) and jumped to another branch of the path: use algorithm = "
+                  "\"arc_length\" to follow it, or push the structure ([[prescribed_displacements]])",
+                  ModelWarning, stacklevel=3)
+
+
+def start_problem(system, x, q, t_end: float, labels) -> tuple:
+    """``(status, message)`` of an arc-length path that cannot start from its equilibrium at load factor 0
+    (``()`` when it can): the loads at ``t_end`` are zero (nothing to scale), or a rotation drive converged π
+    from its angle at ``t_end`` (:func:`drive_alignment`); ``labels`` the joints'."""
+    loads = system.work.F[system.free]
+    if not np.any(loads != 0.0):
+        return ("failed: no load to scale",
+                f"arc_length scales the loads at t_end = {t_end:g} by the load factor, and "
+                "they are zero (no [[loads]], [[line_loads]] or gravity, or their time functions "
+                "vanish at t_end): the path would not move. Give a load nonzero at t_end; to "
+                "follow a prescribed displacement alone, use algorithm = \"static\".")
+    for k, cos in drive_alignment(system.model, x, q, t_end):
+        if cos < 0.0:
+            return ("failed: drive π away at load factor 0",
+                    f"the rotation drive {joint_label(labels, k)} converged π away from its angle at t_end = "
+                    f"{t_end:g} (the other root of sin(θ − θ(t)) = 0): the path starts with "
+                    "the drives at their t_end values, imposed at once; reach that state with a "
+                    "static run first, or give the drive a smaller angle at t_end.")
+    return ()
+
+
+def unmoved(text: str, lam: float) -> tuple:
+    """``(status, message)`` of a displacement-controlled path whose load does not move the controlled
+    coordinate ``text`` at load factor ``lam`` (its rate along the load below :data:`STILL` of the tangent's
+    size)."""
+    return ("failed: the load does not move the controlled coordinate",
+            f"the load does not move the controlled coordinate {text!r} at "
+            f"load factor {lam:.6g} (its rate along the load is zero: perpendicular "
+            "to the motion, or a plane of symmetry); control a coordinate the load "
+            "moves, e.g. the load point's along the load.")
+
+
+def load_factor_jump(run, lam, text: str, cut_note: str) -> int:
+    """Under displacement control of the coordinate ``text``: :data:`reference.status.NO_CONVERGENCE` (the point
+    refused, the step cut) when the magnitude of the load factor falls by more than :data:`JUMP` of its largest
+    along the path from the last point (across zero: all of it) — the controlled coordinate turned back (a
+    snap-back) and the corrector landed on another branch; ``run.problem`` says so should the cuts not help.
+    OK otherwise."""
+    old = run.lam
+    peak = max(run.peak, abs(lam))
+    if peak > 0.0 and fall(old, lam) > JUMP * peak:
+        run.problem = (f"failed: snap-back in {text}",
+                       f"the load factor jumps from {old:.6g} to {lam:.6g} past load factor {old:.6g} under "
+                       f"control of {text!r}, {cut_note} (more than {JUMP:g} of its largest magnitude "
+                       f"{peak:.6g}): that coordinate turns back along the path (a snap-back), which "
+                       "displacement control cannot pass; results up to there are kept. Remove `control` (the "
+                       "arc length passes snap-backs) or control a coordinate that grows monotonically.")
+        return NO_CONVERGENCE
+    return OK
+
+
+def path_end(x, lam: float, max_load_factor: float, stop_when) -> str:
+    """Why an arc-length path ends at the point ``(x, λ)`` ("" when it goes on): ``|λ|`` reached
+    ``max_load_factor``, or the node coordinate of ``stop_when`` ``(node, component, comparison, value, text)``
+    compares true."""
+    if abs(lam) >= max_load_factor:
+        return f"|load factor| {abs(lam):.6g} reached max_load_factor {max_load_factor:g}"
+    if stop_when is not None:
+        node, comp, op, value, text = stop_when
+        if STOP_OPERATORS[op](x[node, comp], value):
+            return f"stop_when {text!r} met at load factor {lam:.6g}"
+    return ""
+
+
+def drives(model):
+    """``(joint index, drive code)`` of the model's drives and prescribed displacements."""
+    return [(k, int(code)) for k, code in enumerate(model.joints.drive) if code > 0]
+
+
+def drive_value(model, k, tf, t) -> float:
+    """θ(t) [rad] or s(t) [m] of drive k: its time function's value, or its integral for a drive given by its
+    rate (``mode = "velocity"``: codes 2 and 4)."""
+    kind, par = model.time_functions.kind[tf], model.time_functions.par[tf]
+    code = int(model.joints.drive[k])
+    return float(tf_integral(kind, par, t) if code in (2, 4) else tf_value(kind, par, t))
+
+
+def drive_alignment(model, x, q, t):
+    """``(joint index, cos(θ − θ(t)))`` of every rotation drive at (x, q, t): θ the rotation of body i relative
+    to body j about the drive's axis from the primitives' rows 5 and 9 (sin θ and cos θ,
+    :mod:`derivations.joints`), θ(t) the prescribed angle.  The drive's equation ``sin(θ − θ(t)) = 0`` holds
+    at both roots; this is +1 at the prescribed one and −1 at the one π away."""
+    out = []
+    phi, B = np.zeros(10), np.zeros(120)
+    jt = model.joints
+    for k, code in drives(model):
+        if code not in (1, 2):
+            continue
+        j = int(jt.j[k])
+        xj, qj = (x[j], q[j]) if j >= 0 else (np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))
+        par = jt.par[k]
+        joint_primitives(x[int(jt.i[k])], q[int(jt.i[k])], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], phi, B)
+        th = drive_value(model, k, int(jt.tf[k]), t)
+        out.append((k, float(phi[9] * math.cos(th) + phi[5] * math.sin(th))))
+    return out
+
+
+def joint_label(labels, k) -> str:
+    """The joint's label (quoted) for a message, or its number when it has none."""
+    return repr(labels[k]) if k < len(labels) else f"number {k}"
+
+
+def moved(system, x0, q0, x, q, L) -> float:
+    """The scaled size of the move from (x0, q0) to (x, q): ``√(Σ|Δx/L|² + Σ|Δθ|²)`` over the free coordinates
+    (the arc length's norm without its load part)."""
+    dth = np.empty_like(x)
+    relative_rotation(q0, q, dth, np.empty(4))
+    d = np.concatenate([(x - x0) / L, dth], axis=1)[system.free]
+    return float(np.sqrt(d @ d))
+
+
+def fall(old: float, new: float) -> float:
+    """How far ``|old|`` falls towards zero on the way to ``new``: ``|old| − |new|`` of the same sign, all of
+    ``|old|`` across zero (a rise, or a start from zero, is no fall)."""
+    return abs(old) - (abs(new) if old * new > 0.0 else 0.0)
+
+
+def vertex(s0, f0, s1, f1, s2, f2) -> float:
+    """The largest value of the parabola through three points (s, f), s0 < s1 < s2 (the largest of the three
+    values when the parabola has no maximum)."""
+    a, b, c = np.polyfit([s0, s1, s2], [f0, f1, f2], 2)
+    top = max(f0, f1, f2)
+    return float(c - b * b / (4.0 * a)) if a < 0.0 else top
