@@ -100,7 +100,7 @@ def _run_deck(args, deck):
 
     def compiling() -> None:
         bar.close()
-        print("compiling the kernels (once for this version of the engine, about a minute)…", file=sys.stderr,
+        print("compiling the kernels (once for this version of the engine: a few minutes)…", file=sys.stderr,
               flush=True)
 
     shown_before, warnings.showwarning = warnings.showwarning, warning_line
