@@ -90,13 +90,21 @@ def campbell(domain, rates, n: int | None = None, shapes: bool = False) -> Campb
         lin = at_steady_rotation(model, state, rate, settings.spin_axis, settings.spin_point, system=system)
         state.x[:], state.q[:] = lin.x, lin.q  # the next rate starts from this stretched state
         red = reduce(lin)
-        movable = mobility(model, lin)
-        found = modes(red.M, red.D, red.K, min(n + movable, red.M.shape[0]))
+        size, asked = red.M.shape[0], min(n + mobility(model, lin), red.M.shape[0])
+        found = modes(red.M, red.D, red.K, asked)
+        while np.sum(found.kind != "zero") < n and asked < size:
+            # more zero modes than rigid-body motions (a direction without stiffness): ask past them, as
+            # `flexmbs modes` lists the lowest modes whatever their kind
+            asked = min(2 * asked, size)
+            found = modes(red.M, red.D, red.K, asked)
         keep = np.flatnonzero(found.kind != "zero")[:n]
         rows.append((found.frequency[keep], found.damping_ratio[keep], found.kind[keep],
                      lin.nodal((red.Z @ found.phi[:, keep]).T) if shapes else None))
     if any(len(r[0]) < n for r in rows):
-        raise ValueError(f"fewer than {n} modes that are not zero modes at some spin rate; ask for fewer modes")
+        worst = min(range(len(rows)), key=lambda k: len(rows[k][0]))
+        raise ValueError(f"only {len(rows[worst][0])} modes that are not zero modes at the spin rate "
+                         f"{float(np.asarray(rates)[worst]):g} rad/s, {n} asked; ask for at most "
+                         f"{len(rows[worst][0])} modes")
     f, zeta, kind, phi = zip(*rows)
     return Campbell(np.asarray(rates, dtype=float), np.array(f), np.array(zeta), np.array(kind),
                     np.array(phi) if shapes else None)

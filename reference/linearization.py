@@ -30,6 +30,7 @@ Entry points: :func:`linearize` (a configuration), :func:`at_reference` (a Domai
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -40,7 +41,7 @@ from scipy.sparse.csgraph import connected_components
 
 from reference.algorithms.implicit import NewtonSystem, compose
 from reference.generated import rotation_maps as rm
-from reference.linalg import RANK_TOLERANCE, null_space
+from reference.linalg import RANK_TOLERANCE, SingularMatrix, null_space
 from reference.state import Model, State
 
 CONSISTENCY_STEP = 1e-6
@@ -227,7 +228,7 @@ def at_steady_rotation(model: Model, state: State, spin_rate: float, spin_axis, 
         ``max_halvings`` times.
 
     Raises ValueError when Newton fails (centrifugal loads beyond what the model carries, a mechanism
-    without a relative equilibrium) or the axis is zero.
+    without a relative equilibrium; a singular tangent: a body that nothing holds) or the axis is zero.
     """
     e = np.asarray(spin_axis, dtype=float)
     if not (e.shape == (3,) and np.linalg.norm(e) > 0.0):
@@ -242,10 +243,15 @@ def at_steady_rotation(model: Model, state: State, spin_rate: float, spin_axis, 
     while level < 1.0:
         trial = min(1.0, level + step)
         rate = float(spin_rate) * np.sqrt(trial)
-        solved = _relative_equilibrium(model, system, x, q, lam, rate * e, p, state.t, tolerance, max_iterations,
-                                       span)
+        try:
+            solved, singular = _relative_equilibrium(model, system, x, q, lam, rate * e, p, state.t, tolerance,
+                                                     max_iterations, span), False
+        except SingularMatrix:
+            solved, singular = None, True
         if solved is None:
             cuts += 1
+            if cuts > max_halvings and singular:
+                raise ValueError(_singular_spin(model, system, x, q, state, rate))
             if cuts > max_halvings:
                 raise ValueError(f"no steady rotation found at the spin rate {rate:.6g} rad/s (Newton did not "
                                  f"converge in {max_iterations} iterations after {max_halvings} halvings of the "
@@ -255,6 +261,18 @@ def at_steady_rotation(model: Model, state: State, spin_rate: float, spin_axis, 
             continue
         (x, q, lam), level = solved, trial
     return _spinning(model, system, x, q, lam, float(spin_rate) * e, p, state.t)
+
+
+def _singular_spin(model, system, x, q, state, rate: float) -> str:
+    """The diagnosis of a steady-rotation search stopped by an exactly singular tangent: the rigid-body
+    and mechanism motions that nothing holds (:func:`mobility`), or else a direction without stiffness."""
+    movable = mobility(model, linearize(model, x, q, None, None, None, state.t, system.work.angle.copy(), system))
+    cause = (f"the model has {movable} rigid-body or mechanism motion{'s' if movable != 1 else ''} that no clamp, "
+             "support or joint to the ground holds (a free body has no steady rotation about a fixed axis)"
+             if movable else "some direction has no stiffness (an unsupported node, a zero stiffness)")
+    return (f"no steady rotation found at the spin rate {rate:.6g} rad/s: the tangent stiffness of the spinning "
+            f"model is singular: {cause}; hold every body with a clamp, a support or a joint to the ground, or "
+            "use about = \"reference\"")
 
 
 def _spin_velocities(x, q, Omega, p):
@@ -309,7 +327,9 @@ def _force_scale(model, work, vd, w) -> float:
 
 def _relative_equilibrium(model, system, x, q, lam, Omega, p, t, tolerance, max_iterations, span):
     """Newton on the residual of the spinning state from ``(x, q, λ)``: its tangent is the co-rotating K
-    (:func:`at_steady_rotation`).  The converged ``(x, q, λ)``, or None."""
+    (:func:`at_steady_rotation`).  The converged ``(x, q, λ)``, or None; raises
+    :class:`reference.linalg.SingularMatrix` when the tangent is exactly singular (SciPy's
+    ``MatrixRankWarning``, whose answer would be NaN)."""
     x, q, lam = x.copy(), q.copy(), lam.copy()
     free, n, eps = system.free, system.n_free, model.joints.eps
     for _ in range(max_iterations):
@@ -320,9 +340,12 @@ def _relative_equilibrium(model, system, x, q, lam, Omega, p, t, tolerance, max_
         if np.max(np.abs(rhs), initial=0.0) <= tolerance * _force_scale(model, system.work, vd, w):
             return x, q, lam  # already balanced (e.g. a body spinning about a principal axis: a singular K)
         A = sps.bmat([[lin.K, lin.B.T], [lin.B, sps.diags(-eps)]], format="csc") if lam.size else lin.K.tocsc()
-        with np.errstate(all="ignore"):
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("error", spla.MatrixRankWarning)
             try:
                 sol = spla.spsolve(A, rhs)
+            except spla.MatrixRankWarning as exc:
+                raise SingularMatrix(str(exc)) from None
             except RuntimeError:
                 return None
         if not np.all(np.isfinite(sol)):

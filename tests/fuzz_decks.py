@@ -570,8 +570,8 @@ def finite(name: str, values) -> bool:
 def solve(domain, results: Path) -> None:
     """Run a deck as ``flexmbs run`` does, shortened (:data:`STEPS` steps or arc-length points), into the
     results file ``results``; then the file must say how the run ended, and a run whose ``status`` is
-    ``completed`` must have written finite numbers only. Modes about a rotation also run a two-rate
-    Campbell table (``flexmbs campbell``)."""
+    ``completed`` must have written finite numbers only. Modes about a rotation that completed also run a
+    two-rate Campbell table (``flexmbs campbell``, which runs the table only after a completed run)."""
     import h5py
     import numpy as np
 
@@ -580,7 +580,8 @@ def solve(domain, results: Path) -> None:
     settings = domain.solver
     t_end = None
     if settings.algorithm in TIME_STEPPING:
-        t_end = min(settings.t_end, STEPS * (settings.dt or settings.t_end / 1000))
+        # the algorithm's step: a static run's is t_end / load_steps whatever dt (or --dt) says
+        t_end = min(settings.t_end, STEPS * domain.algorithm().dt)
     if settings.algorithm == "arc_length":
         settings.max_points = min(settings.max_points, STEPS)
     results.unlink(missing_ok=True)
@@ -596,7 +597,7 @@ def solve(domain, results: Path) -> None:
             f.visititems(lambda name, obj: bad.append(name) if isinstance(obj, h5py.Dataset) and obj.dtype.kind == "f"
                          and not finite(name, obj[()]) else None)
             assert not bad, f"non-finite values with status 'completed': /{bad[0]}"
-    if settings.algorithm == "modes" and settings.about == "rotation":
+    if settings.algorithm == "modes" and settings.about == "rotation" and status == "completed":
         from flexmbs.campbell import campbell
 
         table = campbell(domain, [0.0, settings.spin_rate])

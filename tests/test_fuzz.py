@@ -46,3 +46,19 @@ def test_every_key_and_kind_the_reader_knows_is_in_the_vocabulary():
     for table, known in kinds.items():
         assert set(known) <= set(vocabulary[table]["kind"]), table
     assert set(ALGORITHMS) <= set(vocabulary["solver"]["algorithm"])
+
+
+def test_a_dt_override_of_a_static_deck_is_the_readers_one_line(tmp_path, capsys):
+    """Fuzz case 4366 (``--results``): ``embedded_beam_static.toml`` with the override dt = 1e-4.  A static run
+    steps by t_end / load_steps (0.1) whatever dt says: ``flexmbs run --dt 1e-4`` ran 20 load steps and,
+    the output interval scaled by the 1000 × smaller "step", wrote 2 outputs instead of 21, exit 0; the
+    harness, shortening t_end to 3 × dt, met "t_end = 0.0003 is not a whole number of steps of dt = 0.1".
+    Now the reader refuses the override in one line (exit 2), the same through the API."""
+    from flexmbs.cli import main
+
+    deck = fuzz_decks.ROOT / "models" / "embedded_beam_static.toml"
+    assert fuzz_decks.check(deck, {"dt": 1e-4}, tmp_path / "results.h5") == "error"
+    assert main(["run", str(deck), "--dt", "1e-4", "--out", str(tmp_path / "out"), "--no-vtk"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"flexmbs: error: {deck}: dt override (--dt): algorithm = \"static\" has no time step to "
+                   "override; drop --dt; its load step is t_end / load_steps: set solver.load_steps"), err

@@ -215,3 +215,50 @@ def test_a_failed_newton_is_one_message_through_the_api_and_the_run(tmp_path, ca
     assert load_results(tmp_path / "out" / "results.h5").status == "failed: no steady rotation"
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "no steady rotation found at the spin rate" in err, err
+
+
+@pytest.mark.parametrize("free", ["no clamp", "a free rigid body"])
+def test_a_body_that_nothing_holds_is_one_diagnosis_not_scipys_warning(tmp_path, capsys, free):
+    """Fuzz cases 3476 and 5910 (``make fuzz``): the cantilever without its clamp, or with a rigid body floating
+    beside it, has a singular spinning tangent; SciPy's ``MatrixRankWarning`` escaped on every Newton step and
+    the search ended by blaming the centrifugal loads.  Now one line names the 6 free rigid-body motions and the
+    fix, through the API (warnings as errors: none escapes) and a modes run (exit 1, status, one line)."""
+    import warnings
+
+    text = BASE + 'about = "rotation"\nspin_rate = 6.0\nspin_axis = [0.0, 0.0, 1.0]\n'
+    if free == "no clamp":
+        text = text.replace('[[clamps]]\nnode = "b:start"\n', "")
+    else:
+        text += ('[[rigid_bodies]]\nlabel = "rb2"\nmass = 1.0\ninertia = [1.0, 2.0, 3.0]\nposition = [0.0, 0.0, 3.0]\n'
+                 'rotation = [0.0, 0.0, 0.0, 1.0]\n')
+    path = tmp_path / "deck.toml"
+    path.write_text(text, encoding="utf-8")
+    from reference.io.deck import load_deck
+
+    domain = load_deck(path).domain
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match="singular: the model has 6 rigid-body or mechanism motions that no "
+                                             "clamp, support or joint to the ground holds .*; hold every body"):
+            at_steady_rotation(domain.initialization(), domain.initial_conditions(), 6.0, (0, 0, 1))
+    assert main(["modes", str(path), "--out", str(tmp_path / "out"), "--no-vtk"]) == 1
+    assert load_results(tmp_path / "out" / "results.h5").status == "failed: no steady rotation"
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Warning" not in err and "6 rigid-body or mechanism motions" in err, err
+
+
+def test_campbell_asks_past_the_zero_modes_of_a_direction_without_stiffness(tmp_path, capsys):
+    """Fuzz case 9925: GA3 = 1e-3 (against EA = 1e7) leaves lead-lag shear directions that the modal solver calls
+    zero modes at Ω = 0, beyond the mobility (0: clamped); ``flexmbs campbell`` raised "fewer than 4 modes
+    that are not zero modes" where ``flexmbs modes`` lists the lowest modes.  Now the table asks past them:
+    exit 0, and at the deck's spin rate its frequencies are the modes run's (rel 1e-9: the same solver on the
+    same matrices, the Campbell sweep starting from the stretched state of the previous rate)."""
+    path = tmp_path / "deck.toml"
+    deck = BASE.replace("GA3 = 1e7", "GA3 = 1e-3").replace("elements = 8", "elements = 32")
+    deck = deck.replace("modes = 2", "modes = 4")
+    path.write_text(deck + 'about = "rotation"\nspin_rate = 6.0\nspin_axis = [0.0, 0.0, 1.0]\n', encoding="utf-8")
+    assert main(["campbell", str(path), "--rates", "0:6:2", "--out", str(tmp_path / "out"), "--no-plot"]) == 0
+    r = load_results(tmp_path / "out" / "results.h5")
+    f = r.data("campbell/frequency")
+    assert f.shape == (2, 4) and np.all(np.isfinite(f)) and np.all(f[0] > 0.0)
+    assert f[1] == pytest.approx(r.data("modes/frequency"), rel=1e-9)
