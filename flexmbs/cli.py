@@ -65,8 +65,27 @@ def cmd_run(args) -> int:
 
     check_signals()  # a stop that came while the engine's modules loaded
     deck = load_deck(args.deck, overrides=_overrides(args))
+    _refuse_dt_without_a_step(args, deck)
     _run_deck(args, deck)
     return 0
+
+
+def _refuse_dt_without_a_step(args, deck) -> None:
+    """``--dt`` for an algorithm that takes no time step (static, modes, buckling, arc length): the step would be
+    ignored and the output interval scaled by it (a static run's outputs thinned), so it is refused in one line."""
+    from reference.algorithms import ALGORITHMS
+    from reference.io.deck_reader import DeckError
+
+    if getattr(args, "dt", None) is None:
+        return
+    algorithm = deck.domain.solver.algorithm
+    keys = (*ALGORITHMS[algorithm].deck_required, *ALGORITHMS[algorithm].deck_optional)
+    if "dt" in keys:
+        return
+    step = ("; its load step is t_end / load_steps: set solver.load_steps" if "load_steps" in keys
+            else "; its step is solver.arc_length" if "arc_length" in keys else "")
+    raise DeckError(f"{args.deck}: dt override (--dt): algorithm = \"{algorithm}\" has no time step to override; "
+                    f"drop --dt{step}")
 
 
 def _overrides(args) -> dict:
@@ -150,6 +169,7 @@ def cmd_modes(args) -> int:
 
     check_signals()
     deck = load_deck(args.deck, overrides=_overrides(args))
+    _refuse_dt_without_a_step(args, deck)
     algo = deck.domain.algorithm()
     if not algo.linearised:
         raise CommandError(f"{args.deck}: solver.algorithm is {algo.name!r}; `flexmbs modes` runs a deck with "

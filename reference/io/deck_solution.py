@@ -57,11 +57,6 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
     modes = rd.integer(sv.get("modes", SolverSettings.modes), "solver.modes", maximum=MAX_MODES,
                        fix=f"ask for the lowest modes, at most {MAX_MODES}")
     dt_entry = "dt override (--dt)" if "dt" in overrides else "solver.dt"
-    if "dt" in overrides and "dt" not in (*required, *optional):
-        # the step would be ignored, and the output interval scaled by it (a static run's outputs thinned)
-        step = ("; its load step is t_end / load_steps: set solver.load_steps" if "load_steps" in (*required, *optional)
-                else "; its step is solver.arc_length" if "arc_length" in (*required, *optional) else "")
-        raise rd.fail(dt_entry, f"algorithm = \"{algorithm}\" has no time step to override", f"drop --dt{step}")
     t_entry = "t_end override (--t-end)" if "t_end" in overrides else "solver.t_end"
     t_end = rd.number(overrides.get("t_end", sv.get("t_end", SolverSettings.t_end)), t_entry, positive=True)
     load_steps = rd.integer(sv.get("load_steps", 1), "solver.load_steps", maximum=MAX_STEPS,
