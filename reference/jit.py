@@ -68,7 +68,6 @@ from __future__ import annotations
 
 import os
 import time
-from pathlib import Path
 
 import numba
 import numba.core.event
@@ -86,7 +85,6 @@ THREADS_ENV = "FLEXMBS_THREADS"
 DEFAULT_PARALLEL_NODES = 8192
 """Nodes from which a run takes every available core by default (below it, one thread); see the
 module docstring."""
-ENGINE = Path(__file__).resolve().parent
 
 
 if not os.environ.get("NUMBA_CACHE_DIR"):

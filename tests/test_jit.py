@@ -3,7 +3,6 @@ cross into kernels as plain tuples and are named again inside."""
 
 from __future__ import annotations
 
-import os  # noqa: F401
 import shutil
 from pathlib import Path
 from typing import NamedTuple
@@ -34,18 +33,20 @@ def test_an_edit_changes_the_digests_of_the_modules_that_reach_it(tmp_path, monk
     copy = tmp_path / "reference"
     shutil.copytree(kernel_cache.ENGINE, copy, ignore=shutil.ignore_patterns("__pycache__"))
 
-    def digests():
+    engine = kernel_cache.ENGINE
+
+    def read_afresh(root):
+        monkeypatch.setattr(kernel_cache, "ENGINE", root)
         for cached in (kernel_cache.modules, kernel_cache.imports, kernel_cache.family_modules,
                        kernel_cache.closure, kernel_cache.digest):
             cached.cache_clear()
-        monkeypatch.setattr(kernel_cache, "ENGINE", copy)
+
+    def digests():
+        read_afresh(copy)
         names = ("reference.algorithms.staggered", "reference.algorithms.static", "reference.elements.beam3",
                  "reference.elements.beam2")
         out = {name: kernel_cache.digest(name) for name in names}
-        monkeypatch.setattr(kernel_cache, "ENGINE", kernel_cache.Path(kernel_cache.__file__).resolve().parent)
-        for cached in (kernel_cache.modules, kernel_cache.imports, kernel_cache.family_modules,
-                       kernel_cache.closure, kernel_cache.digest):
-            cached.cache_clear()
+        read_afresh(engine)
         return out
 
     before = digests()
