@@ -300,7 +300,6 @@ def rigid_body_correction(model: Model, state: State, body: np.ndarray) -> None:
     """
     import scipy.linalg
 
-    N = state.x.shape[0]
     pairs = _pair_constraints(model, state.q)
     joint_nodes = [n for n in (*model.joints.i, *model.joints.j, *(p[1] for p in pairs), *(p[2] for p in pairs))
                    if n >= 0]
