@@ -1,6 +1,6 @@
 """Modes, linear buckling and the inertia of a tangent, on the reduced linearisation (docs/formulation.md §11).
 
-Given the reduced matrices of :func:`reference.linearization.reduce` (``M_r``, ``D_r``, ``K_r`` on
+Given the reduced matrices of :func:`reference.algorithms.linearization.reduce` (``M_r``, ``D_r``, ``K_r`` on
 independent coordinates):
 
 - **undamped modes** (:func:`modes`, ``D_r = 0`` and ``K_r`` symmetric): ``K_r φ = ω² M_r φ``, the lowest
