@@ -463,9 +463,9 @@ def main(args=None) -> int:
     body += ["", f"Report generated in {time.perf_counter() - t0:.1f} s."]
     name = "verification_quick.md" if quick else "verification.md"
     (reports / name).write_text("\n".join(body) + "\n", encoding="utf-8")
-    from flexmbs.html import markdown_to_html
+    from flexmbs.html import write_html
 
-    (reports / name).with_suffix(".html").write_text(markdown_to_html("\n".join(body), reports), encoding="utf-8")
+    write_html(reports / name)
     print(f"wrote {reports / name}: {len(checks) - len(failed)}/{len(checks)} checks pass "
           f"({time.perf_counter() - t0:.0f} s)")
     for c in failed:
