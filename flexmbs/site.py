@@ -215,8 +215,8 @@ document.readyState === "complete" && (async () => { try {
 ``%s`` filled with :data:`_RAW_LATEX`): once the page has loaded and MathJax has typeset it, the page's raw LaTeX,
 equations, typeset equations, MathJax errors and links as JSON, and for each interactive 3D view
 (:mod:`flexmbs.view`, awaited until it is ready, at most 30 s) what it drew: its count of drawn items and its
-canvas's inked pixels (painted, not near-white), null when it never became ready; the page scrolled to its anchor for the
-screenshot."""
+canvas's inked pixels (painted, not near-white), null when it never became ready; the page scrolled to its
+anchor for the screenshot."""
 
 
 def _ids(path: Path, cache: dict) -> set[str]:

@@ -34,8 +34,8 @@ import numpy as np
 
 import reference
 from flexmbs.verification.analytic import elastica_tip, polygon_tip
-from reference.io.deck import load_deck
 from reference.elements import Beam2Formulation, Section
+from reference.io.deck import load_deck
 from reference.rotation import EulerParameters, RotationVector
 
 FIGURES = Path("figures") / "02_beam_rollup"  # this lesson's figures, saved next to where it runs

@@ -32,9 +32,9 @@ import numpy as np
 
 import reference
 from reference.domain import Domain, SolverDiverged, SolverSettings
-from reference.io.deck import load_deck
 from reference.elements import Section
 from reference.interactions import Clamp, NodalLoad
+from reference.io.deck import load_deck
 
 FIGURES = Path("figures") / "04_staggered_algorithm"  # this lesson's figures, saved next to where it runs
 FIGURES.mkdir(parents=True, exist_ok=True)

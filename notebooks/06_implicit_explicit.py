@@ -45,10 +45,10 @@ import numpy as np
 import reference
 from flexmbs.verification import observables as ob
 from reference.algorithms.generalized_alpha import parameters
-from reference.io.deck import load_deck
 from reference.domain import Domain, SolverDiverged, SolverSettings
 from reference.elements import Section
 from reference.interactions import Clamp, NodalLoad, Step
+from reference.io.deck import load_deck
 from reference.io.results import load_results
 
 FIGURES = Path("figures") / "06_implicit_explicit"  # this lesson's figures, saved next to where it runs

@@ -39,9 +39,9 @@ import numpy as np
 
 import reference
 from reference.domain import Domain, SolverSettings
-from reference.io.deck import load_deck
 from reference.elements import Section
 from reference.interactions import Gravity
+from reference.io.deck import load_deck
 from reference.observables import parse
 from reference.rotation import EulerParameters
 

@@ -35,8 +35,8 @@ import scipy.linalg
 
 import reference
 from reference.domain import Domain, SolverSettings
-from reference.io.deck import load_deck
 from reference.forces import PointToPoint
+from reference.io.deck import load_deck
 
 FIGURES = Path("figures") / "09_springs"  # this lesson's figures, saved next to where it runs
 FIGURES.mkdir(parents=True, exist_ok=True)

@@ -17,8 +17,8 @@ import numpy as np  # noqa: E402
 import pytest
 
 from reference.domain import Domain
-from reference.io.deck import load_deck
 from reference.elements import Section
+from reference.io.deck import load_deck
 
 
 def cantilever(n_elements: int, section: Section, length: float = 1.0, axis2=(0.0, 1.0, 0.0)):

@@ -14,11 +14,11 @@ import pytest
 from flexmbs.verification import analytic
 from flexmbs.verification.analytic import polygon_tip
 from reference.algorithms import ALGORITHMS, ArcLength, SolverSettings, Static
-from reference.io.deck import load_deck
 from reference.domain import Domain, SolverDiverged
 from reference.elements import Section
 from reference.interactions import FixedCoordinates, NodalLoad, Ramp
 from reference.io.deck import DeckError
+from reference.io.deck import load_deck
 from reference.io.results import load_results
 from reference.status import NO_CONVERGENCE
 from reference.validation import ModelWarning

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 from reference.domain import Domain
-from reference.io.deck import load_deck
 from reference.elements import Section
+from reference.io.deck import load_deck
 from reference.io.deck_reader import DeckError
 
 from test_families import uncompiled_json

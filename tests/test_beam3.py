@@ -24,8 +24,8 @@ MODELS = ROOT / "models"
 def run_all() -> dict:
     from flexmbs.verification.families import cantilever_tip
     from reference.domain import Domain
-    from reference.io.deck import load_deck
     from reference.elements import Section
+    from reference.io.deck import load_deck
 
     out = {}
     reference = cantilever_tip("beam3", 16, 1e4)

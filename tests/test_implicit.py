@@ -17,7 +17,6 @@ import pytest
 from flexmbs.verification import observables as ob
 from flexmbs.verification.analytic import polygon_tip
 from reference.algorithms import ALGORITHMS, GeneralizedAlpha, Static
-from reference.io.deck import load_deck
 from reference.algorithms.generalized_alpha import parameters
 from reference.algorithms.implicit import NewtonSystem, compose
 from reference.domain import Domain, SolverDiverged, SolverSettings
@@ -25,6 +24,7 @@ from reference.elements import Section
 from reference.forces import Bushing, PointToPoint, Rotational
 from reference.interactions import Clamp, Gravity, NodalLoad, Ramp
 from reference.io.deck import DeckError
+from reference.io.deck import load_deck
 from reference.observables import wrap
 from reference.rotation import RotationVector
 

@@ -12,10 +12,10 @@ from crosscheck.harness import run
 from flexmbs.cli import main
 from flexmbs.verification.observables import rocker_angle
 from reference.domain import Domain
-from reference.io.deck import load_deck
 from reference.interactions import NodalLoad
 from reference.io.deck import DeckError
 from reference.elements import Section
+from reference.io.deck import load_deck
 from reference.observables import ObservableError, parse, relative_angle
 
 MODELS = Path(__file__).resolve().parent.parent / "models"

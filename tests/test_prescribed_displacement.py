@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from reference.algorithms import SolverSettings
-from reference.io.deck import load_deck
 from reference.domain import Domain
 from reference.elements import Section
 from reference.interactions import Clamp, Ramp, Sine
 from reference.io.deck import DeckError
+from reference.io.deck import load_deck
 from reference.io.results import load_results
 from reference.rotation import EulerParameters
 from reference.validation import ModelWarning

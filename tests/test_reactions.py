@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from reference.domain import Domain, SolverSettings
-from reference.io.deck import load_deck
 from reference.elements import Section
 from reference.interactions import Gravity, NodalLoad, SmoothStep
+from reference.io.deck import load_deck
 from reference.io.results import load_results
 from reference.joints import MasterSlave
 from reference.rotation import EulerParameters
