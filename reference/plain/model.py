@@ -36,7 +36,23 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from reference.generated import rotation_maps as rm
+from reference.plain import constraints, loads
+from reference.plain.elements import element_forces, element_tangent
+from reference.plain.vectorise import plain
 from reference.state import Model
+
+
+def assemble_blocks(n_nodes, nodes, blocks):
+    """The (6N, 6N) scipy.sparse.csr sum of square blocks (K, 6n, 6n) on the node lists ``nodes`` (K, n)
+    (node-major coordinates; a node −1, the ground, drops its rows and columns)."""
+    K, n = nodes.shape
+    idx = (6 * nodes[:, :, None] + np.arange(6)).reshape(K, 6 * n)
+    keep = np.repeat(nodes >= 0, 6, axis=1)
+    mask = keep[:, :, None] & keep[:, None, :]
+    rows = np.broadcast_to(idx[:, :, None], blocks.shape)
+    cols = np.broadcast_to(idx[:, None, :], blocks.shape)
+    return sp.csr_matrix((blocks[mask], (rows[mask], cols[mask])), shape=(6 * n_nodes, 6 * n_nodes))
 
 
 class Evaluation:
@@ -99,12 +115,18 @@ class Evaluation:
         D : float
             Power of the force elements' dampers ``Σ c (B_e V)²`` [W].
         """
-        raise NotImplementedError
+        S, U = element_forces(self.model, x, q)
+        F = loads.external_forces(self.model, q, t)
+        D = 0.0
+        if self.model.force_elements.kind.shape[0] > 0:
+            G, actuators, U_springs, D = loads.force_element_forces(self.model, x, q, v, w, t, angle)
+            S, F, U = S - G, F + actuators, U + U_springs
+        return S, F, float(U), D
 
     def external_forces(self, x, q, t):
         """``F`` (N,6) alone: gravity and the loads at time t (no actuators), as
         :func:`reference.evaluation.forces.external_forces`."""
-        raise NotImplementedError
+        return loads.external_forces(self.model, q, t)
 
     def constraints(self, x, q, t):
         """The joints' rows at ``(x, q)`` and time t (:func:`reference.joints.assembly.joint_rows`).
@@ -119,12 +141,13 @@ class Evaluation:
         phi_t : ndarray (m,)
             ∂Φ/∂t; the constraint rate is ``B V + Φ_t``.
         """
-        raise NotImplementedError
+        phi, B_local, phi_t = constraints.joint_rows(self.model, x, q, t)
+        return phi, constraints.global_jacobian(self.model, B_local), phi_t
 
     def constraint_hessian(self, x, q, t, lam):
         """``∂(Bᵀλ)/∂δ`` (6N, 6N, scipy.sparse csr) at fixed λ (m,), the joints' geometric stiffness
         (:func:`reference.joints.hessian.joint_rows_hessian`)."""
-        raise NotImplementedError
+        return assemble_blocks(self.n_nodes, *constraints.constraint_hessians(self.model, x, q, t, lam))
 
     def tangent(self, x, q, v, w, t, lam=None, angle=None):
         """The tangent stiffness ``K = ∂r/∂δ`` (6N, 6N, scipy.sparse csr) at fixed velocities.
@@ -144,13 +167,29 @@ class Evaluation:
         ``angle`` (F,): the rotational springs' continuous angles (read, not updated); None
         continues them from zero (the principal angle).
         """
-        raise NotImplementedError
+        model, N = self.model, self.n_nodes
+        K = element_tangent(model, x, q) + assemble_blocks(N, np.arange(N)[:, None], loads.load_tangent(model, q, t))
+        if model.force_elements.kind.shape[0] > 0:
+            angle = np.zeros(model.force_elements.kind.shape[0]) if angle is None else angle
+            nodes, K_fe, _ = loads.force_element_tangents(model, x, q, v, w, t, angle)
+            K = K + assemble_blocks(N, nodes, K_fe)
+        if lam is not None and self.n_constraints > 0:
+            K = K + self.constraint_hessian(x, q, t, lam)
+        return K.tocsr()
 
     def damping_matrix(self, x, q, v, w):
         """``C = ∂r/∂V`` (6N, 6N, scipy.sparse csr): the mass-proportional damping ``c M``, the
         gyroscopic tangent ``∂(ω × J ω)/∂ω`` at ``w``, and the force elements' dampers
         ``B_eᵀ diag(c) B_e`` at ``(x, q)``."""
-        raise NotImplementedError
+        model, N = self.model, self.n_nodes
+        gyro = np.zeros((N, 6, 6))
+        gyro[:, 3:, 3:] = loads.gyroscopic_tangents(model.nodes.inertia, w)
+        C = self.damping * self.mass_matrix() + assemble_blocks(N, np.arange(N)[:, None], gyro)
+        if model.force_elements.kind.shape[0] > 0:
+            angle = np.zeros(model.force_elements.kind.shape[0])  # C = B_eᵀ diag(c) B_e depends on neither t nor φ
+            nodes, _, C_fe = loads.force_element_tangents(model, x, q, v, w, 0.0, angle)
+            C = C + assemble_blocks(N, nodes, C_fe)
+        return C.tocsr()
 
     def mass_matrix(self):
         """M (6N, 6N, scipy.sparse csr): per node ``m I₃`` and the body-frame inertia J."""
@@ -165,7 +204,13 @@ class Evaluation:
         """``T(ψ)`` (6N, 6N, scipy.sparse csr): per node ``I₃`` and the right tangent operator
         ``J_r(ψ_n)`` of ``exp(ψ + δ) = exp(ψ) exp(J_r(ψ) δ) + O(δ²)`` (generalized-α's update
         ``q = q_n ⊗ exp(ψ + δ)``), ψ (N,3)."""
-        raise NotImplementedError
+        N = self.n_nodes
+        Jr = np.empty((9, N))
+        plain(rm.right_jacobian)(np.asarray(psi, dtype=float).T, Jr)
+        blocks = np.zeros((N, 6, 6))
+        blocks[:, :3, :3] = np.eye(3)
+        blocks[:, 3:, 3:] = Jr.T.reshape(N, 3, 3)
+        return assemble_blocks(N, np.arange(N)[:, None], blocks)
 
     def residual(self, x, q, v, w, vd, lam, t, angle, dynamic=True):
         """The implicit residual as :func:`reference.algorithms.implicit.evaluate` computes it.
@@ -182,20 +227,34 @@ class Evaluation:
         U, D : float
             As :meth:`forces`.
         """
-        raise NotImplementedError
+        if not dynamic:
+            v, w = np.zeros_like(v), np.zeros_like(w)
+        S, F, U, D = self.forces(x, q, v, w, t, angle)
+        r = S - F
+        if dynamic:
+            m, J = self.masses
+            Jw = np.einsum("nab,nb->na", J, w)
+            r[:, :3] += m[:, None] * (vd[:, :3] + self.damping * v)
+            r[:, 3:] += np.cross(w, Jw) + self.damping * Jw + np.einsum("nab,nb->na", J, vd[:, 3:])
+        phi, B, phi_t = self.constraints(x, q, t)
+        if self.n_constraints > 0:
+            r += (B.T @ lam).reshape(-1, 6)
+        return r, phi, B, phi_t, U, D
 
     def damper_dissipation(self, x, q, v, w, v_new, w_new):
         """``Σ c (B_e V⁻)·(B_e V̄)``, ``V̄ = ½(V⁻ + V⁺)`` [W]: the force elements' dampers' work rate
         over an explicit kick (:func:`reference.evaluation.force_elements.force_element_dissipation`)."""
-        raise NotImplementedError
+        if self.model.force_elements.kind.shape[0] == 0:
+            return 0.0
+        return loads.force_element_dissipation(self.model, x, q, v, w, v_new, w_new)
 
     def master_slave_project(self, q, v, w):
         """Replace each master/slave pair's velocities by ``T u`` with ``(TᵀMT) u = TᵀM V``, in place
         on ``v``, ``w`` (:func:`reference.joints.master_slave.master_slave_project`); nothing
         without master/slave joints."""
-        raise NotImplementedError
+        constraints.master_slave_project(self.model, q, v, w)
 
     def master_slave_positions(self, x, q):
         """Set each slave's dependent coordinates from its master, in place on ``x``, ``q``
         (:func:`reference.joints.master_slave.master_slave_positions`); nothing without them."""
-        raise NotImplementedError
+        constraints.master_slave_positions(self.model, x, q)
