@@ -1,0 +1,248 @@
+"""Lie-group generalized-α on the reference path: one Newton step on one screen (:func:`alpha_step`).
+
+The scheme, its parameters and its convergence test are those of
+:mod:`reference.algorithms.generalized_alpha` (Brüls, Cardona & Arnold 2012; stated there once), the
+step that of :mod:`reference.algorithms.alpha_steps` written as a textbook loop over
+:class:`reference.plain.newton.Newton`: predictor, modified Newton on the configuration correction δ
+(``h Δq += δ``, ``V += γ' δ``, ``V̇ += β' δ``, ``λ += β' μ``) with the iteration matrix
+``[M + (γ'/β') C + K T(hΔθ)/β', Bᵀ; B T(hΔθ), −β' ε]`` kept while every correction is below a tenth of the
+previous one (refactored at the iterate otherwise), and the acceptance with the energy bookkeeping.
+
+Fixed steps of ``dt``; a step whose Newton iteration fails is taken again as two halves (down to
+``dt / 2^MAX_CUTS``).  The error-controlled mode (``error_tolerance``) is refused on this path in one
+line (:meth:`PlainGeneralizedAlpha.refusal`): run it with ``backend = "compiled"``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from reference.algorithms.alpha_steps import ROUNDOFF
+from reference.algorithms.generalized_alpha import GeneralizedAlpha
+from reference.algorithms.step_control import MAX_CUTS, SolverStatistics
+from reference.plain.newton import Newton, compose
+from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
+
+
+@dataclass
+class AlphaState:
+    """What a generalized-α step carries besides the :class:`~reference.state.State`: the accelerations
+    ``vd`` (N,6) V̇, the algorithmic accelerations ``a`` (N,6), the multipliers ``lam`` (m,), the constraint and
+    dissipated powers ``powers`` of the last step, the kept factor ``lu`` and the step ``h_lu`` it was made for."""
+
+    vd: np.ndarray
+    a: np.ndarray
+    lam: np.ndarray
+    powers: np.ndarray
+    lu: object = None
+    h_lu: float = 0.0
+
+
+class AlphaParameters(NamedTuple):
+    """The settings a step reads: α_m, α_f, γ, β, the Newton tolerance, the corrections allowed, the
+    modified-Newton contraction and the model size L [m]."""
+
+    alpha_m: float
+    alpha_f: float
+    gamma: float
+    beta: float
+    tolerance: float
+    max_iterations: int
+    contraction: float
+    L: float
+
+
+@dataclass
+class PlainAlphaRun:
+    """The run state of :class:`PlainGeneralizedAlpha` (as :class:`reference.algorithms.generalized_alpha.GeneralizedAlphaRun`)."""
+
+    newton: Newton
+    L: float
+    h: float
+    start: tuple = (0.0, 0)
+    alpha: AlphaState | None = None
+    stats: SolverStatistics = field(default_factory=SolverStatistics)
+    row: dict = field(default_factory=dict)
+    stopped_at: float | None = None
+    tried: str = ""
+    history: list = field(default_factory=list)
+
+
+def alpha_step(nw: Newton, st, al: AlphaState, h: float, p: AlphaParameters) -> tuple[int, int, int]:
+    """One generalized-α step of h [s] from the state ``st`` (x, q, v, w, f_prev, clock, …) in place.  Returns
+    ``(status, corrections, factorisations)``; a failed step leaves the state as it was."""
+    am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
+    x, q, v, w, f_prev, clock = st[:6]
+    V = np.hstack([v, w])
+    bp, gp = (1.0 - am) / (h * h * beta * (1.0 - af)), gamma / (h * beta)
+    t1, floor = clock[0] + h, ROUNDOFF * max(1.0, float(np.max(np.abs(x))) / p.L)
+    an = (al.vd - am * al.a) / (1.0 - am)  # predictor: V̇_{n+1} = V̇_n
+    vdn, lamn = al.vd.copy(), al.lam.copy()
+    dq = V + h * (0.5 - beta) * al.a + h * beta * an
+    Vn = V + h * (1.0 - gamma) * al.a + h * gamma * an
+    m, J = nw.ev.masses
+    unit = np.repeat([[1.0, 1.0, 1.0, 1.0 / p.L, 1.0 / p.L, 1.0 / p.L]], x.shape[0], axis=0)[nw.free]
+    previous, its, facts = -1.0, 0, 0
+    if al.lu is not None and al.h_lu != h:
+        al.lu = None
+    while its < p.max_iterations:
+        x1, q1 = x + h * dq[:, :3], compose(q, h * dq[:, 3:])
+        res = nw.evaluate(x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True)
+        if not np.all(np.isfinite(res.r)):
+            return DIVERGED, its, facts
+        if al.lu is None or previous == -2.0:  # no factor for h, or a slow contraction: refactor here
+            al.lu = nw.factor(nw.matrix(x1, q1, Vn[:, :3], Vn[:, 3:], t1, lamn, 1.0, gp / bp, 1.0 / bp, bp,
+                                        h * dq[:, 3:]))
+            al.h_lu, facts, previous = h, facts + 1, -1.0
+            if al.lu is None:
+                return SINGULAR, its, facts
+        solved = nw.solve(al.lu, -res.r / bp, -(res.phi - nw.eps * lamn))
+        if solved is None:
+            return SINGULAR, its, facts
+        delta, mu = solved
+        size = max(float(np.max(np.abs(delta[:, :3]))) / p.L, float(np.max(np.abs(delta[:, 3:]))))
+        inertia = np.hstack([m[:, None] * vdn[:, :3], np.einsum("nab,nb->na", J, vdn[:, 3:])])
+        big = np.max([np.abs(inertia), np.abs(res.S), np.abs(res.F), np.abs(res.r - res.S + res.F)], axis=0)
+        res_max, scale = float(np.max(np.abs(res.r)[nw.free] * unit, initial=0.0)), float(
+            np.max(big[nw.free] * unit, initial=0.0))
+        phi = float(np.max(np.abs(res.phi - nw.eps * lamn), initial=0.0))
+        imbalance = max(res_max / scale if res_max > 0.0 else 0.0, phi / p.L)
+        theta = size / previous if previous > 0.0 else 1.0
+        done = (imbalance <= p.tolerance or (theta < 1.0 and theta * imbalance <= p.tolerance * (1.0 - theta))
+                or size <= floor)
+        if previous >= 0.0 and size > p.contraction * previous and not done:
+            previous = -2.0  # refactor at this iterate and correct again
+            continue
+        previous, its = size, its + 1
+        dq += delta / h
+        Vn += gp * delta
+        vdn += bp * delta
+        lamn += bp * mu
+        if done:
+            _accept(nw, st, al, h, (x, q, dq, Vn, vdn, an, lamn, res), p)
+            return OK, its, facts
+    return NO_CONVERGENCE, its, facts
+
+
+def _accept(nw: Newton, st, al: AlphaState, h: float, it, p) -> None:
+    """The converged step into the state: the external work (trapezoidal on the increments, loads and
+    constraint power) and the dissipation from the last evaluation, then ``x, q, V, V̇, a, λ``."""
+    x, q, dq, Vn, vdn, an, lamn, res = it
+    clock, f_prev = st.clock, st.f_prev
+    P1, D1 = powers(nw, res, lamn, Vn)
+    clock[2] += float(np.sum(0.5 * (f_prev + res.F) * h * dq)) + 0.5 * h * (al.powers[0] + P1)
+    clock[3] += 0.5 * h * (al.powers[1] + D1)
+    al.powers[:] = P1, D1
+    f_prev[:] = res.F
+    al.a[:] = an + (1.0 - p.alpha_f) / (1.0 - p.alpha_m) * (vdn - al.vd)
+    al.vd[:], al.lam[:] = vdn, lamn
+    x1, q1 = x + h * dq[:, :3], compose(q, h * dq[:, 3:])
+    x[:], q[:], st.v[:], st.w[:] = x1, q1, Vn[:, :3], Vn[:, 3:]
+
+
+def powers(nw: Newton, res, lam, V) -> tuple[float, float]:
+    """``(P, D)``: the constraint forces' power ``−λᵀ B V`` and the dissipated power ``c Vᵀ M V`` plus the
+    force elements' dampers' (of the evaluation ``res``) [W], V (N,6)."""
+    m, J = nw.ev.masses
+    P = -float(lam @ (res.B @ V.ravel()))
+    D = nw.ev.damping * (float(np.sum(m[:, None] * V[:, :3] ** 2))
+                         + float(np.einsum("na,nab,nb->", V[:, 3:], J, V[:, 3:]))) + res.D
+    return P, D
+
+
+class PlainGeneralizedAlpha(GeneralizedAlpha):
+    """:class:`reference.algorithms.generalized_alpha.GeneralizedAlpha` on the reference path: the same
+    settings, deck keys, records and messages; the steps of :func:`alpha_step`."""
+
+    def refusal(self, model) -> str | None:
+        """The compiled algorithm's refusals, and error control (not on this path)."""
+        if self.error_tolerance is not None:
+            return ("error_tolerance (the error-controlled step) is not available on the reference path; use "
+                    "backend = \"compiled\", or fixed steps (leave error_tolerance out)")
+        return GeneralizedAlpha.refusal(model)
+
+    def start(self, model, state, critical_step=None, guard=None) -> PlainAlphaRun:
+        """A run from ``state``; the initial accelerations are computed by the first :meth:`advance`
+        (ValueError with :meth:`refusal`'s line for a model or setting this path cannot run)."""
+        problem = self.refusal(model)
+        if problem:
+            raise ValueError(problem)
+        return PlainAlphaRun(Newton(model), self.length_scale(state.x), self.dt, (state.t, state.n))
+
+    def _initial(self, run, state) -> int:
+        """Consistent initial accelerations and multipliers (``τ = 10⁻³ h``, ``c_e = β'``), the first
+        evaluation's loads and powers."""
+        nw, h = run.newton, run.h
+        x, q, v, w, f_prev, clock = state[:6]
+        nw.angle[:] = state.angle
+        bp = (1.0 - self.alpha_m) / (h * h * self.beta * (1.0 - self.alpha_f))
+        solved = nw.consistent_accelerations(x, q, v, w, clock[0], 1e-3 * h, ce=bp)
+        if solved is None:
+            run.tried = "at the initial accelerations"
+            return SINGULAR
+        vd, lam = solved
+        res = nw.evaluate(x, q, v, w, vd, lam, clock[0], True)
+        f_prev[:] = res.F
+        run.alpha = AlphaState(vd, vd.copy(), lam, np.array(powers(nw, res, lam, np.hstack([v, w]))))
+        return OK
+
+    def advance(self, model, state, run, n_steps, record) -> int:
+        nw = run.newton
+        x, q, v, w, f_prev, clock = state[:6]
+        if run.alpha is None:
+            run.stopped_at = None
+            code = self._initial(run, state)
+            if code != OK:
+                run.stopped_at = clock[0]
+                return code
+        al = run.alpha
+        if record is not None:
+            res = nw.evaluate(x, q, v, w, al.vd, al.lam, clock[0], True)
+            nw.write_record(record, x, q, v, w, clock, al.lam, res)
+            run.row = run.stats.output(self.dt, nw.free_norm(res.r))
+        for _ in range(int(n_steps)):
+            code = self._step(state, run, self.dt, 0)
+            if code != OK:
+                state.angle[:] = nw.angle
+                run.stopped_at = clock[0]
+                return code
+            clock[1] += 1
+            clock[0] = run.start[0] + (clock[1] - run.start[1]) * self.dt
+        state.angle[:] = nw.angle
+        return OK
+
+    def _step(self, state, run, h, cuts) -> int:
+        """A step of h, taken again as two halves when Newton fails (up to :data:`MAX_CUTS` halvings)."""
+        nw, stats = run.newton, run.stats
+        held = nw.angle.copy()
+        p = AlphaParameters(self.alpha_m, self.alpha_f, self.gamma, self.beta, self.tolerance, self.max_iterations,
+                            self.contraction, run.L)
+        code, its, facts = alpha_step(nw, state, run.alpha, h, p)
+        stats.iterations += its
+        stats.factorizations += facts
+        if code == OK:
+            stats.step(h)
+            return OK
+        nw.angle[:] = held
+        run.alpha.lu = None
+        if cuts >= MAX_CUTS:
+            run.tried = f"with the step cut from {self.dt:g} to {h:g} s"
+            return code
+        stats.cuts += 1
+        for _ in range(2):
+            code = self._step(state, run, 0.5 * h, cuts + 1)
+            if code != OK:
+                return code
+            state.clock[0] += 0.5 * h
+        state.clock[0] -= h  # the caller sets the time of the whole step
+        return OK
+
+    def summary(self, run) -> str:
+        return run.stats.summary()
+
+    def finish(self, model, state, run, completed: bool) -> dict:
+        return {}

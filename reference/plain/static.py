@@ -1,0 +1,185 @@
+"""Static load stepping with full Newton–Raphson on the reference path (:func:`static_newton`).
+
+The equations, the convergence test and the step cuts are those of :mod:`reference.algorithms.static`
+and its compiled loop :func:`reference.algorithms.newton_steps.newton_loop` (stated there once),
+written as a textbook loop over :class:`reference.plain.newton.Newton`: at every load level t,
+``S − F + Bᵀλ = 0``, ``Φ − ελ = 0`` is solved from the previous level on the matrix
+``[K, Bᵀ; B, −ε]``; a level that fails is halved (up to ``MAX_CUTS`` times) and the next grow back.
+
+The records are the compiled algorithm's: the configuration, strain energy, the trapezoidal work of the
+loads and drives, ``‖Φ‖``, λ, the solver statistics and the number of negative eigenvalues of the
+tangent reduced to the constraints' null space (:func:`negative_count`).  Not on this path: the path
+checks of :mod:`reference.algorithms.path_checks` (a drive's other root, a reaction's jump, the
+limit-point trace by arc length) and the stability events (a change of the count is not interpolated
+to a critical load factor): run them with ``backend = "compiled"``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from reference.algorithms.static import MAX_CUTS, Static
+from reference.algorithms.step_control import SolverStatistics
+from reference.linalg import null_space
+from reference.modal import SMALL, negative_eigenvalues
+from reference.plain.newton import Newton, relative_rotation
+from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
+
+
+def static_newton(nw: Newton, x, q, lam, t, tolerance, L, max_iterations) -> tuple[int, list]:
+    """Full Newton at load level t from ``(x, q, λ)``, in place: ``(status, residual norms)``.
+
+    Converged when the residual is balanced (every free residual force below ``tolerance`` times the
+    largest internal, external or joint force, and ``|Φ − ελ| ≤ tolerance × L``) or, after a correction,
+    when the correction is below ``tolerance`` (translations over L, rotations in rad)."""
+    N = x.shape[0]
+    zero, history, delta = np.zeros((N, 3)), [], None
+    for it in range(max_iterations + 1):
+        res = nw.evaluate(x, q, zero, zero, np.zeros((N, 6)), lam, t, False)
+        gap = res.phi - nw.eps * lam
+        history.append(math.sqrt(nw.free_norm(res.r) ** 2 + float(gap @ gap)))
+        if not math.isfinite(history[-1]):
+            return DIVERGED, history
+        scale = max(float(np.max(np.abs(res.S))), float(np.max(np.abs(res.F))), 1e-300)
+        if nw.m:
+            scale = max(scale, float(np.max(np.abs(nw.joint_forces(res, lam)))))
+        balanced = (float(np.max(np.abs(res.r[nw.free]), initial=0.0)) <= tolerance * scale
+                    and float(np.max(np.abs(gap), initial=0.0)) <= tolerance * L)
+        if balanced or (delta is not None and correction_size(delta, L) <= tolerance):
+            return OK, history
+        if it == max_iterations:
+            return NO_CONVERGENCE, history
+        lu = nw.factor(nw.matrix(x, q, zero, zero, t, lam, 0.0, 0.0, 1.0, 1.0))
+        solved = nw.solve(lu, -res.r, -gap) if lu is not None else None
+        if solved is None:
+            return SINGULAR, history
+        delta, mu = solved
+        nw.update(x, q, lam, delta, mu)
+    return NO_CONVERGENCE, history
+
+
+def correction_size(delta, L: float) -> float:
+    """The largest correction: translations over the model size L, rotations in rad."""
+    return max(float(np.max(np.abs(delta[:, :3]))) / L, float(np.max(np.abs(delta[:, 3:]))))
+
+
+def negative_count(nw: Newton, x, q, lam, t) -> int:
+    """The number of negative eigenvalues of the static tangent at ``(x, q, λ, t)`` reduced to the null space
+    of B (:func:`reference.modal.negative_eigenvalues` of ``Zᵀ K Z``; −1: not known)."""
+    N = x.shape[0]
+    zero = np.zeros((N, 3))
+    nw.evaluate(x, q, zero, zero, np.zeros((N, 6)), lam, t, False)
+    A = nw.matrix(x, q, zero, zero, t, lam, 0.0, 0.0, 1.0, 0.0).tocsr()
+    n = nw.n_free
+    if nw.m == 0:
+        return negative_eigenvalues(A.toarray() if n <= SMALL else A)[0]
+    Z, _ = null_space(A[n:, :n])
+    return negative_eigenvalues((Z.T @ A[:n, :n] @ Z).tocsr())[0]
+
+
+@dataclass
+class PlainStaticRun:
+    """The run state of :class:`PlainStatic` (the fields of
+    :class:`reference.algorithms.static.StaticRun` that its records and messages read)."""
+
+    newton: Newton
+    lam: np.ndarray
+    L: float
+    P: np.ndarray | None = None
+    F: np.ndarray | None = None
+    U: float = 0.0
+    started: bool = False
+    stopped_at: float | None = None
+    history: list = field(default_factory=list)
+    negative: int = -1
+    recorded: int = -1
+    recorded_at: float | None = None
+    events: list = field(default_factory=list)
+    stats: SolverStatistics = field(default_factory=SolverStatistics)
+    h: float = 0.0
+    row: dict = field(default_factory=dict)
+    reactions: np.ndarray | None = None
+    refused: str = ""
+    refused_fix: str = ""
+
+
+class PlainStatic(Static):
+    """:class:`reference.algorithms.static.Static` on the reference path: the same settings, records and
+    messages; the load levels solved by :func:`static_newton`."""
+
+    def start(self, model, state, critical_step=None, guard=None) -> PlainStaticRun:
+        problem = self.refusal(model)
+        if problem:
+            raise ValueError(problem)
+        return PlainStaticRun(Newton(model), np.zeros(model.n_constraints), self.length_scale(state.x))
+
+    def _level(self, run, x, q, lam, t) -> int:
+        """Newton at load level t (in place); on success the level's loads, joint forces and stability count."""
+        nw = run.newton
+        code, run.history = static_newton(nw, x, q, lam, t, self.tolerance, run.L, self.max_iterations)
+        run.stats.iterations += len(run.history) - 1
+        if code == OK:
+            res = nw.last
+            run.U, run.F, run.P = res.U, res.F.copy(), nw.joint_forces(res, lam)
+            run.negative = negative_count(nw, x, q, lam, t)
+        return code
+
+    def advance(self, model, state, run, n_steps, record) -> int:
+        x, q, v, w, f_prev, clock = state[:6]
+        nw, lam = run.newton, run.lam
+        if not run.started:
+            v[:], w[:] = 0.0, 0.0
+            nw.angle[:] = state.angle
+            run.stopped_at = None
+            code = self._level(run, x, q, lam, clock[0])
+            if code != OK:
+                run.stopped_at = clock[0]
+                return code
+            f_prev[:] = run.F
+            run.started = True
+        if record is not None:
+            N = x.shape[0]
+            res = nw.evaluate(x, q, v, w, np.zeros((N, 6)), lam, clock[0], False)
+            nw.write_record(record, x, q, v, w, clock, lam, res)
+            run.U, run.recorded, run.recorded_at = res.U, run.negative, float(clock[0])
+            run.stats.factorizations = run.stats.iterations  # full Newton: a factor every iteration
+            run.row = run.stats.output(run.h, nw.free_norm(res.r))
+        for _ in range(int(n_steps)):
+            code = self._load_step(state, run)
+            if code != OK:
+                state.angle[:] = nw.angle
+                return code
+            clock[1] += 1
+            clock[0] = clock[1] * self.dt
+        state.angle[:] = nw.angle
+        return OK
+
+    def _load_step(self, state, run) -> int:
+        """One load step of ``dt`` from ``clock[0]``, in sub-levels halved after a failure and doubled after a
+        success; the work of the loads and drives over each (trapezoidal)."""
+        x, q, f_prev, clock = state.x, state.q, state.f_prev, state.clock
+        nw, lam = run.newton, run.lam
+        target, sub, t = clock[0] + self.dt, self.dt, clock[0]
+        while t < target - 1e-12 * self.dt:
+            t_try = min(t + sub, target)
+            saved = (x.copy(), q.copy(), lam.copy(), nw.angle.copy(), run.P)
+            code = self._level(run, x, q, lam, t_try)
+            if code == OK:
+                d = np.hstack([x - saved[0], relative_rotation(saved[1], q)])
+                clock[2] += 0.5 * float(np.sum((f_prev + run.F) * d)) - 0.5 * float(np.sum((saved[4] + run.P) * d))
+                f_prev[:] = run.F
+                run.h = t_try - t
+                run.stats.step(run.h)
+                t, sub = t_try, min(2.0 * sub, self.dt)
+                continue
+            x[:], q[:], lam[:], nw.angle[:] = saved[:4]
+            run.P = saved[4]
+            sub *= 0.5
+            run.stats.cuts += 1
+            if sub < self.dt / 2**MAX_CUTS:
+                run.stopped_at = clock[0] = t
+                return code
+        return OK
