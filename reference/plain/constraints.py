@@ -109,14 +109,21 @@ def row_nodes(joints):
     return np.repeat(joints.i, joints.neq), np.repeat(joints.j, joints.neq)
 
 
-def global_jacobian(model, B_local):
-    """B (m, 6N) scipy.sparse.csr from the rows' local Jacobians (m, 12) (the ground's columns dropped)."""
-    m, N = B_local.shape[0], model.nodes.mass.shape[0]
+def jacobian_layout(model):
+    """Where each row's 12 local entries go in the global B (m, 6N): ``(keep, indices, indptr, shape)``, the
+    CSR layout of :func:`global_jacobian` (fixed by the model; ``keep`` (m, 12) drops the ground's columns)."""
+    m, N = model.n_constraints, model.nodes.mass.shape[0]
     i, j = row_nodes(model.joints)
     cols = np.concatenate([6 * i[:, None] + np.arange(6), 6 * j[:, None] + np.arange(6)], axis=1)
     keep = np.concatenate([np.ones((m, 6), bool), np.repeat((j >= 0)[:, None], 6, axis=1)], axis=1)
-    rows = np.repeat(np.arange(m)[:, None], 12, axis=1)
-    return sp.csr_matrix((B_local[keep], (rows[keep], cols[keep])), shape=(m, 6 * N))
+    indptr = np.concatenate([[0], np.cumsum(keep.sum(axis=1))])
+    return keep, cols[keep], indptr, (m, 6 * N)
+
+
+def global_jacobian(layout, B_local):
+    """B (m, 6N) scipy.sparse.csr from the rows' local Jacobians (m, 12) in the :func:`jacobian_layout`."""
+    keep, indices, indptr, shape = layout
+    return sp.csr_matrix((B_local[keep], indices, indptr), shape=shape)
 
 
 def primitive_weights(model, t, lam):

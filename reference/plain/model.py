@@ -91,6 +91,7 @@ class Evaluation:
         self.free = model.nodes.free > 0.5
         self.eps = model.joints.eps
         self.damping = float(model.damping)
+        self._jacobian_layout = constraints.jacobian_layout(model)
 
     def forces(self, x, q, v, w, t, angle):
         """The generalised forces at ``(x, q, v, w)`` and time ``t`` [s].
@@ -142,7 +143,7 @@ class Evaluation:
             ∂Φ/∂t; the constraint rate is ``B V + Φ_t``.
         """
         phi, B_local, phi_t = constraints.joint_rows(self.model, x, q, t)
-        return phi, constraints.global_jacobian(self.model, B_local), phi_t
+        return phi, constraints.global_jacobian(self._jacobian_layout, B_local), phi_t
 
     def constraint_hessian(self, x, q, t, lam):
         """``∂(Bᵀλ)/∂δ`` (6N, 6N, scipy.sparse csr) at fixed λ (m,), the joints' geometric stiffness
