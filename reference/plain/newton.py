@@ -24,12 +24,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from reference.generated import rotation_maps as rm
+from reference.linalg import SingularMatrix
 from reference.plain.model import Evaluation
 from reference.plain.vectorise import plain
 
@@ -200,3 +202,46 @@ class Newton:
     def joint_forces(self, res: Residual, lam) -> np.ndarray:
         """``Bᵀλ`` per node (N,6) of the evaluation ``res``."""
         return (res.B.T @ lam).reshape(-1, 6)
+
+
+class EngineFace:
+    """The face of :class:`reference.algorithms.implicit.NewtonSystem` that :mod:`reference.linearization` and
+    the linearised analyses (:mod:`reference.algorithms.linear`) read — ``evaluate``, ``matrix``,
+    ``consistent_accelerations``, ``write_record``, ``work``, ``dof``, ``free`` — over a :class:`Newton`, so that
+    they run on the reference path unchanged.  ``work`` holds the last evaluation's ``r``, ``S``, ``F``,
+    ``PHI``, ``PHIt`` and the continuous ``angle`` (``G``, the force elements' forces apart, is zero: the
+    evaluation folds them into S)."""
+
+    def __init__(self, nw: Newton):
+        self.newton, self.model, self.free, self.n_free = nw, nw.model, nw.free, nw.n_free
+        self.dof = np.full(nw.free.size, -1, dtype=np.int64)
+        self.dof[nw.index] = np.arange(nw.n_free)
+        self.dof = self.dof.reshape(-1, 6)
+        N = nw.free.shape[0]
+        self.work = SimpleNamespace(angle=nw.angle, r=np.zeros((N, 6)), S=np.zeros((N, 6)), F=np.zeros((N, 6)),
+                                    G=np.zeros((N, 6)), PHI=np.zeros(nw.m), PHIt=np.zeros(nw.m))
+        self._v = np.zeros((N, 3))
+
+    def evaluate(self, x, q, v, w, vd, lam, t, dynamic) -> float:
+        """:meth:`Newton.evaluate` into :attr:`work`; returns the strain energy."""
+        res = self.newton.evaluate(x, q, v, w, vd, lam, t, dynamic)
+        wk = self.work
+        wk.r, wk.S, wk.F, wk.PHI, wk.PHIt = res.r, res.S, res.F, res.phi, res.phi_t
+        self._v = v if dynamic else np.zeros_like(v)
+        return res.U
+
+    def matrix(self, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
+        """:meth:`Newton.matrix` (the force elements at the velocities of the last :meth:`evaluate`)."""
+        ce = 1.0 / ck if ce is None else ce
+        return self.newton.matrix(x, q, self._v, w, t, lam, cm, cc, ck, ce, psi)
+
+    def consistent_accelerations(self, x, q, v, w, t, tau, ce=0.0):
+        """:meth:`Newton.consistent_accelerations`; raises :class:`reference.linalg.SingularMatrix`."""
+        solved = self.newton.consistent_accelerations(x, q, v, w, t, tau, ce)
+        if solved is None:
+            raise SingularMatrix("singular [M Bᵀ; B −ε]")
+        return solved
+
+    def write_record(self, rec, x, q, v, w, U, clock, lam) -> None:
+        """:meth:`Newton.write_record` from the last evaluation (``U`` is its strain energy)."""
+        self.newton.write_record(rec, x, q, v, w, clock, lam, self.newton.last)

@@ -25,7 +25,7 @@ from reference.algorithms.static import MAX_CUTS, Static
 from reference.algorithms.step_control import SolverStatistics
 from reference.linalg import null_space
 from reference.modal import SMALL, negative_eigenvalues
-from reference.plain.newton import Newton, relative_rotation
+from reference.plain.newton import EngineFace, Newton, relative_rotation
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
 
 
@@ -83,11 +83,13 @@ def negative_count(nw: Newton, x, q, lam, t) -> int:
 @dataclass
 class PlainStaticRun:
     """The run state of :class:`PlainStatic` (the fields of
-    :class:`reference.algorithms.static.StaticRun` that its records and messages read)."""
+    :class:`reference.algorithms.static.StaticRun` that its records and messages read; ``system`` the Newton
+    system's engine face, for the linearised analyses that follow a static path)."""
 
     newton: Newton
     lam: np.ndarray
     L: float
+    system: EngineFace | None = None
     P: np.ndarray | None = None
     F: np.ndarray | None = None
     U: float = 0.0
@@ -114,7 +116,8 @@ class PlainStatic(Static):
         problem = self.refusal(model)
         if problem:
             raise ValueError(problem)
-        return PlainStaticRun(Newton(model), np.zeros(model.n_constraints), self.length_scale(state.x))
+        nw = Newton(model)
+        return PlainStaticRun(nw, np.zeros(model.n_constraints), self.length_scale(state.x), EngineFace(nw))
 
     def _level(self, run, x, q, lam, t) -> int:
         """Newton at load level t (in place); on success the level's loads, joint forces and stability count."""
