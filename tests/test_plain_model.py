@@ -65,7 +65,8 @@ def close(plain, compiled, what):
 
 
 def compare(domain):
-    """Every quantity of :class:`Evaluation` against the compiled evaluation, at each of :func:`states`."""
+    """Every quantity of :class:`Evaluation` against the compiled evaluation, at each of :func:`states`
+    (the residual dynamic and static: no inertia, the force elements at rest)."""
     model = domain.model
     ev = Evaluation(model)
     free = ev.free.reshape(-1)
@@ -80,6 +81,11 @@ def compare(domain):
         close([U_p, D], [U, work.fe_out[0]], "U, D")
         r, phi, B, phi_t, U_r, _ = ev.residual(x, q, v, w, vd, lam, t, angle.copy())
         close(r, work.r, "residual")
+        static = ev.residual(x, q, v, w, vd, lam, t, angle.copy(), dynamic=False)
+        U_static = ns.evaluate(x, q, v, w, vd, lam, t, False)
+        close(static[0], work.r, "static residual")
+        close(static[4:], [U_static, work.fe_out[0]], "static U, D")
+        ns.evaluate(x, q, v, w, vd, lam, t, True)  # the Newton matrix's force elements at these velocities
         close(phi, work.PHI, "Φ")
         close(phi_t, work.PHIt, "Φ_t")
         nf = ns.n_free
