@@ -116,6 +116,14 @@ def choose(requested: str, algorithm: str, steps: int, nodes: int, rows: int) ->
                               f"{REFERENCE_SECONDS:g} s: compiling the kernels pays")
 
 
+def for_domain(domain) -> Choice:
+    """:func:`choose` for a Domain ready to solve (its ``solver`` settings, nodes and multiplier joints): the
+    decision the solution loop will take, known before the run (``flexmbs run`` prints its line first)."""
+    algo = domain.algorithm()
+    rows = sum(joint.n_equations for joint in domain.joints if joint.formulation.multipliers)
+    return choose(domain.solver.backend, algo.name, algo.n_steps(domain.solver.t_end), len(domain.nodes), rows)
+
+
 def twin(algo):
     """The reference-path twin of the compiled algorithm ``algo``, with its settings (the same attributes)."""
     cls = twins()[algo.name]
