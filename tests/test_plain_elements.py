@@ -1,0 +1,236 @@
+"""The reference path's elements (reference/plain/vectorise.py, reference/plain/elements.py) against the engine's.
+
+The NumPy twins of the generated helpers against the scalar functions, branch by branch; then every element
+family's forces, strain energy, tangent and section resultants on gallery decks, at rest and in a deformed and
+rotated configuration, against the families' own calls (:mod:`reference.elements.families`:
+``assemble_forces``, ``tangent_values``, ``resultants``).  Beam2's calls run compiled, in this process.
+beam2_se3's and beam3's compile for minutes cold for their own family data (tests/test_families.py says why), so
+their comparison runs once in a subprocess with the engine uncompiled (``NUMBA_DISABLE_JIT=1``): the same
+family code, interpreted.  This module is also that subprocess's script.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+MODELS = ROOT / "models"
+
+TOLERANCE = 1e-12
+"""Relative agreement with the engine's element code (the brief of the reference path): the same generated
+arithmetic, element-wise on arrays; NumPy's sin, cos, sqrt, arctan2 and ** may differ from the C library's
+in the last bit, and cancellation in a strained element's forces can amplify that a few times.  Measured:
+forces and energies equal bit for bit, tangents within 3e-16 of their largest entry."""
+
+CASES = {
+    # deck, overrides: Beam2 straight beams between rigid bodies (4 elements: the per-element loop)
+    "three_bar": ("three_bar.toml", {}),
+    # two arcs: section frames offset from the node frames (the curved mesh and the 'mid' node's identity frame)
+    "curved_cantilever": ("curved_cantilever.toml", {}),
+    # 80 elements: the vectorised block loop and the parallel tangent of the compiled family
+    "lee_frame": ("lee_frame.toml", {}),
+    "curved_beam2_se3": ("curved_cantilever.toml", {"beams.0.element": "beam2_se3", "beams.1.element": "beam2_se3",
+                                                    "solver.algorithm": "generalized_alpha"}),
+    "three_bar_beam2_se3": ("three_bar.toml", {"beams.1.element": "beam2_se3", "solver.algorithm": "generalized_alpha"}),
+    "curved_beam3": ("curved_cantilever.toml", {"beams.0.element": "beam3", "beams.1.element": "beam3",
+                                                "solver.algorithm": "generalized_alpha"}),
+    "three_bar_beam3": ("three_bar.toml", {"beams.1.element": "beam3", "solver.algorithm": "generalized_alpha"}),
+}
+COMPILED = ("three_bar", "curved_cantilever", "lee_frame")
+"""The Beam2 cases, compared in this process with the compiled family calls."""
+
+
+def deformed(x, q, seed: int = 1):
+    """A deformed and rotated configuration: each node moved by 3 % of the model's extent and turned by a
+    random rotation (0.3 rad) on top of a common one (1.4 rad), ``q ⊗ exp(ψ)``."""
+    from reference.generated import rotation_maps as rm
+    from reference.plain.vectorise import plain
+
+    rng = np.random.default_rng(seed)
+    psi = 0.3 * rng.normal(size=(len(q), 3)) + np.array([0.4, -0.7, 1.1])
+    turn, out = np.empty((4, len(q))), np.empty((4, len(q)))
+    plain(rm.exp_quaternion)(psi.T, turn)
+    plain(rm.quat_product)(np.asarray(q, dtype=float).T, turn, out)
+    return x + 0.03 * np.ptp(x) * rng.normal(size=x.shape), out.T.copy()
+
+
+def engine(model, x, q):
+    """The families' own calls: ``S`` (N, 6), U, the tangent (6N, 6N, dense, assembled here from the blocks
+    ``tangent_values`` writes, ψ = 0) and the resultants ``N``, ``M`` (E, 3)."""
+    from reference.elements.families import assemble_forces, resultants, tangent_values
+    from reference.state import element_work
+
+    N, works = len(x), element_work(model)
+    S = np.zeros((N, 6))
+    U = assemble_forces(model.elements, works, x, q, S)
+    sizes = [6 * data.conn.shape[1] for data in model.elements]
+    values = np.zeros(sum(data.conn.shape[0] * n * n for data, n in zip(model.elements, sizes)))
+    end = tangent_values(model.elements, works, x, q, np.zeros((N, 3)), 1.0, values, 0, np.zeros(9),
+                         np.zeros(max(sizes) ** 2))
+    assert end == len(values)
+    K, p = np.zeros((6 * N, 6 * N)), 0
+    for data, n in zip(model.elements, sizes):
+        for nodes in data.conn:
+            dofs = (6 * nodes[:, None] + np.arange(6)).reshape(-1)
+            K[np.ix_(dofs, dofs)] += values[p:p + n * n].reshape(n, n)
+            p += n * n
+    forces, moments = np.zeros((model.n_elements, 3)), np.zeros((model.n_elements, 3))
+    resultants(model.elements, works, x, q, forces, moments)
+    return S, U, K, forces, moments
+
+
+def errors(case: str) -> dict:
+    """The reference path against :func:`engine` in the case's configurations: per configuration the largest
+    difference of the forces, energy and resultants relative to their largest value in the deformed
+    configuration (at rest they are round-off of zero), and of the tangent relative to its own largest entry;
+    with the sizes compared."""
+    from reference.domain import Domain
+    from reference.plain.elements import element_forces, element_resultants, element_tangent
+
+    deck, overrides = CASES[case]
+    domain = Domain.from_deck(MODELS / deck, overrides=overrides)
+    model, state = domain.model, domain.initial_conditions()
+    configurations = {"rest": (state.x, state.q), "deformed": deformed(state.x, state.q)}
+    ours, theirs = {}, {}
+    for name, (x, q) in configurations.items():
+        x, q = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(q, dtype=float)
+        S, U = element_forces(model, x, q)
+        forces, moments = element_resultants(model, x, q)
+        ours[name] = (S, U, element_tangent(model, x, q).toarray(), forces, moments)
+        theirs[name] = engine(model, x, q)
+    scale = [max(float(np.abs(a).max()), 1e-300) for a in theirs["deformed"]]
+    out = {"families": sorted({type(d).__name__ for d in model.elements if d.conn.shape[0]}),
+           "elements": model.n_elements}
+    for name in configurations:
+        for k, key in enumerate(("forces", "energy", "tangent", "section_force", "section_moment")):
+            a, b = np.asarray(ours[name][k]), np.asarray(theirs[name][k])
+            reference = max(float(np.abs(b).max()), 1e-300) if key == "tangent" else scale[k]
+            out[f"{name}_{key}"] = float(np.abs(a - b).max()) / reference
+        out[f"{name}_scale_tangent"] = float(np.abs(theirs[name][2]).max())
+    out["deformed_scale_forces"] = scale[0]
+    return out
+
+
+def check(result: dict) -> None:
+    assert result["elements"] > 0
+    assert result["deformed_scale_forces"] > 0.0 and result["deformed_scale_tangent"] > 0.0  # not zeros against zeros
+    for key, value in result.items():
+        if key.startswith(("rest_", "deformed_")) and "_scale_" not in key:
+            assert value <= TOLERANCE, (key, value)
+
+
+@pytest.mark.parametrize("case", COMPILED)
+def test_beam2_against_the_compiled_family(case):
+    result = errors(case)
+    assert result["families"] == ["Beam2Data"]
+    check(result)
+
+
+@pytest.fixture(scope="module")
+def uncompiled():
+    from test_families import uncompiled_json
+
+    return uncompiled_json(str(Path(__file__).resolve()), *[c for c in CASES if c not in COMPILED], timeout=600)
+
+
+@pytest.mark.parametrize("case", [c for c in CASES if c not in COMPILED])
+def test_other_families_against_the_family_code(uncompiled, case):
+    result = uncompiled[case]
+    family = "Beam2SE3Data" if "se3" in case else "Beam3Data"
+    assert family in result["families"]
+    check(result)
+
+
+HELPERS = [("rotation_maps", name) for name in ("c_sinc", "c_cosc", "c_sinc3", "c_jinv", "c_asinc", "branch_sign")]
+HELPERS += [("tangents", name) for name in ("c_cosc_d", "c_sinc3_d", "c_jinv_d")]
+HELPERS += [("beam3", name) for name in ("c_sinc_d", "c_sinc_dd", "c_cosc_dd", "c_sinc3_dd")]
+HELPERS += [("beam2_se3", "c_jinv_dd")]
+
+
+CANCELLING = {"c_jinv_dd": 1e-13}
+"""Helpers whose exact formula cancels so much that one ulp of ``cos`` moves it by more than a few ulps:
+c_jinv_dd's numerator (terms of order a⁴ summing to order a⁶/3780 · 2a⁶(1 − cos a)²) measured 2.0e-14 of the
+largest value at |a| = 2.4; the twin and the scalar function differ only in NumPy's ``cos`` against the C
+library's."""
+
+
+@pytest.mark.parametrize("module, name", HELPERS)
+def test_helper_twins_take_each_elements_branch(module, name):
+    """The select-rewritten twin of a branched helper (its series near 0, the exact formula beyond) against the
+    scalar function at points of every branch, their thresholds and 0: within 4e-16 of the largest value (NumPy's
+    sin and cos against the C library's in the exact formulas; measured at most 2.4e-16), :data:`CANCELLING`'s
+    bound for those helpers."""
+    import importlib
+
+    from reference.plain.vectorise import plain
+
+    function = getattr(importlib.import_module(f"reference.generated.{module}"), name)
+    scalar = getattr(function, "py_func", function)
+    rng = np.random.default_rng(3)
+    a = np.concatenate([[0.0, -0.0, 0.029, 0.045, 0.05, 0.1, 1.0, 2.0, -1.0], rng.uniform(-0.12, 0.12, 200),
+                        rng.uniform(-3.0, 3.0, 200)])
+    expected = np.array([scalar(float(v)) for v in a])
+    got = plain(function)(a)
+    assert got.shape == a.shape and np.all(np.isfinite(got))
+    assert np.abs(got - expected).max() <= CANCELLING.get(name, 4e-16) * np.abs(expected).max()
+
+
+def test_atan2_quadrant_twin():
+    """``atan2_quadrant``'s argument reduction (three selects and a swap) element by element, both arguments 0
+    included: bit for bit the scalar function (the same arithmetic; no library call)."""
+    from reference.generated import rotation_maps as rm
+    from reference.plain.vectorise import plain
+
+    rng = np.random.default_rng(4)
+    y, x = np.abs(rng.normal(size=500)), np.abs(rng.normal(size=500))
+    y[:3], x[2:5] = 0.0, 0.0
+    expected = np.array([rm.atan2_quadrant.py_func(float(a), float(b)) for a, b in zip(y, x)])
+    assert np.array_equal(plain(rm.atan2_quadrant)(y, x), expected)
+
+
+def _nested(a, b):
+    c = b
+    if a > 0.0:
+        c = 2.0 * b
+        if a > 1.0:
+            return c + a
+    else:
+        c, b = b - 1.0, c
+    return c * b
+
+
+def _looping(a):
+    total = 0.0
+    for k in range(3):
+        total += a * k
+    return total
+
+
+def test_rewrite_and_fallback():
+    """A nested ``if``/``else`` with assignments and an early return is rewritten into selects with the scalar
+    function's values; a loop is not rewritten, and its twin calls the scalar function element by element."""
+    from reference.plain.vectorise import plain
+
+    a = np.array([-1.0, 0.0, 0.5, 1.0, 2.0, 3.0])
+    b = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    assert np.array_equal(plain(_nested)(a, b), [_nested(u, v) for u, v in zip(a, b)])
+    assert np.array_equal(plain(_looping)(a), [_looping(u) for u in a])
+
+
+def test_a_family_without_reference_functions_is_refused():
+    from reference.plain.elements import adapter
+
+    class Unknown:
+        family = "truss_without_plain"
+
+    with pytest.raises(ValueError, match="truss_without_plain.*no reference-path functions"):
+        adapter(Unknown)
+
+
+if __name__ == "__main__":
+    print(json.dumps({case: errors(case) for case in sys.argv[1:]}))
