@@ -80,7 +80,7 @@ def joint_rows(model, x, q, t):
     if m == 0:
         return phi, B, phi_t
     P, PB = primitives(joints, x, q)
-    drives = _drive_functions(model.time_functions, t)
+    drives = _drive_functions(model.time_functions, t) if np.any(joints.drive > 0) else {}
     for k in range(joints.i.shape[0]):
         r0, neq, drive, tf = joints.row0[k], joints.neq[k], joints.drive[k], joints.tf[k]
         rows = slice(r0, r0 + neq)

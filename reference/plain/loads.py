@@ -27,8 +27,8 @@ from reference.generated import tangents as generated_tangents
 from reference.interactions import tf_value
 from reference.plain.vectorise import plain
 
-FOLLOWER_FORCE, DEAD_MOMENT, FOLLOWER_MOMENT = 1, 2, 3
-"""Load codes (:class:`reference.state.Loads`); 0 is a dead force."""
+DEAD_FORCE, FOLLOWER_FORCE, DEAD_MOMENT, FOLLOWER_MOMENT = 0, 1, 2, 3
+"""Load codes (:class:`reference.state.Loads`)."""
 
 _MEASURES = {POINT_TO_POINT: generated_forces.point_to_point_measures,
              ROTATIONAL: generated_forces.rotational_measures}
@@ -71,29 +71,27 @@ def rotation_matrices(q):
 
 def external_forces(model, q, t):
     """Gravity and the loads at time t: ``F`` (N,6) [inertial force, body moment], as
-    :func:`reference.evaluation.forces.external_forces` (actuators: :func:`force_element_forces`)."""
+    :func:`reference.evaluation.forces.external_forces` (actuators: :func:`force_element_forces`).
+
+    A load's vector times its time function is a force's inertial components (a dead force), or its
+    body-frame ones (a follower force: ``A f``); a moment's body-frame components (a follower moment), or
+    its inertial ones (a dead moment: ``Aᵀ M``).  A force at a body-fixed arm adds ``arm × f_body``."""
     mass = model.nodes.mass
     F = np.zeros((mass.shape[0], 6))
     F[:, :3] = mass[:, None] * model.gravity
     loads = model.loads
     if loads.node.shape[0] == 0:
         return F
+    code = loads.code[:, None]
     f = time_functions_at(model.time_functions, t)[loads.tf][:, None] * loads.vec
     A = rotation_matrices(q[loads.node])
-    inertial = np.where((loads.code == FOLLOWER_FORCE)[:, None], np.einsum("kab,kb->ka", A, f), f)
-    body = np.where((loads.code == DEAD_MOMENT)[:, None], np.einsum("kba,kb->ka", A, f), f)
-    force = loads.code <= FOLLOWER_FORCE
-    # a force applied at a body-fixed arm adds the moment arm × force (body components of the force)
-    body_force = np.where((loads.code == 0)[:, None], np.einsum("kba,kb->ka", A, f), f)
-    arm_moment = np.where(force[:, None], np.cross(loads.arm, body_force), 0.0)
-    # load after load, in the deck's order (two may act on one node)
-    for load in range(loads.node.shape[0]):
-        i = loads.node[load]
-        if force[load]:
-            F[i, :3] += inertial[load]
-            F[i, 3:] += arm_moment[load]
-        else:
-            F[i, 3:] += body[load]
+    A_f, At_f = np.einsum("kab,kb->ka", A, f), np.einsum("kba,kb->ka", A, f)
+    force = np.where(code == FOLLOWER_FORCE, A_f, f)
+    arm_moment = np.cross(loads.arm, np.where(code == DEAD_FORCE, At_f, f))
+    moment = np.where(code == DEAD_MOMENT, At_f, f)
+    is_force = code <= FOLLOWER_FORCE
+    per_load = np.concatenate([np.where(is_force, force, 0.0), np.where(is_force, arm_moment, moment)], axis=1)
+    np.add.at(F, loads.node, per_load)  # load after load, in the deck's order (two may act on one node)
     return F
 
 
@@ -226,7 +224,7 @@ def force_element_dissipation(model, x, q, v, w, v_new, w_new):
     dampers remove in an explicit kick, :func:`reference.evaluation.force_elements.force_element_dissipation`)."""
     fe = model.force_elements
     total = 0.0
-    for ks, e, B in measures(fe, x, q, np.zeros(fe.kind.shape[0])):
+    for ks, e, B in measures(fe, x, q, np.zeros(fe.kind.shape[0])):  # B does not depend on the angles
         m = e.shape[1]
         c = fe.c[ks, :m]
         old = np.einsum("krc,kc->kr", B, _velocities(fe, v, w, ks))
