@@ -33,14 +33,16 @@ _rotation_matrix = plain(rm.rotation_matrix)
 
 
 def _plain_path(algo):
-    """``algo`` with its static path (if any) on the reference path."""
-    if algo.path is not None:
+    """``algo`` with its static path (if any) on the reference path (a twin made from the compiled algorithm's
+    settings, :func:`reference.plain.backend.twin`, carries the compiled path until it starts)."""
+    if algo.path is not None and not isinstance(algo.path, PlainStatic):
         algo.path = PlainStatic(algo.path.dt, algo.path.tolerance, algo.path.max_iterations)
     return algo
 
 
 def _start(algo, model, state) -> LinearRun:
     """:meth:`reference.algorithms.linear.LinearAnalysis.start` on the reference path."""
+    _plain_path(algo)
     problem = algo.refusal(model)
     if problem:
         raise ValueError(problem)
