@@ -42,6 +42,9 @@ CASES = {
     "three_bar_beam3": ("three_bar.toml", {"beams.1.element": "beam3", "solver.algorithm": "generalized_alpha"}),
 }
 COMPILED = ("three_bar", "curved_cantilever", "lee_frame")
+OUTSIDE = "truss"
+"""A family registered from outside the engine with a reference-path adapter of its own (:class:`TrussTwin`):
+tests/test_element_families.py's toy truss, no section frames (its data have no offsets)."""
 """The Beam2 cases, compared in this process with the compiled family calls."""
 
 
@@ -84,16 +87,54 @@ def engine(model, x, q):
     return S, U, K, forces, moments
 
 
+class TrussTwin:
+    """The toy truss's adapter (the contract of :mod:`reference.plain.elements`): axial force
+    ``N = EA (ℓ − L0)/L0`` along the chord ``d = x2 − x1``, energy ``½ EA L0 ε²``, tangent
+    ``N/ℓ (I − n nᵀ) + EA/L0 n nᵀ`` (``n = d/ℓ``), in NumPy over the elements at once."""
+
+    @staticmethod
+    def _chord(data, sl, x):
+        d = x[1] - x[0]
+        length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        strain = (length - data.L0[sl]) / data.L0[sl]
+        return d, length, strain, data.EA[sl] * strain
+
+    def evaluate(self, data, sl, x, p):
+        d, length, strain, N = self._chord(data, sl, x)
+        s, axial = np.zeros((12, d.shape[1])), np.zeros((3, d.shape[1]))
+        s[0:3], s[6:9], axial[0] = -(N * d) / length, N * d / length, N
+        return s, 0.5 * data.EA[sl] * data.L0[sl] * strain * strain, axial, np.zeros_like(axial)
+
+    def tangent(self, data, sl, x, p):
+        d, length, _, N = self._chord(data, sl, x)
+        nn = d[:, None] * d[None, :] / length**2
+        k = N / length * (np.eye(3)[:, :, None] - nn) + data.EA[sl] / data.L0[sl] * nn
+        K = np.zeros((12, 12, d.shape[1]))
+        K[0:3, 0:3], K[6:9, 6:9], K[0:3, 6:9], K[6:9, 0:3] = k, k, -k, -k
+        return K
+
+
+def domain_of(case: str):
+    """The case's Domain (:data:`CASES`; :data:`OUTSIDE`: the truss, its class given :class:`TrussTwin`)."""
+    from reference.domain import Domain
+
+    if case == OUTSIDE:
+        from test_element_families import Truss, truss_domain
+
+        Truss.plain = TrussTwin()
+        return truss_domain("static")
+    deck, overrides = CASES[case]
+    return Domain.from_deck(MODELS / deck, overrides=overrides)
+
+
 def errors(case: str) -> dict:
     """The reference path against :func:`engine` in the case's configurations: per configuration the largest
     difference of the forces, energy and resultants relative to their largest value in the deformed
     configuration (at rest they are round-off of zero), and of the tangent relative to its own largest entry;
     with the sizes compared."""
-    from reference.domain import Domain
     from reference.plain.elements import element_forces, element_resultants, element_tangent
 
-    deck, overrides = CASES[case]
-    domain = Domain.from_deck(MODELS / deck, overrides=overrides)
+    domain = domain_of(case)
     model, state = domain.model, domain.initial_conditions()
     configurations = {"rest": (state.x, state.q), "deformed": deformed(state.x, state.q)}
     ours, theirs = {}, {}
@@ -135,7 +176,8 @@ def test_beam2_against_the_compiled_family(case):
 def uncompiled():
     from test_families import uncompiled_json
 
-    return uncompiled_json(str(Path(__file__).resolve()), *[c for c in CASES if c not in COMPILED], timeout=600)
+    return uncompiled_json(str(Path(__file__).resolve()), *[c for c in CASES if c not in COMPILED], OUTSIDE,
+                           timeout=600)
 
 
 @pytest.mark.parametrize("case", [c for c in CASES if c not in COMPILED])
@@ -143,6 +185,15 @@ def test_other_families_against_the_family_code(uncompiled, case):
     result = uncompiled[case]
     family = "Beam2SE3Data" if "se3" in case else "Beam3Data"
     assert family in result["families"]
+    check(result)
+
+
+def test_a_family_from_outside_with_its_own_adapter(uncompiled):
+    """A family registered from outside the engine runs on the reference path with nothing but its adapter:
+    the truss's forces, energy, tangent and axial forces equal its own family calls' (:class:`TrussTwin` is the
+    same formulas in NumPy: 1e-12 relative, as the engine's families)."""
+    result = uncompiled[OUTSIDE]
+    assert result["families"] == ["TrussData"] and result["elements"] == 2
     check(result)
 
 
@@ -193,6 +244,26 @@ def test_atan2_quadrant_twin():
     assert np.array_equal(plain(rm.atan2_quadrant)(y, x), expected)
 
 
+def test_every_generated_function_has_an_array_twin():
+    """Every function of reference/generated/ is straight-line code (its twin is its own code object, rebound)
+    or a helper whose branches are rewritten into selects: none falls back to the element-by-element loop."""
+    import importlib
+    import types
+
+    from reference.plain.vectorise import plain
+
+    seen = 0
+    for module in ("rotation_maps", "tangents", "beam2", "beam2_se3", "beam3", "forces", "joints"):
+        generated = importlib.import_module(f"reference.generated.{module}")
+        for value in vars(generated).values():
+            function = getattr(value, "py_func", value)
+            if isinstance(function, types.FunctionType) and function.__module__ == generated.__name__:
+                twin = plain(value)
+                assert not getattr(twin, "element_by_element", False), function.__name__
+                seen += 1
+    assert seen >= 40
+
+
 def _nested(a, b):
     c = b
     if a > 0.0:
@@ -219,6 +290,7 @@ def test_rewrite_and_fallback():
     a = np.array([-1.0, 0.0, 0.5, 1.0, 2.0, 3.0])
     b = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
     assert np.array_equal(plain(_nested)(a, b), [_nested(u, v) for u, v in zip(a, b)])
+    assert getattr(plain(_looping), "element_by_element", False)
     assert np.array_equal(plain(_looping)(a), [_looping(u) for u in a])
 
 

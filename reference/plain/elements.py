@@ -31,10 +31,11 @@ end order of ``data.conn``; ``data`` the family's plain data, ``sl`` the slice o
   resultants (force [N], moment [N m], section frame) a results file stores for the element;
 - ``tangent(data, sl, x, p) → K (6n, 6n, E)``: ``∂s/∂[δx1, δθ1, …]`` in the section frames.
 
-The family's class may carry it as the attribute ``plain`` (looked up first); the engine's three families,
-whose modules this path may not edit, have theirs here in :data:`ADAPTERS`, each a few lines naming the
-generated functions and the data fields they take.  Nothing else of a family is needed: the offsets, the
-frames and the assembly are the driver's.
+The family's class may carry it as the attribute ``plain`` (looked up first); the engine's three families
+have theirs here in :data:`ADAPTERS`, each a few lines naming the generated functions and the data fields
+they take.  Nothing else of a family is needed: its data's ``conn``, ``index`` and, where its section frames
+are not the node frames, ``offset`` (E, n, 4) (:class:`reference.elements.beam2.Beam2Data`); the frames and
+the assembly are the driver's.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ from reference.plain.vectorise import plain
 
 CHUNK = 1024
 """Elements evaluated at once: the generated code keeps every intermediate (thousands for beam3's tangent)
-as an array of this length until it returns, so a chunk bounds the memory (about 30 MB for beam3)."""
+as an array of this length until it returns, so the chunk, not the mesh, sets the memory a call needs."""
 
 
 def _columns(a) -> np.ndarray:
@@ -162,10 +163,15 @@ def _families(model):
 
 
 def _ends(data, sl, x, q) -> tuple:
-    """The chunk's node positions (n, 3, E), section triads ``p = q ⊗ o`` (n, 4, E) and offsets (n, 4, E)."""
+    """The chunk's node positions (n, 3, E), section triads ``p = q ⊗ o`` (n, 4, E) and offsets (n, 4, E); a
+    family whose data have no ``offset`` works in the node frames (``o`` the identity, ``p = q``)."""
     conn = data.conn[sl]
     X = np.asarray(x, dtype=float)[conn].transpose(1, 2, 0)
     Q = np.asarray(q, dtype=float)[conn].transpose(1, 2, 0)
+    if getattr(data, "offset", None) is None:
+        O = np.zeros_like(Q)
+        O[:, 0] = 1.0
+        return X, Q, O
     O = np.asarray(data.offset[sl], dtype=float).transpose(1, 2, 0)
     P = np.empty_like(Q)
     for a in range(conn.shape[1]):

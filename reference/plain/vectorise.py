@@ -16,7 +16,8 @@ reduction) cannot take arrays as it is: its ``if`` statements are rewritten into
 (:class:`_Selects`): every branch is evaluated for every element, and each element takes the value of
 the branch its own arguments choose, the same value the scalar function returns for it.  A function
 with loops, or ``if`` statements that do more than assign names and return, is not rewritten; its twin
-calls the scalar function element after element (:func:`_element_by_element`, slow but exact).
+calls the scalar function element after element (:func:`_element_by_element`, slow but exact; for functions of
+numbers only).  Every function of ``reference/generated/`` is either straight-line (rebound) or rewritten.
 
 Results equal the compiled kernels' to round-off: NumPy's ``sin``, ``cos``, ``sqrt`` and ``**`` may
 differ from the C library's in the last bit.
@@ -79,7 +80,7 @@ def plain(function) -> types.FunctionType:
         return types.FunctionType(py.__code__, namespace, py.__name__, py.__defaults__, py.__closure__)
     try:
         return _selected(py, namespace)
-    except _Unsupported:
+    except (_Unsupported, OSError):  # a construct not rewritten, or no source to rewrite
         return _element_by_element(py)
 
 
@@ -226,15 +227,16 @@ def _selected(py: types.FunctionType, namespace: dict) -> types.FunctionType:
 
 
 def _element_by_element(py: types.FunctionType) -> types.FunctionType:
-    """The twin of a function :class:`_Selects` cannot rewrite: the scalar function (its helpers' twins in
-    its globals are not needed: it calls the scalar originals) once per element, arguments broadcast
-    against each other; for functions of numbers returning a number (the helpers), slow but exact."""
+    """The twin of a function of numbers that :class:`_Selects` cannot rewrite: the scalar function itself
+    (calling the scalar helpers), once per element, its arguments broadcast against each other
+    (:class:`numpy.vectorize`); slow, and exactly the scalar function's values."""
     scalar = np.vectorize(py, otypes=[float])
 
     @functools.wraps(py)
     def each(*arguments):
         return scalar(*arguments)
 
+    each.element_by_element = True
     return each
 
 
