@@ -77,12 +77,14 @@ class TwoNodeBeam:
                 _columns(data.gamma0[sl]), _columns(data.stiff[sl]))
 
     def evaluate(self, data, sl, x, p):
+        """Forces (12, E), energies (E,) and the resultants (3, E) twice (module docstring)."""
         E = x.shape[-1]
         s, strain, stress = np.empty((12, E)), np.empty((6, E)), np.empty((6, E))
         U = self.forces(*self._inputs(data, sl, x, p), s, strain, stress)
         return s, U, stress[:3], stress[3:]
 
     def tangent(self, data, sl, x, p):
+        """The 12×12 section-frame tangents (12, 12, E)."""
         E = x.shape[-1]
         s, K = np.empty((12, E)), np.empty((144, E))
         self.tangent_function(*self._inputs(data, sl, x, p), s, K)
@@ -111,10 +113,13 @@ class QuadraticBeam:
         return s, U, u, stress
 
     def evaluate(self, data, sl, x, p):
+        """Forces (18, E), energies (E,) and the two Gauss points' mean resultants (3, E) twice."""
         s, U, _, stress = self._forces(data, sl, x, p)
         return s, U, 0.5 * (stress[0:3] + stress[6:9]), 0.5 * (stress[3:6] + stress[9:12])
 
     def tangent(self, data, sl, x, p):
+        """The 18×18 section-frame tangents (18, 18, E), as the compiled family computes them: the forces
+        first (their by-product ``u``, each Gauss point's strain inputs), the points' Hessians, the tangent."""
         _, _, u, _ = self._forces(data, sl, x, p)
         inputs = self._inputs(data, sl, x, p)
         L0, gamma0, kappa0, c = inputs[6:]
