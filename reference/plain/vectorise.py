@@ -215,7 +215,8 @@ def _selected(py: types.FunctionType, namespace: dict) -> types.FunctionType:
     function = _Selects().rewrite(tree.body[0])
     module = ast.fix_missing_locations(ast.Module([function], []))
     scope = dict(namespace, **_SELECT_GLOBALS)
-    exec(compile(module, inspect.getsourcefile(py) or "<generated>", "exec"), scope)  # noqa: S102 - the engine's own source
+    source_file = inspect.getsourcefile(py) or "<generated>"
+    exec(compile(module, source_file, "exec"), scope)  # noqa: S102 - the engine's own source, rewritten
     selects = scope[py.__name__]
 
     @functools.wraps(py)
