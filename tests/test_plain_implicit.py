@@ -48,7 +48,7 @@ def test_every_twin_is_the_compiled_algorithm_of_its_name():
     loop, the deck reader and the results file treat it as that algorithm."""
     from reference.algorithms import ALGORITHMS
 
-    assert {"static", "generalized_alpha", "modes", "buckling"} <= set(REFERENCE_TWINS)
+    assert {"static", "generalized_alpha", "modes", "buckling", "arc_length"} <= set(REFERENCE_TWINS)
     for name, cls in REFERENCE_TWINS.items():
         assert issubclass(cls, ALGORITHMS[name]) and cls.name == name
 
@@ -116,8 +116,9 @@ def test_lateral_buckling_load_factor_agrees():
 
 
 def test_the_reference_path_refuses_what_it_does_not_run_in_one_line():
-    """Error-controlled generalized-α and modes about a steady rotation are refused by their twins with a
-    one-line reason naming the compiled backend (the model is otherwise runnable)."""
+    """Error-controlled generalized-α, modes about a steady rotation and the arc length's branch switch are
+    refused by their twins with a one-line reason naming the compiled backend (the model is otherwise
+    runnable)."""
     domain = Domain.from_deck(MODELS / "rotating_cantilever.toml")
     model = domain.initialization()
     modes = REFERENCE_TWINS["modes"].from_settings(domain.solver)
@@ -130,3 +131,23 @@ def test_the_reference_path_refuses_what_it_does_not_run_in_one_line():
     assert problem and "\n" not in problem and "error_tolerance" in problem
     with pytest.raises(ValueError, match="error_tolerance"):
         alpha.start(domain.initialization(), domain.initial_conditions())
+    domain = Domain.from_deck(MODELS / "lee_frame.toml")
+    domain.solver.branch_switch = True
+    problem = REFERENCE_TWINS["arc_length"].from_settings(domain.solver).refusal(domain.initialization())
+    assert problem and "\n" not in problem and "branch_switch" in problem
+
+
+def test_lee_frame_first_points_of_the_arc_length_path_agree():
+    """lee_frame's arc-length path, its first 10 points: the load factors, configurations and stability counts
+    on both paths.  Every point is a corrector converged to the Newton tolerance (1e-10 of L for a
+    correction) on the same normal plane, so the load factors agree to about that, accumulated over the 10
+    points' predictors (each taken from the previous point): 10 × 2e-10; the positions to 10 × 2e-10 L."""
+    compiled, plain, domain = both("lee_frame", {"solver.max_points": 10})
+    L, tol = model_size(domain), 1e-10
+    lam0 = compiled.data("path/load_factor")
+    assert lam0.size == 11 and lam0[-1] > 0.4  # the path moved: λ 0 … 0.46
+    assert_within(plain.data("path/load_factor"), lam0, 10 * 2 * tol, "load factors")
+    assert_within(plain.data("path/arc_length"), compiled.data("path/arc_length"), 10 * 2 * tol, "arc lengths")
+    assert_within(plain.positions, compiled.positions, 10 * 2 * tol * L, "positions")
+    assert_within(plain.data("path/negative_eigenvalues"), compiled.data("path/negative_eigenvalues"), 0.0,
+                  "stability counts")

@@ -8,10 +8,12 @@ run on :class:`reference.plain.model.Evaluation` (plain NumPy, no compilation). 
 
 from __future__ import annotations
 
+from reference.plain.arc_length import PlainArcLength
 from reference.plain.generalized_alpha import PlainGeneralizedAlpha
 from reference.plain.linear import PlainBuckling, PlainModes
 from reference.plain.static import PlainStatic
 
-REFERENCE_TWINS = {cls.name: cls for cls in (PlainStatic, PlainGeneralizedAlpha, PlainModes, PlainBuckling)}
+REFERENCE_TWINS = {cls.name: cls for cls in (PlainStatic, PlainGeneralizedAlpha, PlainModes, PlainBuckling,
+                                                   PlainArcLength)}
 """Reference-path algorithm classes by deck name (the implicit and linear ones; the explicit one is
 :mod:`reference.plain.park`'s)."""

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from types import SimpleNamespace
 
 import numpy as np
 import scipy.sparse as sps
@@ -209,8 +208,9 @@ class EngineFace:
     the linearised analyses (:mod:`reference.algorithms.linear`) read — ``evaluate``, ``matrix``,
     ``consistent_accelerations``, ``write_record``, ``work``, ``dof``, ``free`` — over a :class:`Newton`, so that
     they run on the reference path unchanged.  ``work`` holds the last evaluation's ``r``, ``S``, ``F``,
-    ``PHI``, ``PHIt`` and the continuous ``angle`` (``G``, the force elements' forces apart, is zero: the
-    evaluation folds them into S)."""
+    ``PHI``, ``PHIt``, its joint rows ``Bl`` (m, 12) in the compiled layout (node i's six columns, then node
+    j's) and the continuous ``angle`` (``G``, the force elements' forces apart, is zero: the evaluation folds
+    them into S)."""
 
     def __init__(self, nw: Newton):
         self.newton, self.model, self.free, self.n_free = nw, nw.model, nw.free, nw.n_free
@@ -218,17 +218,17 @@ class EngineFace:
         self.dof[nw.index] = np.arange(nw.n_free)
         self.dof = self.dof.reshape(-1, 6)
         N = nw.free.shape[0]
-        self.work = SimpleNamespace(angle=nw.angle, r=np.zeros((N, 6)), S=np.zeros((N, 6)), F=np.zeros((N, 6)),
-                                    G=np.zeros((N, 6)), PHI=np.zeros(nw.m), PHIt=np.zeros(nw.m))
+        self.work = _Work(nw)
         self._v = np.zeros((N, 3))
+
+    def mass(self, x=None, q=None) -> sps.csr_matrix:
+        """The mass matrix on the free coordinates (constant: lumped masses and body-frame inertias)."""
+        return sps.csr_matrix(self.newton.M)[self.newton.index][:, self.newton.index]
 
     def evaluate(self, x, q, v, w, vd, lam, t, dynamic) -> float:
         """:meth:`Newton.evaluate` into :attr:`work`; returns the strain energy."""
-        res = self.newton.evaluate(x, q, v, w, vd, lam, t, dynamic)
-        wk = self.work
-        wk.r, wk.S, wk.F, wk.PHI, wk.PHIt = res.r, res.S, res.F, res.phi, res.phi_t
         self._v = v if dynamic else np.zeros_like(v)
-        return res.U
+        return self.newton.evaluate(x, q, v, w, vd, lam, t, dynamic).U
 
     def matrix(self, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
         """:meth:`Newton.matrix` (the force elements at the velocities of the last :meth:`evaluate`)."""
@@ -245,3 +245,31 @@ class EngineFace:
     def write_record(self, rec, x, q, v, w, U, clock, lam) -> None:
         """:meth:`Newton.write_record` from the last evaluation (``U`` is its strain energy)."""
         self.newton.write_record(rec, x, q, v, w, clock, lam, self.newton.last)
+
+
+class _Work:
+    """:attr:`EngineFace.work`: the arrays of the Newton system's last evaluation (:attr:`Newton.last`, whoever
+    made it), the continuous ``angle`` (the Newton system's own array) and ``G`` (zero)."""
+
+    def __init__(self, nw: Newton):
+        self._newton, self.angle = nw, nw.angle
+        self.G = np.zeros((nw.free.shape[0], 6))
+
+    r = property(lambda self: self._newton.last.r)
+    S = property(lambda self: self._newton.last.S)
+    F = property(lambda self: self._newton.last.F)
+    PHI = property(lambda self: self._newton.last.phi)
+    PHIt = property(lambda self: self._newton.last.phi_t)
+
+    @property
+    def Bl(self) -> np.ndarray:
+        """The joint rows (m, 12) of the last evaluation: per row node i's six columns of B, then node j's."""
+        nw = self._newton
+        joints, B = nw.model.joints, nw.last.B.toarray().reshape(nw.m, nw.free.shape[0], 6)
+        Bl = np.zeros((nw.m, 12))
+        for k in range(joints.i.shape[0]):
+            rows = slice(int(joints.row0[k]), int(joints.row0[k]) + int(joints.neq[k]))
+            Bl[rows, :6] = B[rows, int(joints.i[k])]
+            if joints.j[k] >= 0:
+                Bl[rows, 6:] = B[rows, int(joints.j[k])]
+        return Bl

@@ -1,0 +1,149 @@
+"""Arc-length path following on the reference path (:meth:`PlainArcLength._point`).
+
+The path, its scaled norm, Riks' normal-plane corrector, the predictor's orientation, the adaptive arc and
+its cuts, the records and the stability count are those of :mod:`reference.algorithms.arc_length` (stated
+there once), on :class:`reference.plain.newton.Newton`: the corrector is
+:func:`reference.plain.static.static_newton` with the load factor an unknown on the predictor's normal plane.
+The compiled algorithm's critical points are kept (:class:`reference.algorithms.critical_points.CriticalPoints`:
+the count, the events, their kind and interpolated load factor) except the secant refinement of a critical
+load factor (``_locate``): on this path the interpolated estimate stands.  Not on this path (refused in one
+line): displacement control (``control``) and the branch switch (``branch_switch``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sps
+
+from reference.algorithms.arc_length import GROWTH, MAX_CUTS, MAX_GROWTH, TARGET_ITERATIONS, WANDER, ArcLength, ArcRun
+from reference.algorithms.implicit import ImplicitAlgorithm
+from reference.linalg import SingularMatrix
+from reference.plain.loads import load_tangent
+from reference.plain.newton import EngineFace, Newton, compose, relative_rotation
+from reference.plain.static import LoadPath, static_newton
+from reference.status import NO_CONVERGENCE, OK, SINGULAR
+
+
+@dataclass
+class PlainArcRun(ArcRun):
+    """:class:`reference.algorithms.arc_length.ArcRun` with the reference path's Newton system ``plain``
+    (``system`` is its :class:`reference.plain.newton.EngineFace`)."""
+
+    plain: Newton | None = None
+
+
+class PlainArcLength(ArcLength):
+    """:class:`reference.algorithms.arc_length.ArcLength` on the reference path: the same settings, records,
+    stability events and messages; the points of :meth:`_point`."""
+
+    def refusal(self, model) -> str | None:
+        """The compiled algorithm's refusals, and the settings this path does not run."""
+        for key, value in (("control", self.control), ("branch_switch", self.branch_switch or None)):
+            if value is not None:
+                return f"{key} is not available on the reference path; use backend = \"compiled\""
+        return ImplicitAlgorithm.refusal(model)
+
+    def start(self, model, state, critical_step=None, guard=None) -> PlainArcRun:
+        problem = self.refusal(model)
+        if problem:
+            raise ValueError(problem)
+        nw = Newton(model)
+        run = PlainArcRun(EngineFace(nw), np.zeros(model.n_constraints), self.length_scale(state.x),
+                          self.arc_length, plain=nw)
+        scale = np.ones((model.nodes.mass.shape[0], 6))
+        scale[:, :3] = 1.0 / run.L
+        run.weights = scale[nw.free]
+        return run
+
+    def _matrix(self, run, x, q, lam, ce=None):
+        """The Newton matrix at ``t_end`` at the last evaluation's configuration, its configuration-dependent
+        load blocks (follower forces, dead moments: :func:`reference.plain.loads.load_tangent`) scaled to λ."""
+        nw = run.plain
+        zero = np.zeros_like(x)
+        A = nw.matrix(x, q, zero, zero, self.t_end, run.mu, 0.0, 0.0, 1.0, 1.0 if ce is None else ce)
+        if lam == 1.0 or not np.any(np.isin(nw.model.loads.code, (1, 2))):
+            return A
+        blocks = sps.block_diag(list(load_tangent(nw.model, q, self.t_end)), format="csr")[nw.index][:, nw.index]
+        return (A + sps.block_diag([(lam - 1.0) * blocks, sps.csr_matrix((nw.m, nw.m))])).tocsc()
+
+    def _correct(self, run, x, q, lam, normal):
+        """:func:`reference.plain.static.static_newton` at ``t_end`` from ``(x, q, μ)`` with the loads × λ,
+        λ an unknown on the plane of ``normal`` (None: fixed); ``(status, λ, Σ scaled corrections and Δλ)``."""
+        nw = run.plain
+        path = LoadPath(lam, normal, run.weights, lambda xx, qq, value: self._matrix(run, xx, qq, value),
+                        np.zeros(nw.n_free + 1))
+        code, run.history = static_newton(nw, x, q, run.mu, self.t_end, self.tolerance, run.L, self.max_iterations,
+                                          path)
+        run.U = nw.last.U
+        if code == OK:
+            run.iterations = len(run.history) - 1
+        return code, path.value, path.moved
+
+    def _tangent(self, run, x, q, lam):
+        """``(δ_F (N,6), μ_F)``: ``K δ_F = F`` at the point (raises :class:`reference.linalg.SingularMatrix`)."""
+        nw = run.plain
+        _, F = self._evaluate(run, x, q, lam)
+        lu = nw.factor(self._matrix(run, x, q, lam))
+        solved = nw.solve(lu, F.copy(), np.zeros(nw.m)) if lu is not None else None
+        if solved is None:
+            raise SingularMatrix("singular tangent")
+        return solved
+
+    def _predictor(self, run, x, q, ds):
+        """The tangent predictor of arc ds: ``(step (N,6), step of μ, Δλ, unit normal)``, Δλ's sign from the
+        previous increment (Feng, Perić & Owen 1996)."""
+        dF, muF = self._tangent(run, x, q, run.lam)
+        t_u = self._scaled(run, dF)
+        norm = math.sqrt(float(t_u @ t_u) + 1.0)
+        sgn = -1.0 if run.previous is not None and (t_u @ run.previous[:-1] + run.previous[-1]) < 0.0 else 1.0
+        dlam = sgn * ds / norm
+        return dlam * dF, dlam * muF, dlam, np.append(t_u, 1.0) * (sgn / norm)
+
+    def _point(self, run, x, q, clock) -> int:
+        """The next converged point: predictor, corrector on its normal plane, the arc halved after a failure
+        or a corrector that wandered off (up to ``MAX_CUTS`` times), the next arc adapted to the iterations."""
+        nw = run.plain
+        saved = (x.copy(), q.copy(), run.mu.copy(), nw.angle.copy())
+        ds, code = run.ds, NO_CONVERGENCE
+        for _ in range(MAX_CUTS + 1):
+            try:
+                step_u, step_mu, dlam, normal = self._predictor(run, x, q, ds)
+                x += step_u[:, :3]
+                q[:] = compose(q, step_u[:, 3:])
+                run.mu += step_mu
+                code, lam, moved = self._correct(run, x, q, run.lam + dlam, normal)
+            except SingularMatrix:
+                code = SINGULAR
+            if code == OK and float(np.linalg.norm(moved)) > WANDER * ds:
+                code = NO_CONVERGENCE  # the corrector wandered off along the plane: another branch
+            if code == OK:
+                increment = moved + np.append(self._scaled(run, step_u), dlam)
+                run.s += float(np.linalg.norm(increment))
+                run.previous = increment
+                dW, run.P = self._work(run, saved[0], saved[1], x, q, lam)
+                clock[2] += dW
+                run.lam, run.jumped, run.switch, run.peak = lam, False, None, max(run.peak, abs(lam))
+                factor = math.sqrt(TARGET_ITERATIONS / max(run.iterations, 1))
+                run.ds = min(ds * min(max(factor, 1.0 / GROWTH), GROWTH), MAX_GROWTH * self.arc_length)
+                return OK
+            x[:], q[:], run.mu[:], nw.angle[:] = saved
+            ds *= 0.5
+        return code
+
+    def _work(self, run, x0, q0, x, q, lam):
+        """Trapezoidal work of the loads λF and the drives from the last point (the last evaluation at the new
+        one), as the compiled ``_work``."""
+        nw = run.plain
+        d = np.hstack([x - x0, relative_rotation(q0, q)])
+        F1 = nw.last.F
+        work = 0.5 * float(np.sum((run.lam * run.F + lam * F1) * d))
+        run.F = F1.copy()
+        P1 = nw.joint_forces(nw.last, run.mu)
+        return work - 0.5 * float(np.sum((run.P + P1) * d)), P1
+
+    def _locate(self, run, before, span, mu0, mu1, M, Z):
+        """No secant refinement on this path: the interpolated critical load factor stands (module docstring)."""
+        return None
