@@ -4,6 +4,7 @@ within the Newton tolerance (issue 37 item 4)."""
 
 from __future__ import annotations
 
+import ast
 import math
 from pathlib import Path
 
@@ -115,20 +116,27 @@ def test_lateral_buckling_load_factor_agrees():
     assert_within(mu1 / mu0, np.ones_like(mu0), 1e-8, "load factor (relative)")
 
 
+def test_rotating_cantilever_modes_about_the_steady_rotation_agree():
+    """rotating_cantilever, the 4 lowest modes in the frame spinning with the beam: the relative equilibrium is
+    a Newton solution (tolerance 1e-10 of L) on both paths, and the co-rotating M, D, K come from it, so the
+    frequencies agree to 1e-8 relative (the Newton tolerance amplified by the stiff beam's condition, as for
+    buckling), the kinds exactly."""
+    compiled, plain, _ = both("rotating_cantilever")
+    f0, f1 = compiled.data("modes/frequency"), plain.data("modes/frequency")
+    assert f0.size == 4 and np.all(f0 > 0.0)
+    assert_within(f1 / f0, np.ones_like(f0), 1e-8, "frequencies (relative)")
+    assert list(plain.data("modes/kind")) == list(compiled.data("modes/kind"))
+    assert float(plain.data("modes/spin_rate")) == float(compiled.data("modes/spin_rate"))
+
+
 def test_the_reference_path_refuses_what_it_does_not_run_in_one_line():
-    """Error-controlled generalized-α, modes about a steady rotation and the arc length's branch switch are
-    refused by their twins with a one-line reason naming the compiled backend (the model is otherwise
-    runnable)."""
-    domain = Domain.from_deck(MODELS / "rotating_cantilever.toml")
-    model = domain.initialization()
-    modes = REFERENCE_TWINS["modes"].from_settings(domain.solver)
-    problem = modes.refusal(model)
-    assert problem and "\n" not in problem and "backend = \"compiled\"" in problem
+    """Error-controlled generalized-α and the arc length's branch switch are refused by their twins with a
+    one-line reason naming the compiled backend (the model is otherwise runnable)."""
     domain = Domain.from_deck(MODELS / "steel_three_bar.toml")
     domain.solver.error_tolerance = 1e-4
     alpha = REFERENCE_TWINS["generalized_alpha"].from_settings(domain.solver)
     problem = alpha.refusal(domain.initialization())
-    assert problem and "\n" not in problem and "error_tolerance" in problem
+    assert problem and "\n" not in problem and "error_tolerance" in problem and "backend = \"compiled\"" in problem
     with pytest.raises(ValueError, match="error_tolerance"):
         alpha.start(domain.initialization(), domain.initial_conditions())
     domain = Domain.from_deck(MODELS / "lee_frame.toml")
@@ -151,3 +159,48 @@ def test_lee_frame_first_points_of_the_arc_length_path_agree():
     assert_within(plain.positions, compiled.positions, 10 * 2 * tol * L, "positions")
     assert_within(plain.data("path/negative_eigenvalues"), compiled.data("path/negative_eigenvalues"), 0.0,
                   "stability counts")
+
+
+NO_DISPATCHER = """
+import sys, warnings
+import numba
+from reference.io.deck import load_deck
+
+warnings.simplefilter("ignore")
+
+
+def signatures():
+    return {(name, attribute): len(value.signatures) for name, module in list(sys.modules.items())
+            if name.startswith("reference") for attribute, value in vars(module).items()
+            if isinstance(value, numba.core.dispatcher.Dispatcher)}
+
+
+called = set()
+for deck, overrides in [("embedded_beam_static", None), ("cantilever_modes", None), ("lateral_buckling", None),
+                        ("steel_three_bar", {"t_end": 0.01}), ("lee_frame", {"solver.max_points": 2})]:
+    domain = load_deck(f"models/{deck}.toml", overrides).domain
+    domain.solver.backend = "reference"
+    before = signatures()
+    assert domain.solve().status == "completed", deck
+    called |= {key for key, count in signatures().items() if count != before.get(key, 0)}
+print(sorted(called))
+"""
+KNOWN_COMPILED = {("reference.monitor", "_stretched"), ("reference.linalg", "_permutation_sign")}
+"""Compiled kernels that a reference-path run still calls, outside the reference path's own modules: the solution
+loop's blow-up monitor (the beams' stretch) and the permutation sign of :func:`reference.modal.negative_eigenvalues`
+above its dense size (lee_frame's 480 coordinates)."""
+
+
+def test_the_implicit_twins_call_no_numba_dispatcher_of_their_own():
+    """Static, modes, buckling, generalized-α and arc length on the reference path, in a fresh process (what other
+    tests compiled would hide a call): no numba dispatcher gets a new signature beyond :data:`KNOWN_COMPILED`."""
+    import os
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parent.parent
+    out = subprocess.run([sys.executable, "-c", NO_DISPATCHER], cwd=root, capture_output=True, text=True, timeout=900,
+                         env={**os.environ, "PYTHONPATH": str(root)})
+    assert out.returncode == 0, out.stderr[-2000:]
+    called = {tuple(key) for key in ast.literal_eval(out.stdout.strip())}
+    assert called <= KNOWN_COMPILED, sorted(called - KNOWN_COMPILED)

@@ -15,7 +15,6 @@ line (:meth:`PlainGeneralizedAlpha.refusal`): run it with ``backend = "compiled"
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 

@@ -5,7 +5,10 @@ messages, stated there once) with the linearisation taken from :class:`reference
 :mod:`reference.linearization` and :mod:`reference.algorithms.linear` read the Newton system through
 :class:`reference.plain.newton.EngineFace`, the static path is :class:`reference.plain.static.PlainStatic`,
 and the eigenproblems are SciPy's (:mod:`reference.modal`), as on the compiled path.  Modes about a steady
-rotation (``about = "rotation"``) are not on this path: they are refused in one line.
+rotation (``about = "rotation"``) search the relative equilibrium with
+:func:`reference.linearization.at_steady_rotation` over the same face: it calls two small compiled kernels
+(the rotation update ``compose`` and ``rotation_matrix`` of :mod:`reference.linearization`), the only
+compiled code of this module.
 """
 
 from __future__ import annotations
@@ -92,19 +95,16 @@ class PlainModes(Modes):
     def from_settings(cls, settings, dt=None):
         return _plain_path(super().from_settings(settings, dt))
 
-    def refusal(self, model) -> str | None:
-        if self.spin is not None:
-            return ("modes about a steady rotation (about = \"rotation\") are not available on the reference path; "
-                    "use backend = \"compiled\"")
-        return super().refusal(model)
-
     def start(self, model, state, critical_step=None, guard=None) -> LinearRun:
         return _start(self, model, state)
 
     def analyse(self, model, state, run) -> dict:
         """:meth:`reference.algorithms.linear.Modes.analyse` with :func:`mobility`."""
-        lin = linearization.linearize(model, state.x, state.q, state.v, state.w, self.multipliers(run), state.t,
-                                      state.angle, run.system)
+        if run.spinning is not None:
+            lin = run.spinning
+        else:
+            lin = linearization.linearize(model, state.x, state.q, state.v, state.w, self.multipliers(run), state.t,
+                                          state.angle, run.system)
         red = linearization.reduce(lin)
         size = red.M.shape[0]
         if self.n_modes > size:
@@ -125,6 +125,8 @@ class PlainModes(Modes):
                "modes/zero_modes": np.int64(zero), "modes/mobility": np.int64(movable),
                "modes/constraint_rank": np.int64(red.rank), "modes/coordinates": np.int64(size),
                "modes/time": np.float64(state.t)}
+        if self.spin is not None:
+            out["modes/spin_rate"] = np.float64(self.spin[0])
         if found.damped:
             out["modes/shape_imaginary"] = shapes.imag
         return out
