@@ -19,6 +19,9 @@ and still catches any wrong term (one wrong entry is O(1) relative).
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +29,7 @@ import pytest
 
 from reference.algorithms.implicit import NewtonSystem
 from reference.domain import Domain
-from reference.interactions import Constant, Gravity, NodalLoad, PiecewiseLinear, Ramp, Sine, SmoothStep, Step
+from reference.interactions import Clamp, Constant, Gravity, NodalLoad, PiecewiseLinear, Ramp, Sine, SmoothStep, Step
 from reference.joints import MasterSlave
 from reference.plain.model import Evaluation
 from reference.rotation import EulerParameters
@@ -146,6 +149,39 @@ def test_every_joint_kind_drive_and_load_evaluates_as_compiled():
     compare(joint_zoo())
 
 
+def family_beam(family):
+    """A clamped beam of ``family`` (skew, three elements) under a follower force, its tip on a spherical joint."""
+    d = Domain(family)
+    nodes = d.add_beam("b", (0.0, 0.0, 0.0), (1.0, 0.3, 0.1), 3, SEC, element=family)
+    d.add_interaction(Clamp(nodes[0]))
+    d.add_interaction(NodalLoad(nodes[-1], [0.0, 1.0, 2.0], follower=True))
+    d.add_joint("spherical", nodes[-1], None, (1.0, 0.3, 0.1))
+    return d
+
+
+def run_python(source: str, uncompiled: bool) -> str:
+    """Run ``source`` in a fresh process (``tests/`` importable) and return its output; with the engine
+    uncompiled (``NUMBA_DISABLE_JIT=1``) where ``uncompiled``."""
+    root = Path(__file__).resolve().parent.parent
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), str(root / "tests")]))
+    if uncompiled:
+        env["NUMBA_DISABLE_JIT"] = "1"
+    out = subprocess.run([sys.executable, "-c", source], cwd=root, env=env, capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    return out.stdout.strip()
+
+
+@pytest.mark.parametrize("family", ["beam2_se3", "beam3"])
+def test_the_other_element_families_evaluate_as_the_engine(family):
+    """:func:`family_beam`: the Evaluation's element forces and tangents (:mod:`reference.plain.elements`) in
+    the model's sums, against the engine's evaluation run uncompiled, in a subprocess — a model with another
+    family would compile the implicit kernels for its own tuple of family data (minutes, cold; the reason
+    tests/test_families.py runs uncompiled too).  The engine's code is the same, interpreted."""
+    source = f"from test_plain_model import compare, family_beam; compare(family_beam({family!r})); print('compared')"
+    assert run_python(source, uncompiled=True) == "compared"
+
+
 def test_the_damper_dissipation_at_equal_velocities_is_the_dampers_power():
     """``Σ c (B_e V⁻)·(B_e V̄)`` with ``V⁺ = V⁻`` is ``Σ c (B_e V)²``, the power D of
     :meth:`Evaluation.forces` (itself compared with the compiled one above); with ``V⁺ = −V⁻`` it
@@ -203,7 +239,6 @@ NO_DISPATCHER = """
 import sys
 import numpy as np
 import numba
-sys.path.insert(0, "tests")
 from test_plain_model import MODELS, joint_zoo, states
 from reference.domain import Domain
 from reference.plain.model import Evaluation
@@ -237,14 +272,7 @@ def test_the_evaluation_calls_no_numba_dispatcher():
     """The reference path runs the generated code as plain Python: evaluating everything on two models
     gives no numba dispatcher of the engine a new signature (none is compiled, nor loaded from the cache).
     In a fresh process, so that what other tests compiled does not hide a call."""
-    import subprocess
-    import sys
-
-    root = Path(__file__).resolve().parent.parent
-    out = subprocess.run([sys.executable, "-c", NO_DISPATCHER], cwd=root, capture_output=True, text=True,
-                         timeout=600, env={**__import__("os").environ, "PYTHONPATH": str(root)})
-    assert out.returncode == 0, out.stderr[-2000:]
-    assert out.stdout.strip() == "[]", out.stdout
+    assert run_python(NO_DISPATCHER, uncompiled=False) == "[]"
 
 
 def test_the_rotational_springs_angle_continues_through_half_turns_as_compiled():
