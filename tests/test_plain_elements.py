@@ -2,11 +2,11 @@
 
 The NumPy twins of the generated helpers against the scalar functions, branch by branch; then every element
 family's forces, strain energy, tangent and section resultants on gallery decks, at rest and in a deformed and
-rotated configuration, against the families' own calls (:mod:`reference.elements.families`:
-``assemble_forces``, ``tangent_values``, ``resultants``).  Beam2's calls run compiled, in this process.
-beam2_se3's and beam3's compile for minutes cold for their own family data (tests/test_families.py says why), so
-their comparison runs once in a subprocess with the engine uncompiled (``NUMBA_DISABLE_JIT=1``): the same
-family code, interpreted.  This module is also that subprocess's script.
+rotated configuration, against the engine's evaluation kernels that inline the families' calls
+(:mod:`reference.elements.families`: ``assemble_forces``, ``tangent_values``, ``resultants``; :func:`engine`).
+Beam2's run compiled, in this process.  beam2_se3's and beam3's compile for minutes cold for their own family
+data (tests/test_families.py says why), so their comparison runs once in a subprocess with the engine uncompiled
+(``NUMBA_DISABLE_JIT=1``): the same family code, interpreted.  This module is also that subprocess's script.
 """
 
 from __future__ import annotations
@@ -64,28 +64,29 @@ def deformed(x, q, seed: int = 1):
 
 
 def engine(model, x, q):
-    """The families' own calls: ``S`` (N, 6), U, the tangent (6N, 6N, dense, assembled here from the blocks
-    ``tangent_values`` writes, ψ = 0) and the resultants ``N``, ``M`` (E, 3)."""
-    from reference.elements.families import assemble_forces, resultants, tangent_values
+    """The engine's compiled evaluation, the families' calls inlined in it: ``S`` (N, 6) and U of the implicit
+    algorithms' evaluation (:class:`reference.algorithms.implicit.NewtonSystem`, static, λ = 0), the element
+    blocks of its Newton matrix with ``(c_m, c_c, c_k) = (0, 0, 1)`` on the free coordinates (ψ = 0), and the
+    section resultants ``N``, ``M`` (E, 3) a run records (:func:`reference.outputs.derived_outputs`).  The cases
+    have no force elements and no follower loads, so these are the elements' alone (λ = 0: no joint Hessian).
+    These kernels are the ones the implicit algorithms and every run compile anyway: nothing compiles for this
+    test alone."""
+    from reference.algorithms.implicit import NewtonSystem
+    from reference.jit import boundary
+    from reference.joints.reactions import scratch
+    from reference.outputs import OutputArrays, derived_outputs
     from reference.state import element_work
 
-    N, works = len(x), element_work(model)
-    S = np.zeros((N, 6))
-    U = assemble_forces(model.elements, works, x, q, S)
-    sizes = [6 * data.conn.shape[1] for data in model.elements]
-    values = np.zeros(sum(data.conn.shape[0] * n * n for data, n in zip(model.elements, sizes)))
-    end = tangent_values(model.elements, works, x, q, np.zeros((N, 3)), 1.0, values, 0, np.zeros(9),
-                         np.zeros(max(sizes) ** 2))
-    assert end == len(values)
-    K, p = np.zeros((6 * N, 6 * N)), 0
-    for data, n in zip(model.elements, sizes):
-        for nodes in data.conn:
-            dofs = (6 * nodes[:, None] + np.arange(6)).reshape(-1)
-            K[np.ix_(dofs, dofs)] += values[p:p + n * n].reshape(n, n)
-            p += n * n
+    assert model.force_elements.kind.shape[0] == 0 and not np.isin(model.loads.code, (1, 2)).any()
+    N, m, J = len(x), model.n_constraints, model.joints.i.shape[0]
+    system = NewtonSystem(model)
+    U = system.evaluate(x, q, np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 6)), np.zeros(m), 0.0, False)
+    K = system.matrix(x, q, np.zeros((N, 3)), 0.0, np.zeros(m), 0.0, 0.0, 1.0, ce=0.0).tocsr()
     forces, moments = np.zeros((model.n_elements, 3)), np.zeros((model.n_elements, 3))
-    resultants(model.elements, works, x, q, forces, moments)
-    return S, U, K, forces, moments
+    derived_outputs(boundary(OutputArrays(model.joints, model.time_functions, model.elements)), x, q, np.zeros(m),
+                    0.0, np.arange(J), np.zeros((J, 3)), np.zeros((J, 3)), forces, moments, element_work(model),
+                    *scratch())
+    return system.work.S.copy(), U, K[:system.n_free, :system.n_free].toarray(), forces, moments, system.free
 
 
 class TrussTwin:
@@ -131,8 +132,8 @@ def domain_of(case: str):
 def errors(case: str) -> dict:
     """The reference path against :func:`engine` in the case's configurations: per configuration the largest
     difference of the forces, energy and resultants relative to their largest value in the deformed
-    configuration (at rest they are round-off of zero), and of the tangent relative to its own largest entry;
-    with the sizes compared."""
+    configuration (at rest they are round-off of zero), and of the tangent (free coordinates) relative to its
+    own largest entry; with the sizes compared."""
     from reference.plain.elements import element_forces, element_resultants, element_tangent
 
     domain = domain_of(case)
@@ -141,11 +142,12 @@ def errors(case: str) -> dict:
     ours, theirs = {}, {}
     for name, (x, q) in configurations.items():
         x, q = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(q, dtype=float)
+        theirs[name] = engine(model, x, q)
+        free = theirs[name][-1].reshape(-1)
         S, U = element_forces(model, x, q)
         forces, moments = element_resultants(model, x, q)
-        ours[name] = (S, U, element_tangent(model, x, q).toarray(), forces, moments)
-        theirs[name] = engine(model, x, q)
-    scale = [max(float(np.abs(a).max()), 1e-300) for a in theirs["deformed"]]
+        ours[name] = (S, U, element_tangent(model, x, q)[free][:, free].toarray(), forces, moments)
+    scale = [max(float(np.abs(a).max()), 1e-300) for a in theirs["deformed"][:5]]
     out = {"families": sorted({type(d).__name__ for d in model.elements if d.conn.shape[0]}),
            "elements": model.n_elements}
     for name in configurations:
