@@ -119,7 +119,8 @@ def joint_zoo():
     displacement), under loads scaled by the time functions it lacks (step, sine, ramp, piecewise linear,
     smooth step), with a dead moment, a follower moment and forces at arms, and gravity."""
     d = Domain("zoo")
-    bodies = [d.add_rigid_body(f"b{k}", 1.0 + k, [1.0, 1.5 + 0.1 * k, 2.0], [float(k), 0.0, 0.0]) for k in range(7)]
+    for k in range(7):
+        d.add_rigid_body(f"b{k}", 1.0 + k, [1.0, 1.5 + 0.1 * k, 2.0], [float(k), 0.0, 0.0])
     beam = d.add_beam("beam", (7.0, 0.0, 0.0), (9.0, 0.0, 0.0), 4, SEC)
     d.add_joint("spherical", "b0", None, (0.0, 0.0, 0.0))
     d.add_joint("universal", "b1", "b0", (0.5, 0.0, 0.0), axis=(0.0, 1.0, 0.0), reference=(0.0, 0.0, 1.0))
