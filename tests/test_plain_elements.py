@@ -285,16 +285,31 @@ def _looping(a):
     return total
 
 
+def _running_sums(v, out):
+    total = 0.0
+    for k in range(3):
+        total += _looping(v[k])
+        out[k] = total
+    return total
+
+
 def test_rewrite_and_fallback():
     """A nested ``if``/``else`` with assignments and an early return is rewritten into selects with the scalar
-    function's values; a loop is not rewritten, and its twin calls the scalar function element by element."""
+    function's values; a loop is not rewritten, and its twin calls the scalar function element by element, the
+    element's views of array arguments (its writes into an output land in the caller's array)."""
     from reference.plain.vectorise import plain
 
     a = np.array([-1.0, 0.0, 0.5, 1.0, 2.0, 3.0])
     b = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    assert not getattr(plain(_nested), "element_by_element", False)
     assert np.array_equal(plain(_nested)(a, b), [_nested(u, v) for u, v in zip(a, b)])
     assert getattr(plain(_looping), "element_by_element", False)
     assert np.array_equal(plain(_looping)(a), [_looping(u) for u in a])
+    v, out = np.arange(12.0).reshape(3, 4), np.zeros((3, 4))
+    totals = plain(_running_sums)(v, out)
+    for e in range(4):
+        expected = np.zeros(3)
+        assert totals[e] == _running_sums(v[:, e], expected) and np.array_equal(out[:, e], expected)
 
 
 def test_a_family_without_reference_functions_is_refused():

@@ -16,8 +16,7 @@ reduction) cannot take arrays as it is: its ``if`` statements are rewritten into
 (:class:`_Selects`): every branch is evaluated for every element, and each element takes the value of
 the branch its own arguments choose, the same value the scalar function returns for it.  A function
 with loops, or ``if`` statements that do more than assign names and return, is not rewritten; its twin
-calls the scalar function element after element (:func:`_element_by_element`, slow but exact; for functions of
-numbers only).  Every function of ``reference/generated/`` is either straight-line (rebound) or rewritten.
+calls the scalar function element after element (:func:`_element_by_element`, slow but exact).  Every function of ``reference/generated/`` is either straight-line (rebound) or rewritten.
 
 Results equal the compiled kernels' to round-off: NumPy's ``sin``, ``cos``, ``sqrt`` and ``**`` may
 differ from the C library's in the last bit.
@@ -228,17 +227,36 @@ def _selected(py: types.FunctionType, namespace: dict) -> types.FunctionType:
 
 
 def _element_by_element(py: types.FunctionType) -> types.FunctionType:
-    """The twin of a function of numbers that :class:`_Selects` cannot rewrite: the scalar function itself
-    (calling the scalar helpers), once per element, its arguments broadcast against each other
-    (:class:`numpy.vectorize`); slow, and exactly the scalar function's values."""
-    scalar = np.vectorize(py, otypes=[float])
+    """The twin of a function :class:`_Selects` cannot rewrite: its scalar form (:func:`_scalar`) called once per
+    element, in Python, on each argument's element (module docstring's layout: the elements are the last axis
+    of every array argument whose last axis has the largest length E; an output's element is a view, so the
+    scalar function's writes land in it; a number is passed as it is); returns the (E,) array of its return
+    values.  Slow, and exactly the scalar function's numbers."""
+    scalar = _scalar(py)
 
     @functools.wraps(py)
     def each(*arguments):
-        return scalar(*arguments)
+        arrays = [a for a in arguments if isinstance(a, np.ndarray) and a.ndim]
+        E = max((a.shape[-1] for a in arrays), default=1)
+        per_element = [isinstance(a, np.ndarray) and a.ndim > 0 and a.shape[-1] == E for a in arguments]
+        values = [scalar(*(a[..., e] if mine else a for a, mine in zip(arguments, per_element))) for e in range(E)]
+        return np.array(values, dtype=float)
 
     each.element_by_element = True
     return each
+
+
+@functools.cache
+def _scalar(function) -> types.FunctionType:
+    """A kernel's Python function rebound so that every kernel it calls is that kernel's own scalar form, in turn
+    (never a numba dispatcher, which would compile when called from Python)."""
+    py = _python_function(function)
+    namespace = dict(py.__globals__)
+    for name in _names(py.__code__):
+        value = namespace.get(name)
+        if value is not None and value is not _own(py) and _is_kernel(value):
+            namespace[name] = _scalar(value)
+    return types.FunctionType(py.__code__, namespace, py.__name__, py.__defaults__, py.__closure__)
 
 
 __all__ = ["NUMPY_MATH", "plain"]
