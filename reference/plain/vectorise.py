@@ -16,7 +16,9 @@ reduction) cannot take arrays as it is: its ``if`` statements are rewritten into
 (:class:`_Selects`): every branch is evaluated for every element, and each element takes the value of
 the branch its own arguments choose, the same value the scalar function returns for it.  A function
 with loops, or ``if`` statements that do more than assign names and return, is not rewritten; its twin
-calls the scalar function element after element (:func:`_element_by_element`, slow but exact).  Every function of ``reference/generated/`` is either straight-line (rebound) or rewritten.
+calls the scalar function element after element (:func:`_element_by_element`, slow but exact).  The element,
+joint, force and rotation kernels of ``reference/generated/`` are all straight-line (rebound) or rewritten; only
+the compiled block loop ``beam2_soa.py``, which the reference path has no use for, has loops.
 
 Results equal the compiled kernels' to round-off: NumPy's ``sin``, ``cos``, ``sqrt`` and ``**`` may
 differ from the C library's in the last bit.
