@@ -33,6 +33,8 @@ and :mod:`reference.algorithms.implicit`):
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -53,6 +55,21 @@ def assemble_blocks(n_nodes, nodes, blocks):
     rows = np.broadcast_to(idx[:, :, None], blocks.shape)
     cols = np.broadcast_to(idx[:, None, :], blocks.shape)
     return sp.csr_matrix((blocks[mask], (rows[mask], cols[mask])), shape=(6 * n_nodes, 6 * n_nodes))
+
+
+class Residual(NamedTuple):
+    """One evaluation of the implicit residual (:meth:`Evaluation.residual`): ``r`` (N,6), the forces ``S``,
+    ``F`` (N,6) it was made of, :meth:`Evaluation.constraints`' ``phi`` (m,), ``B`` (m, 6N) csr and
+    ``phi_t`` (m,), the strain energy ``U`` [J] and the dampers' power ``D`` [W]."""
+
+    r: np.ndarray
+    S: np.ndarray
+    F: np.ndarray
+    phi: np.ndarray
+    B: sp.csr_matrix
+    phi_t: np.ndarray
+    U: float
+    D: float
 
 
 class Evaluation:
@@ -220,13 +237,7 @@ class Evaluation:
         ``J ω̇ + ω × J ω + c J ω`` (``vd`` (N,6) the accelerations ``[v̇ | ω̇]``); a static
         evaluation (``dynamic`` false) gives the force elements zero velocities.
 
-        Returns
-        -------
-        r : ndarray (N,6)
-        phi, B, phi_t
-            :meth:`constraints` at ``(x, q, t)``.
-        U, D : float
-            As :meth:`forces`.
+        ``angle`` as in :meth:`forces` (continued in place).  Returns a :class:`Residual`.
         """
         if not dynamic:
             v, w = np.zeros_like(v), np.zeros_like(w)
@@ -240,7 +251,7 @@ class Evaluation:
         phi, B, phi_t = self.constraints(x, q, t)
         if self.n_constraints > 0:
             r += (B.T @ lam).reshape(-1, 6)
-        return r, phi, B, phi_t, U, D
+        return Residual(r, S, F, phi, B, phi_t, U, D)
 
     def damper_dissipation(self, x, q, v, w, v_new, w_new):
         """``Σ c (B_e V⁻)·(B_e V̄)``, ``V̄ = ½(V⁻ + V⁺)`` [W]: the force elements' dampers' work rate
