@@ -8,9 +8,9 @@ step that of :mod:`reference.algorithms.alpha_steps` written as a textbook loop 
 ``[M + (γ'/β') C + K T(hΔθ)/β', Bᵀ; B T(hΔθ), −β' ε]`` kept while every correction is below a tenth of the
 previous one (refactored at the iterate otherwise), and the acceptance with the energy bookkeeping.
 
-Fixed steps of ``dt``; a step whose Newton iteration fails is taken again as two halves (down to
-``dt / 2^MAX_CUTS``).  The error-controlled mode (``error_tolerance``) is refused on this path in one
-line (:meth:`PlainGeneralizedAlpha.refusal`): run it with ``backend = "compiled"``.
+The steps are chosen as the compiled algorithm chooses them (:mod:`reference.plain.alpha_control`): fixed
+steps of ``dt``, a step whose Newton iteration fails halved and grown back, and with ``error_tolerance`` every
+step chosen from the local error estimate (:mod:`reference.algorithms.step_control`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ import numpy as np
 
 from reference.algorithms.alpha_steps import ROUNDOFF
 from reference.algorithms.generalized_alpha import GeneralizedAlpha
-from reference.algorithms.step_control import MAX_CUTS, SolverStatistics
+from reference.algorithms.step_control import SolverStatistics
+from reference.plain.alpha_control import StepControl, to_output
 from reference.plain.newton import Newton, compose
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
 
@@ -40,6 +41,10 @@ class AlphaState:
     lu: object = None
     h_lu: float = 0.0
 
+    def arrays(self) -> tuple:
+        """The arrays a rejected step restores: ``vd``, ``a``, ``lam``, ``powers``."""
+        return self.vd, self.a, self.lam, self.powers
+
 
 class AlphaParameters(NamedTuple):
     """The settings a step reads: α_m, α_f, γ, β, the Newton tolerance, the corrections allowed, the
@@ -53,6 +58,7 @@ class AlphaParameters(NamedTuple):
     max_iterations: int
     contraction: float
     L: float
+    reuse: float
 
 
 @dataclass
@@ -64,6 +70,7 @@ class PlainAlphaRun:
     h: float
     start: tuple = (0.0, 0)
     alpha: AlphaState | None = None
+    control: StepControl | None = None
     stats: SolverStatistics = field(default_factory=SolverStatistics)
     row: dict = field(default_factory=dict)
     stopped_at: float | None = None
@@ -86,8 +93,8 @@ def alpha_step(nw: Newton, st, al: AlphaState, h: float, p: AlphaParameters) -> 
     m, J = nw.ev.masses
     unit = np.repeat([[1.0, 1.0, 1.0, 1.0 / p.L, 1.0 / p.L, 1.0 / p.L]], x.shape[0], axis=0)[nw.free]
     previous, its, facts = -1.0, 0, 0
-    if al.lu is not None and al.h_lu != h:
-        al.lu = None
+    if al.lu is not None and abs(h - al.h_lu) > p.reuse * al.h_lu:
+        al.lu = None  # the matrix's coefficients depend on h
     while its < p.max_iterations:
         x1, q1 = x + h * dq[:, :3], compose(q, h * dq[:, 3:])
         res = nw.evaluate(x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True)
@@ -155,22 +162,39 @@ def powers(nw: Newton, res, lam, V) -> tuple[float, float]:
 
 class PlainGeneralizedAlpha(GeneralizedAlpha):
     """:class:`reference.algorithms.generalized_alpha.GeneralizedAlpha` on the reference path: the same
-    settings, deck keys, records and messages; the steps of :func:`alpha_step`."""
-
-    def refusal(self, model) -> str | None:
-        """The compiled algorithm's refusals, and error control (not on this path)."""
-        if self.error_tolerance is not None:
-            return ("error_tolerance (the error-controlled step) is not available on the reference path; use "
-                    "backend = \"compiled\", or fixed steps (leave error_tolerance out)")
-        return GeneralizedAlpha.refusal(model)
+    settings, deck keys, records and messages; the steps of :func:`alpha_step`, chosen as the compiled
+    algorithm chooses them (:mod:`reference.plain.alpha_control`)."""
 
     def start(self, model, state, critical_step=None, guard=None) -> PlainAlphaRun:
-        """A run from ``state``; the initial accelerations are computed by the first :meth:`advance`
-        (ValueError with :meth:`refusal`'s line for a model or setting this path cannot run)."""
+        """A run from ``state``; the initial accelerations are computed by the first :meth:`advance`."""
         problem = self.refusal(model)
         if problem:
             raise ValueError(problem)
-        return PlainAlphaRun(Newton(model), self.length_scale(state.x), self.dt, (state.t, state.n))
+        h = self.dt if self.error_tolerance is None else min(max(self.first_step, self.dt_min), self.dt_max)
+        run = PlainAlphaRun(Newton(model), self.length_scale(state.x), h, (state.t, state.n))
+        run.control = StepControl(h, self.dt, varying=self.error_tolerance is not None or h != self.dt)
+        run.stats.controlled = self.error_tolerance is not None
+        return run
+
+    def parameters(self, run) -> AlphaParameters:
+        """What :func:`alpha_step` reads of this algorithm and run."""
+        return AlphaParameters(self.alpha_m, self.alpha_f, self.gamma, self.beta, self.tolerance, self.max_iterations,
+                               self.contraction, run.L, self.reuse)
+
+    def step(self, state, run, h: float, count: bool = True) -> int:
+        """One step of h (:func:`alpha_step`) with its statistics (the step counted when ``count``); a failed step
+        leaves the state, the angles included, as it was."""
+        nw, stats = run.newton, run.stats
+        held = nw.angle.copy()
+        code, its, facts = alpha_step(nw, state, run.alpha, h, self.parameters(run))
+        stats.iterations += its
+        stats.factorizations += facts
+        if code != OK:
+            nw.angle[:] = held
+            run.alpha.lu = None
+        elif count:
+            stats.step(h)
+        return code
 
     def _initial(self, run, state) -> int:
         """Consistent initial accelerations and multipliers (``τ = 10⁻³ h``, ``c_e = β'``), the first
@@ -187,61 +211,28 @@ class PlainGeneralizedAlpha(GeneralizedAlpha):
         res = nw.evaluate(x, q, v, w, vd, lam, clock[0], True)
         f_prev[:] = res.F
         run.alpha = AlphaState(vd, vd.copy(), lam, np.array(powers(nw, res, lam, np.hstack([v, w]))))
+        run.control.nominal = int(round(clock[0] / self.dt))
         return OK
 
     def advance(self, model, state, run, n_steps, record) -> int:
-        nw = run.newton
-        x, q, v, w, f_prev, clock = state[:6]
+        nw, clock = run.newton, state.clock
         if run.alpha is None:
             run.stopped_at = None
             code = self._initial(run, state)
             if code != OK:
                 run.stopped_at = clock[0]
                 return code
-        al = run.alpha
         if record is not None:
-            res = nw.evaluate(x, q, v, w, al.vd, al.lam, clock[0], True)
-            nw.write_record(record, x, q, v, w, clock, al.lam, res)
-            run.row = run.stats.output(self.dt, nw.free_norm(res.r))
-        for _ in range(int(n_steps)):
-            code = self._step(state, run, self.dt, 0)
-            if code != OK:
-                state.angle[:] = nw.angle
-                run.stopped_at = clock[0]
-                return code
-            clock[1] += 1
-            clock[0] = run.start[0] + (clock[1] - run.start[1]) * self.dt
+            al = run.alpha
+            res = nw.evaluate(state.x, state.q, state.v, state.w, al.vd, al.lam, clock[0], True)
+            nw.write_record(record, state.x, state.q, state.v, state.w, clock, al.lam, res)
+            run.row = run.stats.output(run.control.h, nw.free_norm(res.r))
+        code = to_output(self, state, run, int(n_steps))
         state.angle[:] = nw.angle
-        return OK
-
-    def _step(self, state, run, h, cuts) -> int:
-        """A step of h, taken again as two halves when Newton fails (up to :data:`MAX_CUTS` halvings)."""
-        nw, stats = run.newton, run.stats
-        held = nw.angle.copy()
-        p = AlphaParameters(self.alpha_m, self.alpha_f, self.gamma, self.beta, self.tolerance, self.max_iterations,
-                            self.contraction, run.L)
-        code, its, facts = alpha_step(nw, state, run.alpha, h, p)
-        stats.iterations += its
-        stats.factorizations += facts
-        if code == OK:
-            stats.step(h)
-            return OK
-        nw.angle[:] = held
-        run.alpha.lu = None
-        if cuts >= MAX_CUTS:
-            run.tried = f"with the step cut from {self.dt:g} to {h:g} s"
-            return code
-        stats.cuts += 1
-        for _ in range(2):
-            code = self._step(state, run, 0.5 * h, cuts + 1)
-            if code != OK:
-                return code
-            state.clock[0] += 0.5 * h
-        state.clock[0] -= h  # the caller sets the time of the whole step
-        return OK
+        if code != OK:
+            run.alpha.lu = None
+            run.stopped_at = clock[0]
+        return code
 
     def summary(self, run) -> str:
         return run.stats.summary()
-
-    def finish(self, model, state, run, completed: bool) -> dict:
-        return {}
