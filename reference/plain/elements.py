@@ -3,7 +3,8 @@
 The reference twin of the families' compiled calls (:mod:`reference.elements.families`:
 ``assemble_forces``, ``tangent_values``, ``resultants``): the same generated element code
 (``reference/generated/beam2.py``, ``beam2_se3.py``, ``beam3.py``, ``tangents.py``), run by
-:func:`reference.plain.vectorise.plain` on all of a family's elements at once, in the same frames.
+:func:`reference.plain.vectorise.twin` on all of a family's elements at once (element after element for a
+few), in the same frames.
 
 The driver, common to every family (one pass per family of ``model.elements``, elements in chunks of
 :data:`CHUNK`):
@@ -50,7 +51,7 @@ from reference.generated import beam2_se3 as generated_se3
 from reference.generated import beam3 as generated_beam3
 from reference.generated import rotation_maps as rm
 from reference.generated import tangents as generated_tangents
-from reference.plain.vectorise import plain
+from reference.plain.vectorise import twin
 
 CHUNK = 1024
 """Elements evaluated at once: the generated code keeps every intermediate (thousands for beam3's tangent)
@@ -69,7 +70,7 @@ class TwoNodeBeam:
     strains are constant on the element)."""
 
     def __init__(self, forces, tangent):
-        self.forces, self.tangent_function = plain(forces), plain(tangent)
+        self.forces, self.tangent_function = forces, tangent
 
     @staticmethod
     def _inputs(data, sl, x, p) -> tuple:
@@ -80,14 +81,14 @@ class TwoNodeBeam:
         """Forces (12, E), energies (E,) and the resultants (3, E) twice (module docstring)."""
         E = x.shape[-1]
         s, strain, stress = np.empty((12, E)), np.empty((6, E)), np.empty((6, E))
-        U = self.forces(*self._inputs(data, sl, x, p), s, strain, stress)
+        U = twin(self.forces, E)(*self._inputs(data, sl, x, p), s, strain, stress)
         return s, U, stress[:3], stress[3:]
 
     def tangent(self, data, sl, x, p):
         """The 12×12 section-frame tangents (12, 12, E)."""
         E = x.shape[-1]
         s, K = np.empty((12, E)), np.empty((144, E))
-        self.tangent_function(*self._inputs(data, sl, x, p), s, K)
+        twin(self.tangent_function, E)(*self._inputs(data, sl, x, p), s, K)
         return K.reshape(12, 12, E)
 
 
@@ -97,9 +98,9 @@ class QuadraticBeam:
     (``gauss_hessian`` of each point's inputs ``u``) and ``tangent``; resultants the mean of the two
     Gauss points' (:meth:`reference.elements.beam3.Beam3Formulation.section_resultants`)."""
 
-    forces = staticmethod(plain(generated_beam3.internal_forces))
-    hessian = staticmethod(plain(generated_beam3.gauss_hessian))
-    tangent_function = staticmethod(plain(generated_beam3.tangent))
+    forces = staticmethod(generated_beam3.internal_forces)
+    hessian = staticmethod(generated_beam3.gauss_hessian)
+    tangent_function = staticmethod(generated_beam3.tangent)
 
     @staticmethod
     def _inputs(data, sl, x, p) -> tuple:
@@ -109,7 +110,7 @@ class QuadraticBeam:
     def _forces(self, data, sl, x, p):
         E = x.shape[-1]
         s, u, strain, stress = np.empty((18, E)), np.empty((18, E)), np.empty((12, E)), np.empty((12, E))
-        U = self.forces(*self._inputs(data, sl, x, p), s, u, strain, stress)
+        U = twin(self.forces, E)(*self._inputs(data, sl, x, p), s, u, strain, stress)
         return s, U, u, stress
 
     def evaluate(self, data, sl, x, p):
@@ -126,9 +127,9 @@ class QuadraticBeam:
         E = x.shape[-1]
         hessians, s, K = np.empty((162, E)), np.empty((18, E)), np.empty((324, E))
         for g in range(2):
-            self.hessian(u[9 * g:9 * g + 9], gamma0[3 * g:3 * g + 3], kappa0[3 * g:3 * g + 3], c, L0,
+            twin(self.hessian, E)(u[9 * g:9 * g + 9], gamma0[3 * g:3 * g + 3], kappa0[3 * g:3 * g + 3], c, L0,
                          hessians[81 * g:81 * g + 81])
-        self.tangent_function(*inputs, hessians, s, K)
+        twin(self.tangent_function, E)(*inputs, hessians, s, K)
         return K.reshape(18, 18, E)
 
 
@@ -180,7 +181,7 @@ def _ends(data, sl, x, q) -> tuple:
     O = np.asarray(data.offset[sl], dtype=float).transpose(1, 2, 0)
     P = np.empty_like(Q)
     for a in range(conn.shape[1]):
-        plain(rm.quat_product)(Q[a], O[a], P[a])
+        twin(rm.quat_product, len(conn))(Q[a], O[a], P[a])
     return X, P, O
 
 
@@ -191,7 +192,7 @@ def _node_frames(s, O) -> np.ndarray:
     out = np.empty_like(s)
     out[:, :3] = s[:, :3]
     for a in range(n):
-        plain(to_node_frame)(O[a], s[a, 3:], out[a, 3:])
+        twin(to_node_frame, s.shape[-1])(O[a], s[a, 3:], out[a, 3:])
     return out
 
 
@@ -249,7 +250,7 @@ def _offset_matrices(O) -> np.ndarray:
     out = np.empty((3, E))
     for a in range(n):
         for k in range(3):
-            plain(to_node_frame)(O[a], np.eye(3)[:, k:k + 1], out)
+            twin(to_node_frame, E)(O[a], np.repeat(np.eye(3)[:, k:k + 1], E, axis=1), out)
             A[:, a, :, k] = out.T
     return A
 

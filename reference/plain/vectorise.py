@@ -20,8 +20,11 @@ calls the scalar function element after element (:func:`_element_by_element`, sl
 joint, force and rotation kernels of ``reference/generated/`` are all straight-line (rebound) or rewritten; only
 the compiled block loop ``beam2_soa.py``, which the reference path has no use for, has loops.
 
-Results equal the compiled kernels' to round-off: NumPy's ``sin``, ``cos``, ``sqrt`` and ``**`` may
-differ from the C library's in the last bit.
+NumPy's fixed cost per operation (about a microsecond, whatever the array's length) outweighs the work on a
+few elements: for fewer than :data:`LOOP_BELOW` elements the scalar function element after element in Python
+is faster, and :func:`twin` picks that.  Results equal the compiled kernels' to round-off: NumPy's ``sin``,
+``cos``, ``sqrt`` and ``**`` may differ from the C library's in the last bit (the element loop calls the C
+library's, as the compiled kernels do).
 """
 
 from __future__ import annotations
@@ -44,6 +47,11 @@ NUMPY_MATH = types.SimpleNamespace(**{
 })
 """The ``math`` of a plain twin: every function of :mod:`math` that NumPy has as an element-wise ufunc
 (``math.atan2`` → ``np.arctan2``, …) and the constants ``pi``, ``e``, ``inf``, ``nan``."""
+
+LOOP_BELOW = 8
+"""Below this many elements :func:`twin` calls the scalar function element by element: NumPy's fixed cost per
+operation then outweighs the Python loop (measured crossover between 4 and 16 Beam2 or beam3 elements,
+docs/benchmarks.md)."""
 
 _BUILTINS = {"min": np.minimum, "max": np.maximum}
 """Builtins a generated function may call on two numbers, in their element-wise form."""
@@ -83,6 +91,18 @@ def plain(function) -> types.FunctionType:
         return _selected(py, namespace)
     except (_Unsupported, OSError):  # a construct not rewritten, or no source to rewrite
         return _element_by_element(py)
+
+
+def twin(function, elements: int) -> types.FunctionType:
+    """The faster twin of a kernel for ``elements`` elements: :func:`plain` from :data:`LOOP_BELOW` on, else
+    :func:`element_loop` (the same arguments and results either way)."""
+    return plain(function) if elements >= LOOP_BELOW else element_loop(function)
+
+
+@functools.cache
+def element_loop(function) -> types.FunctionType:
+    """The twin of a kernel that calls its scalar form once per element (:func:`_element_by_element`)."""
+    return _element_by_element(_python_function(function))
 
 
 def _namespace(py: types.FunctionType) -> dict:
@@ -261,4 +281,4 @@ def _scalar(function) -> types.FunctionType:
     return types.FunctionType(py.__code__, namespace, py.__name__, py.__defaults__, py.__closure__)
 
 
-__all__ = ["NUMPY_MATH", "plain"]
+__all__ = ["LOOP_BELOW", "NUMPY_MATH", "element_loop", "plain", "twin"]
