@@ -50,8 +50,8 @@ NUMPY_MATH = types.SimpleNamespace(**{
 
 LOOP_BELOW = 8
 """Below this many elements :func:`twin` calls the scalar function element by element: NumPy's fixed cost per
-operation then outweighs the Python loop (measured crossover between 4 and 16 Beam2 or beam3 elements,
-docs/benchmarks.md)."""
+operation then outweighs the Python loop (the crossover of Beam2's and beam3's forces and tangents, between 4
+and 16 elements: docs/benchmarks.md)."""
 
 _BUILTINS = {"min": np.minimum, "max": np.maximum}
 """Builtins a generated function may call on two numbers, in their element-wise form."""
