@@ -73,6 +73,37 @@ def test_static_embedded_beam_equilibria_agree_within_the_newton_tolerance():
     assert_within(plain.data("stability/negative_eigenvalues"), count, 0.0, "the stability count")
 
 
+def test_static_stability_event_past_a_bifurcation_as_compiled():
+    """The lateral–torsional cantilever of tests/test_modes.py (16 elements, tip load ramped to 1.5 times its
+    reference in 30 load steps) on both paths: the same single warning line (stability lost between load
+    factor 1 and 1.05 at a bifurcation), the same stability count at every output, the same event kind, and
+    the interpolated critical load factor within 1e-5 relative: it is interpolated from the eigenvalue nearest
+    zero at the two equilibria, each within the Newton tolerance of the other path's, on a perfect beam loaded
+    past its bifurcation, whose lowest eigenvalue there is small and sensitive (measured 4e-7)."""
+    import warnings
+
+    from test_modes import ltb
+    from reference.validation import ModelWarning
+
+    runs = []
+    for backend in ("compiled", "reference"):
+        domain = ltb(16, "static", 4.0, 1.5, 30)
+        domain.solver.backend = backend
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            results = domain.solve()
+        lines = [str(w.message) for w in caught if issubclass(w.category, ModelWarning)]
+        runs.append((results, lines))
+    (compiled, lines0), (plain, lines1) = runs
+    assert len(lines0) == 1 and lines0[0].startswith("stability lost between load factor 1 and 1.05: bifurcation")
+    assert [line.split(" (critical")[0] for line in lines1] == [lines0[0].split(" (critical")[0]]
+    assert_within(plain.data("stability/negative_eigenvalues"), compiled.data("stability/negative_eigenvalues"), 0.0,
+                  "the stability count")
+    assert list(plain.data("stability/critical_kind")) == ["bifurcation"]
+    mu0, mu1 = compiled.data("stability/critical_load_factor"), plain.data("stability/critical_load_factor")
+    assert_within(mu1 / mu0, np.ones_like(mu0), 1e-5, "critical load factor (relative)")
+
+
 @pytest.mark.parametrize("deck, t_end", [("steel_three_bar", 0.02), ("andrews_squeezer", 2e-4)])
 def test_generalized_alpha_short_horizon_agrees_within_the_newton_tolerance(deck, t_end):
     """20 fixed steps of generalized-α on both paths (the three-bar's rocker with a steel coupler; Andrews'
