@@ -63,7 +63,11 @@ class AlphaParameters(NamedTuple):
 
 @dataclass
 class PlainAlphaRun:
-    """The run state of :class:`PlainGeneralizedAlpha` (as :class:`reference.algorithms.generalized_alpha.GeneralizedAlphaRun`)."""
+    """The run state of :class:`PlainGeneralizedAlpha` (the fields of
+    :class:`reference.algorithms.generalized_alpha.GeneralizedAlphaRun` that its records and messages read):
+    the Newton system, the model size L [m], the first step h [s], the time and step ``start`` the fixed steps
+    count from, the accelerations and factor (:class:`AlphaState`) and the step size's state
+    (:class:`reference.plain.alpha_control.StepControl`)."""
 
     newton: Newton
     L: float
