@@ -120,7 +120,8 @@ def test_generalized_alpha_short_horizon_agrees_within_the_newton_tolerance(deck
     the heavy top (the gyroscopic tangent).  Each step converges to an imbalance below the Newton tolerance
     (1e-9 of the step's forces): the configurations differ by at most that fraction of the model size a
     step, accumulated over the 20 steps (no instability over so short a horizon): 20 × 1e-9 L; the
-    velocities by as much of their largest, the multipliers of theirs."""
+    velocities by as much of their largest, the multipliers of theirs, the energies (kinetic, strain, work,
+    dissipated) of the largest of them."""
     compiled, plain, domain = both(deck, {**overrides, "solver.output_every": 1})
     L, tol, steps = model_size(domain), 1e-9, len(compiled.time) - 1
     assert steps >= 20
@@ -131,6 +132,9 @@ def test_generalized_alpha_short_horizon_agrees_within_the_newton_tolerance(deck
     assert_within(plain.velocities, compiled.velocities, steps * tol * speed, "velocities")
     lam = float(np.max(np.abs(compiled.multipliers), initial=0.0))
     assert_within(plain.multipliers, compiled.multipliers, steps * tol * lam, "multipliers")
+    energy = max(float(np.max(np.abs(compiled.energy[key]))) for key in ("kinetic", "strain", "external_work"))
+    for key in ("kinetic", "strain", "external_work", "dissipated"):
+        assert_within(plain.energy[key], compiled.energy[key], steps * tol * energy, key)
 
 
 def test_cantilever_modes_agree():
