@@ -28,7 +28,7 @@ in the last bit, and cancellation in a strained element's forces can amplify tha
 forces and energies equal bit for bit, tangents within 3e-16 of their largest entry."""
 
 CASES = {
-    # deck, overrides: Beam2 straight beams between rigid bodies (4 elements: the per-element loop)
+    # deck, overrides: Beam2 straight beams between rigid bodies (4 elements: the per-element loops of both paths)
     "three_bar": ("three_bar.toml", {}),
     # two arcs: section frames offset from the node frames (the curved mesh and the 'mid' node's identity frame)
     "curved_cantilever": ("curved_cantilever.toml", {}),
@@ -43,10 +43,10 @@ CASES = {
     "three_bar_beam3": ("three_bar.toml", {"beams.1.element": "beam3", "solver.algorithm": "generalized_alpha"}),
 }
 COMPILED = ("three_bar", "curved_cantilever", "lee_frame")
+"""The Beam2 cases, compared in this process with the compiled kernels."""
 OUTSIDE = "truss"
 """A family registered from outside the engine with a reference-path adapter of its own (:class:`TrussTwin`):
 tests/test_element_families.py's toy truss, no section frames (its data have no offsets)."""
-"""The Beam2 cases, compared in this process with the compiled family calls."""
 
 
 def deformed(x, q, seed: int = 1):
