@@ -161,6 +161,31 @@ def test_lateral_buckling_load_factor_agrees():
     assert_within(mu1 / mu0, np.ones_like(mu0), 1e-8, "load factor (relative)")
 
 
+def test_lee_frame_arc_length_path_to_its_first_limit_point_agrees():
+    """lee_frame's arc-length path, its first 30 points, past the first limit load: the load factors,
+    configurations and stability counts on both paths, and the critical point.  Every point is a corrector
+    converged to the Newton tolerance (1e-10 of L for a correction) on the same normal plane, so the load
+    factors agree to about that, accumulated over the points' predictors (each taken from the previous point):
+    30 × 2e-10, the positions to 30 × 2e-10 L.  The limit point's load factor is located by the same secant steps
+    on the lowest eigenvalue from those points: within 1e-8 relative (the eigenvalue's round-off near zero over
+    its slope; measured 4e-16); the kind exactly."""
+    from reference.validation import ModelWarning
+
+    with pytest.warns(ModelWarning, match="stability lost between load factor 1.8511 and 1.85592"):
+        compiled, plain, domain = both("lee_frame", {"solver.max_points": 30})
+    L, tol, points = model_size(domain), 1e-10, 30
+    lam0 = compiled.data("path/load_factor")
+    assert lam0.size == points + 1 and np.max(lam0) > 1.8  # the path passed the first limit load, 1.856
+    assert_within(plain.data("path/load_factor"), lam0, points * 2 * tol, "load factors")
+    assert_within(plain.data("path/arc_length"), compiled.data("path/arc_length"), points * 2 * tol, "arc lengths")
+    assert_within(plain.positions, compiled.positions, points * 2 * tol * L, "positions")
+    assert_within(plain.data("path/negative_eigenvalues"), compiled.data("path/negative_eigenvalues"), 0.0,
+                  "stability counts")
+    critical = compiled.data("path/critical_load_factor")
+    assert critical.size == 1 and list(plain.data("path/critical_kind")) == ["limit point"]
+    assert_within(plain.data("path/critical_load_factor") / critical, np.ones(1), 1e-8, "limit load (relative)")
+
+
 def test_rotating_cantilever_modes_about_the_steady_rotation_agree():
     """rotating_cantilever, the 4 lowest modes in the frame spinning with the beam: the relative equilibrium is
     a Newton solution (tolerance 1e-10 of L) on both paths, and the co-rotating M, D, K come from it, so the

@@ -5,9 +5,9 @@ its cuts, the records and the stability count are those of :mod:`reference.algor
 there once), on :class:`reference.plain.newton.Newton`: the corrector is
 :func:`reference.plain.static.static_newton` with the load factor an unknown on the predictor's normal plane.
 The compiled algorithm's critical points are kept (:class:`reference.algorithms.critical_points.CriticalPoints`:
-the count, the events, their kind and interpolated load factor) except the secant refinement of a critical
-load factor (``_locate``): on this path the interpolated estimate stands.  Not on this path (refused in one
-line): displacement control (``control``) and the branch switch (``branch_switch``).
+the count, the events, their kind and load factor, refined by secant steps along the path, :meth:`_locate`).
+Not on this path (refused in one line): displacement control (``control``) and the branch switch
+(``branch_switch``).
 """
 
 from __future__ import annotations
@@ -19,8 +19,10 @@ import numpy as np
 import scipy.sparse as sps
 
 from reference.algorithms.arc_length import GROWTH, MAX_CUTS, MAX_GROWTH, TARGET_ITERATIONS, WANDER, ArcLength, ArcRun
+from reference.algorithms.critical_points import REFINE
 from reference.algorithms.implicit import ImplicitAlgorithm
 from reference.linalg import SingularMatrix
+from reference.modal import nearest_zero
 from reference.plain.loads import load_tangent
 from reference.plain.newton import EngineFace, Newton, compose, relative_rotation
 from reference.plain.static import LoadPath, static_newton
@@ -92,13 +94,15 @@ class PlainArcLength(ArcLength):
             raise SingularMatrix("singular tangent")
         return solved
 
-    def _predictor(self, run, x, q, ds):
-        """The tangent predictor of arc ds: ``(step (N,6), step of μ, Δλ, unit normal)``, Δλ's sign from the
-        previous increment (Feng, Perić & Owen 1996)."""
-        dF, muF = self._tangent(run, x, q, run.lam)
+    def _predictor(self, run, x, q, ds, lam=None, sgn=None):
+        """The tangent predictor of arc ds at ``(x, q)`` and load factor λ (default the last point's):
+        ``(step (N,6), step of μ, Δλ, unit normal)``, Δλ's sign ``sgn`` or, by default, that of the tangent's
+        projection on the previous increment (Feng, Perić & Owen 1996)."""
+        dF, muF = self._tangent(run, x, q, run.lam if lam is None else lam)
         t_u = self._scaled(run, dF)
         norm = math.sqrt(float(t_u @ t_u) + 1.0)
-        sgn = -1.0 if run.previous is not None and (t_u @ run.previous[:-1] + run.previous[-1]) < 0.0 else 1.0
+        if sgn is None:
+            sgn = -1.0 if run.previous is not None and (t_u @ run.previous[:-1] + run.previous[-1]) < 0.0 else 1.0
         dlam = sgn * ds / norm
         return dlam * dF, dlam * muF, dlam, np.append(t_u, 1.0) * (sgn / norm)
 
@@ -145,5 +149,33 @@ class PlainArcLength(ArcLength):
         return work - 0.5 * float(np.sum((run.P + P1) * d)), P1
 
     def _locate(self, run, before, span, mu0, mu1, M, Z):
-        """No secant refinement on this path: the interpolated critical load factor stands (module docstring)."""
-        return None
+        """:meth:`reference.algorithms.critical_points.CriticalPoints._locate` on this path: :data:`REFINE` secant
+        steps on the eigenvalue nearest zero along the path from the point ``before``, each a probe point solved
+        on its predictor's normal plane (not recorded; the run state restored); None when a probe fails."""
+        x0, q0, m0, lam0, _, _, slope0 = before
+        nw = run.plain
+        saved = (run.mu, run.history, run.iterations, nw.angle.copy())
+        a, fa, b, fb = 0.0, mu0, span, mu1
+        found, sgn = None, 1.0 if slope0 >= 0.0 else -1.0
+        try:
+            for _ in range(REFINE):
+                sigma = a + (b - a) * fa / (fa - fb) if fa != fb else 0.5 * (a + b)
+                run.mu = m0.copy()
+                step_u, step_mu, dlam, normal = self._predictor(run, x0, q0, sigma, lam0, sgn)
+                x, q = x0 + step_u[:, :3], compose(q0, step_u[:, 3:])
+                run.mu += step_mu
+                code, lam, _ = self._correct(run, x, q, lam0 + dlam, normal)
+                if code != OK:
+                    return None
+                f = nearest_zero(sps.csr_matrix(self._reduced(run, x, q, lam, Z)[0]), M)[0]
+                found = lam
+                if (f > 0.0) == (fa > 0.0):
+                    a, fa = sigma, f
+                else:
+                    b, fb = sigma, f
+        except SingularMatrix:
+            return None
+        finally:
+            run.mu, run.history, run.iterations = saved[:3]
+            nw.angle[:] = saved[3]
+        return found
