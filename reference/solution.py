@@ -44,21 +44,17 @@ def _where(algo, t: float) -> str:
 def _on_backend(domain, algo: Algorithm, model: Model, n_total: int, rec: Record) -> tuple:
     """``(algorithm, outputs, (backend, reason))`` of ``domain.solver.backend``: the compiled algorithm and
     outputs, or for the reference path (``"reference"``, or ``"auto"`` for a short job:
-    :func:`reference.plain.backend.choose`) the algorithm's twin and outputs computed in NumPy
+    :func:`reference.plain.backend.decide`) the algorithm's twin and outputs computed in NumPy
     (:class:`reference.plain.outputs.PlainOutputs`), which compile nothing.  ValueError (one line) for a backend
     that cannot run the algorithm."""
-    requested = getattr(domain.solver, "backend", "compiled")
+    requested = domain.solver.backend
     if requested == "compiled":  # the reference path is not even imported
         return algo, Outputs(model, domain.joints, rec), ("compiled", "asked for")
     from reference.plain import backend
     from reference.plain.model import Evaluation
     from reference.plain.outputs import PlainOutputs
 
-    problem = backend.problem(requested, algo.name)
-    if problem:
-        raise ValueError(f"solver backend: {problem}")
-    choice = backend.choose(requested, algo.name, n_total, len(domain.nodes), model.n_constraints)
-    domain.last_run["backend"] = choice
+    choice = backend.decide(requested, algo, model, n_total)
     if choice.backend == "compiled":
         return algo, Outputs(model, domain.joints, rec), tuple(choice)
     return backend.twin(algo), PlainOutputs(model, domain.joints, rec, Evaluation(model)), tuple(choice)
@@ -103,6 +99,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     every = max(int(domain.solver.output_every), 1)
     rec = Record.empty(len(domain.nodes), model.n_constraints)
     algo, outputs, choice = _on_backend(domain, algo, model, n_total, rec)
+    domain.last_run["backend"] = choice
     outputs.inverse_EA = inverse_axial_stiffness(domain.elements)
     critical = domain.critical_time_step() if critical is None else critical
     watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True), critical) if monitor else None

@@ -20,7 +20,7 @@ from reference.algorithms.linear import ABOUT
 from reference.domain import Domain
 from reference.io.deck_reader import Reader, show
 from reference.monitor import SAFETY, damping_problem
-from reference.plain.backend import BACKENDS, problem
+from reference.plain.backend import BACKENDS, decide, problem
 from reference.observables import ObservableError
 from reference.observables import parse as parse_observable
 
@@ -107,6 +107,15 @@ def _backend(rd: Reader, sv: dict, algorithm: str) -> str:
     if why:
         raise rd.fail("solver.backend", *why.split("; ", 1))
     return value
+
+
+def check_backend(rd: Reader, domain: Domain, algo, model) -> None:
+    """``solver.backend = "reference"`` with settings or a model that the algorithm's twin does not run (its
+    ``refusal``, :func:`reference.plain.backend.decide`): one line, before any engine runs."""
+    try:
+        decide(domain.solver.backend, algo, model, 0)
+    except ValueError as exc:
+        raise rd.fail("solver.backend", *str(exc).removeprefix("solver backend: ").split("; ", 1)) from None
 
 
 def _check_step(rd: Reader, sv: dict, domain: Domain, algo_cls, overrides: dict, dt_entry: str, t_entry: str):

@@ -4,17 +4,17 @@
   algorithm for a version of the engine compiles its kernels: measured cold on the project's 2-core machine
   (issue 36), 164 s for the explicit step (three_bar, load 2.5), 245 s for modes, 742 s for arc length.
 - ``"reference"``: the same algorithm's twin on the plain NumPy path (``reference/plain/``): nothing to
-  compile, slower per step (:data:`SECONDS_PER_UNIT`).
+  compile, slower per step (:data:`COSTS`).
 - ``"auto"``: the reference path when its estimated run time (:func:`estimate`) is at most
-  :data:`REFERENCE_SECONDS`, else the compiled one.  The estimate depends only on the job (algorithm,
-  steps, nodes, joint rows), never on what is cached, so the same deck always runs on the same path: a
-  short job (a static solve, modes, a lesson's cell, a short explicit horizon) gives its result without
-  waiting minutes for a compilation, and a warm cache would have saved it at most
-  :data:`REFERENCE_SECONDS`; a long job pays the compilation once and runs fast.  The measurements behind
-  the constants are in docs/benchmarks.md ("Reference path").
+  :data:`REFERENCE_SECONDS` and the twin runs these settings, else the compiled path.  The estimate depends
+  only on the job (algorithm, steps, nodes, joint rows, force elements), never on what is cached, so the same
+  deck always runs on the same path: a short job (a static solve, modes, a lesson's cell, a short explicit
+  horizon) gives its result without waiting minutes for a compilation, and a warm cache would have saved it
+  at most :data:`REFERENCE_SECONDS`; a long job pays the compilation once and runs fast.  The measurements
+  behind :data:`COSTS` are in docs/benchmarks.md ("The reference path").
 
-:func:`choose` returns the decision and its one line (printed by ``flexmbs run`` for ``auto``, recorded in
-the results' attributes ``backend`` and ``backend_reason``); :func:`twin` gives the reference algorithm.
+:func:`decide` returns the decision and its one line (printed by ``flexmbs run`` for ``auto``, recorded in the
+results' attributes ``backend`` and ``backend_reason``); :func:`twin` gives the reference algorithm.
 """
 
 from __future__ import annotations
@@ -25,23 +25,36 @@ from typing import NamedTuple
 BACKENDS = ("compiled", "reference", "auto")
 """The values of ``[solver] backend``."""
 
-EXPLICIT = "staggered_central_difference"
-"""The explicit algorithm's deck name: its unit of work is a step (an implicit one's a Newton iteration)."""
-
 REFERENCE_SECONDS = 15.0
 """``auto`` runs the reference path when its estimated run time is at most this [s]: the first run then costs
 at most this much more than a warm compiled one (issue 36's bound), and far less than a cold compilation."""
 
-SECONDS_PER_UNIT = {
-    "staggered_central_difference": (4.0e-4, 6.0e-6, 3.0e-6),
-    "static": (6.0e-3, 2.0e-4, 1.0e-4),
-    "generalized_alpha": (6.0e-3, 2.0e-4, 1.0e-4),
-}
-"""Seconds of one unit of work on the reference path, ``(a, b, c)`` of ``a + b N + c m`` (N nodes, m joint rows):
-a step of the explicit algorithm, a Newton iteration of the implicit ones (measured: docs/benchmarks.md)."""
 
-ITERATIONS = 4
-"""Newton iterations assumed per step or load step of an implicit algorithm (the gallery's runs take 2–6)."""
+class Cost(NamedTuple):
+    """CPU seconds of one unit of work on the reference path: ``base + node N + row m + force_element F``
+    (N nodes, m joint rows, F force elements); a unit is a step of the explicit algorithm, a Newton iteration
+    of an implicit one (``iterations`` a step, load step or point); ``analysis`` [s] once, for the eigenvalue
+    problem of a linearised analysis."""
+
+    base: float
+    node: float
+    row: float
+    force_element: float
+    iterations: int = 1
+    analysis: float = 0.0
+
+
+_IMPLICIT = Cost(8.0e-3, 1.0e-4, 1.0e-4, 1.2e-3, iterations=4)
+COSTS = {
+    "staggered_central_difference": Cost(2.5e-3, 2.0e-5, 1.6e-4, 1.2e-3),
+    "static": _IMPLICIT,
+    "generalized_alpha": _IMPLICIT,
+    "arc_length": _IMPLICIT,
+    "modes": _IMPLICIT._replace(analysis=1.0),
+    "buckling": _IMPLICIT._replace(analysis=1.0),
+}
+"""The reference path's cost model by algorithm, fitted from above to CPU times measured on the gallery decks
+(docs/benchmarks.md, "The reference path")."""
 
 
 @functools.cache
@@ -68,60 +81,73 @@ class Choice(NamedTuple):
 
 def problem(requested: str, algorithm: str) -> str:
     """Why ``backend = requested`` cannot run ``algorithm`` ("" when it can): an unknown backend, or an
-    algorithm with no reference twin yet."""
+    algorithm with no reference twin."""
     if requested not in BACKENDS:
         return f"unknown backend {requested!r}; use one of {', '.join(map(repr, BACKENDS))}"
     if requested == "reference" and algorithm not in twins():
-        return (f"algorithm {algorithm!r} has no reference-path twin yet (it has: {', '.join(twins())}); "
+        return (f"algorithm {algorithm!r} has no reference-path twin (it has: {', '.join(twins())}); "
                 "use backend = \"compiled\" or \"auto\"")
     return ""
 
 
-def estimate(algorithm: str, steps: int, nodes: int, rows: int) -> float:
-    """The estimated run time [s] of a job on the reference path: its units of work (steps; Newton iterations,
-    :data:`ITERATIONS` a step, for an implicit algorithm) × :data:`SECONDS_PER_UNIT` at its size; infinite for an
-    algorithm without a twin or a cost model."""
-    if algorithm not in twins() or algorithm not in SECONDS_PER_UNIT:
+def estimate(algorithm: str, steps: int, nodes: int, rows: int, force_elements: int = 0) -> float:
+    """The estimated run time [s] of a job on the reference path (:data:`COSTS`): ``steps`` (load steps, points;
+    a linearised analysis one more, its linearisation) × the iterations of each × the cost of one at this size;
+    infinite for an algorithm without a cost model."""
+    if algorithm not in COSTS:
         return float("inf")
-    a, b, c = SECONDS_PER_UNIT[algorithm]
-    units = steps if algorithm == EXPLICIT else ITERATIONS * steps
-    return units * (a + b * nodes + c * rows)
+    cost = COSTS[algorithm]
+    units = (steps + (1 if cost.analysis else 0)) * cost.iterations
+    return units * (cost.base + cost.node * nodes + cost.row * rows + cost.force_element * force_elements) \
+        + cost.analysis
 
 
-def choose(requested: str, algorithm: str, steps: int, nodes: int, rows: int) -> Choice:
+def decide(requested: str, algo, model, steps: int) -> Choice:
     """The backend of a job: ``requested`` itself unless it is ``"auto"``, then the rule of the module docstring.
 
     Parameters
     ----------
     requested : str
         ``SolverSettings.backend``.
-    algorithm : str
-        The deck name of the algorithm.
+    algo : Algorithm
+        The compiled algorithm, with its settings.
+    model : Model
+        The assembled model (its size; the twin's own refusals of a model or a setting, ``Algorithm.refusal``).
     steps : int
-        Its steps (load steps, points) to the end of the run.
-    nodes, rows : int
-        The model's nodes and joint rows (its size).
+        The algorithm's steps (load steps, points) to the end of the run.
+
+    Raises
+    ------
+    ValueError
+        ``backend = "reference"`` for an algorithm or settings the reference path does not run (one line).
     """
-    if requested != "auto":
-        return Choice(requested, "asked for")
-    if algorithm not in twins():
-        return Choice("compiled", f"algorithm {algorithm!r} has no reference-path twin yet")
-    seconds = estimate(algorithm, steps, nodes, rows)
-    if seconds == float("inf"):
-        return Choice("compiled", f"no cost model of algorithm {algorithm!r} on the reference path")
+    why = problem(requested, algo.name)
+    if why:
+        raise ValueError(f"solver backend: {why}")
+    if requested == "compiled":
+        return Choice("compiled", "asked for")
+    refused = twin(algo).refusal(model) if algo.name in twins() else f"algorithm {algo.name!r} has no twin there"
+    if requested == "reference":
+        if refused:
+            raise ValueError(f"solver backend: {refused}")
+        return Choice("reference", "asked for")
+    if refused:
+        return Choice("compiled", f"the reference path does not run this: {refused.split(';')[0]}")
+    nodes, rows, springs = model.nodes.mass.shape[0], model.n_constraints, model.force_elements.kind.shape[0]
+    seconds = estimate(algo.name, steps, nodes, rows, springs)
+    job = f"{steps} steps of {nodes} nodes" if steps else f"a linearised analysis of {nodes} nodes"
     if seconds <= REFERENCE_SECONDS:
-        return Choice("reference", f"about {seconds:.2g} s in plain NumPy for {steps} steps of {nodes} nodes: "
-                                   "less than compiling the kernels")
-    return Choice("compiled", f"about {seconds:.3g} s in plain NumPy for {steps} steps of {nodes} nodes, over "
-                              f"{REFERENCE_SECONDS:g} s: compiling the kernels pays")
+        return Choice("reference", f"about {seconds:.2g} s in plain NumPy for {job}: less than compiling the kernels")
+    return Choice("compiled", f"about {seconds:.3g} s in plain NumPy for {job}, over {REFERENCE_SECONDS:g} s: "
+                              "compiling the kernels pays")
 
 
 def for_domain(domain) -> Choice:
-    """:func:`choose` for a Domain ready to solve (its ``solver`` settings, nodes and multiplier joints): the
-    decision the solution loop will take, known before the run (``flexmbs run`` prints its line first)."""
+    """:func:`decide` for a Domain ready to solve: the decision the solution loop will take, known before the
+    run (``flexmbs run`` prints its line first)."""
     algo = domain.algorithm()
-    rows = sum(joint.n_equations for joint in domain.joints if joint.formulation.multipliers)
-    return choose(domain.solver.backend, algo.name, algo.n_steps(domain.solver.t_end), len(domain.nodes), rows)
+    model = domain.initialization()
+    return decide(domain.solver.backend, algo, model, algo.n_steps(domain.solver.t_end))
 
 
 def twin(algo):
