@@ -60,6 +60,19 @@ def _on_backend(domain, algo: Algorithm, model: Model, n_total: int, rec: Record
     return backend.twin(algo), PlainOutputs(model, domain.joints, rec, Evaluation(model)), tuple(choice)
 
 
+def _sink(domain, algo: Algorithm, outputs: Outputs, results_path, capacity: int, deck, choice: tuple):
+    """Where the records go: the results file at ``results_path`` (its attributes say which backend ran and
+    why), or ``capacity`` records in memory."""
+    if results_path is None:
+        return MemoryRecorder(capacity, [n.label for n in domain.nodes], [j.label for j in domain.joints],
+                              [e.label for e in domain.elements])
+    from reference.io.results import ResultsWriter
+
+    domain.last_run["path"] = str(results_path)
+    return ResultsWriter(results_path, domain, algo, template=outputs.entry, deck=deck,
+                         attrs={"backend": choice[0], "backend_reason": choice[1]})
+
+
 def _failure(domain, algo: Algorithm, code: int, state: State, run_state, t_record: float, critical: float):
     """``(status, message)`` of a run whose algorithm stopped with ``code``: the algorithm's own, the blow-up's cause
     read from the model (:func:`reference.monitor.rediagnosed`), or a load that is not finite over the step."""
@@ -104,15 +117,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     critical = domain.critical_time_step() if critical is None else critical
     watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True), critical) if monitor else None
     run_state = None
-    if results_path is not None:
-        from reference.io.results import ResultsWriter
-
-        sink = ResultsWriter(results_path, domain, algo, template=outputs.entry, deck=deck,
-                             attrs={"backend": choice[0], "backend_reason": choice[1]})
-        domain.last_run["path"] = str(results_path)
-    else:
-        sink = MemoryRecorder(n_total // every + 2, [n.label for n in domain.nodes], [j.label for j in domain.joints],
-                              [e.label for e in domain.elements])
+    sink = _sink(domain, algo, outputs, results_path, n_total // every + 2, deck, choice)
     status = "failed: stopped before the first step"
     unrecordable = None
     wall0 = _time.perf_counter()
@@ -167,6 +172,5 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
                                work=float(state.clock[2]), where=_where(algo, state.t))
         sink.close(status)
     results = sink.results(_time.perf_counter() - wall0)
-    results.attrs.setdefault("backend", choice[0])
-    results.attrs.setdefault("backend_reason", choice[1])
+    results.attrs.update(backend=choice[0], backend_reason=choice[1])  # a run kept in memory too
     return results
