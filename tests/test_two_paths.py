@@ -83,3 +83,43 @@ def test_gallery_deck_on_both_paths(deck):
             np.testing.assert_array_equal(np.isnan(a), np.isnan(b), err_msg=label)
             error = np.nanmax(np.abs(a - b), initial=0.0)
             assert error <= EXPLICIT_RTOL * scale or error <= 1e-300, f"{label}: {error:.3g} of {scale:.3g}"
+
+
+def test_the_command_line_offers_the_readers_backends():
+    from flexmbs.cli import BACKEND_CHOICES
+    from reference.plain.backend import BACKENDS
+
+    assert BACKEND_CHOICES == BACKENDS
+
+
+def test_a_backend_the_engine_does_not_know_is_one_line_from_the_deck_and_the_api():
+    from reference.io.deck import load_deck
+    from reference.io.deck_reader import DeckError
+
+    deck = ROOT / "models" / "three_bar.toml"
+    with pytest.raises(DeckError) as refused:
+        load_deck(deck, overrides={"solver.backend": "numba"})
+    assert "solver.backend: unknown backend 'numba'" in str(refused.value) and "\n" not in str(refused.value)
+    domain = Domain.from_deck(deck, overrides={"t_end": 1e-3})
+    domain.solver.backend = "fast"
+    with pytest.raises(ValueError, match=r"^solver backend: unknown backend 'fast'; use one of 'compiled'"):
+        domain.solve()
+
+
+def test_auto_takes_the_reference_path_for_a_short_run_only_and_says_why(tmp_path, capsys):
+    """The three-bar's 50 steps: reference, printed before the run and recorded in the results file; its own 10 s
+    (50,000 steps, about 300 s in NumPy): compiled.  The decision reads the job only, so it is the same each time."""
+    import h5py
+
+    from flexmbs.cli import main
+    from reference.plain.backend import for_domain
+
+    deck = ROOT / "models" / "three_bar.toml"
+    assert main(["run", str(deck), "--t-end", "0.01", "--backend", "auto", "--no-vtk", "--out", str(tmp_path)]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.startswith("backend: reference (about ") and "for 50 steps of 7 nodes" in first
+    with h5py.File(tmp_path / "results.h5") as f:
+        assert f.attrs["backend"] == "reference" and first == f"backend: reference ({f.attrs['backend_reason']})"
+    whole = Domain.from_deck(deck)
+    whole.solver.backend = "auto"
+    assert for_domain(whole).backend == "compiled" and for_domain(whole) == for_domain(whole)
