@@ -442,6 +442,7 @@ def parser() -> argparse.ArgumentParser:
                      help="multiply every beam's element count")
     mod.add_argument("--no-vtk", dest="vtk_every", action="store_const", const=0, default=1,
                      help="skip the ParaView output of the configuration")
+    mod.add_argument("--backend", choices=BACKEND_CHOICES, help="as for `flexmbs run`")
     mod.set_defaults(func=cmd_modes)
     cb = sub.add_parser("campbell", help="a modes deck about a steady rotation over a range of spin rates: table, "
                         "figure, /campbell/* in the results file")
