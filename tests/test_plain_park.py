@@ -112,3 +112,38 @@ def test_a_blow_up_stops_both_paths_at_the_same_step():
         messages[name] = (str(stop.value), domain.last_run["status"])
     assert messages["reference"] == messages["compiled"]
     assert "energy balance failed" in messages["reference"][0]
+
+
+SOLVE_ON_THE_REFERENCE_PATH = """
+import sys, numba
+from reference.domain import Domain
+
+def dispatchers():
+    return {(name, key): len(value.signatures) for name, module in list(sys.modules.items())
+            if name.startswith("reference") for key, value in vars(module).items()
+            if isinstance(value, numba.core.dispatcher.Dispatcher)}
+
+called = set()
+for deck in ("three_bar", "force_elements_crosscheck", "torque_free_body"):
+    domain = Domain.from_deck(f"models/{deck}.toml", overrides={"t_end": 0.01})
+    domain.solver.backend = "reference"
+    before = dispatchers()
+    assert domain.solve().status == "completed", deck
+    called |= {key for key, n in dispatchers().items() if n != before.get(key, 0)}
+print(sorted(called))
+"""
+"""Explicit runs of the reference path in a fresh process (in this one, what other tests compiled would hide a
+call): the numba dispatchers that gained a signature during the runs (the model's set-up before excluded)."""
+
+
+def test_the_reference_step_and_its_outputs_call_no_compiled_kernel():
+    """Only the solution loop's blow-up monitor (the beams' stretch, :mod:`reference.monitor`) stays compiled."""
+    import ast
+    import os
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", SOLVE_ON_THE_REFERENCE_PATH], cwd=ROOT, capture_output=True, text=True,
+                         timeout=900, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert set(map(tuple, ast.literal_eval(out.stdout.strip().splitlines()[-1]))) <= {("reference.monitor", "_stretched")}
