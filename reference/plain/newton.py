@@ -101,7 +101,9 @@ class Newton:
 
     def evaluate(self, x, q, v, w, vd, lam, t, dynamic) -> Residual:
         """The residual at ``(x, q, V, V̇, λ, t)``; a static evaluation (``dynamic`` false) has no inertia
-        and gives the force elements zero velocities (the compiled ``evaluate``'s convention)."""
+        and gives the force elements zero velocities (the compiled ``evaluate``'s convention).  The r of
+        :meth:`reference.plain.model.Evaluation.residual`, made here from its ``forces`` because the
+        convergence tests and the work of the loads need S and F apart."""
         N = x.shape[0]
         zero = np.zeros((N, 3))
         S, F, U, D = self.ev.forces(x, q, v if dynamic else zero, w if dynamic else zero, t, self.angle)
