@@ -1,8 +1,8 @@
 """Which implementation runs a job: ``[solver] backend`` (``SolverSettings.backend``) and its ``auto`` rule.
 
 - ``"compiled"``: the numba kernels of :mod:`reference.algorithms`.  Fast per step, but the first run of an
-  algorithm for a version of the engine compiles its kernels: measured cold on the project's 2-core machine
-  (issue 36), 164 s for the explicit step (three_bar, load 2.5), 245 s for modes, 742 s for arc length.
+  algorithm for a version of the engine compiles its kernels, minutes on a small machine (docs/benchmarks.md
+  §9).
 - ``"reference"``: the same algorithm's twin on the plain NumPy path (``reference/plain/``): nothing to
   compile, slower per step (:data:`COSTS`).
 - ``"auto"``: the reference path when its estimated run time (:func:`estimate`) is at most
