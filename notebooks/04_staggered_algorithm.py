@@ -8,7 +8,7 @@
 # ---
 
 # %% [markdown]
-# # Lesson 4 — Park's staggered algorithm: stability limit and constraint drift
+# # Lesson 4 — Park's staggered algorithm: one step by hand, the stability limit, constraint drift
 #
 # One step from $t_n$ to $t_{n+1}$ (`docs/formulation.md` §6):
 #
@@ -19,12 +19,6 @@
 #
 # Below, one step is first taken **by hand**, stage after stage, on the reference path; then the stability
 # limit of the step and the constraint drift are measured with `solve()`.
-#
-# Explicit means **conditionally stable**: for an undamped mode of frequency $\omega$ central
-# differences are stable only if $\omega h \le 2$. For a lumped two-node beam element the smallest
-# limit among the axial $L_0\sqrt{\rho A/EA}$, torsional $L_0\sqrt{\rho J_1/GJ}$, bending–rotation
-# $L_0\sqrt{\rho J/EI}$ and shear–rotation $2/\sqrt{(GA/\rho A)(4/L_0^2 + \rho A/\rho J)}$ estimates governs
-# (`Beam2Formulation.critical_time_step`).
 
 # %%
 import os
@@ -129,7 +123,12 @@ assert np.abs(lam - solved.multipliers[START:START + 10]).max() <= bound
 # %% [markdown]
 # ## The stability limit
 #
-# The runs below take their steps with `solve()` on a clamped cantilever, at steps around the estimate.
+# Explicit means **conditionally stable**: for an undamped mode of frequency $\omega$ central
+# differences are stable only if $\omega h \le 2$. For a lumped two-node beam element the smallest
+# limit among the axial $L_0\sqrt{\rho A/EA}$, torsional $L_0\sqrt{\rho J_1/GJ}$, bending–rotation
+# $L_0\sqrt{\rho J/EI}$ and shear–rotation $2/\sqrt{(GA/\rho A)(4/L_0^2 + \rho A/\rho J)}$ estimates governs
+# (`Beam2Formulation.critical_time_step`). The runs below take their steps with `solve()` on a clamped
+# cantilever, at steps around the estimate.
 
 # %%
 def cantilever(dt, elements=10):
