@@ -14,6 +14,7 @@ import pytest
 from reference.domain import Domain
 from reference.io.deck import load_deck
 from reference.plain.algorithms import REFERENCE_TWINS
+from reference.validation import ModelWarning
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 
@@ -83,7 +84,6 @@ def test_static_stability_event_past_a_bifurcation_as_compiled():
     import warnings
 
     from test_modes import ltb
-    from reference.validation import ModelWarning
 
     runs = []
     for backend in ("compiled", "reference"):
@@ -169,8 +169,6 @@ def test_lee_frame_arc_length_path_to_its_first_limit_point_agrees():
     30 × 2e-10, the positions to 30 × 2e-10 L.  The limit point's load factor is located by the same secant steps
     on the lowest eigenvalue from those points: within 1e-8 relative (the eigenvalue's round-off near zero over
     its slope; measured 4e-16); the kind exactly."""
-    from reference.validation import ModelWarning
-
     with pytest.warns(ModelWarning, match="stability lost between load factor 1.8511 and 1.85592"):
         compiled, plain, domain = both("lee_frame", {"solver.max_points": 30})
     L, tol, points = model_size(domain), 1e-10, 30
@@ -184,6 +182,30 @@ def test_lee_frame_arc_length_path_to_its_first_limit_point_agrees():
     critical = compiled.data("path/critical_load_factor")
     assert critical.size == 1 and list(plain.data("path/critical_kind")) == ["limit point"]
     assert_within(plain.data("path/critical_load_factor") / critical, np.ones(1), 1e-8, "limit load (relative)")
+
+
+def test_displacement_control_of_the_von_mises_truss_agrees():
+    """The von Mises truss of tests/test_arc_length.py under displacement control of its apex (30 points of
+    0.005 × its size, through both limit points): the load factors, configurations and the two limit loads on
+    both paths.  Each point's corrector converges to the Newton tolerance (1e-10) on the same plane (the apex
+    held where the previous point put it plus the step), so the load factors agree within 30 × 2e-10 and the
+    limit loads, located by the same secant steps, within 1e-8 relative (measured 1e-15)."""
+    from test_arc_length import truss
+
+    runs = []
+    for backend in ("compiled", "reference"):
+        domain = truss(algorithm="arc_length", arc_length=0.005, max_points=30, max_load_factor=10.0)
+        domain.solver.control = (domain.node("left:1").id, 2, "position.z:left:1")
+        domain.solver.backend = backend
+        with pytest.warns(ModelWarning, match="stability lost"):  # the limit points' lines, on each path
+            runs.append(domain.solve())
+    compiled, plain = runs
+    L = model_size(domain)
+    assert_within(plain.data("path/load_factor"), compiled.data("path/load_factor"), 30 * 2e-10, "load factors")
+    assert_within(plain.positions, compiled.positions, 30 * 2e-10 * L, "positions")
+    critical = compiled.data("path/critical_load_factor")
+    assert critical.size == 2 and list(plain.data("path/critical_kind")) == ["limit point", "limit point"]
+    assert_within(plain.data("path/critical_load_factor") / critical, np.ones(2), 1e-8, "limit loads (relative)")
 
 
 def test_rotating_cantilever_modes_about_the_steady_rotation_agree():
@@ -230,8 +252,8 @@ def test_generalized_alpha_error_control_agrees_within_the_error_tolerance():
 
 
 def test_the_reference_path_refuses_what_it_does_not_run_in_one_line():
-    """The arc length's branch switch and displacement control are refused by the twin with a one-line reason
-    naming the compiled backend (the model is otherwise runnable)."""
+    """The arc length's branch switch is refused by the twin with a one-line reason naming the compiled backend
+    (the model is otherwise runnable)."""
     domain = Domain.from_deck(MODELS / "lee_frame.toml")
     domain.solver.branch_switch = True
     problem = REFERENCE_TWINS["arc_length"].from_settings(domain.solver).refusal(domain.initialization())

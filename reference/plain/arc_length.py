@@ -6,7 +6,7 @@ there once), on :class:`reference.plain.newton.Newton`: the corrector is
 :func:`reference.plain.static.static_newton` with the load factor an unknown on the predictor's normal plane.
 The compiled algorithm's critical points are kept (:class:`reference.algorithms.critical_points.CriticalPoints`:
 the count, the events, their kind and load factor, refined by secant steps along the path, :meth:`_locate`).
-Not on this path (refused in one line): displacement control (``control``) and the branch switch
+Displacement control (``control``) as there; not on this path (refused in one line): the branch switch
 (``branch_switch``).
 """
 
@@ -21,6 +21,7 @@ import scipy.sparse as sps
 from reference.algorithms.arc_length import GROWTH, MAX_CUTS, MAX_GROWTH, TARGET_ITERATIONS, WANDER, ArcLength, ArcRun
 from reference.algorithms.critical_points import REFINE
 from reference.algorithms.implicit import ImplicitAlgorithm
+from reference.algorithms.path_checks import STILL, load_factor_jump, unmoved
 from reference.linalg import SingularMatrix
 from reference.modal import nearest_zero
 from reference.plain.loads import load_tangent
@@ -42,10 +43,9 @@ class PlainArcLength(ArcLength):
     stability events and messages; the points of :meth:`_point`."""
 
     def refusal(self, model) -> str | None:
-        """The compiled algorithm's refusals, and the settings this path does not run."""
-        for key, value in (("control", self.control), ("branch_switch", self.branch_switch or None)):
-            if value is not None:
-                return f"{key} is not available on the reference path; use backend = \"compiled\""
+        """The compiled algorithm's refusals, and the branch switch (not on this path)."""
+        if self.branch_switch:
+            return "branch_switch is not available on the reference path; use backend = \"compiled\""
         return ImplicitAlgorithm.refusal(model)
 
     def start(self, model, state, critical_step=None, guard=None) -> PlainArcRun:
@@ -58,6 +58,12 @@ class PlainArcLength(ArcLength):
         scale = np.ones((model.nodes.mass.shape[0], 6))
         scale[:, :3] = 1.0 / run.L
         run.weights = scale[nw.free]
+        if self.control is not None:
+            problem = self.setting_problem(model)
+            if problem:
+                raise ValueError(f"{problem[0]}: {problem[1]}; {problem[2]}")
+            node, comp = self.control[:2]
+            run.controlled = int(np.sum(nw.free.ravel()[:6 * node + comp]))
         return run
 
     def _matrix(self, run, x, q, lam, ce=None):
@@ -97,14 +103,32 @@ class PlainArcLength(ArcLength):
     def _predictor(self, run, x, q, ds, lam=None, sgn=None):
         """The tangent predictor of arc ds at ``(x, q)`` and load factor λ (default the last point's):
         ``(step (N,6), step of μ, Δλ, unit normal)``, Δλ's sign ``sgn`` or, by default, that of the tangent's
-        projection on the previous increment (Feng, Perić & Owen 1996)."""
+        projection on the previous increment (Feng, Perić & Owen 1996); under displacement control (from the last
+        point) :meth:`_controlled`'s."""
         dF, muF = self._tangent(run, x, q, run.lam if lam is None else lam)
         t_u = self._scaled(run, dF)
+        if self.control is not None and lam is None:
+            return self._controlled(run, dF, muF, t_u, ds)
         norm = math.sqrt(float(t_u @ t_u) + 1.0)
         if sgn is None:
             sgn = -1.0 if run.previous is not None and (t_u @ run.previous[:-1] + run.previous[-1]) < 0.0 else 1.0
         dlam = sgn * ds / norm
         return dlam * dF, dlam * muF, dlam, np.append(t_u, 1.0) * (sgn / norm)
+
+    def _controlled(self, run, dF, muF, t_u, ds):
+        """The predictor under displacement control (Batoz & Dhatt 1979): the controlled coordinate moves by ds
+        (scaled), its direction kept from point to point, on the plane that holds it there; None, with
+        ``run.problem`` saying so, when the load does not move it."""
+        c = run.controlled
+        t_c = t_u[c]
+        if abs(t_c) <= STILL * float(np.linalg.norm(t_u)):
+            run.problem = unmoved(self.control[-1], run.lam)
+            return None
+        sgn = math.copysign(1.0, run.previous[c] if run.previous is not None else t_c)
+        dlam = sgn * ds / t_c
+        normal = np.zeros(run.plain.n_free + 1)
+        normal[c] = sgn
+        return dlam * dF, dlam * muF, dlam, normal
 
     def _point(self, run, x, q, clock) -> int:
         """The next converged point: predictor, corrector on its normal plane, the arc halved after a failure
@@ -112,17 +136,23 @@ class PlainArcLength(ArcLength):
         nw = run.plain
         saved = (x.copy(), q.copy(), run.mu.copy(), nw.angle.copy())
         ds, code = run.ds, NO_CONVERGENCE
+        run.problem = ()  # kept through the cuts: a jump refused on a longer step explains a failed shorter one
         for _ in range(MAX_CUTS + 1):
             try:
-                step_u, step_mu, dlam, normal = self._predictor(run, x, q, ds)
+                predicted = self._predictor(run, x, q, ds)
+                if predicted is None:
+                    return SINGULAR
+                step_u, step_mu, dlam, normal = predicted
                 x += step_u[:, :3]
                 q[:] = compose(q, step_u[:, 3:])
                 run.mu += step_mu
                 code, lam, moved = self._correct(run, x, q, run.lam + dlam, normal)
             except SingularMatrix:
                 code = SINGULAR
-            if code == OK and float(np.linalg.norm(moved)) > WANDER * ds:
+            if code == OK and self.control is None and float(np.linalg.norm(moved)) > WANDER * ds:
                 code = NO_CONVERGENCE  # the corrector wandered off along the plane: another branch
+            if code == OK and self.control is not None:
+                code = load_factor_jump(run, lam, self.control[-1], self.cut_note)
             if code == OK:
                 increment = moved + np.append(self._scaled(run, step_u), dlam)
                 run.s += float(np.linalg.norm(increment))
@@ -130,8 +160,10 @@ class PlainArcLength(ArcLength):
                 dW, run.P = self._work(run, saved[0], saved[1], x, q, lam)
                 clock[2] += dW
                 run.lam, run.jumped, run.switch, run.peak = lam, False, None, max(run.peak, abs(lam))
-                factor = math.sqrt(TARGET_ITERATIONS / max(run.iterations, 1))
-                run.ds = min(ds * min(max(factor, 1.0 / GROWTH), GROWTH), MAX_GROWTH * self.arc_length)
+                run.problem = ()
+                if self.control is None:
+                    factor = math.sqrt(TARGET_ITERATIONS / max(run.iterations, 1))
+                    run.ds = min(ds * min(max(factor, 1.0 / GROWTH), GROWTH), MAX_GROWTH * self.arc_length)
                 return OK
             x[:], q[:], run.mu[:], nw.angle[:] = saved
             ds *= 0.5
