@@ -6,8 +6,7 @@ there once), on :class:`reference.plain.newton.Newton`: the corrector is
 :func:`reference.plain.static.static_newton` with the load factor an unknown on the predictor's normal plane.
 The compiled algorithm's critical points are kept (:class:`reference.algorithms.critical_points.CriticalPoints`:
 the count, the events, their kind and load factor, refined by secant steps along the path, :meth:`_locate`).
-Displacement control (``control``) as there; not on this path (refused in one line): the branch switch
-(``branch_switch``).
+Displacement control (``control``) and the branch switch (``branch_switch``) as there.
 """
 
 from __future__ import annotations
@@ -20,7 +19,6 @@ import scipy.sparse as sps
 
 from reference.algorithms.arc_length import GROWTH, MAX_CUTS, MAX_GROWTH, TARGET_ITERATIONS, WANDER, ArcLength, ArcRun
 from reference.algorithms.critical_points import REFINE
-from reference.algorithms.implicit import ImplicitAlgorithm
 from reference.algorithms.path_checks import STILL, load_factor_jump, unmoved
 from reference.linalg import SingularMatrix
 from reference.modal import nearest_zero
@@ -41,12 +39,6 @@ class PlainArcRun(ArcRun):
 class PlainArcLength(ArcLength):
     """:class:`reference.algorithms.arc_length.ArcLength` on the reference path: the same settings, records,
     stability events and messages; the points of :meth:`_point`."""
-
-    def refusal(self, model) -> str | None:
-        """The compiled algorithm's refusals, and the branch switch (not on this path)."""
-        if self.branch_switch:
-            return "branch_switch is not available on the reference path; use backend = \"compiled\""
-        return ImplicitAlgorithm.refusal(model)
 
     def start(self, model, state, critical_step=None, guard=None) -> PlainArcRun:
         problem = self.refusal(model)
@@ -130,6 +122,13 @@ class PlainArcLength(ArcLength):
         normal[c] = sgn
         return dlam * dF, dlam * muF, dlam, normal
 
+    def _along_mode(self, run, ds):
+        """The predictor of a branch switch: a step of length ds along the critical mode ``run.switch``, Δλ = 0
+        (Wriggers 2008, §7.4.3), on the plane normal to it."""
+        dir_u = self._scaled(run, run.switch)
+        norm = float(np.linalg.norm(dir_u))
+        return run.switch * (ds / norm), np.zeros_like(run.mu), 0.0, np.append(dir_u / norm, 0.0)
+
     def _point(self, run, x, q, clock) -> int:
         """The next converged point: predictor, corrector on its normal plane, the arc halved after a failure
         or a corrector that wandered off (up to ``MAX_CUTS`` times), the next arc adapted to the iterations."""
@@ -139,7 +138,7 @@ class PlainArcLength(ArcLength):
         run.problem = ()  # kept through the cuts: a jump refused on a longer step explains a failed shorter one
         for _ in range(MAX_CUTS + 1):
             try:
-                predicted = self._predictor(run, x, q, ds)
+                predicted = self._along_mode(run, ds) if run.switch is not None else self._predictor(run, x, q, ds)
                 if predicted is None:
                     return SINGULAR
                 step_u, step_mu, dlam, normal = predicted
@@ -149,7 +148,8 @@ class PlainArcLength(ArcLength):
                 code, lam, moved = self._correct(run, x, q, run.lam + dlam, normal)
             except SingularMatrix:
                 code = SINGULAR
-            if code == OK and self.control is None and float(np.linalg.norm(moved)) > WANDER * ds:
+            wander = run.switch is None and self.control is None  # a switch's corrector goes back to the critical load
+            if code == OK and wander and float(np.linalg.norm(moved)) > WANDER * ds:
                 code = NO_CONVERGENCE  # the corrector wandered off along the plane: another branch
             if code == OK and self.control is not None:
                 code = load_factor_jump(run, lam, self.control[-1], self.cut_note)
@@ -159,7 +159,8 @@ class PlainArcLength(ArcLength):
                 run.previous = increment
                 dW, run.P = self._work(run, saved[0], saved[1], x, q, lam)
                 clock[2] += dW
-                run.lam, run.jumped, run.switch, run.peak = lam, False, None, max(run.peak, abs(lam))
+                run.lam, run.jumped, run.switch = lam, run.switch is not None, None
+                run.peak = max(run.peak, abs(lam))
                 run.problem = ()
                 if self.control is None:
                     factor = math.sqrt(TARGET_ITERATIONS / max(run.iterations, 1))
