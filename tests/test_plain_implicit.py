@@ -106,6 +106,26 @@ EXPLICIT_AS_ALPHA = {"solver.algorithm": "generalized_alpha", "dt": 1e-3}
 """An explicit gallery deck run by generalized-α instead (its ``dt`` replaced by one generalized-α takes)."""
 
 
+def test_static_load_step_past_a_limit_point_is_traced_as_compiled():
+    """Lesson 11's von Mises truss loaded to 1.5 × its limit load in steps of 0.15 (tests/test_path_reliability.py):
+    the static algorithm converges beyond the limit point on the mirrored branch; the step whose move per unit
+    load jumps is traced again by arc length, on each path by its own arc length.  Both say the same line up to
+    the traced limit load, record one "limit point" event, and their limit loads agree within 1e-6 relative
+    (a parabola through three traced points, each converged to the Newton tolerance; measured 3e-14); the
+    equilibria agree within 2e-10 L as every static level's."""
+    from test_path_reliability import lesson_truss, solve
+
+    domains = [lesson_truss(algorithm="static", t_end=1.5, load_steps=10, dt=0.15, backend=backend)
+               for backend in ("compiled", "reference")]
+    (compiled, lines0), (plain, lines1) = (solve(domain) for domain in domains)
+    assert len(lines0) == 1 and "passed a limit point at load factor" in lines0[0]
+    assert [line.split(" at load factor 1")[0] for line in lines1] == [lines0[0].split(" at load factor 1")[0]]
+    assert list(plain.data("stability/critical_kind")) == ["limit point"]
+    critical = compiled.data("stability/critical_load_factor")
+    assert_within(plain.data("stability/critical_load_factor") / critical, np.ones(1), 1e-6, "limit load (relative)")
+    assert_within(plain.positions, compiled.positions, 2e-10 * model_size(domains[0]), "positions")
+
+
 @pytest.mark.parametrize("deck, overrides", [
     ("steel_three_bar", {"t_end": 0.02}), ("andrews_squeezer", {"t_end": 2e-4}),
     ("force_elements_crosscheck", {"t_end": 0.02, **EXPLICIT_AS_ALPHA}),

@@ -3,7 +3,7 @@
 The path, its scaled norm, Riks' normal-plane corrector, the predictor's orientation, the adaptive arc and
 its cuts, the records and the stability count are those of :mod:`reference.algorithms.arc_length` (stated
 there once), on :class:`reference.plain.newton.Newton`: the corrector is
-:func:`reference.plain.static.static_newton` with the load factor an unknown on the predictor's normal plane.
+:func:`reference.plain.corrector.static_newton` with the load factor an unknown on the predictor's normal plane.
 The compiled algorithm's critical points are kept (:class:`reference.algorithms.critical_points.CriticalPoints`:
 the count, the events, their kind and load factor, refined by secant steps along the path, :meth:`_locate`).
 Displacement control (``control``) and the branch switch (``branch_switch``) as there.
@@ -12,6 +12,7 @@ Displacement control (``control``) and the branch switch (``branch_switch``) as 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,13 +20,15 @@ import scipy.sparse as sps
 
 from reference.algorithms.arc_length import GROWTH, MAX_CUTS, MAX_GROWTH, TARGET_ITERATIONS, WANDER, ArcLength, ArcRun
 from reference.algorithms.critical_points import REFINE
-from reference.algorithms.path_checks import STILL, load_factor_jump, unmoved
+from reference.algorithms.path_checks import (STILL, TRACE_POINTS, drive_value, drives, load_factor_jump, unmoved,
+                                              vertex)
 from reference.linalg import SingularMatrix
 from reference.modal import nearest_zero
 from reference.plain.loads import load_tangent
 from reference.plain.newton import EngineFace, Newton, compose, relative_rotation
-from reference.plain.static import LoadPath, static_newton
+from reference.plain.corrector import LoadPath, static_newton
 from reference.status import NO_CONVERGENCE, OK, SINGULAR
+from reference.validation import ModelWarning
 
 
 @dataclass
@@ -70,7 +73,7 @@ class PlainArcLength(ArcLength):
         return (A + sps.block_diag([(lam - 1.0) * blocks, sps.csr_matrix((nw.m, nw.m))])).tocsc()
 
     def _correct(self, run, x, q, lam, normal):
-        """:func:`reference.plain.static.static_newton` at ``t_end`` from ``(x, q, μ)`` with the loads × λ,
+        """:func:`reference.plain.corrector.static_newton` at ``t_end`` from ``(x, q, μ)`` with the loads × λ,
         λ an unknown on the plane of ``normal`` (None: fixed); ``(status, λ, Σ scaled corrections and Δλ)``."""
         nw = run.plain
         path = LoadPath(lam, normal, run.weights, lambda xx, qq, value: self._matrix(run, xx, qq, value),
@@ -212,3 +215,49 @@ class PlainArcLength(ArcLength):
             run.mu, run.history, run.iterations = saved[:3]
             nw.angle[:] = saved[3]
         return found
+
+
+def limit_point_trace(static, model, state, run, saved, F0, t0, t1) -> None:
+    """:func:`reference.algorithms.path_checks.limit_point_trace` on the reference path: the load interval
+    ``[t0, t1]`` of a static step (:class:`reference.plain.static.PlainStatic`) whose displacement per unit
+    load jumped, traced again by :class:`PlainArcLength` from the equilibrium before it (``saved``: x, q, λ,
+    the angles; ``F0`` its loads; the step's equilibrium the state's, its loads ``run.F``).  When the load
+    factor along that path reaches a maximum below ``t1`` and falls, the step passed a limit point: one warning
+    line and an event of ``/stability``.  Only for proportional loads and drives that do not move over the
+    step; the run's state is left as it is."""
+    free = run.newton.free
+    F1, F_0 = run.F[free], F0[free]
+    top = float(F1 @ F1)
+    c = float(F_0 @ F1) / top if top > 0.0 else -1.0
+    if not (0.0 <= c < 1.0) or np.max(np.abs(F_0 - c * F1), initial=0.0) > 1e-12 * math.sqrt(top):
+        return
+    if any(drive_value(model, k, int(model.joints.tf[k]), t0) != drive_value(model, k, int(model.joints.tf[k]), t1)
+           for k, _ in drives(model)):
+        return
+    x0, q0, lam0, angle0 = saved
+    step = np.hstack([(state.x - x0) / run.L, relative_rotation(q0, state.q)])[free]
+    arc = PlainArcLength(math.sqrt(float(step @ step) + (1.0 - c) ** 2) / 8.0, TRACE_POINTS, math.inf, t1,
+                         static.tolerance, static.max_iterations)
+    trace = arc.start(model, state)
+    trace.L = run.L
+    x, q = x0.copy(), q0.copy()
+    trace.mu[:], trace.plain.angle[:] = lam0, angle0
+    if arc._correct(trace, x, q, c, None)[0] != OK:
+        return
+    trace.lam, trace.F, trace.P = c, trace.plain.last.F.copy(), trace.plain.joint_forces(trace.plain.last, trace.mu)
+    path, clock = [(0.0, c)], np.zeros(3)
+    for _ in range(TRACE_POINTS):
+        if arc._point(trace, x, q, clock) != OK or trace.lam >= 1.0:
+            return
+        path.append((trace.s, trace.lam))
+        if trace.lam < path[-2][1]:
+            break
+    else:
+        return
+    (s0, l0), (s1, l1), (s2, l2) = path[-3:] if len(path) >= 3 else [path[0]] + path[-2:]
+    t_lim = t0 + (vertex(s0, l0, s1, l1, s2, l2) - c) / (1.0 - c) * (t1 - t0)
+    run.events.append((t0, t1, t_lim, "limit point", run.negative))
+    warnings.warn(f"the load step from load factor {t0:.6g} to {t1:.6g} passed a limit point at load factor "
+                  f"{t_lim:.6g} (traced by arc length) and jumped to another branch of the path: use algorithm = "
+                  "\"arc_length\" to follow it, or push the structure ([[prescribed_displacements]])",
+                  ModelWarning, stacklevel=3)
