@@ -20,11 +20,11 @@ import scipy.sparse as sps
 
 from reference.algorithms.arc_length import GROWTH, MAX_CUTS, MAX_GROWTH, TARGET_ITERATIONS, WANDER, ArcLength, ArcRun
 from reference.algorithms.critical_points import REFINE
-from reference.algorithms.path_checks import (STILL, TRACE_POINTS, drive_value, drives, load_factor_jump, unmoved,
-                                              vertex)
+from reference.algorithms.path_checks import STILL, TRACE_POINTS, drives, load_factor_jump, unmoved, vertex
 from reference.linalg import SingularMatrix
 from reference.modal import nearest_zero
-from reference.plain.loads import load_tangent
+from reference.interactions import tf_integral, tf_value
+from reference.plain.loads import load_tangent, scalar_twin
 from reference.plain.newton import EngineFace, Newton, compose, relative_rotation
 from reference.plain.corrector import LoadPath, static_newton
 from reference.status import NO_CONVERGENCE, OK, SINGULAR
@@ -231,8 +231,7 @@ def limit_point_trace(static, model, state, run, saved, F0, t0, t1) -> None:
     c = float(F_0 @ F1) / top if top > 0.0 else -1.0
     if not (0.0 <= c < 1.0) or np.max(np.abs(F_0 - c * F1), initial=0.0) > 1e-12 * math.sqrt(top):
         return
-    if any(drive_value(model, k, int(model.joints.tf[k]), t0) != drive_value(model, k, int(model.joints.tf[k]), t1)
-           for k, _ in drives(model)):
+    if _drives_move(model, t0, t1):
         return
     x0, q0, lam0, angle0 = saved
     step = np.hstack([(state.x - x0) / run.L, relative_rotation(q0, state.q)])[free]
@@ -261,3 +260,14 @@ def limit_point_trace(static, model, state, run, saved, F0, t0, t1) -> None:
                   f"{t_lim:.6g} (traced by arc length) and jumped to another branch of the path: use algorithm = "
                   "\"arc_length\" to follow it, or push the structure ([[prescribed_displacements]])",
                   ModelWarning, stacklevel=3)
+
+
+def _drives_move(model, t0: float, t1: float) -> bool:
+    """Whether a drive's prescribed value (:func:`reference.algorithms.path_checks.drive_value`: its time function,
+    or the integral for a drive given by its rate) changes from t0 to t1, the time functions run as plain Python."""
+    kinds, pars = model.time_functions.kind, model.time_functions.par
+    for k, code in drives(model):
+        f, tf = scalar_twin(tf_integral if code in (2, 4) else tf_value), int(model.joints.tf[k])
+        if f(kinds[tf], pars[tf], float(t0)) != f(kinds[tf], pars[tf], float(t1)):
+            return True
+    return False
