@@ -24,6 +24,7 @@ from reference.algorithms.alpha_steps import ROUNDOFF
 from reference.algorithms.generalized_alpha import GeneralizedAlpha
 from reference.algorithms.step_control import SolverStatistics
 from reference.plain.alpha_control import StepControl, to_output
+from reference.plain.corrector import correction_size
 from reference.plain.newton import Newton, compose
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, SINGULAR
 
@@ -84,27 +85,24 @@ class PlainAlphaRun:
 
 def alpha_step(nw: Newton, st, al: AlphaState, h: float, p: AlphaParameters) -> tuple[int, int, int]:
     """One generalized-α step of h [s] from the state ``st`` (x, q, v, w, f_prev, clock, …) in place.  Returns
-    ``(status, corrections, factorisations)``; a failed step leaves the state as it was."""
-    am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
-    x, q, v, w, f_prev, clock = st[:6]
-    V = np.hstack([v, w])
-    bp, gp = (1.0 - am) / (h * h * beta * (1.0 - af)), gamma / (h * beta)
+    ``(status, corrections, factorisations)``; a failed step leaves the state as it was.
+
+    Newton on the configuration correction δ of ``h Δq``, with ``V += γ' δ``, ``V̇ += β' δ``, ``λ += β' μ``,
+    on the iteration matrix ``[M + (γ'/β') C + K T(hΔθ)/β', Bᵀ; B T(hΔθ), −β' ε]``, kept while the
+    corrections contract by :attr:`AlphaParameters.contraction` (module docstring)."""
+    x, q, clock = st.x, st.q, st.clock
+    bp, gp = (1.0 - p.alpha_m) / (h * h * p.beta * (1.0 - p.alpha_f)), p.gamma / (h * p.beta)
     t1, floor = clock[0] + h, ROUNDOFF * max(1.0, float(np.max(np.abs(x))) / p.L)
-    an = (al.vd - am * al.a) / (1.0 - am)  # predictor: V̇_{n+1} = V̇_n
-    vdn, lamn = al.vd.copy(), al.lam.copy()
-    dq = V + h * (0.5 - beta) * al.a + h * beta * an
-    Vn = V + h * (1.0 - gamma) * al.a + h * gamma * an
-    m, J = nw.ev.masses
-    unit = np.repeat([[1.0, 1.0, 1.0, 1.0 / p.L, 1.0 / p.L, 1.0 / p.L]], x.shape[0], axis=0)[nw.free]
-    previous, its, facts = -1.0, 0, 0
+    an, dq, Vn, vdn, lamn = _predict(al, np.hstack([st.v, st.w]), h, p)
     if al.lu is not None and abs(h - al.h_lu) > p.reuse * al.h_lu:
         al.lu = None  # the matrix's coefficients depend on h
+    previous, its, facts = -1.0, 0, 0
     while its < p.max_iterations:
-        x1, q1 = x + h * dq[:, :3], compose(q, h * dq[:, 3:])
+        x1, q1 = x + h * dq[:, :3], compose(q, h * dq[:, 3:])  # the iterate: q_{n+1} = q_n ⊗ exp(h Δθ)
         res = nw.evaluate(x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True)
         if not np.all(np.isfinite(res.r)):
             return DIVERGED, its, facts
-        if al.lu is None or previous == -2.0:  # no factor for h, or a slow contraction: refactor here
+        if al.lu is None or previous == REFACTOR:  # no factor for h, or a slow contraction: factor here
             al.lu = nw.factor(nw.matrix(x1, q1, Vn[:, :3], Vn[:, 3:], t1, lamn, 1.0, gp / bp, 1.0 / bp, bp,
                                         h * dq[:, 3:]))
             al.h_lu, facts, previous = h, facts + 1, -1.0
@@ -114,18 +112,14 @@ def alpha_step(nw: Newton, st, al: AlphaState, h: float, p: AlphaParameters) -> 
         if solved is None:
             return SINGULAR, its, facts
         delta, mu = solved
-        size = max(float(np.max(np.abs(delta[:, :3]))) / p.L, float(np.max(np.abs(delta[:, 3:]))))
-        inertia = np.hstack([m[:, None] * vdn[:, :3], np.einsum("nab,nb->na", J, vdn[:, 3:])])
-        big = np.max([np.abs(inertia), np.abs(res.S), np.abs(res.F), np.abs(res.r - res.S + res.F)], axis=0)
-        res_max, scale = float(np.max(np.abs(res.r)[nw.free] * unit, initial=0.0)), float(
-            np.max(big[nw.free] * unit, initial=0.0))
-        phi = float(np.max(np.abs(res.phi - nw.eps * lamn), initial=0.0))
-        imbalance = max(res_max / scale if res_max > 0.0 else 0.0, phi / p.L)
+        size, imbalance = correction_size(delta, p.L), _imbalance(nw, res, vdn, lamn, p.L)
         theta = size / previous if previous > 0.0 else 1.0
+        # converged: the imbalance left after this correction, θ/(1 − θ) of the one it corrected (Hairer &
+        # Wanner 1996, §IV.8), below the tolerance, or a correction at the coordinates' round-off
         done = (imbalance <= p.tolerance or (theta < 1.0 and theta * imbalance <= p.tolerance * (1.0 - theta))
                 or size <= floor)
         if previous >= 0.0 and size > p.contraction * previous and not done:
-            previous = -2.0  # refactor at this iterate and correct again
+            previous = REFACTOR
             continue
         previous, its = size, its + 1
         dq += delta / h
@@ -136,6 +130,33 @@ def alpha_step(nw: Newton, st, al: AlphaState, h: float, p: AlphaParameters) -> 
             _accept(nw, st, al, h, (x, q, dq, Vn, vdn, an, lamn, res), p)
             return OK, its, facts
     return NO_CONVERGENCE, its, facts
+
+
+REFACTOR = -2.0
+""":func:`alpha_step`'s mark (in place of the previous correction's size) for a factor to make at the iterate."""
+
+
+def _predict(al: AlphaState, V, h: float, p: AlphaParameters) -> tuple:
+    """The step's predictor from the converged state (V (N,6) its velocities): ``(a_{n+1}, Δq, V_{n+1}, V̇_{n+1},
+    λ_{n+1})`` at ``V̇_{n+1} = V̇_n``, ``λ_{n+1} = λ_n``."""
+    an = (al.vd - p.alpha_m * al.a) / (1.0 - p.alpha_m)
+    dq = V + h * (0.5 - p.beta) * al.a + h * p.beta * an
+    Vn = V + h * (1.0 - p.gamma) * al.a + h * p.gamma * an
+    return an, dq, Vn, al.vd.copy(), al.lam.copy()
+
+
+def _imbalance(nw: Newton, res, vdn, lamn, L: float) -> float:
+    """The evaluation's imbalance: the largest free residual force over the step's force scale — the largest
+    free inertial force ``M V̇``, internal force S, external force F or ``r − S + F`` (the joints' and the
+    inertia's forces together) — moments over the model size L, or ``max |Φ − ελ| / L`` if larger."""
+    m, J = nw.ev.masses
+    inertia = np.hstack([m[:, None] * vdn[:, :3], np.einsum("nab,nb->na", J, vdn[:, 3:])])
+    big = np.max([np.abs(inertia), np.abs(res.S), np.abs(res.F), np.abs(res.r - res.S + res.F)], axis=0)
+    unit = np.where(np.arange(6) < 3, 1.0, 1.0 / L)
+    res_max = float(np.max((np.abs(res.r) * unit)[nw.free], initial=0.0))
+    scale = float(np.max((big * unit)[nw.free], initial=0.0))
+    phi = float(np.max(np.abs(res.phi - nw.eps * lamn), initial=0.0))
+    return max(res_max / scale if res_max > 0.0 else 0.0, phi / L)
 
 
 def _accept(nw: Newton, st, al: AlphaState, h: float, it, p) -> None:
