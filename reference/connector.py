@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from reference.generated import rotation_maps as rm
+from reference.scalar import scalar_twin
 
 
 GROUND = "ground"
@@ -38,7 +39,7 @@ def body_matrix(body) -> np.ndarray:
     if body is None:
         return np.eye(3)
     out = np.empty(9)
-    rm.rotation_matrix(np.asarray(body.rotation, dtype=float), out)
+    scalar_twin(rm.rotation_matrix)(np.asarray(body.rotation, dtype=float), out)
     return out.reshape(3, 3)
 
 

@@ -24,8 +24,10 @@ from dataclasses import KW_ONLY, dataclass, field
 import numpy as np
 
 from reference.expressions import expression_parameters, expression_value
+from reference.generated import rotation_maps as rm
 from reference.jit import kernel
 from reference.rotation import EulerParameters
+from reference.scalar import scalar_twin
 from reference.state import Loads, TimeFunctions
 from reference.validation import vector
 
@@ -471,7 +473,9 @@ def pack_loads(loading: list, node_of, tf_index) -> Loads:
     for k, ld in enumerate(loads):
         if ld.point is not None and not ld.moment:
             node = node_of(ld.node)
-            A = EulerParameters(node.rotation).matrix()
+            A = np.empty(9)  # A(q) by the kernel's Python form: nothing to compile while the model is built
+            scalar_twin(rm.rotation_matrix)(EulerParameters(node.rotation).q, A)
+            A = A.reshape(3, 3)
             arm[k] = A.T @ (np.asarray(ld.point, float) - node.position)
     return Loads(np.array([node_of(ld.node).id for ld in loads], dtype=np.int64),
                  np.array([ld.code for ld in loads], dtype=np.int64),

@@ -42,6 +42,7 @@ from scipy.sparse.csgraph import connected_components
 from reference.algorithms.implicit import NewtonSystem, compose
 from reference.generated import rotation_maps as rm
 from reference.linalg import RANK_TOLERANCE, SingularMatrix, null_space
+from reference.scalar import scalar_twin
 from reference.state import Model, State
 
 CONSISTENCY_STEP = 1e-6
@@ -279,9 +280,9 @@ def _spin_velocities(x, q, Omega, p):
     """Per node ``v = Ω × (x − p)``, ``ω = Λᵀ Ω`` (body frame), and ``V̇ = (Ω × v, 0)``."""
     v = np.cross(Omega, x - p)
     w = np.empty_like(v)
-    A = np.zeros(9)
+    A, rotation_matrix = np.zeros(9), scalar_twin(rm.rotation_matrix)  # Python: nothing to compile
     for i in range(x.shape[0]):
-        rm.rotation_matrix(q[i], A)
+        rotation_matrix(q[i], A)
         w[i] = A.reshape(3, 3).T @ Omega
     vd = np.zeros((x.shape[0], 6))
     vd[:, :3] = np.cross(Omega, v)
@@ -354,7 +355,7 @@ def _relative_equilibrium(model, system, x, q, lam, Omega, p, t, tolerance, max_
         delta[free] = sol[:n]
         x += delta[:, :3]
         q_new = np.empty_like(q)
-        compose(q, np.ascontiguousarray(delta[:, 3:]), q_new, np.empty(4))
+        scalar_twin(compose)(q, np.ascontiguousarray(delta[:, 3:]), q_new, np.empty(4))  # Python: no compilation
         q, lam = q_new, lam + sol[n:]
         if max(np.max(np.abs(delta[:, :3]), initial=0.0) / span, np.max(np.abs(delta[:, 3:]), initial=0.0)) <= tolerance:
             return x, q, lam

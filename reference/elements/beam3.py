@@ -24,6 +24,7 @@ from reference.generated import beam3 as generated
 from reference.jit import inlined, kernel, parallel_kernel, prange
 from reference.newton_blocks import store_block
 from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum, node_incidence
+from reference.scalar import scalar_twin
 
 WIDTH = 250
 """Work row per element: forces (18), strains (12), resultants (12), section quaternions (12), node-frame
@@ -248,8 +249,9 @@ class Beam3Formulation(Beam2Formulation):
     def _evaluate(self, x_nodes, q_nodes, reference, u=None):
         s, strain, stress, u = np.empty(18), np.empty(12), np.empty(12), np.empty(18) if u is None else u
         x, q = np.asarray(x_nodes, float), np.asarray(q_nodes, float)
-        U = generated.internal_forces(x[0], x[1], x[2], q[0], q[1], q[2], reference["L0"], reference["gamma0"],
-                                      reference["kappa0"], self.section.stiffness, s, u, strain, stress)
+        forces = scalar_twin(generated.internal_forces)  # one element from Python: nothing to compile
+        U = forces(x[0], x[1], x[2], q[0], q[1], q[2], reference["L0"], reference["gamma0"], reference["kappa0"],
+                   self.section.stiffness, s, u, strain, stress)
         return s, U, strain, stress
 
     def tangent(self, x_nodes, q_nodes, reference) -> np.ndarray:
@@ -257,11 +259,12 @@ class Beam3Formulation(Beam2Formulation):
         u, hess, s, K = np.empty(18), np.empty(162), np.empty(18), np.empty(324)
         self._evaluate(x_nodes, q_nodes, reference, u)
         g0, k0, c = np.asarray(reference["gamma0"], float), np.asarray(reference["kappa0"], float), self.section.stiffness
+        gauss_hessian = scalar_twin(generated.gauss_hessian)
         for g in range(2):
-            generated.gauss_hessian(u[9 * g:9 * g + 9], g0[3 * g:3 * g + 3], k0[3 * g:3 * g + 3], c, reference["L0"],
-                                    hess[81 * g:81 * g + 81])
+            gauss_hessian(u[9 * g:9 * g + 9], g0[3 * g:3 * g + 3], k0[3 * g:3 * g + 3], c, reference["L0"],
+                          hess[81 * g:81 * g + 81])
         x, q = np.asarray(x_nodes, float), np.asarray(q_nodes, float)
-        generated.tangent(x[0], x[1], x[2], q[0], q[1], q[2], reference["L0"], g0, k0, c, hess, s, K)
+        scalar_twin(generated.tangent)(x[0], x[1], x[2], q[0], q[1], q[2], reference["L0"], g0, k0, c, hess, s, K)
         return K.reshape(18, 18)
 
     def section_resultants(self, x_nodes, q_nodes, reference):

@@ -30,6 +30,7 @@ from reference.joints.assembly import (
 )
 from reference.joints.formulation import REGISTRY
 from reference.joints.joint import PRESCRIBED, Joint
+from reference.scalar import scalar_twin
 from reference.state import Model, State
 
 DEPENDENT_PIVOT = 1e-10
@@ -82,15 +83,15 @@ def constraint_fields(joints: list[Joint], n_nodes: int, tf_index: Callable, bea
 def constraint_blocks(model: Model, x, q, t: float):
     """Φ (m,), Φ_t (m,) and the joints' blocks of B and B M⁻¹ (J, 6, 12) at a configuration.
 
-    Evaluated by the step's compiled kernels
-    (:func:`reference.joints.assembly.assemble_constraints`, ``apply_inverse_mass``).
+    Evaluated by the step's kernels (:func:`reference.joints.assembly.assemble_constraints`,
+    ``apply_inverse_mass``) in their Python form (:func:`~reference.scalar.scalar_twin`): once per model or
+    run, where compiling them would cost more than it saves.
     """
     m, J = model.n_constraints, model.joints.i.shape[0]
     PHI, PHIt, Bj, BMj = np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12))
-    # C-ordered copies of strided views: one compiled signature for every caller
-    assemble_constraints(model, np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(q, dtype=float), float(t),
-                         PHI, PHIt, Bj, np.zeros(10), np.zeros(120))
-    apply_inverse_mass(model, Bj, BMj)
+    x, q = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(q, dtype=float)
+    scalar_twin(assemble_constraints)(model, x, q, float(t), PHI, PHIt, Bj, np.zeros(10), np.zeros(120))
+    scalar_twin(apply_inverse_mass)(model, Bj, BMj)
     return PHI, PHIt, Bj, BMj
 
 
@@ -120,8 +121,8 @@ def dependent_rows(model: Model, Bj, BMj):
     Gram–Schmidt — is below :data:`DEPENDENT_PIVOT` of its own squared norm.
     """
     Lx, dependent = np.zeros(model.joints.pattern.L_rowidx.shape[0]), np.zeros(model.n_constraints, dtype=np.int64)
-    assemble_w(model, Bj, BMj, Lx)
-    sparse_cholesky(model, Lx, np.zeros(model.n_constraints), 0.0, DEPENDENT_PIVOT, dependent)
+    scalar_twin(assemble_w)(model, Bj, BMj, Lx)
+    scalar_twin(sparse_cholesky)(model, Lx, np.zeros(model.n_constraints), 0.0, DEPENDENT_PIVOT, dependent)
     return Lx, dependent
 
 
@@ -332,7 +333,7 @@ def rigid_body_correction(model: Model, state: State, body: np.ndarray) -> None:
 
     _, PHIt, Bj, _ = constraint_blocks(model, state.x, state.q, state.t)
     A, r = np.zeros((m, cols)), np.zeros(m)
-    jacobian_times(model, Bj, state.v, state.w, r[:model.n_constraints])
+    scalar_twin(jacobian_times)(model, Bj, state.v, state.w, r[:model.n_constraints])
     r[:model.n_constraints] = -(r[:model.n_constraints] + PHIt)
     for k in range(Bj.shape[0]):
         r0, mk = model.joints.row0[k], model.joints.neq[k]
@@ -382,8 +383,8 @@ def project_initial_velocities(model: Model, state: State, body: np.ndarray | No
     _, PHIt, Bj, BMj = constraint_blocks(model, state.x, state.q, state.t)
     Lx, _ = dependent_rows(model, Bj, BMj)
     rhs = np.zeros(model.n_constraints)
-    jacobian_times(model, Bj, state.v, state.w, rhs)
+    scalar_twin(jacobian_times)(model, Bj, state.v, state.w, rhs)
     y = np.zeros_like(rhs)
     y[model.joints.pattern.row_iperm] = rhs + PHIt
-    sparse_solve(model, Lx, y)
-    subtract_transpose(model, BMj, y[model.joints.pattern.row_iperm], state.v, state.w)
+    scalar_twin(sparse_solve)(model, Lx, y)
+    scalar_twin(subtract_transpose)(model, BMj, y[model.joints.pattern.row_iperm], state.v, state.w)

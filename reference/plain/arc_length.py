@@ -24,9 +24,10 @@ from reference.algorithms.path_checks import STILL, TRACE_POINTS, drives, load_f
 from reference.linalg import SingularMatrix
 from reference.modal import nearest_zero
 from reference.interactions import tf_integral, tf_value
-from reference.plain.loads import load_tangent, scalar_twin
+from reference.plain.loads import load_tangent
 from reference.plain.newton import EngineFace, Newton, compose, relative_rotation
 from reference.plain.corrector import LoadPath, static_newton
+from reference.scalar import scalar_twin
 from reference.status import NO_CONVERGENCE, OK, SINGULAR
 from reference.validation import ModelWarning
 

@@ -15,8 +15,6 @@ actuator force ``−B_ℓᵀ f_a(t)`` is an external load.
 
 from __future__ import annotations
 
-import functools
-import types
 
 import numpy as np
 
@@ -26,6 +24,7 @@ from reference.generated import rotation_maps as rm
 from reference.generated import tangents as generated_tangents
 from reference.interactions import tf_value
 from reference.plain.vectorise import plain
+from reference.scalar import scalar_twin
 
 DEAD_FORCE, FOLLOWER_FORCE, DEAD_MOMENT, FOLLOWER_MOMENT = 0, 1, 2, 3
 """Load codes (:class:`reference.state.Loads`)."""
@@ -36,22 +35,6 @@ _TANGENTS = {POINT_TO_POINT: generated_forces.point_to_point_tangent,
              ROTATIONAL: generated_forces.rotational_tangent}
 _ROWS = {POINT_TO_POINT: 3, ROTATIONAL: 2}
 """Rows of the generated measures of each kind (the bushing's six otherwise)."""
-
-
-@functools.cache
-def scalar_twin(function) -> types.FunctionType:
-    """The plain Python function of a kernel (a numba dispatcher, or the function under ``NUMBA_DISABLE_JIT``)
-    with every kernel it calls replaced by its own scalar twin, recursively: numba never compiles it.  For
-    code that branches on its data (the time functions, the expression interpreter), called one item at a
-    time with numbers."""
-    py = getattr(function, "py_func", function)
-    namespace = dict(py.__globals__)
-    for name in py.__code__.co_names:
-        value = namespace.get(name)
-        if value is not None and value is not function and isinstance(getattr(value, "py_func", value),
-                                                                          types.FunctionType):
-            namespace[name] = scalar_twin(value)
-    return types.FunctionType(py.__code__, namespace, py.__name__, py.__defaults__, py.__closure__)
 
 
 def time_functions_at(time_functions, t, which=tf_value):

@@ -39,6 +39,8 @@ import types
 
 import numpy as np
 
+from reference.scalar import global_names, scalar_twin
+
 _RENAMED = {"atan2": "arctan2", "atan": "arctan", "asin": "arcsin", "acos": "arccos", "fabs": "abs",
             "pow": "power", "atanh": "arctanh", "asinh": "arcsinh", "acosh": "arccosh"}
 NUMPY_MATH = types.SimpleNamespace(**{
@@ -109,7 +111,7 @@ def _namespace(py: types.FunctionType) -> dict:
     """The globals of ``py``'s twin: its own globals with ``math``, the kernels it calls and ``min``/``max``
     replaced by their element-wise forms (only the names its code uses)."""
     namespace = dict(py.__globals__)
-    for name in _names(py.__code__):
+    for name in global_names(py.__code__):
         value = namespace.get(name)
         if name == "math" and value is math:
             namespace[name] = NUMPY_MATH
@@ -124,15 +126,6 @@ def _own(py: types.FunctionType):
     """The dispatcher or function that the global name of ``py`` refers to (a recursive call is left
     alone: no generated kernel recurses)."""
     return py.__globals__.get(py.__name__)
-
-
-def _names(code: types.CodeType) -> set:
-    """The global names ``code`` and the code objects nested in it read."""
-    found = set(code.co_names)
-    for constant in code.co_consts:
-        if isinstance(constant, types.CodeType):
-            found |= _names(constant)
-    return found
 
 
 class _Unsupported(Exception):
@@ -249,12 +242,12 @@ def _selected(py: types.FunctionType, namespace: dict) -> types.FunctionType:
 
 
 def _element_by_element(py: types.FunctionType) -> types.FunctionType:
-    """The twin of a function :class:`_Selects` cannot rewrite: its scalar form (:func:`_scalar`) called once per
-    element, in Python, on each argument's element (module docstring's layout: the elements are the last axis
-    of every array argument whose last axis has the largest length E; an output's element is a view, so the
-    scalar function's writes land in it; a number is passed as it is); returns the (E,) array of its return
-    values.  Slow, and exactly the scalar function's numbers."""
-    scalar = _scalar(py)
+    """The twin of a function :class:`_Selects` cannot rewrite: its scalar form
+    (:func:`reference.scalar.scalar_twin`) called once per element, in Python, on each argument's element (module
+    docstring's layout: the elements are the last axis of every array argument whose last axis has the largest
+    length E; an output's element is a view, so the scalar function's writes land in it; a number is passed as it
+    is); returns the (E,) array of its return values.  Slow, and exactly the scalar function's numbers."""
+    scalar = scalar_twin(py)
 
     @functools.wraps(py)
     def each(*arguments):
@@ -266,19 +259,6 @@ def _element_by_element(py: types.FunctionType) -> types.FunctionType:
 
     each.element_by_element = True
     return each
-
-
-@functools.cache
-def _scalar(function) -> types.FunctionType:
-    """A kernel's Python function rebound so that every kernel it calls is that kernel's own scalar form, in turn
-    (never a numba dispatcher, which would compile when called from Python)."""
-    py = _python_function(function)
-    namespace = dict(py.__globals__)
-    for name in _names(py.__code__):
-        value = namespace.get(name)
-        if value is not None and value is not _own(py) and _is_kernel(value):
-            namespace[name] = _scalar(value)
-    return types.FunctionType(py.__code__, namespace, py.__name__, py.__defaults__, py.__closure__)
 
 
 __all__ = ["LOOP_BELOW", "NUMPY_MATH", "element_loop", "plain", "twin"]

@@ -1,0 +1,74 @@
+"""A numba kernel's plain Python form, for code that runs once while a model is built or checked.
+
+Calling a numba dispatcher from Python compiles it on first use (seconds to minutes per kernel on a small
+machine, docs/benchmarks.md "First run"); a model's rest states, its joints' redundancy check or a time
+function read once need no compiled code.  :func:`scalar_twin` gives the kernel's own Python function
+with every kernel it calls replaced by that kernel's Python form in turn, so that numba never compiles:
+the same code on Python floats, called one item at a time (the element-wise NumPy form of the generated
+physics is :func:`reference.plain.vectorise.plain`).
+
+This module imports nothing from the engine, so any module may use it without an import cycle; the
+build-time helpers of kernel modules do (the element families' rest states, :mod:`reference.joints.setup`,
+the load arms of :mod:`reference.interactions`), so an edit here changes those kernels' cache keys
+(:mod:`reference.kernel_cache`) and compiles them again.
+"""
+
+from __future__ import annotations
+
+import functools
+import types
+
+ENGINE = "reference."
+"""The package whose modules a kernel may call into by attribute (``rm.log_quaternion``)."""
+
+
+def global_names(code: types.CodeType) -> set:
+    """The global names ``code`` and the code objects nested in it read."""
+    found = set(code.co_names)
+    for constant in code.co_consts:
+        if isinstance(constant, types.CodeType):
+            found |= global_names(constant)
+    return found
+
+
+def _is_kernel(value) -> bool:
+    """True for a numba dispatcher of a Python function, or a Python function (under ``NUMBA_DISABLE_JIT``)."""
+    return isinstance(getattr(value, "py_func", value), types.FunctionType)
+
+
+class _ScalarModule:
+    """An engine module seen by a scalar twin: its kernels read through it are their scalar twins
+    (``rm.log_quaternion(…)`` in a kernel calls the Python form), every other attribute is the module's."""
+
+    def __init__(self, module: types.ModuleType):
+        self._module = module
+
+    def __getattr__(self, name: str):
+        value = getattr(self._module, name)
+        return scalar_twin(value) if _is_kernel(value) else value
+
+
+@functools.cache
+def _scalar_module(module: types.ModuleType) -> _ScalarModule:
+    return _ScalarModule(module)
+
+
+@functools.cache
+def scalar_twin(function) -> types.FunctionType:
+    """The plain Python function of a kernel (a numba dispatcher, or the function under ``NUMBA_DISABLE_JIT``)
+    with every kernel it calls replaced by its own scalar twin, recursively (also a kernel called through its
+    engine module, ``rm.log_quaternion``): numba never compiles it.  For
+    code run once per model or per item (rest states, the time functions, the constraints at t = 0),
+    called with the kernel's own arguments."""
+    py = getattr(function, "py_func", function)
+    namespace = dict(py.__globals__)
+    for name in global_names(py.__code__):
+        value = namespace.get(name)
+        if isinstance(value, types.ModuleType) and value.__name__.startswith(ENGINE):
+            namespace[name] = _scalar_module(value)
+        elif value is not None and value is not function and _is_kernel(value):
+            namespace[name] = scalar_twin(value)
+    return types.FunctionType(py.__code__, namespace, py.__name__, py.__defaults__, py.__closure__)
+
+
+__all__ = ["global_names", "scalar_twin"]
