@@ -19,7 +19,8 @@ accuracy (0.1 % of the peak deflection) with the ratios; the element families
 (:mod:`flexmbs.bench_families`).  Last, the large models beside PyElastica and
 Exudyn and the thread-scaling table (:mod:`flexmbs.bench_large`; ``--large``: that
 section alone).  ``FLEXMBS_QUICK=1`` (or ``--quick``) runs fewer steps, and the
-large models on small meshes.
+large models on small meshes.  ``--first-run``: only the first-run table, every deck's first ``flexmbs run`` from
+an empty numba cache beside its warm rerun (:mod:`flexmbs.bench_first_run`; minutes).
 
 Every line with a target ends in ``MET`` or ``MISSED`` (:class:`flexmbs.bench_common.Target`); the last
 lines list the missed targets (:func:`flexmbs.bench_common.target_summary`), and the command exits with
@@ -36,13 +37,13 @@ from pathlib import Path
 
 import numpy as np
 
-from flexmbs.bench_common import MATCHED, ROOT, WP_CASES, Target, matched_time, target_summary
+from flexmbs.bench_common import COMPILED, MATCHED, ROOT, WP_CASES, Target, matched_time, target_summary
 
 
 def time_reference(deck: Path, repeat: int) -> tuple[float, int]:
     from reference.io.deck import load_deck
 
-    domain = load_deck(deck).domain
+    domain = load_deck(deck, overrides={"solver.backend": COMPILED}).domain
     domain.solve()  # warm-up: numba compiles (or loads its cache)
     times = []
     for _ in range(repeat):
@@ -85,7 +86,7 @@ def _deflection_runner(deck: Path, t_end: float, every: float, algorithm: str, d
     from reference.io.deck import load_deck
 
     def domain():
-        d = load_deck(deck, overrides={"t_end": t_end}).domain
+        d = load_deck(deck, overrides={"t_end": t_end, "solver.backend": COMPILED}).domain
         d.solver.algorithm, d.solver.dt = algorithm, dt
         d.solver.output_every = max(int(round(every / dt)), 1)
         return d
@@ -231,7 +232,7 @@ def static_rollup(targets: list | None = None) -> list[str]:
 
     def domain():
         d = load_deck(ROOT / "models" / "embedded_beam.toml").domain
-        d.solver = SolverSettings(algorithm="static", t_end=2.0, load_steps=20, dt=0.1)
+        d.solver = SolverSettings(algorithm="static", t_end=2.0, load_steps=20, dt=0.1, backend=COMPILED)
         return d
 
     d = domain()
@@ -261,6 +262,11 @@ def main(args=None) -> int:
     quick = bool(getattr(args, "quick", False)) or os.environ.get("FLEXMBS_QUICK") == "1"
     if getattr(args, "large", False):
         return large(quick, repeat, targets)
+    if getattr(args, "first_run", False):
+        from flexmbs.bench_first_run import every_deck, table
+
+        print("\n".join(table(every_deck())))
+        return 0
     print(f"flexmbs bench: median of {repeat} timed solves after one warm-up, same process, same data")
     for name, deck in CASES.items():
         t_ref, n_ref = time_reference(deck, repeat)

@@ -19,11 +19,12 @@ TOLERANCES = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
 
 def tolerance_rows(deck, t_end: float, every: float, dt_ref: float, tolerances=TOLERANCES) -> tuple[list, float]:
     """``[(tolerance, achieved error, solve time [s], steps, step cuts)]`` and the reference's peak deflection."""
+    from flexmbs.bench_common import COMPILED
     from flexmbs.verification import observables as ob
     from reference.io.deck import load_deck
 
     def domain(**solver):
-        d = load_deck(deck, overrides={"t_end": t_end}).domain
+        d = load_deck(deck, overrides={"t_end": t_end, "solver.backend": COMPILED}).domain
         d.solver.algorithm = "generalized_alpha"
         for key, value in solver.items():
             setattr(d.solver, key, value)
@@ -92,7 +93,7 @@ def near_singular_rows(targets: list | None = None, quick: bool = False) -> list
     on the error and on the time ratio to the fixed step of the same error.  ``quick``: not run."""
     from pathlib import Path
 
-    from flexmbs.bench_common import Target, matched_time
+    from flexmbs.bench_common import COMPILED, Target, matched_time
     from reference.io.deck import load_deck
     from reference.observables import parse
 
@@ -103,7 +104,7 @@ def near_singular_rows(targets: list | None = None, quick: bool = False) -> list
         return [title, "", "not run with --quick (a converged reference takes a million steps)", ""]
 
     def run(**solver):
-        d = load_deck(deck, overrides={"t_end": t_end}).domain
+        d = load_deck(deck, overrides={"t_end": t_end, "solver.backend": COMPILED}).domain
         for key, value in solver.items():
             setattr(d.solver, key, value)
         d.solve(t_end=20 * every)  # warm-up

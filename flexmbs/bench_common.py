@@ -1,5 +1,5 @@
 """What the sections of ``flexmbs bench`` share: the repository root, a target and the closing summary of
-the targets, the work–precision cases and the time at matched accuracy.
+the targets, the work–precision cases, the time at matched accuracy and the backend the timed runs take.
 
 :mod:`flexmbs.bench` runs the sections (:mod:`flexmbs.bench_scaling`, :mod:`flexmbs.bench_throughput`,
 :mod:`flexmbs.bench_modes`, :mod:`flexmbs.bench_adaptive`, :mod:`flexmbs.bench_large` …); each section imports
@@ -15,6 +15,10 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
+
+COMPILED = "compiled"
+"""The backend every timed flexmbs run of the bench takes (``[solver] backend``): the bench measures the numba
+kernels' warm speed, and the default ``"auto"`` would give a short job to the plain NumPy path."""
 
 
 @dataclass

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+from flexmbs.bench_common import COMPILED, ROOT
 TARGET = 1e-6
 """The error [fraction of the length] of the target."""
 BEND_REFERENCE = 128
@@ -57,7 +57,8 @@ def rollup_domain(family: str, n: int):
 
     return load_deck(ROOT / "models" / "embedded_beam_static.toml",
                             overrides={"beams.0.elements": n, "beams.0.element": family, "solver.t_end": 1.0,
-                                       "solver.load_steps": 4, "solver.tolerance": 1e-12}).domain
+                                       "solver.load_steps": 4, "solver.tolerance": 1e-12,
+                                       "solver.backend": COMPILED}).domain
 
 
 def coupler_domain(family: str, n: int):
@@ -66,7 +67,8 @@ def coupler_domain(family: str, n: int):
     return load_deck(ROOT / "models" / "three_bar.toml",
                             overrides={"beams.1.elements": n, "beams.1.element": family,
                                        "solver.algorithm": "generalized_alpha", "solver.dt": COUPLER["dt"],
-                                       "solver.t_end": COUPLER["t_end"], "solver.output_every": 5}).domain
+                                       "solver.t_end": COUPLER["t_end"], "solver.output_every": 5,
+                                       "solver.backend": COMPILED}).domain
 
 
 def _tip(results) -> np.ndarray:
@@ -76,9 +78,7 @@ def _tip(results) -> np.ndarray:
 
 @functools.lru_cache(maxsize=None)
 def _bend_reference() -> tuple:
-    from flexmbs.verification.families import bend_domain
-
-    return tuple(_tip(bend_domain("beam3", BEND_REFERENCE).solve()))
+    return tuple(_tip(_bend("beam3", BEND_REFERENCE).solve()))
 
 
 @functools.lru_cache(maxsize=None)
@@ -111,7 +111,9 @@ def _coupler_error(results) -> float:
 def _bend(family: str, n: int):
     from flexmbs.verification.families import bend_domain
 
-    return bend_domain(family, n)
+    d = bend_domain(family, n)
+    d.solver.backend = COMPILED
+    return d
 
 
 STUDIES = {"roll-up": (rollup_domain, _rollup_error), "45° bend": (_bend, _bend_error),

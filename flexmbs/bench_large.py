@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from flexmbs.bench_common import ROOT, Target, matched_time
+from flexmbs.bench_common import COMPILED, ROOT, Target, matched_time
 
 EXPLICIT_ELEMENTS, EXPLICIT_STEPS, EXPLICIT_FACTOR = 50_000, 500, 0.75
 """The explicit model: elements, timed steps, step as a fraction of flexmbs' critical step estimate."""
@@ -140,7 +140,7 @@ def rollup_domain(algorithm: str, refine: int, dt: float, t_end: float, load_ste
     beam :data:`HEAVY` times heavier and undamped."""
     from reference.io.deck import load_deck
 
-    overrides = {"refine": refine}
+    overrides = {"refine": refine, "solver.backend": COMPILED}
     if heavy:
         overrides.update({"solver.damping": 0.0, "sections.rollup.rhoA": 6.4e-7 * HEAVY,
                           **{f"sections.rollup.rhoJ{k}": 1.6e-5 * HEAVY for k in (1, 2, 3)}})

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from flexmbs.bench_common import Target
+from flexmbs.bench_common import COMPILED, Target
 
 LINK = dict(EA=1.0, GA2=1.0, GA3=1.0, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=0.02, rhoJ2=0.01, rhoJ3=0.01)
 """A rigid link's section (only the inertia is used): 1 kg/m."""
@@ -36,7 +36,7 @@ def spherical_chain(K: int, length: float = 0.1, dt: float = 1e-4, steps: int = 
         d.add_joint("spherical", link, prev, a, label=f"J{k}")
         prev = link
     d.add_interaction(Gravity(np.array([0.0, 0.0, -9.81])))
-    d.solver = SolverSettings(dt=dt, t_end=steps * dt, output_every=steps)
+    d.solver = SolverSettings(dt=dt, t_end=steps * dt, output_every=steps, backend=COMPILED)
     return d
 
 
@@ -60,7 +60,7 @@ def two_beams(welded: bool, n_elements: int = 32, steps: int = 1000):
     d.add_interaction(Clamp(first[0]))
     d.add_interaction(Gravity(np.array([0.0, 0.0, -9.81])))
     dt = 0.5 * d.critical_time_step()
-    d.solver = SolverSettings(dt=dt, t_end=steps * dt, output_every=steps)
+    d.solver = SolverSettings(dt=dt, t_end=steps * dt, output_every=steps, backend=COMPILED)
     return d
 
 

@@ -14,7 +14,7 @@ import statistics
 import time
 from pathlib import Path
 
-from flexmbs.bench_common import Target
+from flexmbs.bench_common import COMPILED, Target
 
 THROUGHPUT = dict(elements=768, length=10.0, radius=0.05, density=1000.0, E=1e7, G=1e7 / 3.0, torque=0.01,
                   dt=1e-4, steps=1000)
@@ -49,7 +49,7 @@ def throughput_cantilever(elements: int | None = None):
     nodes = d.add_beam("rod", (0.0, 0.0, 0.0), (c["length"], 0.0, 0.0), elements, _throughput_section())
     d.add_interaction(Clamp(nodes[0]))
     d.add_interaction(NodalLoad(nodes[-1], np.array([0.0, c["torque"], 0.0]), moment=True))
-    d.solver = SolverSettings(dt=c["dt"], t_end=c["steps"] * c["dt"], output_every=c["steps"])
+    d.solver = SolverSettings(dt=c["dt"], t_end=c["steps"] * c["dt"], output_every=c["steps"], backend=COMPILED)
     return d
 
 

@@ -511,6 +511,9 @@ def parser() -> argparse.ArgumentParser:
     ben.add_argument("--large", action="store_true",
                      help="only the large models (50,000-element explicit, 5,004-element static and generalized-alpha, "
                           "thread scaling); with --quick on small meshes")
+    ben.add_argument("--first-run", action="store_true",
+                     help="only the first-run table: every deck's `flexmbs run` from an empty numba cache beside its "
+                          "warm rerun, each in a process of its own (minutes: the long explicit decks compile)")
     ben.add_argument("--out", help="folder of the work-precision figure and tables (default: out/bench/)")
     ben.set_defaults(func=cmd_bench)
     sw = sub.add_parser("sweep", help="a parameter study of a deck (STUDY.toml), every case a Dask task")

@@ -126,3 +126,26 @@ def test_permutation_sign_counts_the_cycles(n):
             transpositions += max(length - 1, 0)
         assert permutation_sign(perm) == (-1) ** transpositions
 
+
+def test_the_first_run_bench_writes_the_element_family_into_a_copy_of_the_deck(tmp_path):
+    """``flexmbs bench --first-run`` runs issue 36's beam3 case from a copy of the deck with ``element = "beam3"``
+    in its beam table: the copy reads as a beam3 model, and the original is untouched."""
+    from flexmbs.bench_first_run import BEAM3, _deck_with
+    from reference.io.deck import load_deck
+
+    _, deck, keys, _ = BEAM3
+    before = deck.read_text(encoding="utf-8")
+    copy = _deck_with(deck, keys, tmp_path)
+    assert copy != deck and deck.read_text(encoding="utf-8") == before
+    families = {e.formulation.family for e in load_deck(copy, overrides={"solver.dt": 1e-4}).domain.elements}
+    assert families == {"beam3"}
+
+
+def test_a_first_run_of_a_static_deck_takes_the_reference_path(tmp_path, monkeypatch):
+    """The first-run measurement of embedded_beam_static from an empty cache: two ``flexmbs run`` processes; the
+    default backend ``auto`` takes the reference path (its one line), and each process returns a positive time."""
+    from flexmbs.bench_first_run import ROOT, first_and_warm
+
+    first, warm, line = first_and_warm(ROOT / "models" / "embedded_beam_static.toml")
+    assert line.startswith("backend: reference (")
+    assert first > 0.0 and warm > 0.0
