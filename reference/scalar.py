@@ -71,4 +71,18 @@ def scalar_twin(function) -> types.FunctionType:
     return types.FunctionType(py.__code__, namespace, py.__name__, py.__defaults__, py.__closure__)
 
 
-__all__ = ["global_names", "scalar_twin"]
+PYTHON_ITEMS = 512
+"""Items (elements, joints) up to which :func:`build_time_form` gives the Python form: Beam2's rest states cost
+0.16 ms an element in Python on the 2-core machine at load average ~16 (docs/benchmarks.md §12), so 512
+elements cost under 0.1 s, less than compiling the kernel; a larger model pays the kernel's compilation once
+(seconds) instead of the Python loop at every ``Domain.solve``, which rebuilds the model."""
+
+
+def build_time_form(kernel, items: int):
+    """The form of a build-time kernel for a model of ``items`` elements or joints: :func:`scalar_twin` up to
+    :data:`PYTHON_ITEMS` (nothing to compile), else the compiled kernel.  Both give the same numbers bit for bit
+    (tests/test_first_run.py), so the size only moves the cost."""
+    return scalar_twin(kernel) if items <= PYTHON_ITEMS else kernel
+
+
+__all__ = ["PYTHON_ITEMS", "build_time_form", "global_names", "scalar_twin"]

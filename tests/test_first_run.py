@@ -149,3 +149,13 @@ def test_a_first_run_of_a_static_deck_takes_the_reference_path(tmp_path, monkeyp
     first, warm, line = first_and_warm(ROOT / "models" / "embedded_beam_static.toml")
     assert line.startswith("backend: reference (")
     assert first > 0.0 and warm > 0.0
+
+
+def test_a_large_model_builds_with_the_compiled_kernel_a_small_one_with_its_python_form():
+    """:func:`reference.scalar.build_time_form`: the Python form up to PYTHON_ITEMS elements or joints (nothing to
+    compile), the kernel itself above (the Python loop would cost more than the compilation at every solve)."""
+    from reference.elements.beam2 import _rest_strains
+    from reference.scalar import PYTHON_ITEMS, build_time_form, scalar_twin
+
+    assert build_time_form(_rest_strains, PYTHON_ITEMS) is scalar_twin(_rest_strains)
+    assert build_time_form(_rest_strains, PYTHON_ITEMS + 1) is _rest_strains

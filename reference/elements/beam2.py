@@ -36,7 +36,7 @@ from reference.elements.beam2_blocks import add_element, soa_fixed_rows, soa_for
 from reference.parallel import (
     ELEMENT_CHUNK, PARALLEL_NODES, accumulate, element_chunks, energy_sum, node_incidence, scatter,
 )
-from reference.scalar import scalar_twin
+from reference.scalar import build_time_form
 
 PARALLEL_ELEMENTS = 8
 """From this many elements on, the forces are computed by the structure-of-arrays element loop
@@ -370,7 +370,7 @@ class Beam2Formulation(ElementFormulation):
         if (L0 <= 0.0).any():
             raise ValueError("Beam2 element of zero length")
         psi0, gamma0 = np.empty((len(L0), 3)), np.empty((len(L0), 3))
-        rest_strains = scalar_twin(_rest_strains)  # once per model, in Python: nothing to compile
+        rest_strains = build_time_form(_rest_strains, len(L0))  # a small model: Python, nothing to compile
         rest_strains(x, p, L0, end_offsets(p[:, 0], p[:, 1]), np.ascontiguousarray(stiff, dtype=float), psi0, gamma0)
         return L0, psi0, gamma0
 

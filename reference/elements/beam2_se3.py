@@ -29,7 +29,7 @@ from reference.generated import rotation_maps as rm
 from reference.jit import inlined, kernel, parallel_kernel, prange
 from reference.newton_blocks import store_block
 from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum
-from reference.scalar import scalar_twin
+from reference.scalar import build_time_form
 
 
 class Beam2SE3Data(NamedTuple):
@@ -210,7 +210,7 @@ class Beam2SE3Formulation(Beam2Formulation):
         x, p = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(p, dtype=float)
         stiff = np.ascontiguousarray(stiff, dtype=float)
         strain, s, stress = np.empty((x.shape[0], 6)), np.empty(12), np.empty(6)
-        forces = scalar_twin(generated.internal_forces)  # once per model: nothing to compile
+        forces = build_time_form(generated.internal_forces, x.shape[0])  # a small model: nothing to compile
         for e in range(x.shape[0]):
             forces(x[e, 0], x[e, 1], p[e, 0], p[e, 1], 1.0, np.zeros(3), np.zeros(3), stiff[e], s, strain[e], stress)
         L0 = vector_norms(strain[:, :3])

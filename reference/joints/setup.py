@@ -30,7 +30,7 @@ from reference.joints.assembly import (
 )
 from reference.joints.formulation import REGISTRY
 from reference.joints.joint import PRESCRIBED, Joint
-from reference.scalar import scalar_twin
+from reference.scalar import build_time_form
 from reference.state import Model, State
 
 DEPENDENT_PIVOT = 1e-10
@@ -80,18 +80,24 @@ def constraint_fields(joints: list[Joint], n_nodes: int, tf_index: Callable, bea
     return fields, node_constrained
 
 
+def _form(kernel, model: Model):
+    """A joint kernel called once per model or run: its Python form for a model of few joints (nothing to
+    compile), the compiled kernel for many (:func:`reference.scalar.build_time_form`)."""
+    return build_time_form(kernel, model.joints.i.shape[0])
+
+
 def constraint_blocks(model: Model, x, q, t: float):
     """Φ (m,), Φ_t (m,) and the joints' blocks of B and B M⁻¹ (J, 6, 12) at a configuration.
 
     Evaluated by the step's kernels (:func:`reference.joints.assembly.assemble_constraints`,
-    ``apply_inverse_mass``) in their Python form (:func:`~reference.scalar.scalar_twin`): once per model or
+    ``apply_inverse_mass``), in their Python form for a model of few joints (:func:`_form`): once per model or
     run, where compiling them would cost more than it saves.
     """
     m, J = model.n_constraints, model.joints.i.shape[0]
     PHI, PHIt, Bj, BMj = np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12))
     x, q = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(q, dtype=float)
-    scalar_twin(assemble_constraints)(model, x, q, float(t), PHI, PHIt, Bj, np.zeros(10), np.zeros(120))
-    scalar_twin(apply_inverse_mass)(model, Bj, BMj)
+    _form(assemble_constraints, model)(model, x, q, float(t), PHI, PHIt, Bj, np.zeros(10), np.zeros(120))
+    _form(apply_inverse_mass, model)(model, Bj, BMj)
     return PHI, PHIt, Bj, BMj
 
 
@@ -121,8 +127,8 @@ def dependent_rows(model: Model, Bj, BMj):
     Gram–Schmidt — is below :data:`DEPENDENT_PIVOT` of its own squared norm.
     """
     Lx, dependent = np.zeros(model.joints.pattern.L_rowidx.shape[0]), np.zeros(model.n_constraints, dtype=np.int64)
-    scalar_twin(assemble_w)(model, Bj, BMj, Lx)
-    scalar_twin(sparse_cholesky)(model, Lx, np.zeros(model.n_constraints), 0.0, DEPENDENT_PIVOT, dependent)
+    _form(assemble_w, model)(model, Bj, BMj, Lx)
+    _form(sparse_cholesky, model)(model, Lx, np.zeros(model.n_constraints), 0.0, DEPENDENT_PIVOT, dependent)
     return Lx, dependent
 
 
@@ -333,7 +339,7 @@ def rigid_body_correction(model: Model, state: State, body: np.ndarray) -> None:
 
     _, PHIt, Bj, _ = constraint_blocks(model, state.x, state.q, state.t)
     A, r = np.zeros((m, cols)), np.zeros(m)
-    scalar_twin(jacobian_times)(model, Bj, state.v, state.w, r[:model.n_constraints])
+    _form(jacobian_times, model)(model, Bj, state.v, state.w, r[:model.n_constraints])
     r[:model.n_constraints] = -(r[:model.n_constraints] + PHIt)
     for k in range(Bj.shape[0]):
         r0, mk = model.joints.row0[k], model.joints.neq[k]
@@ -383,8 +389,8 @@ def project_initial_velocities(model: Model, state: State, body: np.ndarray | No
     _, PHIt, Bj, BMj = constraint_blocks(model, state.x, state.q, state.t)
     Lx, _ = dependent_rows(model, Bj, BMj)
     rhs = np.zeros(model.n_constraints)
-    scalar_twin(jacobian_times)(model, Bj, state.v, state.w, rhs)
+    _form(jacobian_times, model)(model, Bj, state.v, state.w, rhs)
     y = np.zeros_like(rhs)
     y[model.joints.pattern.row_iperm] = rhs + PHIt
-    scalar_twin(sparse_solve)(model, Lx, y)
-    scalar_twin(subtract_transpose)(model, BMj, y[model.joints.pattern.row_iperm], state.v, state.w)
+    _form(sparse_solve, model)(model, Lx, y)
+    _form(subtract_transpose, model)(model, BMj, y[model.joints.pattern.row_iperm], state.v, state.w)

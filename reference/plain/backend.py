@@ -5,7 +5,7 @@
   §9).
 - ``"reference"``: the same algorithm's twin on the plain NumPy path (``reference/plain/``): nothing to
   compile, slower per step (:data:`COSTS`).
-- ``"auto"``: the reference path when its estimated run time (:func:`estimate`) is at most
+- ``"auto"`` (the default): the reference path when its estimated run time (:func:`estimate`) is at most
   :data:`REFERENCE_SECONDS` and the twin runs these settings, else the compiled path.  The estimate depends
   only on the job (algorithm, steps, nodes, joint rows, force elements), never on what is cached, so the same
   deck always runs on the same path: a short job (a static solve, modes, a lesson's cell, a short explicit
