@@ -72,10 +72,9 @@ def scalar_twin(function) -> types.FunctionType:
 
 
 PYTHON_ITEMS = 512
-"""Items (elements, joints) up to which :func:`build_time_form` gives the Python form: Beam2's rest states cost
-0.16 ms an element in Python on the 2-core machine at load average ~16 (docs/benchmarks.md §12), so 512
-elements cost under 0.1 s, less than compiling the kernel; a larger model pays the kernel's compilation once
-(seconds) instead of the Python loop at every ``Domain.solve``, which rebuilds the model."""
+"""Items (elements, joints) up to which :func:`build_time_form` gives the Python form: below it the Python loop
+costs less than compiling the kernel; above it a model would pay the loop at every ``Domain.solve`` (which
+rebuilds the model) and the compilation only once (the cost per element: docs/benchmarks.md §12)."""
 
 
 def build_time_form(kernel, items: int):
