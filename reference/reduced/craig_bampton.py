@@ -70,7 +70,7 @@ class Basis(NamedTuple):
     frequencies: np.ndarray
 
 
-def _rotations(q) -> np.ndarray:
+def rotation_matrices(q) -> np.ndarray:
     """Rotation matrices (n, 3, 3), node frame to inertial, of Euler parameters ``q`` (n, 4)."""
     A = np.empty((9, len(q)))
     _rotation_matrix(np.ascontiguousarray(q.T), A)
@@ -101,7 +101,7 @@ def beam_matrices(domain, label: str) -> BeamMatrices:
     q_all = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4)
     idx = (6 * nodes[:, None] + np.arange(6)).reshape(-1)
     K_node = element_tangent(model, x_all, q_all)[idx][:, idx].toarray()
-    A = _rotations(q_all[nodes])
+    A = rotation_matrices(q_all[nodes])
     T = np.zeros((len(idx), len(idx)))
     M = np.zeros_like(T)
     for a, (n, R) in enumerate(zip(nodes, A)):
@@ -194,3 +194,11 @@ def floating_modes(beam: BeamMatrices, basis: Basis) -> Basis:
     w2, z = sla.eigh(basis.K, basis.M)
     elastic = w2 > RIGID_TOLERANCE * w2[-1]
     return _reduced(beam, basis.T @ z[:, elastic], basis.interfaces, w2[elastic])
+
+
+def clamped_modes(beam: BeamMatrices, node: int, n_modes: int) -> Basis:
+    """The frame attached to one node (position ``node`` along the beam): the ``n_modes`` fixed-interface modes
+    of that node alone, the body reference condition "clamped" of a floating frame (Shabana, §5.7).  Unlike
+    :func:`floating_modes` (mean axes) they move the centre of mass (``S₁ ≠ 0``)."""
+    basis = craig_bampton(beam, (node,), n_modes)
+    return _reduced(beam, basis.T[:, 6:], (node,), (2.0 * np.pi * basis.frequencies) ** 2)
