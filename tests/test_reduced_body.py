@@ -15,8 +15,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from reference.io.deck import load_deck
-from reference.reduced.body import ReducedBody
-from reference.reduced.craig_bampton import (beam_matrices, clamped_modes, craig_bampton, floating_modes,
+from reference.reduced.body import ReducedBody, nearest_velocities
+from reference.reduced.craig_bampton import (beam_matrices, clamped_modes, craig_bampton, floating_modes, free_free,
                                              interface_positions, rotation_matrices)
 from reference.reduced.invariants import invariants
 
@@ -123,3 +123,58 @@ def test_the_critical_step_is_that_of_the_stiffest_mode_and_the_mesh_deforms_by_
     x, theta = body.mesh(body.inv.origin, np.array([1.0, 0, 0, 0]), np.zeros(body.n_modes))
     np.testing.assert_allclose(x, beam.x, atol=1e-14)
     assert np.all(theta == 0.0)
+
+
+def _free_coupler(spin: float):
+    """The three-bar's coupler section on its own, 4 Beam2, free in space: turning at ``spin`` [rad/s] about z
+    through its centre, its end node kicked across the beam in its plane at 0.5 m/s; the nodal velocities
+    (n, 6) ``[ẋ, ω]`` (inertial) and the domain with them set (node-frame angular velocities)."""
+    from reference.domain import Domain
+    from reference.elements.section import Section
+
+    section = Section(EA=1e5, GA2=1e5, GA3=1e5, GJ=1e3, EI2=1e3, EI3=1e3, rhoA=1.0, rhoJ1=0.02, rhoJ2=0.01,
+                      rhoJ3=0.01)
+    domain = Domain()
+    nodes = domain.add_beam("coupler", [0.0, 1.0, 0.0], [4.0, 4.0, 0.0], 4, section, axis2=(0.0, 0.0, 1.0))
+    x = np.array([n.position for n in nodes])
+    V = np.zeros((len(nodes), 6))
+    V[:, :3] = np.cross([0.0, 0.0, spin], x - x.mean(axis=0))
+    V[:, 5] = spin
+    V[-1, :3] += 0.5 * np.array([-0.6, 0.8, 0.0])
+    for node, Vi, A in zip(nodes, V, rotation_matrices(np.array([n.rotation for n in nodes]))):
+        node.velocity, node.angular_velocity = Vi[:3].copy(), A.T @ Vi[3:]
+    solver = domain.solver
+    solver.algorithm, solver.dt, solver.t_end, solver.output_every = "staggered_central_difference", 2e-4, 0.5, 50
+    solver.backend = "reference"
+    return domain, V
+
+
+def _reduced_mesh(body, V, times):
+    """The reduced body started from the velocities nearest ``V`` (:func:`nearest_velocities`), integrated with
+    DOP853 (rtol 1e-9): its deformed mesh (t, n, 3) at ``times`` and its largest elastic displacement [m]."""
+    r = body.n_modes
+    y0 = np.concatenate([body.inv.origin, [1.0, 0.0, 0.0, 0.0], np.zeros(r), nearest_velocities(body, V)])
+    sol = solve_ivp(_rates(body), (0.0, times[-1]), y0, method="DOP853", rtol=1e-9, atol=1e-11, t_eval=times)
+    assert sol.success
+    meshes = [body.mesh(y[:3], y[3:7] / np.linalg.norm(y[3:7]), y[7:7 + r])[0] for y in sol.y.T]
+    return np.array(meshes), max(np.abs(body.Pt @ y[7:7 + r]).max() for y in sol.y.T)
+
+
+def test_a_free_reduced_coupler_follows_the_full_beam_and_its_error_falls_with_the_mode_count():
+    """The free coupler kicked at its end (:func:`_free_coupler`, no spin), 0.5 s: the full geometrically exact
+    beam (Park's explicit step on the reference path) against the reduced body with 2, 4, 8 free-free modes,
+    node positions compared, relative to the peak elastic displacement of the 8-mode body (~6 mm).
+    Measured 17 %, 3.3 %, 0.54 %; with all 24 modes 0.55 %: what remains is the full run's own central-
+    difference period error on the mesh's highest modes (ω dt up to 0.64 at dt = 2e-4) and the geometric
+    nonlinearity the linear modes leave out.  Asserted: the error falls with each doubling, 8 modes within 1 %."""
+    domain, V = _free_coupler(0.0)
+    full = domain.solve()
+    beam = beam_matrices(domain, "coupler")
+    runs = []
+    for n in (2, 4, 8):
+        modes = free_free(beam, n)
+        runs.append(_reduced_mesh(ReducedBody("coupler", beam, modes, invariants(beam, modes)), V, full.time))
+    peak = runs[-1][1]
+    errors = [np.abs(mesh - full.positions).max() / peak for mesh, _ in runs]
+    assert errors[0] > errors[1] > errors[2]
+    assert errors[2] < 0.01

@@ -127,3 +127,18 @@ class ReducedBody:
         relative to the frame ``Φr q`` (n, 3) [rad, frame components], for output and VTK."""
         A = rotation_matrices(p[None])[0]
         return r + (self.rest + self.Pt @ q) @ A.T, self.Pr @ q
+
+
+def nearest_velocities(body: ReducedBody, V) -> np.ndarray:
+    """The body's velocities ``[ṙ, ω, q̇]`` (6 + r,) nearest, in kinetic energy, to nodal velocities ``V``
+    (n, 6) ``[ẋ_i, ω_i]`` (inertial and frame components) with the frame at rest orientation and ``q = 0``:
+    ``(Gᵀ M G) X = Gᵀ M V``, ``Gᵀ M G`` the body's mass matrix (the Galerkin projection of the initial
+    velocities onto the reduced motion)."""
+    m, J = body.masses
+    V = np.asarray(V, dtype=float)
+    p0, q0 = np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(body.n_modes)
+    rhs = np.zeros(6 + body.n_modes)
+    for i in range(len(m)):
+        f, h = m[i] * V[i, :3], J[i] @ V[i, 3:]
+        rhs += np.concatenate([f, skew(body.rest[i]) @ f + h, body.Pt[i].T @ f + body.Pr[i].T @ h])
+    return np.linalg.solve(body.mass_matrix(p0, q0), rhs)

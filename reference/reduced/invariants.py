@@ -49,7 +49,7 @@ class Invariants(NamedTuple):
     coupling_linear : ndarray (r, 3, r)
         ``C₁ₖ = Σ m_i φ̃_ik Φt_i``: ``I_θf(q) = C₀ + Σ qₖ C₁ₖ``.
     modal_mass, modal_stiffness : ndarray (r, r)
-        ``M_ff = Σ Φt_iᵀ m_i Φt_i + Φr_iᵀ J_i Φr_i`` and ``K_ff = Φᵀ K Φ`` (the beam's K, not a sum of nodes).
+        ``M_ff = Σ Φt_iᵀ m_i Φt_i + Φr_iᵀ J_i Φr_i`` and ``K_ff = Φᵀ K Φ`` (the beam's K, not a nodal sum).
     """
 
     mass: float
