@@ -12,10 +12,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.linalg as sla
+import scipy.sparse as sps
 from scipy.integrate import solve_ivp
 
 from reference.io.deck import load_deck
-from reference.reduced.body import ReducedBody, nearest_velocities
+from reference.reduced.body import ReducedBody, nearest_velocities, steady_spin
 from reference.reduced.craig_bampton import (beam_matrices, clamped_modes, craig_bampton, floating_modes, free_free,
                                              interface_positions, rotation_matrices)
 from reference.reduced.invariants import invariants
@@ -118,7 +120,7 @@ def test_a_point_force_does_the_work_of_the_node_it_pushes(coupler):
 def test_the_critical_step_is_that_of_the_stiffest_mode_and_the_mesh_deforms_by_the_modes(coupler):
     """critical_time_step is 2/ω of the highest floating mode (1e-12); the deformed mesh at rest is the beam."""
     beam, body = coupler
-    omega = np.sqrt(np.linalg.eigvalsh(body.K).max())
+    omega = np.sqrt(sla.eigvalsh(body.K, body.inv.modal_mass).max())
     assert body.critical_time_step() == pytest.approx(2.0 / omega, rel=1e-12)
     x, theta = body.mesh(body.inv.origin, np.array([1.0, 0, 0, 0]), np.zeros(body.n_modes))
     np.testing.assert_allclose(x, beam.x, atol=1e-14)
@@ -178,3 +180,31 @@ def test_a_free_reduced_coupler_follows_the_full_beam_and_its_error_falls_with_t
     errors = [np.abs(mesh - full.positions).max() / peak for mesh, _ in runs]
     assert errors[0] > errors[1] > errors[2]
     assert errors[2] < 0.01
+
+
+@pytest.mark.parametrize("spin", [2.0, 6.0])
+def test_a_spinning_reduced_blade_softens_in_plane_and_does_not_stiffen_out_of_plane(spin):
+    """rotating_cantilever's blade (32 Beam2, EI = ρA = L = 1, clamped on the spin axis), its frame attached at
+    the hub with its 4 lowest clamped modes (two bending pairs, ω₀ = 3.5151 and 22.029 rad/s), spun about z
+    (steady_spin): a linear-mode model knows only the centrifugal softening, so its lead-lag (in-plane)
+    frequencies are ``√(ω₀² − Ω²)`` and its flapwise ones stay ``ω₀``.  At Ω = 6 > ω₀ the first lead-lag mode
+    is unstable (a real root ``√(Ω² − ω₀²)``): the classic failure without geometric stiffening, where the
+    geometrically exact beam's modes about the same rotation (the modes algorithm, about = "rotation") are
+    4.26 and 7.36 rad/s (lag, flap).  The lumped modes move along z or y alone and the spin couples neither
+    pair, so the formulas hold to round-off of the stiff beam's eigenvalues: 1e-7 relative."""
+    from reference.modal import modes as pencil_modes
+
+    domain = load_deck(MODELS / "rotating_cantilever.toml").domain
+    beam = beam_matrices(domain, "blade")
+    basis = clamped_modes(beam, 0, 4)
+    body = ReducedBody("blade", beam, basis, invariants(beam, basis, origin=beam.x[0]))
+    M, G, K = steady_spin(body, [0.0, 0.0, spin])
+    assert np.abs(G).max() < 1e-12 * np.abs(K).max()  # ω along z couples no in-plane/out-of-plane pair
+    found = pencil_modes(sps.csr_matrix(M), sps.csr_matrix(G), sps.csr_matrix(K), 4)
+    still = 2 * np.pi * basis.frequencies[[0, 2]]
+    # the Euler–Bernoulli roots 1.8751², 4.6941²: 32 lumped Beam2 are 2.6e-4 low (second order), 1e-3 bounds it
+    np.testing.assert_allclose(still, [1.87510407 ** 2, 4.69409113 ** 2], rtol=1e-3)
+    lag = np.sqrt(np.abs(still ** 2 - spin ** 2))  # |s| of the lead-lag roots: ±i√(ω₀² − Ω²) or ±√(Ω² − ω₀²)
+    roots = np.concatenate([still, lag, lag[still < spin]])  # an unstable lag mode: two real roots ±√(Ω² − ω₀²)
+    np.testing.assert_allclose(np.sort(np.abs(found.s)), np.sort(roots)[:4], rtol=1e-7)
+    assert (np.sum(found.kind == "unstable") == 1) == (spin > still[0])

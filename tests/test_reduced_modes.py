@@ -99,11 +99,12 @@ def test_the_invariants_rebuild_the_mass_matrix_of_the_nodal_definition(cantilev
 
 def test_the_free_free_modes_of_a_beam_are_its_unsupported_elastic_modes(cantilever):
     """free_free skips exactly the six rigid motions: its modes are the 7th… eigenpairs of the beam's (K, M),
-    and they are mass-orthogonal to a rigid rotation (C₀ = 0), 1e-10 of the normalised scale."""
+    (LAPACK's dense solver here, the project's shift-invert one there: 3e-10 apart, 1e-8 asserted), and they are
+    mass-orthogonal to a rigid rotation (C₀ = 0), 1e-10 of the normalised scale."""
     _, beam = cantilever
     basis = free_free(beam, 4)
     w2 = sla.eigh(beam.K, beam.M, eigvals_only=True)
-    np.testing.assert_allclose((2 * np.pi * basis.frequencies) ** 2, w2[6:10], rtol=1e-10)
+    np.testing.assert_allclose((2 * np.pi * basis.frequencies) ** 2, w2[6:10], rtol=1e-8)  # two solvers: 3e-10
     assert np.abs(invariants(beam, basis).coupling).max() < 1e-10
 
 

@@ -25,6 +25,7 @@ The equations conserve ``T + ½ qᵀ K_ff q`` and both momenta when ``Q = 0`` an
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg as sla
 
 from reference.reduced.craig_bampton import rotation_matrices
 from reference.reduced.invariants import Invariants, mass_matrix, nodal_rows
@@ -116,11 +117,11 @@ class ReducedBody:
         return 0.5 * V @ self.mass_matrix(p, q) @ V, 0.5 * q @ self.K @ q
 
     def critical_time_step(self) -> float:
-        """``2 / ω_max`` [s] of the modal stiffness (mass-normalised modes: ``ω² = eig K_ff``), the central
-        difference's limit for the stiffest mode kept; infinite without modes."""
+        """``2 / ω_max`` [s], ``ω²`` the largest eigenvalue of ``(K_ff, M_ff)``: the central difference's limit for
+        the stiffest mode kept; infinite without modes."""
         if self.n_modes == 0:
             return np.inf
-        return 2.0 / float(np.sqrt(np.linalg.eigvalsh(self.K).max()))
+        return 2.0 / float(np.sqrt(sla.eigvalsh(self.K, self.inv.modal_mass).max()))
 
     def mesh(self, r, p, q) -> tuple[np.ndarray, np.ndarray]:
         """The deformed mesh: node positions ``r + A (x̄ + Φt q)`` (n, 3) [m] and the nodes' small rotations
@@ -142,3 +143,17 @@ def nearest_velocities(body: ReducedBody, V) -> np.ndarray:
         f, h = m[i] * V[i, :3], J[i] @ V[i, 3:]
         rhs += np.concatenate([f, skew(body.rest[i]) @ f + h, body.Pt[i].T @ f + body.Pr[i].T @ h])
     return np.linalg.solve(body.mass_matrix(p0, q0), rhs)
+
+
+def steady_spin(body: ReducedBody, omega) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The modal equations linearised about ``q = 0`` with the frame turning at the constant ``ω`` (3,) [rad/s,
+    frame components] about its fixed origin (a hub): ``M q̈ + G q̇ + K q = f`` with ``M = M_ff``, the
+    gyroscopic ``G_kl = ωᵀ (C₁ₗ[:, k] − C₁ₖ[:, l])`` (skew) and ``K = K_ff − ωᵀ I₂ₖₗ ω`` (centrifugal
+    softening), from the modal rows of ``Q_v`` (module docstring); the constant centrifugal load
+    ``f_k = −½ ωᵀ I₁ₖ ω`` moves the equilibrium, not the frequencies.  Without geometric stiffening, which
+    the linear modes lack: the frequencies of this pencil are what the reduced body predicts for a spinning
+    part."""
+    w = np.asarray(omega, dtype=float)
+    C = np.einsum("a,lak->kl", w, body.inv.coupling_linear)
+    quadratic = np.einsum("a,klab,b->kl", w, body.inv.inertia_quadratic, w)
+    return body.inv.modal_mass, C - C.T, body.K - 0.5 * (quadratic + quadratic.T)

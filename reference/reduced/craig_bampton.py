@@ -28,16 +28,13 @@ from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sps
 
 from reference.generated import rotation_maps as rm
+from reference.modal import undamped
 from reference.plain.elements import element_tangent
 from reference.plain.vectorise import plain
 from reference.validation import LabelError
-
-RIGID_TOLERANCE = 1e-8
-"""An eigenvalue ``ω²`` below this fraction of the largest one is a rigid-body motion: the beam's rigid motions
-come out at round-off, ~1e-16 of the largest ``ω²`` relative, and the lowest elastic one of a slender
-mesh is above 1e-6 of it (a beam of 100 elements, slenderness 1000)."""
 
 _rotation_matrix = plain(rm.rotation_matrix)
 
@@ -133,6 +130,19 @@ def interface_positions(domain, beam: BeamMatrices, interfaces) -> tuple:
     return tuple(found)
 
 
+def _pairs(K, M, n: int) -> tuple:
+    """The ``n`` lowest ``(ω², φ, kind)`` of ``K φ = ω² M φ``, mass-normalised, by the project's modal solver
+    (:func:`reference.modal.undamped`: shift-invert, so the low pairs keep their digits on a stiff beam whose
+    rotary inertias make ``K``/``M`` span 1e17), then a Rayleigh–Ritz step on the pairs found (the shifted
+    solver leaves close pairs M-orthogonal only to ~1e-6; the projected problem, M near I, restores it to
+    round-off); ``kind`` "zero" marks a rigid motion (:data:`reference.modal.ZERO_MODE`)."""
+    if n == 0:
+        return np.zeros(0), np.zeros((K.shape[0], 0)), np.zeros(0, dtype=str)
+    found = undamped(sps.csr_matrix(M), sps.csr_matrix(K), n)
+    w2, z = sla.eigh(found.phi.T @ K @ found.phi, found.phi.T @ M @ found.phi)  # Rayleigh–Ritz: M-orthonormal
+    return w2, found.phi @ z, found.kind
+
+
 def _frequencies(w2) -> np.ndarray:
     """[Hz] of eigenvalues ``ω²`` (a round-off negative rigid one reads 0)."""
     return np.sqrt(np.clip(w2, 0.0, None)) / (2.0 * np.pi)
@@ -164,8 +174,7 @@ def craig_bampton(beam: BeamMatrices, interfaces: tuple, n_modes: int) -> Basis:
                          f"ask 0 to {i.size} (or refine the mesh)")
     K_ii, K_ib = beam.K[np.ix_(i, i)], beam.K[np.ix_(i, b)]
     psi = -sla.solve(K_ii, K_ib, assume_a="sym")
-    w2, phi = sla.eigh(K_ii, beam.M[np.ix_(i, i)], subset_by_index=[0, n_modes - 1]) if n_modes else \
-        (np.zeros(0), np.zeros((i.size, 0)))
+    w2, phi, _ = _pairs(K_ii, beam.M[np.ix_(i, i)], n_modes)
     T = np.zeros((size, b.size + n_modes))
     T[b, :b.size] = np.eye(b.size)
     T[i, :b.size] = psi
@@ -175,10 +184,10 @@ def craig_bampton(beam: BeamMatrices, interfaces: tuple, n_modes: int) -> Basis:
 
 def free_free(beam: BeamMatrices, n_modes: int) -> Basis:
     """The ``n_modes`` lowest elastic modes of the unsupported ``beam``, mass-normalised (its rigid motions,
-    ``ω² <`` :data:`RIGID_TOLERANCE` × the largest, skipped).  A ValueError of one line when the beam has
+    the zero modes of :func:`_pairs`, skipped).  A ValueError of one line when the beam has
     fewer elastic modes."""
-    w2, phi = sla.eigh(beam.K, beam.M)
-    elastic = np.flatnonzero(w2 > RIGID_TOLERANCE * w2[-1])
+    w2, phi, kind = _pairs(beam.K, beam.M, beam.K.shape[0])
+    elastic = np.flatnonzero(kind != "zero")
     if not 1 <= n_modes <= elastic.size:
         raise ValueError(f"reduce.modes: {n_modes} modes asked of beam {beam.label!r}, which has {elastic.size} "
                          f"elastic modes; ask 1 to {elastic.size} (or refine the mesh)")
@@ -191,8 +200,8 @@ def floating_modes(beam: BeamMatrices, basis: Basis) -> Basis:
     ``(Tᵀ K T, Tᵀ M T)``, mass-normalised, less the rigid-body ones (a Craig–Bampton basis spans the six rigid
     motions through its constraint modes; the frame carries them).  Each column of the result's ``T`` is a mode
     shape on the beam's coordinates; ``frequencies`` are the unsupported reduced body's."""
-    w2, z = sla.eigh(basis.K, basis.M)
-    elastic = w2 > RIGID_TOLERANCE * w2[-1]
+    w2, z, kind = _pairs(basis.K, basis.M, basis.K.shape[0])
+    elastic = kind != "zero"
     return _reduced(beam, basis.T @ z[:, elastic], basis.interfaces, w2[elastic])
 
 
