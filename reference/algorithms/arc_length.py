@@ -57,7 +57,7 @@ import numpy as np
 
 from reference.algorithms.critical_points import CriticalPoints
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
-from reference.algorithms.newton_steps import ENERGY, LAMBDA, NewtonArrays
+from reference.algorithms.newton_steps import NewtonArrays
 from reference.algorithms.path_checks import (START_FIX, STILL, STOP_OPERATORS, load_factor_jump, path_end,
                                               start_problem, unmoved)
 from reference.algorithms.static import _row_forces
@@ -301,13 +301,13 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         nw = run.newton
         par = nw.par
         moved = np.zeros(run.system.n_free + 1)
-        par[LAMBDA] = lam
+        par.load = lam
         code = nw.solve(x, q, run.mu, self.t_end, normal, moved)
         run.history = nw.history()
-        run.U = par[ENERGY]
+        run.U = par.U
         if code == OK:
             run.iterations = len(run.history) - 1
-        return code, par[LAMBDA], moved
+        return code, par.load, moved
 
     def _tangent(self, run, x, q, lam):
         """The tangent ``(δ_F (N,6), μ_F)``: ``K δ_F = F`` at the converged point (raises SingularMatrix)."""
@@ -317,7 +317,8 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         return system.solve(lu, F.copy(), np.zeros(system.model.n_constraints))
 
     def advance(self, model, state, run, n_steps, record) -> int:
-        x, q, v, w, _, clock = state[:6]
+        x, q, v, w, _ = state[:5]
+        clock = state.clock[0]
         system = run.system
         if not run.started:
             v[:] = 0.0
@@ -330,7 +331,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             run.problem = start_problem(system, x, q, self.t_end, self.joint_labels)
             if run.problem:
                 return SINGULAR
-            run.started, clock[0] = True, 0.0
+            run.started, clock.t = True, 0.0
             run.F = system.work.F.copy()
             run.P = _row_forces(system, run.mu)
             self._stability(run, x, q)
@@ -346,8 +347,8 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                 state.angle[:] = system.work.angle
                 run.stopped_at = run.lam
                 return code
-            clock[1] += 1
-            clock[0] = run.lam
+            clock.n += 1
+            clock.t = run.lam
             self._stability(run, x, q)
             run.done = path_end(x, run.lam, self.max_load_factor, self.stop_when)
         state.angle[:] = system.work.angle
@@ -409,7 +410,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                 run.s += float(np.linalg.norm(increment))
                 run.previous = increment
                 dW, run.P = self._work(run, saved[0], saved[1], x, q, lam)
-                clock[2] += dW
+                clock.work += dW
                 run.lam, run.jumped, run.switch = lam, run.switch is not None, None
                 run.peak, run.problem = max(run.peak, abs(lam)), ()
                 if self.control is None:
@@ -454,7 +455,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         if not run.started or run.recorded[:2] == (run.lam, run.s):
             return False
         U = float(run.system.evaluate(state.x, state.q, state.x, state.x, state.x, run.mu, self.t_end, False))
-        run.system.write_record(record, state.x, state.q, state.v, state.w, U, state.clock, run.mu)
+        run.system.write_record(record, state.x, state.q, state.v, state.w, U, state.clock[0], run.mu)
         run.recorded = (run.lam, run.s, run.iterations, run.negative)
         return True
 

@@ -55,7 +55,7 @@ import numpy as np
 from reference.algorithms.base import Algorithm
 from reference.elements.families import family_of
 from reference.evaluation.forces import model_forces
-from reference.evaluation.tangent import newton_pattern, tangent_values
+from reference.evaluation.tangent import TangentWork, newton_pattern, tangent_values
 from reference.generated import rotation_maps as rm
 from reference.jit import boundary, inlined, kernel, named, parallel_kernel, prange
 from reference.joints.assembly import joint_rows
@@ -80,10 +80,8 @@ class Work:
         self.A = np.zeros(9)
         self.jphi, self.jB, self.jphit = np.zeros(6), np.zeros((6, 12)), np.zeros(6)
         self.prim_phi, self.prim_B = np.zeros(10), np.zeros(120)
-        self.small = np.zeros((8, 12))
-        self.K12 = np.zeros((12, 12))
         sizes = [6 * family_of(data).n_nodes for data in model.elements]
-        self.Kel = np.zeros(max(sizes + [12]) ** 2)  # one element's tangent block (flat)
+        self.tangent = TangentWork.for_sizes(max(sizes + [12]) ** 2)
         nF = model.force_elements.kind.shape[0]
         blocks = sum(size * size * data.conn.shape[0] for size, data in zip(sizes, model.elements))
         self.values = np.zeros(36 * N + blocks + 144 * J + 24 * m + m + 144 * nF)
@@ -238,7 +236,7 @@ class NewtonSystem:
         wk = self.work
         ce = 1.0 / ck if ce is None else ce
         psi = self.zero_psi if psi is None else psi
-        tangent_values(self.arg, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12, wk.Kel)
+        tangent_values(self.arg, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.tangent)
         return self.pattern.matrix(wk.values)
 
     def mass(self, x, q):
@@ -444,8 +442,8 @@ def write_record_named(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
             rq[i, a] = q[i, a]
     rec.energy[0] = T
     rec.energy[1] = U
-    rec.energy[2] = clock[2]
-    rec.energy[3] = clock[3]
+    rec.energy[2] = clock.work
+    rec.energy[3] = clock.dissipated
     c0 = 0.0
     c1 = 0.0
     jt_i, jt_j, jt_row0, jt_neq, rlam = model.joints.i, model.joints.j, model.joints.row0, model.joints.neq, rec.lam
