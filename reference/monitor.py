@@ -146,9 +146,10 @@ class BlowUpMonitor:
     def guard_report(guard, work: float) -> str:
         """``" (kinetic + strain energy … against … of work done)"`` when the algorithm's per-step
         guard (the :data:`reference.state.GUARD` record ``guard``) stopped the run, else ``""``."""
-        if not (guard.tolerance > 0.0 and guard.residual > guard.tolerance * guard.scale):
+        tolerance, scale = guard["tolerance"], guard["scale"]
+        if not (tolerance > 0.0 and guard["residual"] > tolerance * scale):
             return ""  # the guard did not stop the run (its lag allowance only adds)
-        return f" (energy {guard.energy:.3g} J, work {work:.3g} J)"
+        return f" (energy {guard['energy']:.3g} J, work {work:.3g} J)"
 
     def stretch(self, x: np.ndarray) -> str | None:
         if not len(self.L0) or not _stretched(x, self.conn, self.L0, MAX_STRETCH):

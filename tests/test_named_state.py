@@ -1,9 +1,9 @@
 """The engine reads its state, settings and packed parameters by name (issue 37 item 3).
 
 The clock, the energy guard and the settings of the compiled generalized-α and Newton loops are records
-(:func:`reference.state.record_dtype`), read as ``clock.t``, ``guard.scale``, ``par.h_next``; the packed joint,
-force-element and master/slave parameters are split into named views by one accessor each, next to the
-layout it reads.  No other reader indexes ``par``, ``clock``, ``guard`` or ``small`` at a literal slot.
+(:func:`reference.state.record_dtype`), read by name (``clock.t`` in a kernel, ``clock["t"]`` in Python); the
+packed joint, force-element and master/slave parameters are split into named views by one accessor each, next
+to the layout it reads.  No other reader indexes ``par``, ``clock``, ``guard`` or ``small`` at a literal slot.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ class _Reads(ast.NodeVisitor):
         base = node.value.attr if isinstance(node.value, ast.Attribute) else getattr(node.value, "id", None)
         index = node.slice
         number = isinstance(index, ast.Constant) and isinstance(index.value, int)
-        record = number and index.value == 0 and base in ("clock", "guard")
+        record = number and index.value == 0 and base in ("clock", "guard", "par")
         if base in NAMES and (number or isinstance(index, ast.Slice)) and not record:
             self.found.append((self.file, self.stack[-1], ast.unparse(node)))
         self.generic_visit(node)
@@ -46,8 +46,8 @@ class _Reads(ast.NodeVisitor):
 
 def _literal_reads():
     """``(file, function, source)`` of every ``par``/``clock``/``guard``/``small`` subscript by a literal
-    integer or slice in reference/, but for ``[0]`` of ``clock``/``guard`` (the record of a one-element
-    record array)."""
+    integer or slice in reference/, but for ``[0]`` of ``clock``/``guard``/``par``: the record of a one-element
+    record array (a float array's slot 0 read as a record would fail at once: a record does no arithmetic)."""
     found = []
     for path in sorted(ENGINE.rglob("*.py")):
         reads = _Reads(path.relative_to(ENGINE).as_posix())
@@ -71,7 +71,7 @@ def test_records_are_named_and_flat():
         assert all(dtype.fields[name][0] == np.float64 for name in dtype.names)
         assert dtype.itemsize == 8 * len(dtype.names)  # no padding: aligned f8 fields
     clock = new_clock(1.5)[0]
-    assert (clock.t, clock.n, clock.work, clock.dissipated) == (1.5, 0.0, 0.0, 0.0)
-    par = alpha_steps.new_par(h=1e-3, h_next=1e-3)
-    assert (par.h, par.h_next, par.accepted, par.h_min, par.h_max) == (1e-3, 1e-3, 0.0, np.inf, 0.0)
-    assert np.isnan(par.error)
+    assert [clock[name] for name in ("t", "n", "work", "dissipated")] == [1.5, 0.0, 0.0, 0.0]
+    par = alpha_steps.new_par(h=1e-3, h_next=1e-3)[0]
+    assert [par[name] for name in ("h", "h_next", "accepted", "h_min", "h_max")] == [1e-3, 1e-3, 0.0, np.inf, 0.0]
+    assert np.isnan(par["error"])

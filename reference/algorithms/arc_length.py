@@ -299,15 +299,15 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         (:func:`reference.algorithms.newton_steps.newton_loop`); Python makes only the SuperLU factorisations
         it asks for (the first, and after the kept pivots went bad) and resumes it."""
         nw = run.newton
-        par = nw.par
+        par = nw.par[0]
         moved = np.zeros(run.system.n_free + 1)
-        par.load = lam
+        par["load"] = lam
         code = nw.solve(x, q, run.mu, self.t_end, normal, moved)
         run.history = nw.history()
-        run.U = par.U
+        run.U = par["U"]
         if code == OK:
             run.iterations = len(run.history) - 1
-        return code, par.load, moved
+        return code, par["load"], moved
 
     def _tangent(self, run, x, q, lam):
         """The tangent ``(δ_F (N,6), μ_F)``: ``K δ_F = F`` at the converged point (raises SingularMatrix)."""
@@ -331,13 +331,13 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             run.problem = start_problem(system, x, q, self.t_end, self.joint_labels)
             if run.problem:
                 return SINGULAR
-            run.started, clock.t = True, 0.0
+            run.started, clock["t"] = True, 0.0
             run.F = system.work.F.copy()
             run.P = _row_forces(system, run.mu)
             self._stability(run, x, q)
         if record is not None:
             U = float(system.evaluate(x, q, x, x, x, run.mu, self.t_end, False))
-            system.write_record(record, x, q, v, w, U, clock, run.mu)
+            system.write_record(record, x, q, v, w, U, state.clock, run.mu)
             run.recorded = (run.lam, run.s, run.iterations, run.negative)
         for _ in range(n_steps):
             if run.done:
@@ -347,8 +347,8 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                 state.angle[:] = system.work.angle
                 run.stopped_at = run.lam
                 return code
-            clock.n += 1
-            clock.t = run.lam
+            clock["n"] += 1
+            clock["t"] = run.lam
             self._stability(run, x, q)
             run.done = path_end(x, run.lam, self.max_load_factor, self.stop_when)
         state.angle[:] = system.work.angle
@@ -410,7 +410,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                 run.s += float(np.linalg.norm(increment))
                 run.previous = increment
                 dW, run.P = self._work(run, saved[0], saved[1], x, q, lam)
-                clock.work += dW
+                clock["work"] += dW
                 run.lam, run.jumped, run.switch = lam, run.switch is not None, None
                 run.peak, run.problem = max(run.peak, abs(lam)), ()
                 if self.control is None:
@@ -455,7 +455,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         if not run.started or run.recorded[:2] == (run.lam, run.s):
             return False
         U = float(run.system.evaluate(state.x, state.q, state.x, state.x, state.x, run.mu, self.t_end, False))
-        run.system.write_record(record, state.x, state.q, state.v, state.w, U, state.clock[0], run.mu)
+        run.system.write_record(record, state.x, state.q, state.v, state.w, U, state.clock, run.mu)
         run.recorded = (run.lam, run.s, run.iterations, run.negative)
         return True
 

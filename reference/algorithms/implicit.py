@@ -297,9 +297,10 @@ class NewtonSystem:
         """Correction from the last :meth:`evaluate`: right-hand side ``−[c_k r; Φ − ελ]``."""
         return self.solve(lu, -ck * self.work.r, -(self.work.PHI - self.model.joints.eps * lam))
 
-    def write_record(self, rec, x, q, v, w, U, energy_clock, lam) -> None:
-        """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B)."""
-        write_record(self.arg, x, q, v, w, U, energy_clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl,
+    def write_record(self, rec, x, q, v, w, U, clock, lam) -> None:
+        """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B; ``clock`` the
+        state's, :data:`reference.state.CLOCK` (1,))."""
+        write_record(self.arg, x, q, v, w, U, clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl,
                      self.record_arg(rec))
 
     def record_arg(self, rec):
@@ -420,13 +421,15 @@ def relative_rotation(q0, q1, out, tmp):
 
 @kernel
 def write_record(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
-    """Record: configuration, velocities, energies [T, U, W, D], ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
-    write_record_named(named(model, Model), x, q, v, w, U, clock, lam, PHI, PHIt, Bl, named(rec, Record))
+    """Record: configuration, velocities, energies [T, U, W, D] (W and D from ``clock``, the state's
+    :data:`reference.state.CLOCK` (1,)), ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
+    write_record_named(named(model, Model), x, q, v, w, U, clock[0], lam, PHI, PHIt, Bl, named(rec, Record))
 
 
 @inlined
 def write_record_named(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
-    """:func:`write_record` of a Model and Record that are named tuples already (the form a kernel inlines)."""
+    """:func:`write_record` of a Model and Record that are named tuples already and of the clock's record (the
+    form a kernel inlines)."""
     T = 0.0
     J, mass = model.nodes.inertia, model.nodes.mass
     rx, rq, rv, rw = rec.x, rec.q, rec.v, rec.w
@@ -442,8 +445,8 @@ def write_record_named(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
             rq[i, a] = q[i, a]
     rec.energy[0] = T
     rec.energy[1] = U
-    rec.energy[2] = clock.work
-    rec.energy[3] = clock.dissipated
+    rec.energy[2] = clock["work"]
+    rec.energy[3] = clock["dissipated"]
     c0 = 0.0
     c1 = 0.0
     jt_i, jt_j, jt_row0, jt_neq, rlam = model.joints.i, model.joints.j, model.joints.row0, model.joints.neq, rec.lam

@@ -170,7 +170,7 @@ class LinearAnalysis(Algorithm):
         if record is not None:
             x, q, v, w = state.x, state.q, state.v, state.w
             U = system.evaluate(x, q, v, w, np.zeros((x.shape[0], 6)), run.lam, state.t, True)
-            system.write_record(record, x, q, v, w, U, state.clock[0], run.lam)
+            system.write_record(record, x, q, v, w, U, state.clock, run.lam)
         return self._analysis(model, state, run) if n_steps == 0 else OK
 
     def _too_many(self, model, state, run) -> bool:

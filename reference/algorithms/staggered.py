@@ -96,16 +96,16 @@ def _balance(T, P_old, P_new, h, P_drive, mean, U, clock, guard):
     ``guard`` the :data:`reference.state.GUARD` record."""
     E = T + U
     if not mean:  # the first step: E₀ only
-        guard.E0 = E
-        guard.scale = max(guard.scale, abs(E))  # S starts at the round-off floor (monitor.energy_floor)
+        guard["E0"] = E
+        guard["scale"] = max(guard["scale"], abs(E))  # S starts at the round-off floor (monitor.energy_floor)
         return False
-    guard.scale = max(guard.scale, abs(guard.E0) + abs(clock.work) + abs(clock.dissipated))
-    r = E - guard.E0 - clock.work + clock.dissipated
-    guard.residual, guard.energy = r, E
+    guard["scale"] = max(guard["scale"], abs(guard["E0"]) + abs(clock["work"]) + abs(clock["dissipated"]))
+    r = E - guard["E0"] - clock["work"] + clock["dissipated"]
+    guard["residual"], guard["energy"] = r, E
     # the energy itself must have grown too: negative work at round-off level on a held model
     # (W ≈ −1e-20, E = 0) is no blow-up
-    allowed = guard.tolerance * guard.scale
-    return r > allowed + h * (abs(P_old) + abs(P_new) + abs(P_drive)) and E - guard.E0 > allowed
+    allowed = guard["tolerance"] * guard["scale"]
+    return r > allowed + h * (abs(P_old) + abs(P_new) + abs(P_drive)) and E - guard["E0"] > allowed
 
 
 @inlined
@@ -154,8 +154,8 @@ def _record(model, scratch, rec, state, first, U, dD_fe):
             rec.q[i, a] = q[i, a]
     rec.energy[0] = _kinetic(model, rec.v, rec.w)
     rec.energy[1] = U
-    rec.energy[2] = clock.work
-    rec.energy[3] = clock.dissipated + (0.0 if first else 0.5 * dD_fe)
+    rec.energy[2] = clock["work"]
+    rec.energy[3] = clock["dissipated"] + (0.0 if first else 0.5 * dD_fe)
     rec.constraint[0] = 0.0
     rec.constraint[1] = 0.0
     PHI, PHIt, lam, work = scratch.PHI, scratch.PHIt, scratch.lam, scratch.work
@@ -188,7 +188,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     n_ms = model.master_slave.master.shape[0]
     part, sums, q_tmp = np.empty((n_chunks(x.shape[0]), SUMS)), np.empty(SUMS), scratch.q_tmp
     for k in range(max(n_steps, 1)):
-        t, n = clock.t, clock.n
+        t, n = clock["t"], clock["n"]
         # dampers of the force elements at V^{n−½}
         U, _ = model_forces(model.nodes.mass, model.gravity, model.loads, model.time_functions, model.elements,
                             model.force_elements, scratch.elements, x, q, v, w, t, S, F, G, state.angle,
@@ -201,9 +201,9 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         if (n_rows > 0 or n_ms > 0) and _constrain(model, scratch, state, t, h, hk) != OK:
             return SINGULAR
         c = model.damping
-        node_sums(model.nodes, v, w, v_new, w_new, F, f_prev, c != 0.0, guard.tolerance > 0.0, n > 0, part, sums)
+        node_sums(model.nodes, v, w, v_new, w_new, F, f_prev, c != 0.0, guard["tolerance"] > 0.0, n > 0, part, sums)
         if n > 0:  # the trapezoidal work of the external forces over the increment into t_n
-            clock.work += h * sums[0]
+            clock["work"] += h * sums[0]
         # energy removed by the damping (mass-proportional and the force elements' dampers) in this
         # kick: force at V^{n−½} times the mean velocity; t_n (integer-step velocities) gets half
         dD_fe = hk * c * sums[1] if c != 0.0 else 0.0
@@ -220,16 +220,16 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         if n_rows > 0:
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
             P_drive = constraint_power(model, scratch.Bj, scratch.lam, v, w, v_new, w_new)
-            clock.work += hk * P_drive
-        clock.dissipated += 0.5 * dD_fe
-        if guard.tolerance > 0.0 and _balance(sums[2], sums[3], sums[4], h, P_drive, n > 0, U, clock, guard):
+            clock["work"] += hk * P_drive
+        clock["dissipated"] += 0.5 * dD_fe
+        if guard["tolerance"] > 0.0 and _balance(sums[2], sums[3], sums[4], h, P_drive, n > 0, U, clock, guard):
             return BLOWUP
-        clock.dissipated += 0.5 * dD_fe
+        clock["dissipated"] += 0.5 * dD_fe
         drift_nodes(x, q, v, w, v_new, w_new, f_prev, F, h)
         if n_ms > 0:
             master_slave_positions(model, x, q, scratch.A_m, scratch.A_s, q_tmp, scratch.r4)
-        clock.n = n + 1
-        clock.t = (n + 1) * h
+        clock["n"] = n + 1
+        clock["t"] = (n + 1) * h
     return OK
 
 
@@ -266,7 +266,7 @@ class StaggeredCentralDifference(Algorithm):
         :func:`reference.monitor.energy_floor`) is given, and the critical step for the messages."""
         scratch = Scratch.for_model(model)
         if guard is not None:
-            scratch.guard[0].scale, scratch.guard[0].tolerance = guard, GUARD_TOLERANCE
+            scratch.guard[0]["scale"], scratch.guard[0]["tolerance"] = guard, GUARD_TOLERANCE
         return ExplicitRun(scratch, float(critical_step), CallBudget())
 
     def failure(self, code, state, run):
@@ -300,7 +300,7 @@ class ExplicitRun(NamedTuple):
     @property
     def energy(self) -> float:
         """Kinetic + strain energy at the last guarded step [J]."""
-        return float(self.scratch.guard[0].energy)
+        return float(self.scratch.guard[0]["energy"])
 
 
 def step(model: Model, state: State, h: float) -> State:
