@@ -143,10 +143,10 @@ class Model(NamedTuple):
 def record_dtype(*names: str) -> np.dtype:
     """The dtype of a record of float fields ``names``, read and written by name, ``clock["t"]``, in the compiled
     kernels (numba compiles a field as the slot of an array) and in Python (a :class:`numpy.void`, so that
-    ``NUMBA_DISABLE_JIT=1`` runs the kernels too; a :class:`numpy.record`'s attribute costs some 4 µs a read in
-    Python, 6 times this).  Aligned, so that numba takes an array of them as an aligned array.  The algorithms
-    keep one record in an array of shape (1,) and pass the array to a kernel (numba takes an array in a fifth of
-    the time of a record), which works on its record ``[0]``."""
+    ``NUMBA_DISABLE_JIT=1`` runs the kernels too; a :class:`numpy.record`'s attributes are Python code, too slow
+    for the per-output loop, docs/benchmarks.md §9).  Aligned, so that numba takes an array of them as an aligned
+    array.  The algorithms keep one record in an array of shape (1,) and pass the array to a kernel (numba takes
+    an array faster than a record), which works on its record ``[0]``."""
     return np.dtype([(name, "f8") for name in names], align=True)
 
 
