@@ -42,6 +42,11 @@ from flexmbs import __version__
 from flexmbs.signals import SIGNAL_NAMES, STOP, Stopped, install_signal_handlers, check_signals
 
 
+BACKEND_CHOICES = ("compiled", "reference", "auto")
+"""``--backend``: the values of ``[solver] backend`` (:data:`reference.plain.backend.BACKENDS`, not imported: the
+command line loads the engine only when a command needs it)."""
+
+
 class CommandError(Exception):
     """A user error to report in one line, without a traceback (exit status 2)."""
 
@@ -89,8 +94,8 @@ def _refuse_dt_without_a_step(args, deck) -> None:
 
 
 def _overrides(args) -> dict:
-    return {k: v for k, v in (("t_end", args.t_end), ("dt", getattr(args, "dt", None)), ("refine", args.refine))
-            if v is not None}
+    return {k: v for k, v in (("t_end", args.t_end), ("dt", getattr(args, "dt", None)), ("refine", args.refine),
+                              ("solver.backend", getattr(args, "backend", None))) if v is not None}
 
 
 def _run_deck(args, deck):
@@ -122,6 +127,10 @@ def _run_deck(args, deck):
         print("compiling the kernels (once for this version of the engine: a few minutes)…", file=sys.stderr,
               flush=True)
 
+    if domain.solver.backend == "auto":  # the rule's decision and why, before the run (no bar yet)
+        from reference.plain.backend import for_domain
+
+        print(for_domain(domain).line, flush=True)
     shown_before, warnings.showwarning = warnings.showwarning, warning_line
     timer = CompileTimer(compiling)
     try:
@@ -420,6 +429,9 @@ def parser() -> argparse.ArgumentParser:
                      help="skip the ParaView output")
     run.add_argument("--vtk-every", type=number(int, 0, low_ok=True, example="--vtk-every 10"), default=1,
                      metavar="N", help="ParaView output of every N-th output record (default 1; 0: none)")
+    run.add_argument("--backend", choices=BACKEND_CHOICES,
+                     help="the implementation that runs the algorithm, overriding the deck's solver.backend: "
+                          "compiled (numba kernels), reference (plain NumPy, no compilation) or auto")
     run.set_defaults(func=cmd_run)
     mod = sub.add_parser("modes", help="a modes or buckling deck: its table, and the results file as `run` writes it")
     mod.add_argument("deck")
@@ -430,6 +442,7 @@ def parser() -> argparse.ArgumentParser:
                      help="multiply every beam's element count")
     mod.add_argument("--no-vtk", dest="vtk_every", action="store_const", const=0, default=1,
                      help="skip the ParaView output of the configuration")
+    mod.add_argument("--backend", choices=BACKEND_CHOICES, help="as for `flexmbs run`")
     mod.set_defaults(func=cmd_modes)
     cb = sub.add_parser("campbell", help="a modes deck about a steady rotation over a range of spin rates: table, "
                         "figure, /campbell/* in the results file")

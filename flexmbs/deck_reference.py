@@ -36,6 +36,8 @@ NAMED = {"sections", "time_functions", "checks", "crosscheck"}
 """Tables of named entries (``[sections.NAME]``): the name is not a key."""
 KINDS = {"time_functions": "kind", "springs": "kind", "solver": "algorithm"}
 """Tables whose keys depend on the value of one key: one key table per value."""
+COMMON_KEYS = {"[solver]": ("backend",)}
+"""Keys that every value of such a table's key takes: rows of the table itself, beside that key."""
 _ENTRY = re.compile(r"^(?P<table>[a-z_]+)(?P<index>\[\d+\])?(?:\.(?P<rest>.+))?$")
 _BAD = {"number": "x", "integer": 0, "vector": [1.0], "direction": [0.0, 0.0, 0.0], "rotation": [1.0, 1.0, 0.0, 0.0],
         "string": 1, "boolean": "yes", "choice": "?", "label": "a/b"}
@@ -495,7 +497,7 @@ def markdown(book: _Book | None = None, deck_page: str = "docs/deck.md") -> str:
                     "keys on; the keys below are those the gallery's decks use.", ""]
         if pattern in kind_tables:
             disc = KINDS[pattern.strip("[]").split(".")[0]]
-            out += _rows(pattern, [disc], info, meaning) + [""]
+            out += _rows(pattern, [disc, *COMMON_KEYS.get(pattern, ())], info, meaning) + [""]
             for kind, (req, opt, declared) in kind_tables[pattern].items():
                 out += [f"### `{disc} = \"{kind}\"`", ""]
                 out += _rows(pattern, [k for k in [*req, *opt] if k != disc], info, meaning, set(req), declared,

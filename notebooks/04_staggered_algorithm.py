@@ -8,7 +8,7 @@
 # ---
 
 # %% [markdown]
-# # Lesson 4 — Park's staggered algorithm: stability limit and constraint drift
+# # Lesson 4 — Park's staggered algorithm: one step by hand, the stability limit, constraint drift
 #
 # One step from $t_n$ to $t_{n+1}$ (`docs/formulation.md` §6):
 #
@@ -17,11 +17,8 @@
 # 2. **constraint forces** — the stabilised multipliers $\lambda^n$, then $V^{n+1/2} = V^* - h\,M^{-1}B^{\mathsf T}\lambda^n$;
 # 3. **drift** — $x^{n+1} = x^n + h\,v^{n+1/2}$ and $q^{n+1} = q^n\otimes p(h\,\omega^{n+1/2})$ (Lesson 1).
 #
-# Explicit means **conditionally stable**: for an undamped mode of frequency $\omega$ central
-# differences are stable only if $\omega h \le 2$. For a lumped two-node beam element the smallest
-# limit among the axial $L_0\sqrt{\rho A/EA}$, torsional $L_0\sqrt{\rho J_1/GJ}$, bending–rotation
-# $L_0\sqrt{\rho J/EI}$ and shear–rotation $2/\sqrt{(GA/\rho A)(4/L_0^2 + \rho A/\rho J)}$ estimates governs
-# (`Beam2Formulation.critical_time_step`).
+# Below, one step is first taken **by hand**, stage after stage, on the reference path; then the stability
+# limit of the step and the constraint drift are measured with `solve()`.
 
 # %%
 import os
@@ -34,6 +31,9 @@ import reference
 from reference.domain import Domain, SolverDiverged, SolverSettings
 from reference.elements import Section
 from reference.interactions import Clamp, NodalLoad
+from reference.io.deck import load_deck
+from reference.plain import park
+from reference.plain.model import Evaluation
 
 FIGURES = Path("figures") / "04_staggered_algorithm"  # this lesson's figures, saved next to where it runs
 FIGURES.mkdir(parents=True, exist_ok=True)
@@ -44,6 +44,94 @@ ROOT = Path(reference.__file__).resolve().parents[1]
 section = Section(EA=1e3, GA2=1e3, GA3=1e3, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-2, rhoJ2=1e-2, rhoJ3=1e-2)
 
 
+# %% [markdown]
+# ## One step by hand, on the reference path
+#
+# `solve()` takes its steps inside compiled kernels. The **reference path** (`reference/plain/`) writes the
+# same equations in plain NumPy from the same generated physics: `Evaluation` (`reference/plain/model.py`)
+# gives the forces and the joints' rows of a model, and `reference/plain/park.py` has one function per stage
+# of the step (the paper's Fig. 10, `Solve_at`). Here they are called one at a time on the three-bar
+# mechanism (paper §5.2). It starts at rest and its crank drive starts turning it, so the step looked at
+# is the one from $t_n = 0.1$ s, after 500 whole steps (`park.solve_step`: the same stages in one call):
+
+# %%
+bar = load_deck(ROOT / "models" / "three_bar.toml").domain
+model = bar.initialization()
+state = bar.initial_conditions()
+ev = Evaluation(model)
+h = bar.solver.dt
+joints = [j for j in bar.joints if j.formulation.multipliers]  # the joints with multipliers, in row order
+START = 500
+for _ in range(START):
+    park.solve_step(ev, state, h, guard=np.zeros(5))  # guard: the per-step energy check's slots (zeros: off)
+
+f = park.forces(ev, state)  # 1. internal S and external F at t_n (N × 6: force, body-frame moment)
+hk = park.kick_length(state, h)  # the kick spans h, h/2 at the first step
+kick = park.predict(ev, state, f, hk, extra=park.CONSTRAINED_SWEEPS)  # 2. V* without the joints' forces
+new = park.constrain(ev, state, f, kick, h, hk)  # 3. multipliers λ and V^{n+1/2} = V* − M⁻¹Bᵀ h_k λ
+print(f"t = {state.t:g} s, h_k = {hk:g} s, strain energy U = {f.U:.3e} J")
+print("multipliers λ (forces [N], moments [N m]) by joint:")
+for joint, row in zip(joints, model.joints.row0):
+    print(f"  {joint.label:12s}", np.array2string(new.lam[row:row + joint.n_equations], precision=4,
+                                                  suppress_small=True))
+a = new.accelerations(state, hk)
+print("corrected accelerations [v̇ (m/s²) | ω̇ (rad/s², body frame)] of the nodes:")
+for node, row in zip(bar.nodes, a):
+    print(f"  {node.label:12s}", np.array2string(row, precision=4, suppress_small=True))
+
+# %% [markdown]
+# The multipliers are the joints' reactions: the crank drive's single row is the driving torque. The
+# accelerations are those of the predictor corrected by the constraint forces, $(V^{n+1/2} - V^{n-1/2})/h_k$.
+# The step ends with the energy bookkeeping (the work of the loads and of the constraint forces, the energy
+# the damping removes) and the **drift** of positions and Euler parameters:
+
+# %%
+state.clock[2] += park.work_of_loads(state, f.F, h)  # 4. external work into t_n
+loss = park.damping_loss(ev, state, new, hk)  # energy removed by damping in this kick (none here)
+state.clock[2] += hk * park.power_of_constraints(state, new)  # work of the constraint forces (the drive's)
+state.clock[3] += loss
+park.drift(ev, state, new, f.F, h)  # 5. x += h v^{n+1/2}, q ← q ⊗ p(h ω^{n+1/2}); t = t_{n+1}
+print(f"t = {state.t:g} s, work of the drive so far {state.clock[2]:.3e} J")
+
+
+def hand_step(state):
+    """One step by hand: the five stages above; returns the multipliers λ^n."""
+    f = park.forces(ev, state)
+    hk = park.kick_length(state, h)
+    new = park.constrain(ev, state, f, park.predict(ev, state, f, hk, extra=park.CONSTRAINED_SWEEPS), h, hk)
+    state.clock[2] += park.work_of_loads(state, f.F, h) + hk * park.power_of_constraints(state, new)
+    state.clock[3] += park.damping_loss(ev, state, new, hk)
+    park.drift(ev, state, new, f.F, h)
+    return new.lam
+
+
+multipliers = [new.lam] + [hand_step(state) for _ in range(9)]  # nine more: ten steps by hand
+print(f"after ten hand steps: t = {state.t:g} s, rocker tip at", np.array2string(state.x[-1], precision=6))
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+ten = load_deck(ROOT / "models" / "three_bar.toml",
+                       overrides={"t_end": (START + 10) * h, "solver.output_every": 1}).domain
+solved = ten.solve()  # the compiled step, the same 510 steps
+size = np.abs(solved.positions).max()
+assert np.abs(state.x - solved.positions[-1]).max() <= 1e-10 * size  # round-off: sums in another order
+assert np.abs(state.q - solved.rotations[-1]).max() <= 1e-10
+# λ of the ten hand steps, recorded at their starting times.  λ carries Φ/h²: a round-off δx of the positions
+# (here ~3e-15 m after 510 steps) moves it by up to m δx/h² (~3e-7 N for the 4 kg rocker), not more
+lam, dx = np.array(multipliers), np.abs(state.x - solved.positions[-1]).max()
+bound = 10 * model.nodes.mass.max() * dx / h**2 + 1e-10 * np.abs(solved.multipliers).max()
+assert np.abs(lam - solved.multipliers[START:START + 10]).max() <= bound
+
+# %% [markdown]
+# ## The stability limit
+#
+# Explicit means **conditionally stable**: for an undamped mode of frequency $\omega$ central
+# differences are stable only if $\omega h \le 2$. For a lumped two-node beam element the smallest
+# limit among the axial $L_0\sqrt{\rho A/EA}$, torsional $L_0\sqrt{\rho J_1/GJ}$, bending–rotation
+# $L_0\sqrt{\rho J/EI}$ and shear–rotation $2/\sqrt{(GA/\rho A)(4/L_0^2 + \rho A/\rho J)}$ estimates governs
+# (`Beam2Formulation.critical_time_step`). The runs below take their steps with `solve()` on a clamped
+# cantilever, at steps around the estimate.
+
+# %%
 def cantilever(dt, elements=10):
     d = Domain("cantilever")
     nodes = d.add_beam("beam", (0, 0, 0), (1, 0, 0), elements, section)
@@ -108,7 +196,7 @@ assert 1.0 <= limit_ratio <= 1.25  # safe, and not needlessly small
 # $\|\Phi\|$ near $4\times10^{-8}$ m:
 
 # %%
-d = Domain.from_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 2.0 if QUICK else 10.0})
+d = load_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 2.0 if QUICK else 10.0}).domain
 r = d.solve()
 print("max ‖Φ‖ = %.2e m over %g s" % (r.constraint_violation.max(), r.time[-1]))
 e = r.energy
@@ -155,7 +243,7 @@ assert abs(h10 / h20 - shear_rotation[0] / shear_rotation[1]) < 1e-3
 # Exercise 2
 from flexmbs.verification.observables import midspan_deflection
 
-runs = {h: Domain.from_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 1.0, "dt": h}).solve()
+runs = {h: load_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 1.0, "dt": h}).domain.solve()
         for h in (2e-4, 1e-4, 5e-5)}
 e1 = np.max(np.abs(midspan_deflection(runs[2e-4]) - midspan_deflection(runs[5e-5])))
 e2 = np.max(np.abs(midspan_deflection(runs[1e-4]) - midspan_deflection(runs[5e-5])))

@@ -18,20 +18,16 @@ from __future__ import annotations
 import math
 import time as _time
 import warnings
-from typing import NamedTuple
 
 import numpy as np
 
 from reference.algorithms.base import Algorithm
-from reference.elements.families import resultants
 from reference.io.results import MemoryRecorder, Results
-from reference.jit import boundary, inlined, kernel, named, use_threads
-from reference.joints.joint import PRESCRIBED
-from reference.joints.reactions import joint_reactions
-from reference.joints.reactions import scratch as reaction_scratch
+from reference.jit import use_threads
 from reference.joints.setup import multiplier_joints
 from reference.monitor import BlowUpMonitor, nonfinite_load, rediagnosed
-from reference.state import Model, Record, State, element_work
+from reference.outputs import Outputs, inverse_axial_stiffness
+from reference.state import Model, Record, State
 from reference.status import OK
 from reference.validation import ModelWarning, axial_strain
 
@@ -40,112 +36,41 @@ class SolverDiverged(RuntimeError):
     """The run failed or blew up; the results written so far are kept."""
 
 
-class OutputArrays(NamedTuple):
-    """The groups of the :class:`~reference.state.Model` that the derived outputs read.
-
-    :func:`derived_outputs` takes these in place of the Model (its kernels read the same
-    fields by name): a compiled call unboxes every array it is given, ~0.1 µs each.
-    """
-
-    joints: tuple
-    time_functions: tuple
-    elements: tuple
-
-
-class Outputs:
-    """The output record of a run: the algorithm's :class:`~reference.state.Record` and the derived
-    outputs, joint reactions and element section resultants, as one dict of preallocated arrays.
-
-    Reactions of all joints (NaN for master/slave ones, which have no
-    multipliers; :func:`reference.joints.reactions.joint_reactions`) and the
-    section resultants N, M at every element's midpoint
-    (:func:`reference.elements.families.resultants`), both computed by one
-    compiled call (:func:`derived_outputs`) into arrays allocated once; with prescribed
-    displacements, each one's reaction along its direction (``prescribed_reaction``, NaN for the
-    other joints).
-
-    Parameters
-    ----------
-    model : Model
-    joints : list of Joint
-        The Domain's joints, in the order of the results' ``/joints``.
-    rec : Record
-        The record the algorithm fills.
-    """
-
-    def __init__(self, model: Model, joints: list, rec: Record):
-        rows = [k for k, j in enumerate(joints) if j.formulation.multipliers]
-        self.model, self.rec = model, rec
-        self.arrays = boundary(OutputArrays(model.joints, model.time_functions, model.elements))
-        self.slot = np.array(rows, dtype=np.int64)
-        J, E = len(joints), model.n_elements
-        # rows of master/slave joints are never written: NaN once
-        self.force, self.moment = np.full((J, 3), np.nan), np.full((J, 3), np.nan)
-        self.section_force, self.section_moment = np.zeros((E, 3)), np.zeros((E, 3))
-        self.scratch, self.element_work = reaction_scratch(), element_work(model)
-        self.time = np.zeros(())
-        self.entry = {
-            "time": self.time, "position": rec.x, "rotation": rec.q, "velocity": rec.v,
-            "angular_velocity": rec.w, "violation_norm": rec.constraint[0, ...],
-            "velocity_violation_norm": rec.constraint[1, ...], "multipliers": rec.lam,
-            "kinetic": rec.energy[0, ...], "strain": rec.energy[1, ...], "external_work": rec.energy[2, ...],
-            "dissipated": rec.energy[3, ...], "reaction_force": self.force, "reaction_moment": self.moment,
-            "section_force": self.section_force, "section_moment": self.section_moment,
-        }
-        """Record key (:data:`reference.io.results.DATASETS`) → value; views of arrays that every
-        :meth:`record` overwrites (a sink copies them)."""
-        # prescribed displacements: their reaction along the direction (the force on body i is u λ)
-        self.prescribed = [(k, j.frame[:, 2]) for k, j in enumerate(joints) if j.kind == PRESCRIBED]
-        if self.prescribed:
-            self.entry["prescribed_reaction"] = self.prescribed_reaction = np.full(J, np.nan)
-        self.inverse_EA = np.zeros(E)
-        """``1 / EA`` of every element, set by the caller (:func:`run`); the largest ``|N| / EA`` of the
-        records so far is :attr:`strain`."""
-        self.strain = (0.0, 0, 0.0)
-        """(largest axial strain ``|N| / EA`` at an element's midpoint over the records, its element, its time)."""
-
-    def record(self, t: float) -> dict:
-        """Complete the record at time ``t`` with the derived outputs; returns :attr:`entry`."""
-        rec = self.rec
-        self.time[()] = t
-        derived_outputs(self.arrays, rec.x, rec.q, rec.lam, float(t), self.slot, self.force, self.moment,
-                        self.section_force, self.section_moment, self.element_work, *self.scratch)
-        for k, u in self.prescribed:
-            self.prescribed_reaction[k] = self.force[k] @ u
-        if self.inverse_EA.size:
-            with np.errstate(invalid="ignore"):
-                strain = np.abs(self.section_force[:, 0]) * self.inverse_EA
-            e = int(np.argmax(np.where(np.isfinite(strain), strain, 0.0)))
-            if strain[e] > self.strain[0]:
-                self.strain = (float(strain[e]), e, float(t))
-        return self.entry
-
-
-_joint_reactions = inlined(joint_reactions)  # a compiled call with the Model costs two atomic updates per array
-
-
-@kernel
-def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, section_moment, element_work,
-                    jphi, jB, jphit, prim_phi, prim_B, A):
-    """Joint reactions into the rows ``slot`` of ``force``, ``moment`` (J, 3) and section
-    resultants into ``section_force``, ``section_moment`` (E, 3), in one compiled call.
-
-    ``model`` is the :class:`~reference.state.Model` or its :class:`OutputArrays`."""
-    model = named(model, OutputArrays)
-    _joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, prim_phi, prim_B, A)
-    resultants(model.elements, element_work, x, q, section_force, section_moment)
-
-
 def _where(algo, t: float) -> str:
     """``"t = 0.84"``, or ``"load factor 0.84"`` for a path whose time is its load factor (static, arc length)."""
     return f"load factor {t:.6g}" if getattr(algo, "progress_name", "") == "load factor" else f"t = {t:.6g}"
 
 
-def inverse_axial_stiffness(elements) -> np.ndarray:
-    """``1 / EA`` [1/N] of every element, for the axial strain ``|N| / EA`` of the records; 0 for an element whose
-    formulation has no :class:`~reference.elements.Section` (a family of its own data: not checked)."""
-    return np.array([1.0 / section.EA if (section := getattr(e.formulation, "section", None)) is not None else 0.0
-                     for e in elements], dtype=float)
+def _on_backend(domain, algo: Algorithm, model: Model, n_total: int, rec: Record) -> tuple:
+    """``(algorithm, outputs, (backend, reason))`` of ``domain.solver.backend``: the compiled algorithm and
+    outputs, or for the reference path (``"reference"``, or ``"auto"`` for a short job:
+    :func:`reference.plain.backend.decide`) the algorithm's twin and outputs computed in NumPy
+    (:class:`reference.plain.outputs.PlainOutputs`), which compile nothing.  ValueError (one line) for a backend
+    that cannot run the algorithm."""
+    requested = domain.solver.backend
+    if requested == "compiled":  # the reference path is not even imported
+        return algo, Outputs(model, domain.joints, rec), ("compiled", "asked for")
+    from reference.plain import backend
+    from reference.plain.model import Evaluation
+    from reference.plain.outputs import PlainOutputs
+
+    choice = backend.decide(requested, algo, model, n_total)
+    if choice.backend == "compiled":
+        return algo, Outputs(model, domain.joints, rec), tuple(choice)
+    return backend.twin(algo), PlainOutputs(model, domain.joints, rec, Evaluation(model)), tuple(choice)
+
+
+def _sink(domain, algo: Algorithm, outputs: Outputs, results_path, capacity: int, deck, choice: tuple):
+    """Where the records go: the results file at ``results_path`` (its attributes say which backend ran and
+    why), or ``capacity`` records in memory."""
+    if results_path is None:
+        return MemoryRecorder(capacity, [n.label for n in domain.nodes], [j.label for j in domain.joints],
+                              [e.label for e in domain.elements])
+    from reference.io.results import ResultsWriter
+
+    domain.last_run["path"] = str(results_path)
+    return ResultsWriter(results_path, domain, algo, template=outputs.entry, deck=deck,
+                         attrs={"backend": choice[0], "backend_reason": choice[1]})
 
 
 def _failure(domain, algo: Algorithm, code: int, state: State, run_state, t_record: float, critical: float):
@@ -186,19 +111,13 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     """
     every = max(int(domain.solver.output_every), 1)
     rec = Record.empty(len(domain.nodes), model.n_constraints)
-    outputs = Outputs(model, domain.joints, rec)
+    algo, outputs, choice = _on_backend(domain, algo, model, n_total, rec)
+    domain.last_run["backend"] = choice
     outputs.inverse_EA = inverse_axial_stiffness(domain.elements)
     critical = domain.critical_time_step() if critical is None else critical
     watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True), critical) if monitor else None
     run_state = None
-    if results_path is not None:
-        from reference.io.results import ResultsWriter
-
-        sink = ResultsWriter(results_path, domain, algo, template=outputs.entry, deck=deck)
-        domain.last_run["path"] = str(results_path)
-    else:
-        sink = MemoryRecorder(n_total // every + 2, [n.label for n in domain.nodes], [j.label for j in domain.joints],
-                              [e.label for e in domain.elements])
+    sink = _sink(domain, algo, outputs, results_path, n_total // every + 2, deck, choice)
     status = "failed: stopped before the first step"
     unrecordable = None
     wall0 = _time.perf_counter()
@@ -252,4 +171,6 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
         domain.last_run.update(status=status, t=state.t, energy=float(getattr(run_state, "energy", math.nan)),
                                work=state.work, where=_where(algo, state.t))
         sink.close(status)
-    return sink.results(_time.perf_counter() - wall0)
+    results = sink.results(_time.perf_counter() - wall0)
+    results.attrs.update(backend=choice[0], backend_reason=choice[1])  # a run kept in memory too
+    return results

@@ -315,7 +315,7 @@ VOCABULARY = {
                "control": ["position.x:b:end", "position:b:end", "position.z:b:end", "position.z:b:2",
                            "position.x:hub", "position.y:rb"],
                "error_tolerance": [1e-3, 1e-6, 1e-7, 1e-4], "dt_min": [1e-6, 1e-4, 1.0], "dt_max": [1e-2, 1e-3],
-               "reference": ["increment", "total"]},
+               "reference": ["increment", "total"], "backend": ["compiled", "reference", "auto", "numba"]},
     "checks.*": {"observable": ["position:b:end"], "tolerance": [0.1], "reason": ["r"], "at": [[0.1]],
                  "description": ["d"], "node": ["b:end", "rb"], "reference": ["r"],
                  "relative_to": ["length", "peak", "absolute"]},
@@ -351,6 +351,8 @@ VARIANTS = {
     "modes": ({"algorithm": "modes", "modes": 3}, {}, {}),
     "modes_static": ({"algorithm": "modes", "modes": 3, "about": "static", "t_end": 0.02, "load_steps": 2}, {}, {}),
     "buckling": ({"algorithm": "buckling", "modes": 2, "t_end": 0.02}, {}, {}),
+    "reference_path": ({"algorithm": "staggered_central_difference", "dt": 1e-3, "t_end": 0.02, "damping": 0.1,
+                        "output_every": 5, "consistent_initial_velocities": True, "backend": "reference"}, {}, {}),
     "beam3": ({}, {}, {"element": "beam3"}),
     "beam2_se3": ({}, {}, {"element": "beam2_se3"}),
 }

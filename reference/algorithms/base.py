@@ -19,8 +19,8 @@ class CallBudget:
 
     The size follows the measured time per step of the previous call (``size · CALL_SECONDS / elapsed``),
     growing at most :attr:`GROWTH` times a call (a first call that compiled the kernels measures minutes a
-    step; the size then grows back in a few calls), never below one step.  A call costs a few µs to tens of
-    µs of Python and argument passing, a ten-thousandth of its budget.
+    step; the size then grows back in a few calls), never below one step.  A call's own cost (Python and
+    argument passing) is negligible against its budget (docs/benchmarks.md §10).
     """
 
     GROWTH = 4
@@ -207,6 +207,12 @@ class SolverSettings:
         (the static equilibrium at ``t_end``) or ``"rotation"`` (the whole model spinning steadily).
     spin_rate, spin_axis, spin_point : float, tuple, tuple
         Modes about a rotation: the rate Ω [rad/s], the axis (inertial) and a point of it [m].
+    backend : str
+        Which implementation of the equations runs the algorithm: ``"compiled"`` (default; the numba
+        kernels), ``"reference"`` (the plain NumPy path of ``reference/plain/``, the same generated
+        physics, no compilation) or ``"auto"`` (the reference path when the run is too short to pay for
+        compiling the kernels it needs, else the compiled one; the rule, its measurements and its one
+        line on the terminal: ``reference/plain/backend.py``).
     arc_length, max_points, max_load_factor, branch_switch, stop_when, control
         Arc length: the initial arc (scaled norm), the converged points, the stop on ``|λ|``, the switch
         at a bifurcation, the stop on a node coordinate and the displacement control (:class:`reference.algorithms.arc_length.ArcLength`).
@@ -237,3 +243,4 @@ class SolverSettings:
     spin_rate: float = 0.0
     spin_axis: tuple = (0.0, 0.0, 1.0)
     spin_point: tuple = (0.0, 0.0, 0.0)
+    backend: str = "compiled"

@@ -40,8 +40,8 @@ from reference.parallel import (
 PARALLEL_ELEMENTS = 8
 """From this many elements on, the forces are computed by the structure-of-arrays element loop
 (:mod:`reference.elements.beam2_blocks`; no per-view reference counts) instead of the per-element one:
-measured 1.6 against 2.1 µs at 4 elements, 3.2 against 2.7 µs at 12 (before the loop was vectorised);
-both give the same numbers.  Below :data:`reference.parallel.PARALLEL_NODES` nodes the blocks run on one
+the two loops' times cross between a few elements and a dozen (docs/benchmarks.md §10); both give the
+same numbers.  Below :data:`reference.parallel.PARALLEL_NODES` nodes the blocks run on one
 thread, their forces added into the nodes' sums as each block is done
 (:func:`~reference.elements.beam2_blocks.soa_forces`); from there on the parallel loop over blocks."""
 
@@ -150,12 +150,10 @@ def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
     then one thread adds the rows into ``S`` and ΣU in element order — the
     serial kernel's order, :func:`reference.parallel.scatter` — so the result does not
     depend on the thread count.  The algorithms' path (:meth:`Beam2Formulation.assemble`)
-    computes the rows the same way: measured at 768 elements,
-    0.08 µs per element against 0.21 µs for the serial :func:`beam2_assemble`,
-    whose loop spends the difference on atomic reference-count updates of the
-    element's array views (``perf``; numba removes fewer of them there); the
-    structure-of-arrays loop of :func:`soa_rows` then halved the 0.08 µs
-    (docs/benchmarks.md §5).
+    computes the rows the same way: faster than the serial :func:`beam2_assemble`
+    even on one thread, whose loop spends the difference on atomic reference-count
+    updates of the element's array views (numba removes fewer of them there); the
+    structure-of-arrays loop of :func:`soa_rows` is faster still (docs/benchmarks.md §5, §10).
     """
     return _assemble_parallel(x, q, conn, offset, straight_elements(offset), soa_fixed_rows(L0, psi0, gamma0, stiff),
                               S, W)
@@ -411,8 +409,8 @@ class Beam2Formulation(ElementFormulation):
 
         The minimum of the axial ``L0 √(ρA/EA)``, torsional ``L0 √(ρJ1/GJ)``,
         bending–rotation ``L0 √(ρJ/EI)`` limits and the coupled shear–rotation
-        mode ``2/√((GA/ρA)(4/L0² + ρA/ρJ))`` (docs/formulation.md §3; each matched the
-        eigenvalue limit within 0.5 %, the last is ~9 % conservative).
+        mode ``2/√((GA/ρA)(4/L0² + ρA/ρJ))`` (docs/formulation.md §3 compares each with the
+        eigenvalue limit of the lumped element; the last is on the safe side).
         """
         s = self.section
         limits = [

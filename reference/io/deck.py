@@ -38,7 +38,7 @@ from reference.interactions import (
 )
 from reference.io.deck_connectors import read_joints, read_prescribed_displacements, read_springs
 from reference.io.deck_reader import DeckError, Reader, override_value, read_toml, show
-from reference.io.deck_solution import read_checks, read_solver
+from reference.io.deck_solution import check_backend, read_checks, read_solver
 from reference.validation import LabelError, ModelWarning
 
 TOP_LEVEL = {"meta", "sections", "time_functions", "nodes", "beams", "rigid_bodies", "joints", "clamps", "fixed",
@@ -68,7 +68,7 @@ class Deck:
     Attributes
     ----------
     domain : Domain
-        The ready-to-solve model (what :meth:`reference.domain.Domain.from_deck` returns).
+        The ready-to-solve model.
     path : str
         The deck file.
     text : str
@@ -152,6 +152,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     problem = algo.setting_problem(model)
     if problem:
         raise rd.fail(*problem)
+    check_backend(rd, domain, algo, model)
     return Deck(domain, str(path), text, metadata, checks, crosscheck)
 
 

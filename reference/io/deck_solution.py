@@ -4,7 +4,8 @@
 overrides of ``t_end``, ``dt`` and ``refine``; the step is checked against the
 critical step of the explicit scheme (× :data:`reference.monitor.SAFETY`), the
 step limit (``max_steps``) and a whole number of steps to ``t_end``, and a
-refused step comes with a step that works (:func:`_suggest_dt`).
+refused step comes with a step that works (:func:`_suggest_dt`); ``backend`` picks the
+implementation that runs the algorithm (:mod:`reference.plain.backend`).
 ``[checks.NAME]`` and ``[crosscheck.NAME]`` (:func:`read_checks`): their
 observables are parsed against the model (:mod:`reference.observables`), so a
 typo is refused before any engine runs.  Keys: docs/deck.md.
@@ -19,13 +20,15 @@ from reference.algorithms.linear import ABOUT
 from reference.domain import Domain
 from reference.io.deck_reader import Reader, show
 from reference.monitor import SAFETY, damping_problem
+from reference.plain.backend import BACKENDS, decide, problem
 from reference.observables import ObservableError
 from reference.observables import parse as parse_observable
 
 MAX_STEPS = 10**9
 """Default limit on the number of time steps; ``solver.max_steps`` raises it."""
 MAX_STEPS_LIMIT = 10**12
-"""Largest ``solver.max_steps``: 1e12 steps of the smallest model (~1 µs a step) take two weeks."""
+"""Largest ``solver.max_steps``: more steps than the smallest model takes in weeks (docs/benchmarks.md §10);
+a larger value is a typo."""
 MAX_ITERATIONS = 1000
 """Largest ``solver.max_iterations``: Newton converges quadratically in a few iterations or not at
 all (the implicit runs here need at most 7); a step that needs more needs a smaller step."""
@@ -47,13 +50,13 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
         raise rd.fail("solver", f"expected a table, got {type(sv).__name__}")
     algorithm = rd.choice(sv.get("algorithm", SolverSettings.algorithm), "solver.algorithm", ALGORITHMS, "algorithm")
     algo_cls = ALGORITHMS[algorithm]
-    rd.keys(sv, "solver", required=algo_cls.deck_required, optional=["algorithm", *algo_cls.deck_optional])
+    rd.keys(sv, "solver", required=algo_cls.deck_required, optional=["algorithm", "backend", *algo_cls.deck_optional])
     about = rd.choice(sv.get("about", SolverSettings.about), "solver.about", ABOUT, "configuration",
                       "'reference' (the initial state), 'static' (the static equilibrium at t_end) or 'rotation' "
                       "(the model spinning at spin_rate about spin_axis)")
     # keys that only some values of another accept (modes: the static algorithm's keys with about = "static")
     required, optional = algo_cls.deck_keys(sv)
-    rd.keys(sv, "solver", required=required, optional=["algorithm", *optional])
+    rd.keys(sv, "solver", required=required, optional=["algorithm", "backend", *optional])
     modes = rd.integer(sv.get("modes", SolverSettings.modes), "solver.modes", maximum=MAX_MODES,
                        fix=f"ask for the lowest modes, at most {MAX_MODES}")
     dt_entry = "dt override (--dt)" if "dt" in overrides else "solver.dt"
@@ -88,11 +91,32 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
         if "max_iterations" in sv else None,
         modes=modes, about=about,
         first_step=dt if adaptive and ("dt" in sv or "dt" in overrides) else None,
+        backend=_backend(rd, sv, algorithm),
         **algo_cls.deck_settings(rd, sv, domain),
     )
     _check_step(rd, sv, domain, algo_cls, overrides, dt_entry, t_entry)
     algo_cls.deck_check(rd, sv, domain.solver)
     return algorithm, algo_cls
+
+
+def _backend(rd: Reader, sv: dict, algorithm: str) -> str:
+    """``solver.backend``: one of :data:`reference.plain.backend.BACKENDS`, and for ``"reference"`` an algorithm
+    that the reference path runs (:func:`reference.plain.backend.problem`)."""
+    value = rd.choice(sv.get("backend", "compiled"), "solver.backend", BACKENDS, "backend",
+                      "'compiled' (the numba kernels), 'reference' (plain NumPy, no compilation) or 'auto'")
+    why = problem(value, algorithm) if value != "compiled" else ""
+    if why:
+        raise rd.fail("solver.backend", *why.split("; ", 1))
+    return value
+
+
+def check_backend(rd: Reader, domain: Domain, algo, model) -> None:
+    """``solver.backend = "reference"`` with settings or a model that the algorithm's twin does not run (its
+    ``refusal``, :func:`reference.plain.backend.decide`): one line, before any engine runs."""
+    try:
+        decide(domain.solver.backend, algo, model, 0)
+    except ValueError as exc:
+        raise rd.fail("solver.backend", *str(exc).removeprefix("solver backend: ").split("; ", 1)) from None
 
 
 def _check_step(rd: Reader, sv: dict, domain: Domain, algo_cls, overrides: dict, dt_entry: str, t_entry: str):

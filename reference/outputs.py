@@ -1,0 +1,129 @@
+"""The derived outputs of a run's records: joint reactions and section resultants (paper §4.3, ``Solve``).
+
+:class:`Outputs` completes each output record of an algorithm (:class:`~reference.state.Record`) with the
+joint reactions and the element section resultants, computed by one compiled call (:func:`derived_outputs`);
+the solution loop (:func:`reference.solution.run`) hands the completed record to its sink.  Apart from the
+solution loop so that the compiled call's cache key (:mod:`reference.kernel_cache`) does not hold the loop's
+sources: the loop may choose an algorithm of the reference path (``reference/plain/``) without recompiling it.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from reference.elements.families import resultants
+from reference.jit import boundary, inlined, kernel, named
+from reference.joints.joint import PRESCRIBED
+from reference.joints.reactions import joint_reactions
+from reference.joints.reactions import scratch as reaction_scratch
+from reference.state import Model, Record, element_work
+
+
+class OutputArrays(NamedTuple):
+    """The groups of the :class:`~reference.state.Model` that the derived outputs read.
+
+    :func:`derived_outputs` takes these in place of the Model (its kernels read the same
+    fields by name): a compiled call unboxes every array it is given, each at a cost (:mod:`reference.jit`).
+    """
+
+    joints: tuple
+    time_functions: tuple
+    elements: tuple
+
+
+class Outputs:
+    """The output record of a run: the algorithm's :class:`~reference.state.Record` and the derived
+    outputs, joint reactions and element section resultants, as one dict of preallocated arrays.
+
+    Reactions of all joints (NaN for master/slave ones, which have no
+    multipliers; :func:`reference.joints.reactions.joint_reactions`) and the
+    section resultants N, M at every element's midpoint
+    (:func:`reference.elements.families.resultants`), both computed by one
+    compiled call (:meth:`derive`, :func:`derived_outputs`) into arrays allocated once; with prescribed
+    displacements, each one's reaction along its direction (``prescribed_reaction``, NaN for the
+    other joints).
+
+    Parameters
+    ----------
+    model : Model
+    joints : list of Joint
+        The Domain's joints, in the order of the results' ``/joints``.
+    rec : Record
+        The record the algorithm fills.
+    """
+
+    def __init__(self, model: Model, joints: list, rec: Record):
+        rows = [k for k, j in enumerate(joints) if j.formulation.multipliers]
+        self.model, self.rec = model, rec
+        self.arrays = boundary(OutputArrays(model.joints, model.time_functions, model.elements))
+        self.slot = np.array(rows, dtype=np.int64)
+        J, E = len(joints), model.n_elements
+        # rows of master/slave joints are never written: NaN once
+        self.force, self.moment = np.full((J, 3), np.nan), np.full((J, 3), np.nan)
+        self.section_force, self.section_moment = np.zeros((E, 3)), np.zeros((E, 3))
+        self.scratch, self.element_work = reaction_scratch(), element_work(model)
+        self.time = np.zeros(())
+        self.entry = {
+            "time": self.time, "position": rec.x, "rotation": rec.q, "velocity": rec.v,
+            "angular_velocity": rec.w, "violation_norm": rec.constraint[0, ...],
+            "velocity_violation_norm": rec.constraint[1, ...], "multipliers": rec.lam,
+            "kinetic": rec.energy[0, ...], "strain": rec.energy[1, ...], "external_work": rec.energy[2, ...],
+            "dissipated": rec.energy[3, ...], "reaction_force": self.force, "reaction_moment": self.moment,
+            "section_force": self.section_force, "section_moment": self.section_moment,
+        }
+        """Record key (:data:`reference.io.results.DATASETS`) → value; views of arrays that every
+        :meth:`record` overwrites (a sink copies them)."""
+        # prescribed displacements: their reaction along the direction (the force on body i is u λ)
+        self.prescribed = [(k, j.frame[:, 2]) for k, j in enumerate(joints) if j.kind == PRESCRIBED]
+        if self.prescribed:
+            self.entry["prescribed_reaction"] = self.prescribed_reaction = np.full(J, np.nan)
+        self.inverse_EA = np.zeros(E)
+        """``1 / EA`` of every element, set by the caller (:func:`run`); the largest ``|N| / EA`` of the
+        records so far is :attr:`strain`."""
+        self.strain = (0.0, 0, 0.0)
+        """(largest axial strain ``|N| / EA`` at an element's midpoint over the records, its element, its time)."""
+
+    def record(self, t: float) -> dict:
+        """Complete the record at time ``t`` with the derived outputs; returns :attr:`entry`."""
+        self.time[()] = t
+        self.derive(float(t))
+        for k, u in self.prescribed:
+            self.prescribed_reaction[k] = self.force[k] @ u
+        if self.inverse_EA.size:
+            with np.errstate(invalid="ignore"):
+                strain = np.abs(self.section_force[:, 0]) * self.inverse_EA
+            e = int(np.argmax(np.where(np.isfinite(strain), strain, 0.0)))
+            if strain[e] > self.strain[0]:
+                self.strain = (float(strain[e]), e, float(t))
+        return self.entry
+
+    def derive(self, t: float) -> None:
+        """The joint reactions (rows :attr:`slot` of :attr:`force`, :attr:`moment`) and the section resultants
+        (:attr:`section_force`, :attr:`section_moment`) of the record at time ``t`` [s], one compiled call."""
+        rec = self.rec
+        derived_outputs(self.arrays, rec.x, rec.q, rec.lam, t, self.slot, self.force, self.moment,
+                        self.section_force, self.section_moment, self.element_work, *self.scratch)
+
+
+_joint_reactions = inlined(joint_reactions)  # a compiled call with the Model costs two atomic updates per array
+
+
+@kernel
+def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, section_moment, element_work,
+                    jphi, jB, jphit, prim_phi, prim_B, A):
+    """Joint reactions into the rows ``slot`` of ``force``, ``moment`` (J, 3) and section
+    resultants into ``section_force``, ``section_moment`` (E, 3), in one compiled call.
+
+    ``model`` is the :class:`~reference.state.Model` or its :class:`OutputArrays`."""
+    model = named(model, OutputArrays)
+    _joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, prim_phi, prim_B, A)
+    resultants(model.elements, element_work, x, q, section_force, section_moment)
+
+
+def inverse_axial_stiffness(elements) -> np.ndarray:
+    """``1 / EA`` [1/N] of every element, for the axial strain ``|N| / EA`` of the records; 0 for an element whose
+    formulation has no :class:`~reference.elements.Section` (a family of its own data: not checked)."""
+    return np.array([1.0 / section.EA if (section := getattr(e.formulation, "section", None)) is not None else 0.0
+                     for e in elements], dtype=float)
