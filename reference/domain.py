@@ -46,7 +46,7 @@ from reference.mesh import arc_geometry, beam_triad, default_axis2, section_fram
 from reference.nodes import Node
 from reference.rotation import EulerParameters
 from reference.solution import SolverDiverged, run
-from reference.state import Model, Nodes, State
+from reference.state import Model, Nodes, State, new_clock
 from reference.status import OK
 
 
@@ -412,7 +412,7 @@ class Domain:
             v=np.array([n.velocity for n in self.nodes]).reshape(N, 3),
             w=np.array([n.angular_velocity for n in self.nodes]).reshape(N, 3),
             f_prev=np.zeros((N, 6)),
-            clock=np.zeros(4),
+            clock=new_clock(),
             angle=np.zeros(len(self.force_elements)),
         )
         if self.solver.consistent_initial_velocities and self.joints:

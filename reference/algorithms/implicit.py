@@ -55,7 +55,7 @@ import numpy as np
 from reference.algorithms.base import Algorithm
 from reference.elements.families import family_of
 from reference.evaluation.forces import model_forces
-from reference.evaluation.tangent import newton_pattern, tangent_values
+from reference.evaluation.tangent import TangentWork, newton_pattern, tangent_values
 from reference.generated import rotation_maps as rm
 from reference.jit import boundary, inlined, kernel, named, parallel_kernel, prange
 from reference.joints.assembly import joint_rows
@@ -80,10 +80,8 @@ class Work:
         self.A = np.zeros(9)
         self.jphi, self.jB, self.jphit = np.zeros(6), np.zeros((6, 12)), np.zeros(6)
         self.prim_phi, self.prim_B = np.zeros(10), np.zeros(120)
-        self.small = np.zeros((8, 12))
-        self.K12 = np.zeros((12, 12))
         sizes = [6 * family_of(data).n_nodes for data in model.elements]
-        self.Kel = np.zeros(max(sizes + [12]) ** 2)  # one element's tangent block (flat)
+        self.tangent = TangentWork.for_sizes(max(sizes + [12]) ** 2)
         nF = model.force_elements.kind.shape[0]
         blocks = sum(size * size * data.conn.shape[0] for size, data in zip(sizes, model.elements))
         self.values = np.zeros(36 * N + blocks + 144 * J + 24 * m + m + 144 * nF)
@@ -238,7 +236,7 @@ class NewtonSystem:
         wk = self.work
         ce = 1.0 / ck if ce is None else ce
         psi = self.zero_psi if psi is None else psi
-        tangent_values(self.arg, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12, wk.Kel)
+        tangent_values(self.arg, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.tangent)
         return self.pattern.matrix(wk.values)
 
     def mass(self, x, q):
@@ -299,9 +297,10 @@ class NewtonSystem:
         """Correction from the last :meth:`evaluate`: right-hand side ``−[c_k r; Φ − ελ]``."""
         return self.solve(lu, -ck * self.work.r, -(self.work.PHI - self.model.joints.eps * lam))
 
-    def write_record(self, rec, x, q, v, w, U, energy_clock, lam) -> None:
-        """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B)."""
-        write_record(self.arg, x, q, v, w, U, energy_clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl,
+    def write_record(self, rec, x, q, v, w, U, clock, lam) -> None:
+        """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B; ``clock`` the
+        state's, :data:`reference.state.CLOCK` (1,))."""
+        write_record(self.arg, x, q, v, w, U, clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl,
                      self.record_arg(rec))
 
     def record_arg(self, rec):
@@ -422,13 +421,15 @@ def relative_rotation(q0, q1, out, tmp):
 
 @kernel
 def write_record(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
-    """Record: configuration, velocities, energies [T, U, W, D], ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
-    write_record_named(named(model, Model), x, q, v, w, U, clock, lam, PHI, PHIt, Bl, named(rec, Record))
+    """Record: configuration, velocities, energies [T, U, W, D] (W and D from ``clock``, the state's
+    :data:`reference.state.CLOCK` (1,)), ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
+    write_record_named(named(model, Model), x, q, v, w, U, clock[0], lam, PHI, PHIt, Bl, named(rec, Record))
 
 
 @inlined
 def write_record_named(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
-    """:func:`write_record` of a Model and Record that are named tuples already (the form a kernel inlines)."""
+    """:func:`write_record` of a Model and Record that are named tuples already and of the clock's record (the
+    form a kernel inlines)."""
     T = 0.0
     J, mass = model.nodes.inertia, model.nodes.mass
     rx, rq, rv, rw = rec.x, rec.q, rec.v, rec.w
@@ -444,8 +445,8 @@ def write_record_named(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
             rq[i, a] = q[i, a]
     rec.energy[0] = T
     rec.energy[1] = U
-    rec.energy[2] = clock[2]
-    rec.energy[3] = clock[3]
+    rec.energy[2] = clock["work"]
+    rec.energy[3] = clock["dissipated"]
     c0 = 0.0
     c1 = 0.0
     jt_i, jt_j, jt_row0, jt_neq, rlam = model.joints.i, model.joints.j, model.joints.row0, model.joints.neq, rec.lam

@@ -34,6 +34,7 @@ import math
 
 import numpy as np
 
+from reference.connector import body_fixed_parts
 from reference.generated import joints as generated
 from reference.interactions import tf_derivative, tf_integral, tf_value
 from reference.jit import inlined
@@ -51,12 +52,13 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
     ``j = -1`` is the ground (x = 0, identity rotation; its columns are zero).
     ``drive`` 0 none; 1/2 rotation drive with θ = f(t) / θ = ∫f; 3/4 displacement
     drive with s = f(t) / s = ∫f; 5 prescribed displacement, s = f(t) along the ground-fixed
-    u3 (``par[15:24]``, the ground's frame, is inertial).
+    u3 (of ``f_j``, the ground's frame, is inertial).
     """
     xj, qj = GROUND_X, GROUND_Q  # one type for both branches: the generated kernel compiles once
     if j >= 0:
         xj, qj = x[j], q[j]
-    generated.joint_primitives(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
+    s_i, s_j, f_i, f_j = body_fixed_parts(par)
+    generated.joint_primitives(x[i], q[i], xj, qj, s_i, s_j, f_i, f_j, prim_phi, prim_B)
     if drive == 0:
         for r in range(phi.shape[0]):
             row = rows[r]
@@ -85,7 +87,7 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
             B[0, k] = prim_B[96 + k]
     else:
         # prescribed displacement: u · (P − P_i) = −s with u = u3 of the ground's frame (inertial, fixed)
-        u0, u1, u2 = par[17], par[20], par[23]
+        u0, u1, u2 = f_j[2], f_j[5], f_j[8]  # u3, the last column of the ground's frame
         phi[0] = u0 * prim_phi[0] + u1 * prim_phi[1] + u2 * prim_phi[2] + tf_value(tf_kind, tf_par, t)
         phit[0] = tf_derivative(tf_kind, tf_par, t)
         for k in range(12):
