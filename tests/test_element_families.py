@@ -63,7 +63,7 @@ def element_forces(data, e, X, P, w):
 @numba.njit(inline="always")
 def element_tangent(data, e, X, P, w, K):
     """Bar e's 12×12 tangent: ``±(N/ℓ (I − n nᵀ) + EA/L0 n nᵀ)`` on the translations."""
-    K12 = K.reshape((12, 12))
+    K12 = K[:144].reshape((12, 12))
     K12[:, :] = 0.0
     d = X[1] - X[0]
     length = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
