@@ -57,11 +57,12 @@ docs: $(VENV)/.docs
 	FLEXMBS_DOCS_EXECUTE=1 $(BIN)/python -m sphinx -W --keep-going -b html docs build/docs
 
 # the built site in headless Chromium, offline (needs a Chromium: apt-get install chromium): the index, getting
-# started, the deck reference, the API's Domain, formulation §7 and lessons 2 and 10 — no raw LaTeX, no console
-# error, no broken link or anchor; screenshots of them into build/docs-check/
+# started, the deck reference, the API's Domain, formulation §7, lessons 2 and 10 and the HTML report
+# (reports/verification.html, written from reports/verification.md when missing) — no raw LaTeX, no console
+# error, every 3D view drawn, no broken link or anchor; screenshots of them into build/docs-check/
 docs-check: $(VENV)/.docs
 	test -f build/docs/index.html || $(MAKE) docs
-	$(BIN)/python -m flexmbs.site check build/docs --screenshots build/docs-check
+	$(BIN)/python -m flexmbs.site check build/docs --screenshots build/docs-check --report reports/verification.html
 
 # JupyterLab on the lessons: right-click notebooks/NN_*.py → Open With → Jupytext Notebook
 notebooks: $(VENV)/.notebooks

@@ -21,8 +21,9 @@ Exudyn and the thread-scaling table (:mod:`flexmbs.bench_large`; ``--large``: th
 section alone).  ``FLEXMBS_QUICK=1`` (or ``--quick``) runs fewer steps, and the
 large models on small meshes.
 
-Every line with a target ends in ``MET`` or ``MISSED`` (:class:`Target`); the last lines list the
-missed targets (:func:`target_summary`), and the command exits with status 1 when one is missed.
+Every line with a target ends in ``MET`` or ``MISSED`` (:class:`flexmbs.bench_common.Target`); the last
+lines list the missed targets (:func:`flexmbs.bench_common.target_summary`), and the command exits with
+status 1 when one is missed.
 """
 
 from __future__ import annotations
@@ -31,52 +32,17 @@ import math
 import os
 import statistics
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-
-
-@dataclass
-class Target:
-    """A benchmark's target: the measured ``value`` of ``what`` meets it when ``value ≤ limit``
-    (a NaN never does); ``fmt`` formats both numbers."""
-
-    what: str
-    value: float
-    limit: float
-    fmt: str = "{:.3g}"
-
-    @property
-    def met(self) -> bool:
-        return bool(self.value <= self.limit)
-
-    @property
-    def mark(self) -> str:
-        """``MET`` or ``MISSED``, the word that ends the benchmark's line."""
-        return "MET" if self.met else "MISSED"
-
-    def describe(self) -> str:
-        """``what: value (target ≤ limit)``."""
-        return f"{self.what}: {self.fmt.format(self.value)} (target ≤ {self.fmt.format(self.limit)})"
-
-
-def target_summary(targets: list[Target]) -> tuple[list[str], int]:
-    """The closing lines of ``flexmbs bench`` — how many targets were met, then every missed one — and
-    the exit status (1 when a target was missed)."""
-    missed = [t for t in targets if not t.met]
-    if not missed:
-        return [f"targets: all {len(targets)} met"], 0
-    return ([f"targets: {len(targets) - len(missed)} of {len(targets)} met, {len(missed)} MISSED:"]
-            + [f"  MISSED  {t.describe()}" for t in missed]), 1
+from flexmbs.bench_common import MATCHED, ROOT, WP_CASES, Target, matched_time, target_summary
 
 
 def time_reference(deck: Path, repeat: int) -> tuple[float, int]:
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
-    domain = Domain.from_deck(deck)
+    domain = load_deck(deck).domain
     domain.solve()  # warm-up: numba compiles (or loads its cache)
     times = []
     for _ in range(repeat):
@@ -89,12 +55,12 @@ def time_reference(deck: Path, repeat: int) -> tuple[float, int]:
 def time_exudyn(deck: Path, repeat: int) -> tuple[float, int]:
     """Exudyn on the same deck through the generic translation (crosscheck.exudyn_model)."""
     from crosscheck.exudyn_model import solve
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
-    solve(Domain.from_deck(deck), t_end=20 * Domain.from_deck(deck).solver.dt)  # warm-up
+    solve(load_deck(deck).domain, t_end=20 * load_deck(deck).domain.solver.dt)  # warm-up
     times, steps = [], 0
     for _ in range(repeat):
-        out = solve(Domain.from_deck(deck))
+        out = solve(load_deck(deck).domain)
         times.append(out["wall_time"])
         steps = out["steps"]
     return statistics.median(times), steps
@@ -106,19 +72,6 @@ CASES = {
 }
 
 
-WP_CASES = {
-    # name: deck, t_end [s], output interval [s], implicit steps, explicit steps (fractions of the
-    # critical step), reference step
-    "three-bar (4 Beam2)": ("three_bar.toml", 4.0, 1e-2, [2e-2, 1e-2, 5e-3, 2e-3, 1e-3], [0.8, 0.4, 0.2], 2.5e-4),
-    "steel three-bar (4 Beam2)": ("steel_three_bar.toml", 1.0, 2e-3, [4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4], [0.8, 0.4],
-                                  1e-5),
-}
-"""Work–precision cases (output intervals as the decks': 100 and 500 per second); the explicit
-steps are fractions of the mesh's critical step."""
-
-MATCHED = 1e-3
-"""Matched accuracy of the work–precision table: 0.1 % of the peak coupler deflection."""
-
 REPEAT = 3
 """Timed rounds per point of the work–precision study, the engines alternating (the fastest
 counts; fewer rounds when one takes seconds)."""
@@ -129,10 +82,10 @@ def _deflection_runner(deck: Path, t_end: float, every: float, algorithm: str, d
     returning (solve time [s], output times every ``every`` seconds (or every step if longer),
     coupler mid-span deflection)."""
     from flexmbs.verification import observables as ob
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
     def domain():
-        d = Domain.from_deck(deck, overrides={"t_end": t_end})
+        d = load_deck(deck, overrides={"t_end": t_end}).domain
         d.solver.algorithm, d.solver.dt = algorithm, dt
         d.solver.output_every = max(int(round(every / dt)), 1)
         return d
@@ -189,14 +142,14 @@ def work_precision(quick: bool = False) -> dict:
     """Error against a converged-in-time reference of the same mesh and engine, and solve time,
     for flexmbs explicit, flexmbs generalized-α and Exudyn's generalized-α (ρ∞ = 0.8, the
     decks' value) at several steps.  Returns ``{case: {"series": {name: [(dt, time, error)]}, …}}``."""
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
     data = {}
     for name, (deck_name, t_end, every, implicit, explicit, dt_ref) in WP_CASES.items():
         deck = ROOT / "models" / deck_name
         if quick:
             implicit, explicit = implicit[1:4], explicit[:1]
-        crit = Domain.from_deck(deck).critical_time_step()
+        crit = load_deck(deck).domain.critical_time_step()
         series, refs = {}, {}
         for engine in ("flexmbs", "exudyn"):
             _, rt, rd = _deflection_runner(deck, t_end, every, "generalized_alpha", dt_ref, engine)()
@@ -217,20 +170,6 @@ def work_precision(quick: bool = False) -> dict:
         data[name] = {"series": series, "t_end": t_end, "peak": float(np.max(np.abs(refs["flexmbs"][1]))),
                       "dt_ref": dt_ref}
     return data
-
-
-def matched_time(rows, target: float = MATCHED):
-    """Solve time at the error ``target``: log–log interpolation between the two runs that
-    bracket it; ``(time, how)``, time None when no run reaches it."""
-    rows = sorted(rows, key=lambda r: -r[0])
-    for (_, w0, e0), (_, w1, e1) in zip(rows, rows[1:]):
-        if e0 > target >= e1:
-            s = (np.log(target) - np.log(e0)) / (np.log(e1) - np.log(e0))
-            return float(np.exp(np.log(w0) + s * (np.log(w1) - np.log(w0)))), "interpolated"
-    ok = [r for r in rows if r[2] <= target]
-    if ok:
-        return min(r[1] for r in ok), f"largest step already within (dt = {ok[0][0]:g})"
-    return None, "not reached"
 
 
 def work_precision_table(data: dict) -> list[str]:
@@ -287,10 +226,11 @@ def static_rollup(targets: list | None = None) -> list[str]:
     the discrete polygon."""
     from crosscheck.exudyn_model import solve
     from flexmbs.verification.analytic import polygon_tip
-    from reference.domain import Domain, SolverSettings
+    from reference.domain import SolverSettings
+    from reference.io.deck import load_deck
 
     def domain():
-        d = Domain.from_deck(ROOT / "models" / "embedded_beam.toml")
+        d = load_deck(ROOT / "models" / "embedded_beam.toml").domain
         d.solver = SolverSettings(algorithm="static", t_end=2.0, load_steps=20, dt=0.1)
         return d
 

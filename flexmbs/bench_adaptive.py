@@ -1,10 +1,10 @@
 """``make bench``: work–precision of generalized-α at a requested ``error_tolerance``.
 
-For each work–precision case of :data:`flexmbs.bench.WP_CASES`: the error of the coupler's mid-span
+For each work–precision case of :data:`flexmbs.bench_common.WP_CASES`: the error of the coupler's mid-span
 deflection against the converged run of the same mesh (relative to its peak, as the fixed-step table)
 and the solve time at ``error_tolerance`` = 1e-2 … 1e-6 with no ``dt`` (outputs at the deck's interval,
 steps landing on them), beside the time Exudyn's generalized-α at a fixed step needs for the same error
-(log–log interpolation of its fixed-step rows, :func:`flexmbs.bench.matched_time`).
+(log–log interpolation of its fixed-step rows, :func:`flexmbs.bench_common.matched_time`).
 """
 
 from __future__ import annotations
@@ -20,10 +20,10 @@ TOLERANCES = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
 def tolerance_rows(deck, t_end: float, every: float, dt_ref: float, tolerances=TOLERANCES) -> tuple[list, float]:
     """``[(tolerance, achieved error, solve time [s], steps, step cuts)]`` and the reference's peak deflection."""
     from flexmbs.verification import observables as ob
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
     def domain(**solver):
-        d = Domain.from_deck(deck, overrides={"t_end": t_end})
+        d = load_deck(deck, overrides={"t_end": t_end}).domain
         d.solver.algorithm = "generalized_alpha"
         for key, value in solver.items():
             setattr(d.solver, key, value)
@@ -50,7 +50,7 @@ def tolerance_table(data: dict, quick: bool = False, targets: list | None = None
     """Markdown lines of the tolerance rows of every case, with Exudyn's fixed-step time at each achieved
     error from the fixed-step work–precision ``data`` (:func:`flexmbs.bench.work_precision`), then the
     mechanism with near-singular passages (:func:`near_singular_rows`, its targets into ``targets``)."""
-    from flexmbs.bench import ROOT, WP_CASES, matched_time
+    from flexmbs.bench_common import ROOT, WP_CASES, matched_time
 
     lines = ["### generalized-α at a requested error (error_tolerance, no dt)", "",
              "| case | error_tolerance | achieved error | achieved / requested | solve [s] | steps | steps taken again "
@@ -81,19 +81,19 @@ FOUR_BAR_TOLERANCES = (1e-2, 1e-3)
 FOUR_BAR_TOLERANCE, FOUR_BAR_ERROR, FOUR_BAR_SPEED = 1e-3, 2e-3, 0.5
 """The target: at error_tolerance 1e-3 the achieved error ≤ 2e-3 of the peak over the whole run, in at most
 half the time of the fixed-step run that reaches the same error (log–log interpolation between the two fixed
-steps that bracket it, :func:`flexmbs.bench.matched_time`)."""
+steps that bracket it, :func:`flexmbs.bench_common.matched_time`)."""
 
 
 def near_singular_rows(targets: list | None = None, quick: bool = False) -> list[str]:
     """Markdown lines of the four-bar with near-singular passages (:data:`FOUR_BAR`): the error of the
     coupler's mid-span deflection vector (its largest norm over the run, relative to the peak norm of the
     reference) and the solve time of generalized-α at ``error_tolerance`` = :data:`FOUR_BAR_TOLERANCES`
-    and at the fixed steps :data:`FOUR_BAR_FIXED`; the targets (``targets``, :class:`flexmbs.bench.Target`)
+    and at the fixed steps :data:`FOUR_BAR_FIXED`; the targets (``targets``, :class:`flexmbs.bench_common.Target`)
     on the error and on the time ratio to the fixed step of the same error.  ``quick``: not run."""
     from pathlib import Path
 
-    from flexmbs.bench import Target, matched_time
-    from reference.domain import Domain
+    from flexmbs.bench_common import Target, matched_time
+    from reference.io.deck import load_deck
     from reference.observables import parse
 
     deck_name, t_end, every = FOUR_BAR
@@ -103,7 +103,7 @@ def near_singular_rows(targets: list | None = None, quick: bool = False) -> list
         return [title, "", "not run with --quick (a converged reference takes a million steps)", ""]
 
     def run(**solver):
-        d = Domain.from_deck(deck, overrides={"t_end": t_end})
+        d = load_deck(deck, overrides={"t_end": t_end}).domain
         for key, value in solver.items():
             setattr(d.solver, key, value)
         d.solve(t_end=20 * every)  # warm-up

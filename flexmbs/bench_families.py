@@ -53,20 +53,20 @@ QUICK_MESHES = {
 
 
 def rollup_domain(family: str, n: int):
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
-    return Domain.from_deck(ROOT / "models" / "embedded_beam_static.toml",
+    return load_deck(ROOT / "models" / "embedded_beam_static.toml",
                             overrides={"beams.0.elements": n, "beams.0.element": family, "solver.t_end": 1.0,
-                                       "solver.load_steps": 4, "solver.tolerance": 1e-12})
+                                       "solver.load_steps": 4, "solver.tolerance": 1e-12}).domain
 
 
 def coupler_domain(family: str, n: int):
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
-    return Domain.from_deck(ROOT / "models" / "three_bar.toml",
+    return load_deck(ROOT / "models" / "three_bar.toml",
                             overrides={"beams.1.elements": n, "beams.1.element": family,
                                        "solver.algorithm": "generalized_alpha", "solver.dt": COUPLER["dt"],
-                                       "solver.t_end": COUPLER["t_end"], "solver.output_every": 5})
+                                       "solver.t_end": COUPLER["t_end"], "solver.output_every": 5}).domain
 
 
 def _tip(results) -> np.ndarray:

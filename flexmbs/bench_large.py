@@ -13,7 +13,7 @@
   quasi-static with a 16 ms period and damping, gives errors that do not converge at steps a benchmark can
   afford), under the deck's ramped moment to k = 1; the error of the tip history against each code's own
   run at a much smaller step, each code's time at the matched accuracy :data:`MATCHED_DYNAMIC`
-  interpolated between the steps that bracket it (:func:`flexmbs.bench.matched_time`).
+  interpolated between the steps that bracket it (:func:`flexmbs.bench_common.matched_time`).
 * **Threads**: the 50,000-element explicit run and a short 5,004-element generalized-α run at 1, 2, …
   threads (as many as ``os.sched_getaffinity`` grants), per-step cost, speed-up and whether the final
   state is bit for bit that of one thread.  Only the thread count is set (:func:`reference.jit.use_threads`);
@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from flexmbs.bench import ROOT, Target, matched_time
+from flexmbs.bench_common import ROOT, Target, matched_time
 
 EXPLICIT_ELEMENTS, EXPLICIT_STEPS, EXPLICIT_FACTOR = 50_000, 500, 0.75
 """The explicit model: elements, timed steps, step as a fraction of flexmbs' critical step estimate."""
@@ -138,13 +138,13 @@ def rollup_domain(algorithm: str, refine: int, dt: float, t_end: float, load_ste
     """``models/embedded_beam.toml`` with its elements refined ``refine`` times, solved by ``algorithm`` at the
     step ``dt`` (``static``: ``load_steps`` load steps) to ``t_end``, outputs every Δk = 0.1; ``heavy``: the
     beam :data:`HEAVY` times heavier and undamped."""
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
     overrides = {"refine": refine}
     if heavy:
         overrides.update({"solver.damping": 0.0, "sections.rollup.rhoA": 6.4e-7 * HEAVY,
                           **{f"sections.rollup.rhoJ{k}": 1.6e-5 * HEAVY for k in (1, 2, 3)}})
-    d = Domain.from_deck(ROOT / "models" / "embedded_beam.toml", overrides=overrides)
+    d = load_deck(ROOT / "models" / "embedded_beam.toml", overrides=overrides).domain
     d.solver.algorithm, d.solver.t_end = algorithm, t_end
     if algorithm == "static":
         d.solver.load_steps, d.solver.dt, d.solver.output_every = load_steps, t_end / load_steps, 1

@@ -3,7 +3,7 @@
 Both engines solve the same model, a clamped cantilever of 1,666 Beam2 elements (9,996 free
 coordinates, :func:`crosscheck.exudyn_modes.timing_cantilever`), for its 20 lowest constrained
 modes with sparse shift-invert Lanczos, in the same process.  flexmbs' time is the whole
-analysis (:func:`reference.linearization.lowest_modes`: the matrices from the derived tangents,
+analysis (:func:`reference.algorithms.linearization.lowest_modes`: the matrices from the derived tangents,
 the null-space reduction, the eigen-solve), Exudyn's its eigen call alone
 (:func:`crosscheck.exudyn_modes.exudyn_modes_timing`; most of it is Exudyn's dense handling of
 the clamped coordinates, its Lanczos iteration takes ~0.3 s of ~4–9 s).  The two elements
@@ -26,8 +26,8 @@ def modes_timing(repeat: int = 3, targets: list | None = None, elements: int = E
     """Time both engines on the cantilever; append its two targets (≤ 2 s, ≤ 0.5 × Exudyn)
     to ``targets``; return the printed lines."""
     from crosscheck.exudyn_modes import exudyn_modes_timing, timing_cantilever
-    from flexmbs.bench import Target
-    from reference.linearization import lowest_modes
+    from flexmbs.bench_common import Target
+    from reference.algorithms.linearization import lowest_modes
 
     domain = timing_cantilever(elements)
     model, state = domain.initialization(), domain.initial_conditions()

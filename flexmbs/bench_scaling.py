@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from flexmbs.bench import Target
+from flexmbs.bench_common import Target
 
 LINK = dict(EA=1.0, GA2=1.0, GA3=1.0, GJ=1.0, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=0.02, rhoJ2=0.01, rhoJ3=0.01)
 """A rigid link's section (only the inertia is used): 1 kg/m."""

@@ -14,7 +14,7 @@ import statistics
 import time
 from pathlib import Path
 
-from flexmbs.bench import Target
+from flexmbs.bench_common import Target
 
 THROUGHPUT = dict(elements=768, length=10.0, radius=0.05, density=1000.0, E=1e7, G=1e7 / 3.0, torque=0.01,
                   dt=1e-4, steps=1000)

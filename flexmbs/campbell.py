@@ -3,7 +3,7 @@
 A modes deck with ``about = "rotation"`` (docs/deck.md) gives the spin axis, the point on it and the
 number of modes; the command solves the deck as ``flexmbs modes`` does (its own spin rate), then, for each
 rate of ``--rates START:STOP:N`` (N equally spaced rates [rad/s]), the relative equilibrium and the modes in
-the spinning frame (:func:`reference.linearization.at_steady_rotation`, :func:`reference.modal.modes`), each
+the spinning frame (:func:`reference.algorithms.linearization.at_steady_rotation`, :func:`reference.modal.modes`), each
 rate starting Newton from the stretched state of the one before.  The modes are sorted by frequency at
 every rate (no tracking of a mode through a crossing).  The table goes to the terminal, the datasets
 ``/campbell/spin_rate`` [rad/s], ``/campbell/frequency`` [Hz], ``/campbell/damping_ratio`` and
@@ -76,8 +76,8 @@ def parse_rates(text: str) -> np.ndarray:
 def campbell(domain, rates, n: int | None = None, shapes: bool = False) -> Campbell:
     """The ``n`` lowest modes (default the deck's ``modes``) of ``domain`` spinning about its solver's
     ``spin_axis`` through ``spin_point`` at each of ``rates`` [rad/s]; ``shapes`` keeps the mode shapes
-    (per node, :meth:`reference.linearization.Linearization.nodal`)."""
-    from reference.linearization import at_steady_rotation, mobility, reduce
+    (per node, :meth:`reference.algorithms.linearization.Linearization.nodal`)."""
+    from reference.algorithms.linearization import at_steady_rotation, mobility, reduce
     from reference.algorithms.implicit import NewtonSystem
     from reference.modal import modes
 

@@ -99,3 +99,13 @@ def markdown_to_html(markdown: str, base: Path, title: str = "flexmbs verificati
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
             f"<style>{STYLE}</style></head><body>\n" + "\n".join(body) + ("\n" + script() if views else "")
             + "\n</body></html>\n")
+
+
+def write_html(markdown: Path) -> Path:
+    """Write the self-contained HTML rendering of the Markdown report ``markdown`` beside it (same name,
+    ``.html``; its figures and views relative to its folder) and return its path: what ``flexmbs report``
+    writes, and what ``make docs-check`` renders again when the HTML is missing or older than the Markdown."""
+    markdown = Path(markdown)
+    path = markdown.with_suffix(".html")
+    path.write_text(markdown_to_html(markdown.read_text(encoding="utf-8"), markdown.parent), encoding="utf-8")
+    return path

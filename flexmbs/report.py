@@ -67,9 +67,9 @@ class Context:
 
     def domain(self, **overrides):
         """A fresh Domain of the deck (overrides: ``t_end``, ``dt``, ``refine``)."""
-        from reference.domain import Domain
+        from reference.io.deck import load_deck
 
-        return Domain.from_deck(self.deck, overrides=overrides or None)
+        return load_deck(self.deck, overrides=overrides or None).domain
 
     def solve(self, domain, what: str = "", results_file: bool = False):
         """Solve warm with a progress bar; the solve time is recorded for the timing table."""
@@ -350,7 +350,6 @@ def view_lines(results: Path, page: Path, deck) -> list[str]:
 def deck_section(number: int, deck: Path, out: Path, figures: Path, quick: bool, timings: list):
     """One deck's section: data, sketch, its check module's checks, the Exudyn cross-check."""
     from flexmbs.deckchecks import module_for
-    from reference.domain import Domain
     from reference.io.deck import load_deck
 
     read = load_deck(deck)
@@ -368,7 +367,7 @@ def deck_section(number: int, deck: Path, out: Path, figures: Path, quick: bool,
     module = module_for(domain.name)
     if module is None:
         checks = []
-        r = ctx.solve(Domain.from_deck(deck), results_file=True)
+        r = ctx.solve(load_deck(deck).domain, results_file=True)
         lines += [f"No check module (`flexmbs/deckchecks/{domain.name}.py`) evaluates this deck's `[checks]`: "
                   + (", ".join(f"`{k}`" for k in read.checks) + " are **not evaluated** here." if read.checks
                      else "it has none."), "",
@@ -464,9 +463,9 @@ def main(args=None) -> int:
     body += ["", f"Report generated in {time.perf_counter() - t0:.1f} s."]
     name = "verification_quick.md" if quick else "verification.md"
     (reports / name).write_text("\n".join(body) + "\n", encoding="utf-8")
-    from flexmbs.html import markdown_to_html
+    from flexmbs.html import write_html
 
-    (reports / name).with_suffix(".html").write_text(markdown_to_html("\n".join(body), reports), encoding="utf-8")
+    write_html(reports / name)
     print(f"wrote {reports / name}: {len(checks) - len(failed)}/{len(checks)} checks pass "
           f"({time.perf_counter() - t0:.0f} s)")
     for c in failed:

@@ -193,14 +193,30 @@ document.readyState === "complete" && (async () => { try {
   const rendered = document.querySelectorAll("mjx-container").length;
   const errors = [...document.querySelectorAll("mjx-merror")].map(e => e.getAttribute("data-mjx-error") || e.textContent);
   const links = [...document.querySelectorAll("a[href]")].map(a => a.href);
+  const views = window.flexmbsViews || [];
+  for (const t0 = Date.now(); views.some(v => !v.ready) && Date.now() - t0 < 30000;) {
+    await new Promise(done => setTimeout(done, 50));
+  }
+  const drawn = views.map(v => {
+    if (!v.ready) { return null; }
+    const c = v.canvas, d = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
+    let inked = 0;
+    for (let i = 0; i < d.length; i += 4) {
+      if (d[i + 3] > 0 && (d[i] < 200 || d[i + 1] < 200 || d[i + 2] < 200)) { inked++; }
+    }
+    return {drawn: v.drawn, inked};
+  });
   const anchor = location.hash && document.getElementById(decodeURIComponent(location.hash.slice(1)));
   if (anchor) { anchor.scrollIntoView(); }
-  return JSON.stringify({raw: found, math, rendered, errors, links});
+  return JSON.stringify({raw: found, math, rendered, errors, links, views: drawn});
 } catch (e) { return JSON.stringify({failed: String(e)}); } })()
 """
 """What :func:`check_site` waits for on each page (the ready expression of :meth:`flexmbs.browser.Browser.open`, its
 ``%s`` filled with :data:`_RAW_LATEX`): once the page has loaded and MathJax has typeset it, the page's raw LaTeX,
-equations, typeset equations, MathJax errors and links as JSON, the page scrolled to its anchor for the screenshot."""
+equations, typeset equations, MathJax errors and links as JSON, and for each interactive 3D view
+(:mod:`flexmbs.view`, awaited until it is ready, at most 30 s) what it drew: its count of drawn items and its
+canvas's inked pixels (painted, not near-white), null when it never became ready; the page scrolled to its
+anchor for the screenshot."""
 
 
 def _ids(path: Path, cache: dict) -> set[str]:
@@ -211,15 +227,18 @@ def _ids(path: Path, cache: dict) -> set[str]:
     return cache[path]
 
 
-def check_site(site: Path, pages=PAGES, screenshots: Path | None = None) -> list[str]:
+def check_site(site: Path, pages=PAGES, screenshots: Path | None = None, report: Path | None = None) -> list[str]:
     """Render ``pages`` of the built site ``site`` in headless Chromium, offline, and return the problems
     found, one line each (none: the pages pass).
 
     Each page is loaded from its file, MathJax is awaited, and the rendered page is checked for: raw LaTeX in
     its text (``$$``, ``\\(``, a TeX command outside the typeset equations), equations that MathJax did not
-    typeset or typeset with an error, console errors, uncaught exceptions and failed loads (a file missing
-    from the site, or a resource from the network), and links to a missing page or to an anchor the target page
-    does not have.  ``screenshots``: a folder that receives one PNG per page, scrolled to the page's anchor.
+    typeset or typeset with an error, an interactive 3D view that does not draw (a blank canvas), console
+    errors, uncaught exceptions and failed loads (a file missing from the site, or a resource from the network),
+    and links to a missing page or to an anchor the target page does not have.  ``screenshots``: a folder that
+    receives one PNG per page, scrolled to the page's anchor.  ``report``: the self-contained HTML report
+    (``reports/verification.html``, :func:`flexmbs.report.write_html`), checked the same way after the site's
+    pages (its problems named by its file name; its screenshot ``verification.png``).
     """
     site = Path(site).resolve()
     problems: list[str] = []
@@ -233,48 +252,67 @@ def check_site(site: Path, pages=PAGES, screenshots: Path | None = None) -> list
                 continue
             if fragment and fragment not in _ids(path, anchors):
                 problems.append(f"{page}: no anchor #{fragment} in the page")
-            try:  # the load's messages arrive before the survey's answer: a short settle
-                seen = browser.open(path, ready=_SURVEY % json.dumps(_RAW_LATEX), fragment=fragment, settle=0.1,
-                                    screenshot=screenshots is not None)
-            except BrowserError as error:
-                problems.append(f"{page}: {error}")
-                continue
-            found = json.loads(seen.value)
-            if "failed" in found:
-                problems.append(f"{page}: the survey script failed: {found['failed']}")
-                continue
-            problems += [f"{page}: raw LaTeX in the text: {text!r}" for text in found["raw"]]
-            problems += [f"{page}: MathJax error: {text}" for text in found["errors"]]
-            if found["rendered"] < found["math"]:
-                problems.append(f"{page}: {found['math'] - found['rendered']} of {found['math']} equations "
-                                "not typeset (MathJax did not load?)")
-            problems += [f"{page}: {'uncaught exception' if level == 'exception' else 'console error'}: "
-                         + " ".join(str(text).split())  # a stack trace on the same line
-                         for level, text in seen.console if level in ("error", "exception")]
-            problems += [f"{page}: loaded from the network: {url}" for url in seen.requests]
-            for link in dict.fromkeys(found["links"]):
-                url = urlsplit(link)
-                if url.scheme != "file":
-                    continue
-                target = Path(unquote(url.path))
-                if not target.exists():
-                    problems.append(f"{page}: broken link to {target.relative_to(site) if site in target.parents else target}")
-                elif url.fragment and target.suffix == ".html" and unquote(url.fragment) not in _ids(target, anchors):
-                    problems.append(f"{page}: link to a missing anchor {target.name}#{url.fragment}")
-            if screenshots is not None:
-                Path(screenshots).mkdir(parents=True, exist_ok=True)
-                stem = name.removesuffix(".html").replace("/", "_").removeprefix("_generated_")
-                (Path(screenshots) / f"{stem}.png").write_bytes(seen.screenshot)
+            stem = name.removesuffix(".html").replace("/", "_").removeprefix("_generated_")
+            problems += _check_page(browser, path, page, fragment, site, anchors,
+                                    screenshots and Path(screenshots) / f"{stem}.png")
+        if report is not None:
+            report = Path(report).resolve()
+            problems += _check_page(browser, report, report.name, "", report.parent, anchors,
+                                    screenshots and Path(screenshots) / f"{report.stem}.png")
+    return problems
+
+
+def _check_page(browser, path: Path, page: str, fragment: str, site: Path, anchors: dict,
+                screenshot: Path | None) -> list[str]:
+    """The problems of one page of :func:`check_site` (``page`` its name in them, ``site`` the folder its links
+    are named relative to), its screenshot written to ``screenshot`` when given."""
+    try:  # the load's messages arrive before the survey's answer: a short settle
+        seen = browser.open(path, ready=_SURVEY % json.dumps(_RAW_LATEX), fragment=fragment, settle=0.1,
+                            screenshot=screenshot is not None)
+    except BrowserError as error:
+        return [f"{page}: {error}"]
+    found = json.loads(seen.value)
+    if "failed" in found:
+        return [f"{page}: the survey script failed: {found['failed']}"]
+    problems = [f"{page}: raw LaTeX in the text: {text!r}" for text in found["raw"]]
+    problems += [f"{page}: MathJax error: {text}" for text in found["errors"]]
+    if found["rendered"] < found["math"]:
+        problems.append(f"{page}: {found['math'] - found['rendered']} of {found['math']} equations "
+                        "not typeset (MathJax did not load?)")
+    views = found["views"]
+    problems += [f"{page}: 3D view {k + 1} of {len(views)} " + ("never became ready" if view is None else
+                 f"drew nothing ({view['drawn']} items, {view['inked']} inked pixels)")
+                 for k, view in enumerate(views) if view is None or not (view["drawn"] > 0 and view["inked"] > 0)]
+    problems += [f"{page}: {'uncaught exception' if level == 'exception' else 'console error'}: "
+                 + " ".join(str(text).split())  # a stack trace on the same line
+                 for level, text in seen.console if level in ("error", "exception")]
+    problems += [f"{page}: loaded from the network: {url}" for url in seen.requests]
+    for link in dict.fromkeys(found["links"]):
+        url = urlsplit(link)
+        if url.scheme != "file":
+            continue
+        target = Path(unquote(url.path))
+        if not target.exists():
+            problems.append(f"{page}: broken link to {target.relative_to(site) if site in target.parents else target}")
+        elif url.fragment and target.suffix == ".html" and unquote(url.fragment) not in _ids(target, anchors):
+            problems.append(f"{page}: link to a missing anchor {target.name}#{url.fragment}")
+    if screenshot is not None:
+        screenshot.parent.mkdir(parents=True, exist_ok=True)
+        screenshot.write_bytes(seen.screenshot)
     return problems
 
 
 def main(argv=None) -> int:
-    """``python -m flexmbs.site check [SITE] [--screenshots DIR]`` (``make docs-check``): exit 1 and one line per
-    problem when a page fails, 0 and the pages checked when all pass."""
+    """``python -m flexmbs.site check [SITE] [--screenshots DIR] [--report HTML]`` (``make docs-check``): exit 1
+    and one line per problem when a page fails, 0 and the pages checked when all pass.  ``--report``: the HTML
+    report is checked too, written again from the Markdown report beside it (``flexmbs.html.write_html``) when it
+    is missing or older."""
     parser = argparse.ArgumentParser(prog="python -m flexmbs.site", description=main.__doc__)
     parser.add_argument("command", choices=["check"])
     parser.add_argument("site", nargs="?", default="build/docs", type=Path)
     parser.add_argument("--screenshots", type=Path, default=None, help="write one PNG per page into this folder")
+    parser.add_argument("--report", type=Path, default=None,
+                        help="check this HTML report too (reports/verification.html)")
     args = parser.parse_args(argv)
     if chromium() is None:
         print("flexmbs: error: no Chromium on the PATH; install one (Debian: apt-get install chromium)",
@@ -283,8 +321,13 @@ def main(argv=None) -> int:
     if not (args.site / "index.html").exists():
         print(f"flexmbs: error: {args.site}: no built site here; build it with `make docs`", file=sys.stderr)
         return 2
+    report = args.report and _fresh_report(args.report)
+    if args.report is not None and report is None:
+        print(f"flexmbs: error: {args.report}: no report here, nor its Markdown beside it; make one with "
+              "`flexmbs report`", file=sys.stderr)
+        return 2
     try:
-        problems = check_site(args.site, screenshots=args.screenshots)
+        problems = check_site(args.site, screenshots=args.screenshots, report=report)
     except BrowserError as error:
         print(f"flexmbs: error: {error}", file=sys.stderr)
         return 2
@@ -292,9 +335,21 @@ def main(argv=None) -> int:
         print(line)
     if problems:
         return 1
-    print(f"{len(PAGES)} pages rendered offline in headless Chromium: no raw LaTeX, no console errors, "
-          "no broken links or anchors: " + ", ".join(PAGES))
+    pages = [*PAGES, *([str(args.report)] if report else [])]
+    print(f"{len(pages)} pages rendered offline in headless Chromium: no raw LaTeX, no console errors, "
+          "every 3D view drawn, no broken links or anchors: " + ", ".join(pages))
     return 0
+
+
+def _fresh_report(html: Path) -> Path | None:
+    """The HTML report ``html``, written again from the Markdown report beside it when that is newer (or the HTML
+    is missing: it is not committed); None when neither is there."""
+    from flexmbs.html import write_html
+
+    source = html.with_suffix(".md")
+    if source.exists() and (not html.exists() or html.stat().st_mtime < source.stat().st_mtime):
+        write_html(source)
+    return html if html.exists() else None
 
 
 if __name__ == "__main__":

@@ -34,8 +34,8 @@ import numpy as np
 
 import reference
 from flexmbs.verification.analytic import elastica_tip, polygon_tip
-from reference.domain import Domain
 from reference.elements import Beam2Formulation, Section
+from reference.io.deck import load_deck
 from reference.rotation import EulerParameters, RotationVector
 
 FIGURES = Path("figures") / "02_beam_rollup"  # this lesson's figures, saved next to where it runs
@@ -97,7 +97,7 @@ deck_text = (ROOT / "models" / "embedded_beam.toml").read_text()
 print(deck_text[:deck_text.index("[checks.")].strip())
 
 # %%
-domain = Domain.from_deck(ROOT / "models" / "embedded_beam.toml", overrides={"t_end": 1.0} if QUICK else None)
+domain = load_deck(ROOT / "models" / "embedded_beam.toml", overrides={"t_end": 1.0} if QUICK else None).domain
 result = domain.solve()
 tip = result.position("beam:12")
 ks = result.time
@@ -152,7 +152,7 @@ assert errors.max() < 5e-3
 # %%
 static_text = (ROOT / "models" / "embedded_beam_static.toml").read_text()
 print(static_text[static_text.index("[solver]"):static_text.index("[checks.")].strip())
-static = Domain.from_deck(ROOT / "models" / "embedded_beam_static.toml").solve()
+static = load_deck(ROOT / "models" / "embedded_beam_static.toml").domain.solve()
 static_lag = max(np.linalg.norm(p - polygon_tip(10, 12, k)) for p, k in zip(static.position("beam:12"), static.time)) / 10
 print(f"{len(static.time) - 1} load steps; largest distance of the tip from the 12-element polygon: {static_lag:.1e} L")
 
@@ -197,7 +197,7 @@ assert abs(worst[0] / worst[1] - 4.0) < 0.1
 
 # %% tags=["solution", "rerun"] jupyter={"source_hidden": true}
 # Exercise 3
-fine = Domain.from_deck(ROOT / "models" / "embedded_beam_static.toml", overrides={"refine": 2}).solve()
+fine = load_deck(ROOT / "models" / "embedded_beam_static.toml", overrides={"refine": 2}).domain.solve()
 i13 = int(np.argmin(abs(fine.time - 1.3)))
 tip12, tip24 = static.position("beam:12")[i13], fine.position("beam:24")[i13]
 e12, e24 = (np.linalg.norm(t - elastica_tip(L, 1.3)) / L for t in (tip12, tip24))

@@ -34,6 +34,7 @@ import reference
 from reference.domain import Domain, SolverDiverged, SolverSettings
 from reference.elements import Section
 from reference.interactions import Clamp, NodalLoad
+from reference.io.deck import load_deck
 
 FIGURES = Path("figures") / "04_staggered_algorithm"  # this lesson's figures, saved next to where it runs
 FIGURES.mkdir(parents=True, exist_ok=True)
@@ -108,7 +109,7 @@ assert 1.0 <= limit_ratio <= 1.25  # safe, and not needlessly small
 # $\|\Phi\|$ near $4\times10^{-8}$ m:
 
 # %%
-d = Domain.from_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 2.0 if QUICK else 10.0})
+d = load_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 2.0 if QUICK else 10.0}).domain
 r = d.solve()
 print("max ‖Φ‖ = %.2e m over %g s" % (r.constraint_violation.max(), r.time[-1]))
 e = r.energy
@@ -155,7 +156,7 @@ assert abs(h10 / h20 - shear_rotation[0] / shear_rotation[1]) < 1e-3
 # Exercise 2
 from flexmbs.verification.observables import midspan_deflection
 
-runs = {h: Domain.from_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 1.0, "dt": h}).solve()
+runs = {h: load_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 1.0, "dt": h}).domain.solve()
         for h in (2e-4, 1e-4, 5e-5)}
 e1 = np.max(np.abs(midspan_deflection(runs[2e-4]) - midspan_deflection(runs[5e-5])))
 e2 = np.max(np.abs(midspan_deflection(runs[1e-4]) - midspan_deflection(runs[5e-5])))

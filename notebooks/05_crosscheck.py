@@ -145,9 +145,9 @@ for name, res in (("reference", ref), ("Exudyn", ex)):
 
 # %% tags=["solution", "rerun"] jupyter={"source_hidden": true}
 # Exercise 2
-from reference.domain import Domain
+from reference.io.deck import load_deck
 
-half = Domain.from_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": ref.time[-1], "dt": 1e-4}).solve()
+half = load_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": ref.time[-1], "dt": 1e-4}).domain.solve()
 self_check = compare(ref, half, {"rocker": {"observable": "angle.z:rocker", "tolerance": 1.0, "reason": "exercise"}})
 own = self_check["verdicts"][0].max_difference
 print(f"rocker: reference vs itself at h/2 {own:.1e} rad; reference vs Exudyn {rocker.max_difference:.1e} rad")

@@ -48,6 +48,7 @@ from reference.algorithms.generalized_alpha import parameters
 from reference.domain import Domain, SolverDiverged, SolverSettings
 from reference.elements import Section
 from reference.interactions import Clamp, NodalLoad, Step
+from reference.io.deck import load_deck
 from reference.io.results import load_results
 
 FIGURES = Path("figures") / "06_implicit_explicit"  # this lesson's figures, saved next to where it runs
@@ -242,7 +243,7 @@ for steps_per_period in (40, 20, 10):  # ρ∞ = 1 is the trapezoidal rule, whos
 # beginning of the spin-up with both schemes and compare the deflections and the wall times.
 
 # %%
-steel = Domain.from_deck(MODELS / "steel_three_bar.toml", overrides={"t_end": 1.0})
+steel = load_deck(MODELS / "steel_three_bar.toml", overrides={"t_end": 1.0}).domain
 h_crit_steel = steel.critical_time_step()
 steel.solver.algorithm, steel.solver.dt, steel.solver.output_every = "generalized_alpha", 1e-3, 1
 steel_peak_um = float(1e6 * np.abs(ob.midspan_deflection(steel.solve())).max())
@@ -251,7 +252,7 @@ print(f"critical step {h_crit_steel:.2e} s; peak mid-span deflection over 1 s: {
 t_end = 0.25 if QUICK else 1.0
 runs = {}
 for algorithm, dt in (("staggered_central_difference", 2.5e-6), ("generalized_alpha", 1e-3)):
-    d = Domain.from_deck(MODELS / "steel_three_bar.toml", overrides={"t_end": t_end})
+    d = load_deck(MODELS / "steel_three_bar.toml", overrides={"t_end": t_end}).domain
     d.solver.algorithm, d.solver.dt, d.solver.output_every = algorithm, dt, int(round(1e-3 / dt))
     d.solve(t_end=10 * dt)  # warm-up (compilation)
     t0 = time.perf_counter()

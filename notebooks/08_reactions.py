@@ -41,6 +41,7 @@ import reference
 from reference.domain import Domain, SolverSettings
 from reference.elements import Section
 from reference.interactions import Gravity
+from reference.io.deck import load_deck
 from reference.observables import parse
 from reference.rotation import EulerParameters
 
@@ -131,7 +132,7 @@ assert np.max(np.abs(M_pin[:, 1])) < 1e-9
 # deck's `[crosscheck]` tables, `flexmbs plot --observable` and this lesson share.
 
 # %%
-three_bar = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 2.0 if QUICK else 10.0})
+three_bar = load_deck(MODELS / "three_bar.toml", overrides={"t_end": 2.0 if QUICK else 10.0}).domain
 three_bar.solver.output_every = 5
 tb = three_bar.solve()
 torque_obs = parse("reaction_moment.z:crank drive", three_bar)

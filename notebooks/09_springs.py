@@ -36,6 +36,7 @@ import scipy.linalg
 import reference
 from reference.domain import Domain, SolverSettings
 from reference.forces import PointToPoint
+from reference.io.deck import load_deck
 
 FIGURES = Path("figures") / "09_springs"  # this lesson's figures, saved next to where it runs
 FIGURES.mkdir(parents=True, exist_ok=True)
@@ -136,7 +137,7 @@ omega = np.sqrt(w2)
 shape = modes[1, 0] / modes[0, 0]
 print("ω =", omega, "rad/s;  first mode θ2/θ1 =", shape)
 
-pendulum = Domain.from_deck(MODELS / "torsion_double_pendulum.toml")
+pendulum = load_deck(MODELS / "torsion_double_pendulum.toml").domain
 r = pendulum.solve(t_end=1.4 if QUICK else None)
 theta = {b: 2 * np.arctan2(r.rotation(b)[:, 2], r.rotation(b)[:, 0]) for b in ("upper", "lower")}
 t = r.time

@@ -45,6 +45,7 @@ from flexmbs.verification import analytic
 from reference.domain import Domain, SolverDiverged, SolverSettings
 from reference.elements import Section
 from reference.interactions import Clamp, FixedCoordinates, NodalLoad, Ramp
+from reference.io.deck import load_deck
 from reference.io.results import load_results
 from reference.validation import ModelWarning
 
@@ -250,7 +251,7 @@ N_ELEMENTS = 16
 
 def lateral(algorithm="arc_length", imperfection=0.0, **solver):
     """The deck's cantilever with N_ELEMENTS elements, ``imperfection`` × the tip load pushing sideways (+y)."""
-    d = Domain.from_deck(MODELS / "lateral_buckling.toml", overrides={"beams.0.elements": N_ELEMENTS})
+    d = load_deck(MODELS / "lateral_buckling.toml", overrides={"beams.0.elements": N_ELEMENTS}).domain
     if imperfection:
         d.add_interaction(NodalLoad(d.node(f"beam:{N_ELEMENTS}"), (0.0, 4.0 * imperfection, 0.0),
                                     time_function=LOAD_FACTOR))

@@ -70,8 +70,9 @@ def free_block_inverse(inertia: np.ndarray, free_rot: np.ndarray) -> np.ndarray:
 class Domain:
     """A multibody problem: nodes, elements, joints, interactions, solver settings.
 
-    Build it with the ``add_*`` methods or from a model deck
-    (:meth:`from_deck`), then call :meth:`solve`.
+    Build it with the ``add_*`` methods or read it from a model deck
+    (``reference.io.deck.load_deck(path).domain``: the deck reader builds a Domain, the Domain knows no
+    deck), then call :meth:`solve`.
     """
 
     def __init__(self, name: str = "domain", description: str = ""):
@@ -90,16 +91,6 @@ class Domain:
         and ``BEAM:i`` name, :meth:`node`)."""
         self._model: Model | None = None
         self.state: State | None = None
-
-    @classmethod
-    def from_deck(cls, path, overrides=None) -> "Domain":
-        """Read a TOML model deck (see ``docs/deck.md``): the Domain of :func:`reference.io.deck.load_deck`.
-
-        The deck reader imports this module, not the reverse: the import is made when called.
-        """
-        from reference.io.deck import load_deck
-
-        return load_deck(path, overrides=overrides).domain
 
     def add_node(self, position, *, rotation=None, label=None, velocity=(0.0, 0.0, 0.0),
                  angular_velocity=(0.0, 0.0, 0.0)) -> Node:

@@ -23,8 +23,8 @@ in closed form with the functions below).  Why the three are not emitted as
 numba source like the derived kernels of ``reference/generated/``: decks arrive
 at run time, and the compiled time-stepping kernel calls every time function
 through one routine (:func:`reference.interactions.tf_value`), so new source
-would mean recompiling the whole step for every formula (tens of seconds, and a
-cache keyed by deck).  Instead each expression is compiled once into a short
+would mean recompiling the whole step for every formula (docs/benchmarks.md §9,
+and a cache keyed by deck).  Instead each expression is compiled once into a short
 postfix (reverse Polish) program of plain numbers, stored in the time
 function's parameter row, and :func:`rpn_eval` — compiled once with the engine —
 runs it: the same double-precision arithmetic as generated code, no compilation

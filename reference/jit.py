@@ -8,16 +8,16 @@ through in a debugger.  numba reads that variable itself.
 numba counts references to arrays with atomic updates: passing an array
 view (``x[i]``, ``w[0:12]``) or the Model (a tuple of some seventy arrays) to a
 compiled function, or reading ``model.nodes.free`` inside a loop, costs two atomic
-updates per array and call or iteration — measured with ``perf``, more than
-the Beam2 element's arithmetic and most of a joint's step.  So the step's
+updates per array and call or iteration — more than the Beam2 element's
+arithmetic and most of a joint's step (docs/benchmarks.md §5).  So the step's
 helpers are :func:`inlined` (the same Python function compiled to be inlined
 where it is called; numba then drops the updates), and a kernel binds the
 Model's arrays it needs to local names once, before its loops.  An inlined
 helper's arguments still cost the updates, once per call, for every array in
 them: a helper called every step or every Newton iteration takes the Model's
-groups it needs (``model.nodes``, ``model.loads``, …), not the Model (measured:
-0.5 µs per call of a helper that took the three-bar's Model and did nothing;
-:func:`reference.evaluation.forces.model_forces`).
+groups it needs (``model.nodes``, ``model.loads``, …), not the Model: a helper that takes the
+Model pays the updates of all its arrays at every call, even one that does nothing with them
+(:func:`reference.evaluation.forces.model_forces`; docs/benchmarks.md §10).
 
 Loops over independent items are :func:`parallel_kernel` loops (``prange``): every element family's
 element loop and tangent blocks, the explicit step's node loops (kick, drift, the step's sums, the
@@ -40,16 +40,15 @@ vector kernel takes its own arrays (a row ``blocked[b]``) rather than an offset 
 
 **Thread count** (:func:`threads`): ``FLEXMBS_THREADS`` when set (the override, capped at numba's
 pool, ``NUMBA_NUM_THREADS``); otherwise every core the process may use (:func:`available_cores`) for a
-model of at least :data:`DEFAULT_PARALLEL_NODES` nodes, and one thread below: a small model's step is
-a few µs per loop, about what starting a parallel region costs, so it gains little from a second
-thread.  The measured costs are in docs/benchmarks.md §5; the crossover itself needs an idle core and
-could not be measured on the shared development machine, so 8,192 nodes is a conservative choice.  On a machine shared
-with other jobs set ``FLEXMBS_THREADS=1``: a thread that another process holds up stalls every parallel
-region, and a two-thread step then costs several times the one-thread step (measured there too).
+model of at least :data:`DEFAULT_PARALLEL_NODES` nodes, and one thread below: a small model's loop
+costs about what starting a parallel region costs, so it gains little from a second thread
+(docs/benchmarks.md §5).  The crossover itself needs an idle core to be measured, so the threshold is
+chosen on the high side.  On a machine shared with other jobs set ``FLEXMBS_THREADS=1``: a thread that
+another process holds up stalls every parallel region, and a two-thread step then costs more than the
+one-thread step.
 
 Calling a compiled kernel from Python unboxes its arguments, and numba does that markedly
-slower for named tuples than for plain ones: a call taking the Model costs 7.7 µs, the same
-arrays as plain nested tuples 3.0 µs (three-bar model, 51 arrays; measured).  The implicit
+slower for named tuples than for plain nested tuples of the same arrays (docs/benchmarks.md §10).  The implicit
 algorithms make hundreds of such calls per solve (an evaluation, a factorisation, a chunk of
 steps, the derived outputs of a record), so those kernels take their named tuples through
 :func:`boundary` (the same arrays as plain nested tuples, made once per run by the caller) and name them
@@ -233,9 +232,9 @@ def boundary(obj):
     """``obj`` (a named tuple of arrays, scalars and named tuples) as plain nested tuples of the same
     arrays, for a kernel that calls :func:`named` on it; the identity with ``NUMBA_DISABLE_JIT=1``.
 
-    The arrays are shared: what the kernel writes into them, ``obj`` sees.  Making the copy costs
-    ~20 µs for a Model: a caller that passes the same object again keeps its copy (nothing here keeps
-    the object, or its arrays, alive).
+    The arrays are shared: what the kernel writes into them, ``obj`` sees.  Making the copy walks the
+    whole Model (docs/benchmarks.md §10): a caller that passes the same object again keeps its copy
+    (nothing here keeps the object, or its arrays, alive).
     """
     if numba.config.DISABLE_JIT:
         return obj

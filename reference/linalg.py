@@ -15,7 +15,7 @@ systems — chooses the ordering and the pivots once, the fill pattern follows
 from the structure, and later matrices are refactored in compiled code with
 the same permutations).  Compiled loops solve with the factors through
 :func:`lu_solve`.  :func:`null_space` gives a sparse basis of the null space of a constraint
-Jacobian (the linearised analyses, :mod:`reference.linearization`).
+Jacobian (the linearised analyses, :mod:`reference.algorithms.linearization`).
 
 **Singularity** is judged on the equilibrated matrix (:func:`equilibrate`): with rows and
 then columns scaled to a largest entry of 1 (the scaling of LAPACK's ``dgeequ``; Higham 2002,

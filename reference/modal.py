@@ -1,6 +1,6 @@
 """Modes, linear buckling and the inertia of a tangent, on the reduced linearisation (docs/formulation.md §11).
 
-Given the reduced matrices of :func:`reference.linearization.reduce` (``M_r``, ``D_r``, ``K_r`` on
+Given the reduced matrices of :func:`reference.algorithms.linearization.reduce` (``M_r``, ``D_r``, ``K_r`` on
 independent coordinates):
 
 - **undamped modes** (:func:`modes`, ``D_r = 0`` and ``K_r`` symmetric): ``K_r φ = ω² M_r φ``, the lowest
@@ -37,28 +37,28 @@ from reference.linalg import permutation_sign
 
 ZERO_MODE = 1e-12
 """``|ω²|`` below this fraction of the stiffness scale s (:func:`stiffness_scale`) is a zero mode.  The
-shift-inverted solution finds an exact zero eigenvalue at about 1e-16 s (measured: the six rigid modes of
-a free, very slender beam, 1.3e-18 s to 1.0e-16 s); its lowest elastic mode lies at 2.4e-8 s, the
+shift-inverted solution finds an exact zero eigenvalue orders of magnitude below it, and the lowest
+elastic mode of a free, very slender beam orders of magnitude above it (docs/benchmarks.md §10), the
 lowest elastic or gravity mode of the shipped decks and tests higher still."""
 SHIFT = 1e-9
 """The shift of the shift-invert solutions, ``σ = −SHIFT × s`` (s as in :data:`ZERO_MODE`): ``K − σM`` is
 positive definite with zero modes (condition about 1e9), σ lies below every elastic eigenvalue, and the
 eigenvalues near it come out accurate to round-off of |σ| (not of the largest eigenvalue, as with the
-plain ``eigh(K, M)``, which put the same rigid modes at ±2e-12 s and the first elastic one 6e-5 off)."""
+plain ``eigh(K, M)``, which moves the same rigid modes off zero and the first elastic one visibly:
+docs/benchmarks.md §10)."""
 DENSE = 600
 """Reduced systems up to this size are solved densely (all eigenvalues; faster than ARPACK there)."""
 DENSE_FIRST_ORDER = 200
 """First-order (damped, gyroscopic) problems up to this size (twice the reduced coordinates) are solved
-densely (QZ of the pencil); above it shift-invert Arnoldi is faster: the 4 lowest modes of the spinning
-32-element cantilever (size 384) in 0.018 s against 0.45 s dense, the frequencies equal to 1e-8; the real
-parts of its imaginary roots come out at up to 5e-9 |s| against 1e-16 dense (the shifted pencil of a stiff
-beam, EA/h ~ 3e8 against the bending stiffness, is ill-conditioned)."""
+densely (QZ of the pencil); above it shift-invert Arnoldi is faster, with the same frequencies, though
+the real parts of imaginary roots come out less accurate than dense (the shifted pencil of a stiff beam,
+its axial stiffness far above the bending one, is ill-conditioned; docs/benchmarks.md §10)."""
 UNSTABLE_DAMPING = 1e-6
 """A root of the first-order problem is *unstable* when its damping ratio ``−Re s/|s|`` is below
 ``−UNSTABLE_DAMPING`` (its amplitude grows by more than ``2π × 1e-6`` per cycle); a smaller ``|Re s|`` is the
-solver's round-off, relative to the root itself: the dense QZ leaves about 1e-12 |s| on the imaginary roots of
-the spinning cantilever (``models/rotating_cantilever.toml``), shift-invert Arnoldi up to 5e-9 |s|
-(:data:`DENSE_FIRST_ORDER`).  The same bound tells an undamped (imaginary) root from a damped one in the
+solver's round-off, relative to the root itself: both solvers leave less than that on the imaginary roots
+of the spinning cantilever (``models/rotating_cantilever.toml``), shift-invert Arnoldi more than the dense QZ
+(:data:`DENSE_FIRST_ORDER`; docs/benchmarks.md §10).  The same bound tells an undamped (imaginary) root from a damped one in the
 Campbell table (:mod:`flexmbs.campbell`)."""
 SMALL = 200
 """Tangents up to this size are counted densely by :func:`negative_eigenvalues` (faster than the sparse
@@ -202,8 +202,8 @@ def damped(M, D, K, n: int) -> ModeSet:
 
 def _ncv(k: int, size: int) -> int:
     """Lanczos/Arnoldi vectors for k eigenvalues: at least 40 more than k (ARPACK's default 2k + 1
-    restarts often: the 20 lowest modes of a 10,000-coordinate cantilever took 0.81 s with it, 0.06 s
-    with 60 vectors, the eigenvalues equal to 2e-12)."""
+    restarts often on a large model; more vectors cut the time many times over with the same eigenvalues,
+    docs/benchmarks.md §10)."""
     return min(size - 1, max(2 * k + 1, k + 40))
 
 
@@ -324,8 +324,9 @@ def negative_eigenvalues(K, known: tuple | None = None) -> tuple[int, int]:
 def _ldl_negatives(S: np.ndarray) -> int:
     """The number of negative eigenvalues of the dense symmetric S: those of the 1×1 and 2×2 pivot blocks of its
     Bunch–Kaufman factorisation ``P S Pᵀ = L D Lᵀ`` (LAPACK ``sytrf``; Sylvester's law of inertia).  A third of
-    the work of the eigenvalues, and no multithreaded reduction: on a loaded two-core machine 1 ms against
-    eigvalsh's 38 ms at 126 coordinates (the arc-length path counts at every point)."""
+    the work of the eigenvalues, and no multithreaded reduction, which on a loaded machine waits for a busy
+    core: much faster than ``eigvalsh`` on the tangents the arc-length path counts at every point
+    (docs/benchmarks.md §10)."""
     _, D, _ = sla.ldl(S, lower=True, hermitian=True, check_finite=False)
     count, i, n = 0, 0, D.shape[0]
     while i < n:
@@ -365,7 +366,7 @@ def nearest_zero(K, M) -> tuple[float, np.ndarray]:
         return float(mu[k].real), phi[:, k].real
     K = sps.csc_matrix(0.5 * (K + K.T))
     M = sps.csc_matrix(M)
-    if size <= SMALL:  # above it shift-invert: 3 ms against the dense pencil's 47 ms at 480 coordinates
+    if size <= SMALL:  # above it shift-invert is faster than the dense pencil (docs/benchmarks.md §10)
         mu, phi = sla.eigh(K.toarray(), M.toarray())
     else:
         # a fixed start vector (ARPACK's default is random): the same critical load factor on every run

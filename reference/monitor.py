@@ -31,20 +31,19 @@ The message names the likely cause: the time step, when it is above
 
 **The round-off floor.**  Without a floor the scale S of a model at rest, or at the start of a
 load ramped in from zero, is itself round-off, and the ratio of two round-off numbers trips the
-guard (an unloaded quarter arc, kinetic + strain energy 2.7e-24 against 3.5e-27 of
-work).  A model at rest is not at rest in floating point: its coordinates carry a round-off of
+guard (an unloaded quarter arc: docs/benchmarks.md §10).  A model at rest is not at rest in floating point: its coordinates carry a round-off of
 ε|x| (ε = 2.2e-16), so its elements start with strains of order ε X / L_e (X the largest
 coordinate, L_e the element length) whose forces do not balance exactly, and the structure
 answers those round-off loads through its compliance — unbounded by any fixed number of ulps:
-the unloaded, undamped 16-element quarter arc of R = 100 (EA = 1e7, ten thousand steps of
-3e-4 s) grows from 1e-22 J to 2e-19 J, the 64-element one to 3e-17 J (measured).  The floor is therefore ε times a characteristic energy of the model (the energies
+the energy of an unloaded, undamped quarter arc grows by orders of magnitude over ten thousand steps,
+and more on a finer mesh (docs/benchmarks.md §10).  The floor is therefore ε times a characteristic energy of the model (the energies
 it sums are of that size, so their round-off is), :func:`energy_floor`:
 ``E_c = ½ Σ_e [(EA + GA₂ + GA₃) L_e + (GJ + EI₂ + EI₃) / L_e]`` (the strain energy of a unit
 strain and a unit curvature × L_e in every element) ``+ ½ Σ k X²`` (translational springs)
 ``+ ½ Σ k`` (rotational, 1 rad) ``+ |g| X Σ m`` (gravity across the model): the energy of a strain
-of √ε ≈ 1.5e-8.  For the arc, ε E_c = 3.5e-7 J, ten orders above the round-off it holds and
-fifty times below the 1.7e-5 J its 0.01 tip load has put in at the end of its 10 s ramp; a blow-up, growing geometrically, passes it
-within a few dozen steps.
+of √ε ≈ 1.5e-8.  For the arc, ε E_c lies orders of magnitude above the round-off it holds and well
+below the work its tip load has put in at the end of its ramp (docs/benchmarks.md §10); a blow-up,
+growing geometrically, passes it within a few dozen steps.
 
 **Mass-proportional damping** (force −c m v, moment −c J ω, at the old half-step velocity
 V^{n−½}): the kick multiplies a free velocity by 1 − c h, and with a stiffness of frequency ω

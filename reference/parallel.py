@@ -18,8 +18,8 @@ Results are bit for bit the same for any thread count (:func:`reference.jit.use_
 Whether a loop runs in parallel depends on the model's size only (:data:`PARALLEL_NODES`, the
 element driver's ``PARALLEL_ELEMENTS``, :mod:`reference.elements.driver`), never on the thread count:
 the serial and parallel forms of a loop give the same bits anyway, the threshold only keeps a small model
-off the cost of starting a parallel region (docs/benchmarks.md §5).  Joints, master/slave
-joints, force elements and loads stay serial (few, and they write into shared node rows).
+off the cost of starting a parallel region (the measured crossovers: docs/benchmarks.md §5, §10).  Joints,
+master/slave joints, force elements and loads stay serial (few, and they write into shared node rows).
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ PARALLEL_NODES = 2048
 """From this many nodes on, the node loops of the explicit step (kick, drift, the step's sums,
 the force reset, the element → node gather) and of the implicit residual and tangent run as
 parallel loops (on one thread too: the same bits).  Below it the serial loops skip the cost of
-starting a parallel region, a few µs, against a step of ~0.1 µs per node (docs/benchmarks.md §5)."""
+starting a parallel region, which costs as much as the serial loops over many nodes (docs/benchmarks.md §5, §10)."""
 
 
 ELEMENT_CHUNK = 16

@@ -44,7 +44,7 @@ class OutputArrays(NamedTuple):
     """The groups of the :class:`~reference.state.Model` that the derived outputs read.
 
     :func:`derived_outputs` takes these in place of the Model (its kernels read the same
-    fields by name): a compiled call unboxes every array it is given, ~0.1 µs each.
+    fields by name): a compiled call unboxes every array it is given, each at a cost (:mod:`reference.jit`).
     """
 
     joints: tuple

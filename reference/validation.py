@@ -35,8 +35,8 @@ MAX_AXIAL_STRAIN = 0.05
 """Largest axial strain ``|N| / EA`` (the section force at an element's midpoint over its axial
 stiffness) at any output of a completed run above which it is warned about: a few per cent, far
 beyond the elastic range of metals (steel yields near 0.2 %); a stiffness typed in MPa where the deck
-is in Pa stretched a steel rod 37 % (issue 38) and completed.  The shipped models stay below it:
-largest 0.024 (the soft flexible pendulum), then 8.4e-4 (Lee's frame)."""
+is in Pa stretched a steel rod by tens of per cent (issue 38) and completed.  The shipped models stay
+below it (docs/benchmarks.md §10)."""
 
 
 class LabelError(KeyError):

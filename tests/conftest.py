@@ -18,6 +18,7 @@ import pytest
 
 from reference.domain import Domain
 from reference.elements import Section
+from reference.io.deck import load_deck
 
 
 def cantilever(n_elements: int, section: Section, length: float = 1.0, axis2=(0.0, 1.0, 0.0)):
@@ -81,22 +82,22 @@ def _warm_up_jobs():
     models = Path(__file__).resolve().parents[1] / "models"
 
     def alpha():
-        d = Domain.from_deck(models / "three_bar.toml")
+        d = load_deck(models / "three_bar.toml").domain
         d.solver = SolverSettings(algorithm="generalized_alpha", dt=5e-3, t_end=0.02, output_every=2)
         return d
 
     def explicit():
-        d = Domain.from_deck(models / "three_bar.toml")
+        d = load_deck(models / "three_bar.toml").domain
         d.solver.t_end = 10 * d.solver.dt
         return d
 
     def static():
-        d = Domain.from_deck(models / "embedded_beam.toml")
+        d = load_deck(models / "embedded_beam.toml").domain
         d.solver = SolverSettings(algorithm="static", t_end=0.2, load_steps=2, dt=0.1)
         return d
 
     def arc_length():
-        d = Domain.from_deck(models / "lee_frame.toml")
+        d = load_deck(models / "lee_frame.toml").domain
         d.solver.max_points = 3
         return d
 

@@ -41,7 +41,7 @@ def _datasets(path: Path) -> dict:
 
 def save(out: Path, decks: list[str]) -> None:
     sys.path.insert(0, str(ROOT))
-    from reference import Domain
+    from reference.io.deck import load_deck
 
     out.mkdir(parents=True, exist_ok=True)
     paths = [Path(d) for d in decks] or sorted((ROOT / "models").glob("*.toml"))
@@ -49,7 +49,7 @@ def save(out: Path, decks: list[str]) -> None:
         t0 = time.perf_counter()
         with tempfile.TemporaryDirectory() as tmp:
             h5 = Path(tmp) / "results.h5"
-            domain = Domain.from_deck(deck)
+            domain = load_deck(deck).domain
             domain.solve(results_path=h5)
             np.savez(out / f"{deck.stem}.npz", **_datasets(h5))
         print(f"{deck.stem}: {time.perf_counter() - t0:.1f} s", flush=True)

@@ -18,6 +18,7 @@ from reference.domain import Domain, SolverDiverged
 from reference.elements import Section
 from reference.interactions import FixedCoordinates, NodalLoad, Ramp
 from reference.io.deck import DeckError
+from reference.io.deck import load_deck
 from reference.io.results import load_results
 from reference.status import NO_CONVERGENCE
 from reference.validation import ModelWarning
@@ -78,7 +79,7 @@ def test_registry_and_deck_keys(tmp_path):
                                 'max_load_factor = 1.1\nstop_when = "position.x:beam:end < -20"\n\n')
     deck = tmp_path / "arc.toml"
     deck.write_text(good)
-    algo = Domain.from_deck(deck).algorithm()
+    algo = load_deck(deck).domain.algorithm()
     assert isinstance(algo, ArcLength) and (algo.arc_length, algo.max_points, algo.max_load_factor) == (0.5, 40, 1.1)
     assert algo.stop_when[1:4] == (0, "<", -20.0)
     for bad, entry in ((good.replace("arc_length = 0.5", "arc_length = -1"), "solver.arc_length"),
@@ -87,7 +88,7 @@ def test_registry_and_deck_keys(tmp_path):
                        (good.replace("< -20", "about -20"), "solver.stop_when")):
         deck.write_text(bad)
         with pytest.raises(DeckError, match=entry) as err:
-            Domain.from_deck(deck)
+            load_deck(deck).domain
         assert "\n" not in str(err.value)
 
 
@@ -145,7 +146,7 @@ def test_rollup_past_two_turns_on_the_polygon():
     """The embedded beam (12 elements) under its end moment by arc length, from 0 to k = 2.2 (λ = 1.1 of the
     deck's moment at t_end = 2, k = 2): every point on the discrete polygon within 1e-8 L, as the static
     algorithm (docs/benchmarks.md §1)."""
-    d = Domain.from_deck(MODELS / "embedded_beam.toml")
+    d = load_deck(MODELS / "embedded_beam.toml").domain
     d.solver = SolverSettings(algorithm="arc_length", t_end=2.0, arc_length=0.5, max_points=200, max_load_factor=1.1)
     r = d.solve()
     lam, tip = r.data("path/load_factor"), r.position("beam:12")
@@ -156,7 +157,7 @@ def test_rollup_past_two_turns_on_the_polygon():
 
 
 def ltb(**solver) -> Domain:
-    d = Domain.from_deck(MODELS / "lateral_buckling.toml")
+    d = load_deck(MODELS / "lateral_buckling.toml").domain
     d.solver = SolverSettings(algorithm="arc_length", t_end=1.0, **solver)
     return d
 

@@ -21,6 +21,7 @@ import pytest
 
 from reference.domain import Domain
 from reference.elements import Section
+from reference.io.deck import load_deck
 from reference.io.deck_reader import DeckError
 
 from test_families import uncompiled_json
@@ -35,25 +36,25 @@ def run_all() -> dict:
 
     out = {}
     for n, refine in ((3, 1), (12, 4)):  # 12 = 3 elements × refine 4 (the CLI's --refine)
-        d = Domain.from_deck(MODELS / "embedded_beam_static.toml",
+        d = load_deck(MODELS / "embedded_beam_static.toml",
                              overrides={"beams.0.elements": 3, "beams.0.element": "beam2_se3",
-                                        "solver.tolerance": 1e-12, "refine": refine})
+                                        "solver.tolerance": 1e-12, "refine": refine}).domain
         r = d.solve()
         tip = r.position(f"beam:{n}")
         out[f"rollup{n}"] = {"k": r.time.tolist(), "status": r.status,
                              "error": [float(np.linalg.norm(tip[i] - elastica_tip(10.0, k)) / 10.0)
                                        for i, k in enumerate(r.time)]}
     for family in ("beam2", "beam2_se3"):
-        r = Domain.from_deck(MODELS / "cantilever_modes.toml",
-                             overrides={"beams.0.element": family, "beams.0.elements": 8}).solve()
+        r = load_deck(MODELS / "cantilever_modes.toml",
+                             overrides={"beams.0.element": family, "beams.0.elements": 8}).domain.solve()
         out[f"modes_{family}"] = r.data("modes/frequency").tolist()
-        r = Domain.from_deck(MODELS / "lateral_buckling.toml",
-                             overrides={"beams.0.element": family, "beams.0.elements": 8}).solve()
+        r = load_deck(MODELS / "lateral_buckling.toml",
+                             overrides={"beams.0.element": family, "beams.0.elements": 8}).domain.solve()
         out[f"buckling_{family}"] = r.data("buckling/load_factor").tolist()
         for algorithm, dt in (("staggered_central_difference", 2e-4), ("generalized_alpha", 2e-3)):
-            r = Domain.from_deck(MODELS / "three_bar.toml",
+            r = load_deck(MODELS / "three_bar.toml",
                                  overrides={"beams.1.element": family, "solver.t_end": 0.04,
-                                            "solver.algorithm": algorithm, "solver.dt": dt}).solve()
+                                            "solver.algorithm": algorithm, "solver.dt": dt}).domain.solve()
             out[f"{algorithm}_{family}"] = {"status": r.status, "tip": r.position("coupler:4")[-1].tolist()}
     from flexmbs.verification.families import bend_tip
 
@@ -143,7 +144,7 @@ def test_deck_element_key_errors():
              ("physical_pendulum.toml", "beam2_se3", "a rigid bar has no elements; remove `element` or `rigid`")]
     for deck, value, fix in cases:
         with pytest.raises(DeckError) as err:
-            Domain.from_deck(MODELS / deck, overrides={"beams.0.element": value})
+            load_deck(MODELS / deck, overrides={"beams.0.element": value}).domain
         assert "beams[0].element" in str(err.value) and fix in str(err.value) and "\n" not in str(err.value)
 
 

@@ -25,20 +25,21 @@ def run_all() -> dict:
     from flexmbs.verification.families import cantilever_tip
     from reference.domain import Domain
     from reference.elements import Section
+    from reference.io.deck import load_deck
 
     out = {}
     reference = cantilever_tip("beam3", 16, 1e4)
     out["cantilever_beam3_8"] = float(np.linalg.norm(cantilever_tip("beam3", 8, 1e4) - reference))
     out["cantilever_beam2_64"] = float(np.linalg.norm(cantilever_tip("beam2", 64, 1e4) - reference))
-    r = Domain.from_deck(MODELS / "lateral_buckling.toml",
-                         overrides={"beams.0.element": "beam3", "beams.0.elements": 8}).solve()
+    r = load_deck(MODELS / "lateral_buckling.toml",
+                         overrides={"beams.0.element": "beam3", "beams.0.elements": 8}).domain.solve()
     out["buckling"] = float(r.data("buckling/load_factor")[0])
     out["euler_columns"] = euler_columns()
     for family in ("beam2", "beam3"):
         for algorithm, dt in (("staggered_central_difference", 2e-4), ("generalized_alpha", 2e-3)):
-            d = Domain.from_deck(MODELS / "three_bar.toml",
+            d = load_deck(MODELS / "three_bar.toml",
                                  overrides={"beams.1.element": family, "solver.t_end": 0.04,
-                                            "solver.algorithm": algorithm, "solver.dt": dt})
+                                            "solver.algorithm": algorithm, "solver.dt": dt}).domain
             r = d.solve()
             end = f"coupler:{4 if family == 'beam2' else 8}"  # the coupler's 4 elements end at B
             out[f"{algorithm}_{family}"] = {"status": r.status, "tip": r.position(end)[-1].tolist()}
@@ -71,12 +72,12 @@ def three_bar_static() -> dict:
     from flexmbs.deckchecks.three_bar import quasi_static_deck
     from flexmbs.verification.analytic import fourbar_rocker_angle
     from flexmbs.verification.observables import crank_angle, rocker_angle
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
     from reference.observables import wrap
 
     with tempfile.TemporaryDirectory() as tmp:
-        r = Domain.from_deck(quasi_static_deck(MODELS / "three_bar.toml", Path(tmp) / "static.toml"),
-                             overrides={"beams.1.element": "beam3"}).solve()
+        r = load_deck(quasi_static_deck(MODELS / "three_bar.toml", Path(tmp) / "static.toml"),
+                             overrides={"beams.1.element": "beam3"}).domain.solve()
     return {"status": r.status, "crank_turned": float(crank_angle(r)[-1] - crank_angle(r)[0]),
             "rocker_error": float(np.max(np.abs(wrap(rocker_angle(r) - fourbar_rocker_angle(crank_angle(r)))))),
             "strain_energy": float(np.max(np.abs(r.energy["strain"])))}

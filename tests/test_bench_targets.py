@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from flexmbs.bench import Target, target_summary
+from flexmbs.bench_common import Target, target_summary
 
 
 def test_a_value_over_its_target_is_missed_and_fails_the_bench():

@@ -46,9 +46,9 @@ def test_plot_of_a_non_results_file_is_one_line_naming_it(tmp_path, capsys, cont
 
 @pytest.fixture(scope="module")
 def three_bar_run():
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
-    domain = Domain.from_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 0.5})
+    domain = load_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 0.5}).domain
     return domain, domain.solve()
 
 
@@ -73,11 +73,12 @@ def test_animation_draws_rigid_bars_as_segments_and_magnifies_the_deflection(thr
 
 def test_animate_writes_a_gif_with_progress(tmp_path, three_bar_run, capsys):
     from flexmbs.plot import animate
+    from reference.io.deck import load_deck
     from reference.io.results import load_results
 
     domain, _ = three_bar_run
     path = tmp_path / "r.h5"
-    domain_again = type(domain).from_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 0.1})
+    domain_again = load_deck(ROOT / "models" / "three_bar.toml", overrides={"t_end": 0.1}).domain
     domain_again.solve(results_path=path)
     stream = io.StringIO()
     out = animate(load_results(path), tmp_path / "m.gif", every=2, magnify=50.0, progress=ProgressBar("anim", stream))
@@ -139,9 +140,9 @@ def test_pyproject_license_is_spdx_and_extras_install_the_notebook_kernel():
 def test_drawing_follows_the_connectivity_through_a_shared_node():
     """Two beams joined at a shared node (``end_node``/``start_node``) are drawn without a gap."""
     from flexmbs.plot import chains
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
-    domain = Domain.from_deck(ROOT / "models" / "curved_cantilever.toml")
+    domain = load_deck(ROOT / "models" / "curved_cantilever.toml").domain
     beams = chains(domain)
     assert beams["arc1"][-1] == beams["arc2"][0] == "mid"
     assert len(beams["arc1"]) == len(domain.elements) // 2 + 1

@@ -60,10 +60,10 @@ def test_good_values_pass_the_validators():
 
 def _results_without_records(path: Path, status: str | None) -> None:
     """A results file as a SIGKILL before the first flush leaves it (status "running"), or closed empty."""
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
     from reference.io.results import ResultsWriter
 
-    domain = Domain.from_deck(DECK)
+    domain = load_deck(DECK).domain
     writer = ResultsWriter(path, domain, domain.algorithm())
     if status is None:
         writer.f.close()

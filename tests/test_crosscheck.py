@@ -13,6 +13,7 @@ from crosscheck.exudyn_model import Unsupported, solve
 from crosscheck.harness import run
 from flexmbs.cli import main
 from reference.domain import Domain
+from reference.io.deck import load_deck
 from reference.io.results import load_results
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
@@ -49,7 +50,7 @@ def test_untranslatable_feature_is_refused_with_its_name(tmp_path, capsys):
     deck = tmp_path / "regularised.toml"
     deck.write_text(text)
     with pytest.raises(Unsupported, match="joint 'O3' is regularised"):
-        solve(Domain.from_deck(deck))
+        solve(load_deck(deck).domain)
     assert main(["crosscheck", str(deck), "--out", str(tmp_path / "cc")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "cannot be cross-checked in Exudyn" in err and "O3" in err
@@ -63,7 +64,7 @@ def test_compare_works_on_any_two_results_files(tmp_path):
     files = {}
     for dt in (2e-4, 1e-4, 5e-5):
         path = tmp_path / f"r_{dt:g}.h5"
-        Domain.from_deck(deck, overrides={"t_end": 2.0, "dt": dt}).solve(results_path=path)
+        load_deck(deck, overrides={"t_end": 2.0, "dt": dt}).domain.solve(results_path=path)
         files[dt] = load_results(path)
     same = compare(files[2e-4], files[2e-4])
     assert same["position_max"] == 0.0 and same["rotation_max"] <= 1e-15  # angle of q*⊗q: round-off

@@ -60,9 +60,9 @@ def test_exudyn_failure_is_one_line_naming_solver_step_and_options(tmp_path, cap
 
 def test_exudyn_failure_in_time_integration_suggests_a_smaller_step():
     from crosscheck.exudyn_model import _failure
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
-    d = Domain.from_deck(MODELS / "three_bar.toml")
+    d = load_deck(MODELS / "three_bar.toml").domain
     line = _failure(d, "generalized-alpha, rho_inf = 0.8", 0.25, 10.0, 1e-3, False)
     assert "stopped at t = 0.25 of 10" in line and "--exudyn-dt, e.g. 1.5625e-05" in line and "\n" not in line
 

@@ -11,7 +11,6 @@ import pytest
 from crosscheck.exudyn_model import Unsupported, preflight
 from crosscheck.harness import run
 from flexmbs.cli import main
-from reference.domain import Domain
 from reference.io.deck import load_deck
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
@@ -51,7 +50,7 @@ def test_joined_arcs_equal_one_arc(bend, tmp_path):
               'center = [0.0, 100.0, 0.0]\nelements = 16\nsection = "square"\naxis2 = [0.0, 0.0, 1.0]\n')
     deck = tmp_path / "single.toml"
     deck.write_text(text[:i] + single + text[j:].replace('node = "arc1:start"', 'node = "arc2:start"'))
-    one = Domain.from_deck(deck, overrides={"t_end": 20.0}).solve()
+    one = load_deck(deck, overrides={"t_end": 20.0}).domain.solve()
     n = len(one.time)
     assert np.max(np.abs(one.position("arc2:16") - res.position("arc2:8")[:n])) < 1e-9 * RADIUS
 
@@ -139,7 +138,7 @@ def test_joint_away_from_a_beam_node_and_exudyn_errors_are_one_line(tmp_path, mo
     deck = tmp_path / "far.toml"
     deck.write_text(WELDED.format(b_start="start = [1.7, 0.0, 0.0]", joint=JOINT.format(x="1.701")))
     with pytest.raises(Unsupported, match="attaches to beam node 'b:0' at 0.001 from it"):
-        preflight(Domain.from_deck(deck))
+        preflight(load_deck(deck).domain)
 
     import crosscheck.exudyn_model as em
 
@@ -148,5 +147,5 @@ def test_joint_away_from_a_beam_node_and_exudyn_errors_are_one_line(tmp_path, mo
 
     monkeypatch.setattr(em, "_build", broken)
     with pytest.raises(Unsupported) as info:
-        preflight(Domain.from_deck(MODELS / "embedded_beam.toml"))
+        preflight(load_deck(MODELS / "embedded_beam.toml").domain)
     assert str(info.value) == "Exudyn refused the translated model: Marker 3 contains inconsistent data:"

@@ -56,7 +56,7 @@ def write(tmp_path, text, name="deck.toml"):
 
 
 def test_embedded_beam_deck_has_the_paper_data():
-    d = Domain.from_deck(MODELS / "embedded_beam.toml")
+    d = load_deck(MODELS / "embedded_beam.toml").domain
     assert len(d.nodes) == 13 and len(d.elements) == 12
     sec = d.elements[0].formulation.section
     assert (sec.EI2, sec.GJ, sec.EA, sec.rhoA, sec.rhoJ2) == (100.0, 100.0, 4.0, 6.4e-7, 1.6e-5)
@@ -182,7 +182,7 @@ def test_overrides_are_validated_and_named(tmp_path):
 
 
 def test_deck_holds_the_domain_and_what_the_verification_reads_beside_it(tmp_path):
-    """load_deck returns a Deck: the ready Domain (what Domain.from_deck returns) and, outside it, the
+    """load_deck returns a Deck: the ready Domain and, outside it, the
     deck's text and path (written into results files), [meta], [checks] and [crosscheck]."""
     path = write(tmp_path, GOOD)
     d = load_deck(path)
@@ -191,10 +191,10 @@ def test_deck_holds_the_domain_and_what_the_verification_reads_beside_it(tmp_pat
     assert d.checks == {} and d.crosscheck == {}
     for field in ("metadata", "checks", "crosscheck", "deck_text", "deck_path"):
         assert not hasattr(d.domain, field), field
-    assert [n.label for n in Domain.from_deck(path).nodes] == [n.label for n in d.domain.nodes]
+    assert [n.label for n in load_deck(path).domain.nodes] == [n.label for n in d.domain.nodes]
     r = d.solve(results_path=tmp_path / "results.h5")
     assert r.attrs["deck"] == GOOD and r.attrs["deck_path"] == str(path)
-    bare = Domain.from_deck(path).solve(results_path=tmp_path / "bare.h5")  # no deck: still a valid file
+    bare = load_deck(path).domain.solve(results_path=tmp_path / "bare.h5")  # no deck: still a valid file
     assert bare.attrs["deck"] == "" and bare.attrs["status"] == "completed" and len(bare.time) == len(r.time)
 
 

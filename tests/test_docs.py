@@ -27,3 +27,15 @@ def test_docs_cited_by_the_code_exist():
     cited = {m for p in _files() for m in re.findall(r"docs/[a-z_]+\.md", p.read_text(encoding="utf-8"))}
     missing = sorted(c for c in cited if not (ROOT / c).exists())
     assert not missing
+
+
+TIMING = re.compile(r"\d\s?(?:ns|µs|ms)\b|µs|\(measured[:;)]|measured\)|measured with ``perf``")
+
+
+def test_the_engine_docstrings_log_no_timings():
+    """The engine's docstrings and comments give the design reason in words; the timings behind it live in
+    docs/benchmarks.md §10 (a timing in the code goes stale with the next optimisation, silently)."""
+    hits = [f"{p.relative_to(ROOT)}:{i + 1}" for p in sorted((ROOT / "reference").rglob("*.py"))
+            if "generated" not in p.parts
+            for i, line in enumerate(p.read_text(encoding="utf-8").splitlines()) if TIMING.search(line)]
+    assert not hits, "move the measurement to docs/benchmarks.md §10: " + ", ".join(hits)

@@ -6,7 +6,8 @@ between pages, a malformed docstring or table, or a lesson MyST-NB cannot read f
 The getting-started page's Python examples run as doctests.  The built pages hold no raw LaTeX (a ``$$`` block
 that touches a paragraph is not display math for MyST: it comes out as a stray ``$`` and inline math whose
 delimiters pair with the wrong ones), and, where Chromium is installed, render offline with their equations
-typeset by the site's own MathJax, no console error and no broken link or anchor.
+typeset by the site's own MathJax, no console error and no broken link or anchor; so does the HTML verification
+report, every interactive 3D view in it drawn.
 """
 
 from __future__ import annotations
@@ -160,10 +161,13 @@ def test_site_check_reports_what_a_reader_would_see(tmp_path):
     (tmp_path / "bad.html").write_text(
         '<html><body><p>raw $$x^2$$ here</p><a href="gone.html">a</a><a href="index.html#nowhere">b</a>'
         '<a href="index.html#here">c</a><img src="https://example.org/x.png"><img src="missing.png">'
+        '<canvas id="blank" width="20" height="20"></canvas><script>window.flexmbsViews = [{ready: true, drawn: 0, '
+        'canvas: document.getElementById("blank")}];</script>'
         '<script>console.error("boom"); setTimeout(function () { null.x; }, 0);</script></body></html>',
         encoding="utf-8")
     problems = check_site(tmp_path, pages=("bad.html", "index.html#here", "index.html#elsewhere", "absent.html"))
     expected = ["bad.html: raw LaTeX in the text: 'raw $$x^2$$ here'",
+                "bad.html: 3D view 1 of 1 drew nothing (0 items, 0 inked pixels)",
                 "bad.html: console error: boom",
                 "bad.html: uncaught exception: TypeError: Cannot read properties of null (reading 'x')",
                 "bad.html: console error: Failed to load resource: net::ERR_INTERNET_DISCONNECTED "
@@ -178,6 +182,46 @@ def test_site_check_reports_what_a_reader_would_see(tmp_path):
     for line in expected:
         assert any(problem.startswith(line) for problem in problems), (line, problems)
     assert len(problems) == len(expected), problems
+
+
+@pytest.mark.skipif(chromium() is None, reason="no Chromium on the PATH (Debian: apt-get install chromium)")
+def test_the_html_report_renders_offline_with_every_view_drawn(tmp_path):
+    """``make docs-check``'s last page: the HTML report written from the committed ``reports/verification.md``
+    (its figures embedded, its views beside it) rendered offline: no raw LaTeX, no console error or network load,
+    no broken link or anchor (the contents table's anchors, the links to the views), and each deck's embedded 3D
+    view drawn (items drawn and a canvas that is not blank); its screenshot written."""
+    from flexmbs.site import _fresh_report
+
+    source = ROOT / "reports" / "verification.md"
+    (tmp_path / "verification.md").write_text(source.read_text(encoding="utf-8"), encoding="utf-8")
+    for folder in ("figures", "views"):
+        (tmp_path / folder).symlink_to(ROOT / "reports" / folder, target_is_directory=True)
+    report = _fresh_report(tmp_path / "verification.html")
+    page = report.read_text(encoding="utf-8")
+    views = page.count('<div class="flexmbs-view">')
+    assert views == len(re.findall(r"^\[[^\]]+\]\(views/", source.read_text(encoding="utf-8"), re.M)) >= 20
+    (tmp_path / "site").mkdir()
+    (tmp_path / "site" / "index.html").write_text("<html><body></body></html>", encoding="utf-8")
+    problems = check_site(tmp_path / "site", pages=(), screenshots=tmp_path / "shots", report=report)
+    assert not problems, "\n".join(problems)
+    assert (tmp_path / "shots" / "verification.png").stat().st_size > 10_000  # a page, not an empty image
+
+
+def test_the_html_report_is_written_again_when_its_markdown_is_newer(tmp_path):
+    """``make docs-check --report``: the HTML report (not committed) is written from the Markdown beside it when
+    missing or older, left alone otherwise; with neither, there is nothing to check."""
+    from flexmbs.site import _fresh_report
+
+    html, md = tmp_path / "verification.html", tmp_path / "verification.md"
+    assert _fresh_report(html) is None
+    md.write_text("# report\n\nfirst\n", encoding="utf-8")
+    assert _fresh_report(html) == html and "<p>first</p>" in html.read_text(encoding="utf-8")
+    html.write_text("kept", encoding="utf-8")
+    os.utime(md, (html.stat().st_mtime - 10, html.stat().st_mtime - 10))
+    assert _fresh_report(html) == html and html.read_text(encoding="utf-8") == "kept"
+    md.write_text("# report\n\nsecond\n", encoding="utf-8")
+    os.utime(md, (html.stat().st_mtime + 10, html.stat().st_mtime + 10))
+    assert "<p>second</p>" in _fresh_report(html).read_text(encoding="utf-8")
 
 
 def test_every_deck_key_has_a_row_with_its_meaning():

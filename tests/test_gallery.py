@@ -15,7 +15,6 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from flexmbs.verification import analytic
-from reference.domain import Domain
 from reference.io.deck import load_deck
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -37,10 +36,10 @@ def test_deck_states_its_source_and_the_reason_for_every_tolerance(deck):
 
 @pytest.mark.parametrize("deck", DECKS, ids=lambda p: p.stem)
 def test_deck_runs_a_short_horizon_and_balances_energy(deck):
-    d = Domain.from_deck(deck)
+    d = load_deck(deck).domain
     interval = d.solver.dt * d.solver.output_every
     t_end = min(d.solver.t_end, max(2, int(round(0.1 / interval))) * interval)
-    d = Domain.from_deck(deck, overrides={"t_end": t_end})
+    d = load_deck(deck, overrides={"t_end": t_end}).domain
     r = d.solve()
     assert r.status == "completed" and np.all(np.isfinite(r.positions))
     if d.model.n_constraints:

@@ -24,6 +24,7 @@ from reference.elements import Section
 from reference.forces import Bushing, PointToPoint, Rotational
 from reference.interactions import Clamp, Gravity, NodalLoad, Ramp
 from reference.io.deck import DeckError
+from reference.io.deck import load_deck
 from reference.observables import wrap
 from reference.rotation import RotationVector
 
@@ -32,7 +33,7 @@ SOFT = Section(EA=1e4, GA2=1e4, GA3=1e4, GJ=10.0, EI2=10.0, EI3=10.0, rhoA=1.0, 
 
 
 def rollup(load_steps=20, **solver):
-    d = Domain.from_deck(MODELS / "embedded_beam.toml")
+    d = load_deck(MODELS / "embedded_beam.toml").domain
     d.solver = SolverSettings(algorithm="static", t_end=2.0, load_steps=load_steps, dt=2.0 / load_steps, **solver)
     return d
 
@@ -56,25 +57,25 @@ def test_deck_validation(tmp_path):
     static, ga, wrong = deck_variants()
     good = tmp_path / "static.toml"
     good.write_text(static)
-    d = Domain.from_deck(good)
+    d = load_deck(good).domain
     assert isinstance(d.algorithm(), Static) and d.algorithm().dt == pytest.approx(0.1)
     for text, entry in ((ga, "solver.rho_inf"), (wrong, "solver.damping")):
         bad = tmp_path / "bad.toml"
         bad.write_text(text)
         with pytest.raises(DeckError, match=entry) as err:
-            Domain.from_deck(bad)
+            load_deck(bad).domain
         assert "\n" not in str(err.value)
     # master/slave joints: refused with one line naming the fix
     ms = tmp_path / "ms.toml"
     text = (MODELS / "three_bar.toml").read_text().replace('label = "A"', 'label = "A"\nformulation = "master_slave"')
     ms.write_text(text.replace('algorithm = "staggered_central_difference"', 'algorithm = "generalized_alpha"'))
     with pytest.raises(DeckError, match="solver.algorithm.*master/slave.*jacobian") as err:
-        Domain.from_deck(ms)
+        load_deck(ms).domain
     assert "\n" not in str(err.value)
     # an implicit step far above the explicit critical step is accepted
     big = tmp_path / "ga.toml"
     big.write_text(ga.replace("rho_inf = 1.5", "rho_inf = 0.8"))
-    assert Domain.from_deck(big).algorithm().dt == 0.01
+    assert load_deck(big).domain.algorithm().dt == 0.01
 
 
 def test_static_rollup_polygon_and_quadratic_newton():
@@ -177,7 +178,7 @@ def three_bar_runs():
     """Explicit (the deck's dt = 2e-4) and generalized-α (dt = 5e-3) over 4 s of the three-bar."""
     out = {}
     for algo, dt in (("staggered_central_difference", 2e-4), ("generalized_alpha", 5e-3)):
-        d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 4.0})
+        d = load_deck(MODELS / "three_bar.toml", overrides={"t_end": 4.0}).domain
         d.solver.algorithm, d.solver.dt, d.solver.output_every = algo, dt, int(round(0.01 / dt))
         out[algo] = d.solve()
     return out
@@ -217,7 +218,7 @@ def heavy_top(dt, t_end=1.0):
 
 
 def three_bar_end(dt, t_end=1.0):
-    d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": t_end})
+    d = load_deck(MODELS / "three_bar.toml", overrides={"t_end": t_end}).domain
     d.solver.algorithm, d.solver.dt, d.solver.tolerance = "generalized_alpha", dt, 1e-12
     d.solver.output_every = int(round(t_end / dt))
     return d.solve().positions[-1].ravel()
@@ -415,7 +416,7 @@ def test_generalized_alpha_damped_rollup_balances_energy():
     kinetic energy + damping dissipation within 1e-3 of the work (trapezoidal work and
     dissipation are second order along the path), and the tip at k = 2 closes the circle
     (|tip| ≤ 5e-4 L, the deck's check for the explicit run)."""
-    d = Domain.from_deck(MODELS / "embedded_beam.toml")
+    d = load_deck(MODELS / "embedded_beam.toml").domain
     d.solver.algorithm, d.solver.dt, d.solver.output_every = "generalized_alpha", 0.01, 10
     r = d.solve()
     e = r.energy

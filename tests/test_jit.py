@@ -183,10 +183,10 @@ def test_a_run_makes_the_plain_copy_of_its_record_once():
     """The generalized-α steps take the output record at every output: the Newton system keeps its plain
     copy (a dictionary of copies in reference.jit kept up to 64 models and their arrays alive)."""
     from reference.algorithms.implicit import NewtonSystem
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
     from reference.state import Record
 
-    d = Domain.from_deck(Path(__file__).resolve().parent.parent / "models" / "three_bar.toml")
+    d = load_deck(Path(__file__).resolve().parent.parent / "models" / "three_bar.toml").domain
     model = d.initialization()
     system = NewtonSystem(model)
     rec, other = Record.empty(len(d.nodes), model.n_constraints), Record.empty(len(d.nodes), model.n_constraints)

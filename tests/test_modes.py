@@ -25,7 +25,7 @@ from reference.forces import PointToPoint
 from reference.interactions import Clamp, FixedCoordinates, Gravity, NodalLoad, Ramp
 from reference.io.deck import DeckError, load_deck
 from reference.io.results import load_results
-from reference.linearization import at_reference, at_results, at_state, at_static_equilibrium, linearize, mobility, reduce
+from reference.algorithms.linearization import at_reference, at_results, at_state, at_static_equilibrium, linearize, mobility, reduce
 from reference.modal import negative_eigenvalues
 from reference.validation import ModelWarning
 

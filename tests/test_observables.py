@@ -15,6 +15,7 @@ from reference.domain import Domain
 from reference.interactions import NodalLoad
 from reference.io.deck import DeckError
 from reference.elements import Section
+from reference.io.deck import load_deck
 from reference.observables import ObservableError, parse, relative_angle
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
@@ -107,18 +108,18 @@ def test_every_bad_observable_is_refused_when_the_deck_is_loaded(tmp_path, text,
     """A typo, an unknown node/joint/element, a wrong component or argument count: one DeckError line
     naming the file and the entry, at load time."""
     with pytest.raises(DeckError) as info:
-        Domain.from_deck(three_bar_with(tmp_path, text))
+        load_deck(three_bar_with(tmp_path, text)).domain
     msg = str(info.value)
     assert "\n" not in msg and message in msg and msg.startswith(f"{tmp_path / 'deck.toml'}: crosscheck.rocker.observable")
 
 
 def test_checks_observables_use_the_same_grammar(tmp_path):
     with pytest.raises(DeckError, match=r"checks.mine.observable: 'velocity:rocer': no node 'rocer'; did you mean 'rocker'"):
-        Domain.from_deck(three_bar_with(tmp_path, "velocity:rocer", "checks.mine"))
+        load_deck(three_bar_with(tmp_path, "velocity:rocer", "checks.mine")).domain
     with pytest.raises(DeckError, match="expected an observable text, got 3"):
         path = tmp_path / "n.toml"
         path.write_text((MODELS / "three_bar.toml").read_text() + "\n[checks.n]\nobservable = 3\n")
-        Domain.from_deck(path)
+        load_deck(path).domain
 
 
 @pytest.mark.parametrize("text", [m[0] for m in MISTAKES[:6]])
@@ -133,7 +134,7 @@ def test_crosscheck_refuses_bad_observables_before_running_with_one_line(tmp_pat
 
 
 def test_evaluation_shapes_aliases_and_descriptions():
-    d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 0.2})
+    d = load_deck(MODELS / "three_bar.toml", overrides={"t_end": 0.2}).domain
     r = d.solve()
     n = len(r.time)
     assert np.array_equal(r.position("coupler:end"), r.position("coupler:4"))  # aliases work in Results
@@ -155,7 +156,7 @@ def test_evaluation_shapes_aliases_and_descriptions():
 def test_rocker_angle_is_the_relative_rotation_and_matches_the_old_definition():
     """`rocker_angle` (flexmbs.verification) from `angle.z:rocker`; the old hard-wired angle of the line pivot (4, 0) → rocker centre
     equals its initial value plus that rotation, to the joint drift (≤ 1e-5 rad; measured 1.4e-13)."""
-    d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 3.0})
+    d = load_deck(MODELS / "three_bar.toml", overrides={"t_end": 3.0}).domain
     r = d.solve()
     c = r.position("rocker")
     old = np.unwrap(np.arctan2(c[:, 1], c[:, 0] - 4.0))
@@ -219,7 +220,7 @@ def test_plot_any_observable(tmp_path, capsys):
 
 
 def test_observable_errors_are_value_errors_with_a_fix():
-    d = Domain.from_deck(MODELS / "three_bar.toml")
+    d = load_deck(MODELS / "three_bar.toml").domain
     with pytest.raises(ObservableError, match="; did you mean 'reaction_force'"):
         parse("reaction_forces:A", d)
     odd = Domain("odd")

@@ -188,7 +188,7 @@ def test_lee_frame_under_displacement_control_stops_at_the_snap_back():
     than JUMP of its largest magnitude is refused, the step cut, and the run stops at the snap-back with a line
     naming it and the fix (the jump's, or the corrector's failure at the turning point); no critical point is
     reported beyond the traced path."""
-    d = Domain.from_deck(MODELS / "lee_frame.toml")
+    d = load_deck(MODELS / "lee_frame.toml").domain
     d.solver.control = (d.node("load").id, 2, "position.z:load")
     d.solver.arc_length = 0.01
     r, lines = solve(d)

@@ -17,6 +17,7 @@ from reference.domain import Domain
 from reference.elements import Section
 from reference.interactions import Clamp, Ramp, Sine
 from reference.io.deck import DeckError
+from reference.io.deck import load_deck
 from reference.io.results import load_results
 from reference.rotation import EulerParameters
 from reference.validation import ModelWarning
@@ -175,7 +176,7 @@ def test_deck_entry_errors_and_the_path_plot(tmp_path):
 
     deck = tmp_path / "pushed.toml"
     deck.write_text(DECK)
-    r = Domain.from_deck(deck).solve(results_path=tmp_path / "pushed.h5")
+    r = load_deck(deck).domain.solve(results_path=tmp_path / "pushed.h5")
     apex = r.position("left:1")
     reaction = load_results(tmp_path / "pushed.h5").data("joints/prescribed_reaction", r.joint_index("push"))
     assert apex[:, 2] == pytest.approx([0.1, 0.0, -0.1, -0.2], abs=1e-12)
@@ -192,12 +193,12 @@ def test_deck_entry_errors_and_the_path_plot(tmp_path):
                             ('time_function = "push"\n', "", "[0]: missing required key 'time_function'")):
         deck.write_text(DECK.replace(old, new))
         with pytest.raises(DeckError, match=re.escape("prescribed_displacements" + where)) as err:
-            Domain.from_deck(deck)
+            load_deck(deck).domain
         print(err.value)
         assert "\n" not in str(err.value)
     deck.write_text(DECK.replace('kind = "spherical"', 'kind = "prescribed_displacement"'))
     with pytest.raises(DeckError, match=r"joints\[0\].kind: .*\[\[prescribed_displacements\]\]"):
-        Domain.from_deck(deck)
+        load_deck(deck).domain
 
 
 def test_a_point_of_a_rigid_body(tmp_path):
@@ -221,7 +222,7 @@ point = [2.0, 0.0, 0.0]
 direction = [0.0, 1.0, 0.0]
 time_function = "s"
 """)
-    r = Domain.from_deck(deck).solve()
+    r = load_deck(deck).domain.solve()
     phi = np.arcsin(0.5)
     assert r.position("arm")[-1] == pytest.approx([np.cos(phi), np.sin(phi), 0.0], abs=1e-10)
     reaction = r.data("joints/prescribed_reaction", r.joint_index("tip"))[-1]

@@ -16,6 +16,7 @@ import pytest
 from reference.domain import Domain, SolverSettings
 from reference.elements import Section
 from reference.interactions import Gravity, NodalLoad, SmoothStep
+from reference.io.deck import load_deck
 from reference.io.results import load_results
 from reference.joints import MasterSlave
 from reference.rotation import EulerParameters
@@ -101,7 +102,7 @@ def test_rollup_section_moment_is_pi_EI_over_L_at_k1():
     """The embedded beam rolled up to k = 1 (a half circle): curvature π/L, so every element's section
     moment has magnitude π EI/L.  Dynamic run with the deck's damping: within 1 % (measured 0.03 %, the
     dynamic lag; the static algorithm's 1e-8 is issue 8's)."""
-    d = Domain.from_deck(MODELS / "embedded_beam.toml", overrides={"t_end": 1.0})
+    d = load_deck(MODELS / "embedded_beam.toml", overrides={"t_end": 1.0}).domain
     r = d.solve()
     sec = d.elements[0].formulation.section
     L = sum(d.model.elements[0].L0)
@@ -115,7 +116,7 @@ def test_three_bar_crank_torque_against_the_power_balance():
     spin-up (t ≤ 1 s, output every step, trapezoid) the work of the reported torque matches the energy
     gained to 1e-6 of it (measured 2.9e-8: the record's multipliers λ^n and mid-step velocities are the
     pair whose power the scheme integrates; the trapezoid over the steps adds O(h²) ≈ 4e-8)."""
-    d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 1.0})
+    d = load_deck(MODELS / "three_bar.toml", overrides={"t_end": 1.0}).domain
     d.solver.output_every = 1
     r = d.solve()
     torque = r.reaction("crank drive")[1]
@@ -136,7 +137,7 @@ def test_master_slave_reactions_are_nan_and_documented_as_such(tmp_path):
     text = (MODELS / "three_bar.toml").read_text().replace('label = "A"', 'label = "A"\nformulation = "master_slave"')
     path = tmp_path / "ms_three_bar.toml"
     path.write_text(text)
-    d = Domain.from_deck(path, overrides={"t_end": 0.01})
+    d = load_deck(path, overrides={"t_end": 0.01}).domain
     assert isinstance(d.joints[2].formulation, MasterSlave)
     r = d.solve()
     assert np.all(np.isnan(r.reaction("A")[0])) and np.all(np.isfinite(r.reaction("B")[0]))
@@ -147,7 +148,7 @@ def test_reactions_are_a_function_of_the_configuration_and_multipliers():
     configuration and multipliers it reproduces the stored reactions exactly."""
     from reference.joints.reactions import reactions
 
-    d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 0.2})
+    d = load_deck(MODELS / "three_bar.toml", overrides={"t_end": 0.2}).domain
     r = d.solve()
     k = len(r.time) // 2
     force, moment = reactions(d.model, r.positions[k], r.rotations[k], r.multipliers[k], r.time[k])
@@ -158,7 +159,7 @@ def test_rollup_section_moment_with_the_static_algorithm_is_exact():
     """The same roll-up to k = 1 by the static algorithm (10 load steps, Newton): every element's section
     moment is π EI/L to 1e-8 (measured 1e-15: the polygon of equal chords has exactly the curvature π/L),
     and the same output function serves the implicit algorithms."""
-    d = Domain.from_deck(MODELS / "embedded_beam.toml")
+    d = load_deck(MODELS / "embedded_beam.toml").domain
     d.solver = SolverSettings(algorithm="static", dt=0.1, t_end=1.0, load_steps=10, output_every=1)
     r = d.solve()
     sec = d.elements[0].formulation.section

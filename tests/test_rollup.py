@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 
 from flexmbs.verification.analytic import elastica_tip, polygon_tip
-from reference.domain import Domain
+from reference.io.deck import load_deck
 
 DECK = Path(__file__).resolve().parent.parent / "models" / "embedded_beam.toml"
 K_TABLE = [0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0]
 
 
 def solve(refine=1):
-    d = Domain.from_deck(DECK, overrides={"refine": refine})
+    d = load_deck(DECK, overrides={"refine": refine}).domain
     return d, d.solve()
 
 

@@ -18,7 +18,7 @@ from reference.domain import Domain
 from reference.elements import Section
 from reference.interactions import Clamp, FixedCoordinates
 from reference.io.results import load_results
-from reference.linearization import at_steady_rotation, reduce
+from reference.algorithms.linearization import at_steady_rotation, reduce
 from reference.modal import damped, modes
 
 SLENDER = Section(EA=1e7, GA2=1e7, GA3=1e7, GJ=0.8, EI2=1.0, EI3=1.0, rhoA=1.0, rhoJ1=2e-6, rhoJ2=1e-8, rhoJ3=1e-8)

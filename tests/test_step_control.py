@@ -144,7 +144,7 @@ def test_refining_the_step_does_not_spoil_andrews_squeezer():
     1.59e-6 with outputs every 1e-4 s) — where the former absolute test on the correction left 8.7e-5 rad."""
     from flexmbs.verification import andrews
 
-    d = Domain.from_deck(MODELS / "andrews_squeezer.toml", overrides={"dt": 1.25e-6})
+    d = load_deck(MODELS / "andrews_squeezer.toml", overrides={"dt": 1.25e-6}).domain
     r = d.solve()
     error = np.max(np.abs(andrews.angles(r)[-1] - andrews.REFERENCE))
     assert r.time[-1] == pytest.approx(andrews.T_END) and error <= 3e-6
@@ -157,7 +157,7 @@ def test_error_tolerance_is_proportional_on_the_three_bar():
     3.0, 8.9 and 16.3 × with Newton's test relative to the forces; 2.9, 8.9 and 15.1 × with the former
     absolute test)."""
     def domain(**solver):
-        d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 4.0})
+        d = load_deck(MODELS / "three_bar.toml", overrides={"t_end": 4.0}).domain
         d.solver.algorithm = "generalized_alpha"
         for key, value in solver.items():
             setattr(d.solver, key, value)
@@ -206,7 +206,7 @@ def test_compiled_step_control_is_the_python_controller_bit_for_bit(case, tmp_pa
         elif case.endswith("dt_min"):
             d = load_deck(heavy_top_deck(tmp_path), overrides={"t_end": 0.1}).domain
         else:
-            d = Domain.from_deck(MODELS / "three_bar.toml", overrides={"t_end": 1.0})
+            d = load_deck(MODELS / "three_bar.toml", overrides={"t_end": 1.0}).domain
             d.solver.algorithm, d.solver.dt, d.solver.output_every = "generalized_alpha", 0.01, 1
             d.solver.error_tolerance = 1e-3
         r = d.solve()
@@ -429,7 +429,7 @@ def test_step_bounds_that_would_be_ignored_are_refused(tmp_path, solver, entry, 
         load_deck(heavy_top_deck(tmp_path, "[solver]\n" + solver))
     message = str(info.value)
     assert "\n" not in message and f": {entry}: {problem}" in message and "; give" in message, message
-    d = Domain.from_deck(MODELS / "heavy_top.toml")  # the same settings through the Python API: the same line
+    d = load_deck(MODELS / "heavy_top.toml").domain  # the same settings through the Python API: the same line
     d.solver = SolverSettings(**{k: float(v) if k != "algorithm" else v.strip('"') for k, v in
                                  (line.split(" = ") for line in solver.strip().splitlines())})
     with pytest.raises(ValueError) as api:
@@ -489,7 +489,7 @@ def test_andrews_squeezer_over_the_tolerance_at_dt_min_is_counted_and_warned_of(
     summary line, and warned of once with the count and the largest ratio."""
     from reference.validation import ModelWarning
 
-    d = Domain.from_deck(MODELS / "andrews_squeezer.toml", overrides={"t_end": 1e-4})
+    d = load_deck(MODELS / "andrews_squeezer.toml", overrides={"t_end": 1e-4}).domain
     d.solver.error_tolerance = 1e-6
     with pytest.warns(ModelWarning) as caught:
         r = d.solve(results_path=tmp_path / "andrews.h5")

@@ -169,15 +169,12 @@ def joint_setup(kind, rng, ground):
 
 def joint_hessian(joint, x, q, t, lam):
     from reference.joints.hessian import joint_rows_hessian
-    from reference.joints.joint import ROWS
 
     m = joint.n_equations
-    rows = np.full(6, -1, dtype=np.int64)
-    rows[: len(ROWS[joint.kind])] = ROWS[joint.kind]
     j = -1 if joint.body_j is None else joint.body_j.id
     tf = joint.time_function
     phi, B, phit, H = np.zeros(m), np.zeros((m, 12)), np.zeros(m), np.zeros((12, 12))
-    joint_rows_hessian(x, q, joint.body_i.id, j, joint.body_fixed(), rows, joint.drive_code, tf.kind,
+    joint_rows_hessian(x, q, joint.body_i.id, j, joint.body_fixed(), joint.rows, joint.drive_code, tf.kind,
                        tf.parameters(), float(t), lam, phi, B, phit, H, np.zeros(10), np.zeros(120), np.zeros(10))
     return phi, B, phit, H
 

@@ -231,9 +231,9 @@ def _tip(label: str, name: str, n: int) -> str:
 
 
 def _static(deck: str, overrides: dict):
-    from reference.domain import Domain
+    from reference.io.deck import load_deck
 
-    return Domain.from_deck(MODELS / deck, overrides=overrides).solve()
+    return load_deck(MODELS / deck, overrides=overrides).domain.solve()
 
 
 def rollup_error(name: str, n: int) -> float:

@@ -9,8 +9,9 @@ asked; :data:`GROWING` (a step cut after a Newton failure doubles back) and :dat
 (``error_tolerance``), which step to the output time ``par[TARGET]``, choosing each step.  The helpers of the
 controlled modes take the arrays they need, never a tuple of arrays or the Model (a helper's arguments cost
 two atomic reference-count updates per array in them and call, :mod:`reference.jit`), and they are compiled
-apart, not inlined into :func:`steps`, which inlines the whole evaluation (the first version, inlined, made its
-compilation 70 % longer).  A step is judged on its converged iterate before :func:`_accept` writes it into the
+apart, not inlined into :func:`steps`, which inlines the whole evaluation (inlined, they lengthened its
+compilation: docs/benchmarks.md §10).
+A step is judged on its converged iterate before :func:`_accept` writes it into the
 state, so a rejected step leaves the state as it was: only the force elements' continuous angles, which every
 evaluation continues, are restored, from the flat array ``held``.
 """

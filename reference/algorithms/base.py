@@ -19,8 +19,8 @@ class CallBudget:
 
     The size follows the measured time per step of the previous call (``size · CALL_SECONDS / elapsed``),
     growing at most :attr:`GROWTH` times a call (a first call that compiled the kernels measures minutes a
-    step; the size then grows back in a few calls), never below one step.  A call costs a few µs to tens of
-    µs of Python and argument passing, a ten-thousandth of its budget.
+    step; the size then grows back in a few calls), never below one step.  A call's own cost (Python and
+    argument passing) is negligible against its budget (docs/benchmarks.md §10).
     """
 
     GROWTH = 4

@@ -177,9 +177,8 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     reuse = 1e-9
     """A new step within this relative change of the factor's step keeps the factor (modified Newton with the
     old coefficients; the contraction test refactors when it converges too slowly): the equal steps landing on
-    an output differ by rounding only.  Wider bands were measured (docs/formulation.md §13): 5–10 % save 1–8 %
-    of the factorisations, 20 % lets the Newton error left by the slower iteration into the error estimate at
-    tight tolerances (three-bar at 1e-5: 4.5 times the steps)."""
+    an output differ by rounding only.  Wider bands save few factorisations and, at tight tolerances, let the
+    Newton error left by the slower iteration into the error estimate (docs/formulation.md §13)."""
     python_control = False
     """True: the step control runs in Python around one compiled step per call
     (:func:`reference.algorithms.alpha_python_control.controlled_python`), the oracle the tests compare the

@@ -5,8 +5,8 @@ They take no time step.  Each reaches the configuration it linearises about — 
 buckling: :class:`~reference.algorithms.static.Static` with the deck's ``t_end`` and ``load_steps``,
 its stability indicator included), or the relative equilibrium of the whole model spinning at
 ``spin_rate`` about ``spin_axis`` through ``spin_point`` (``about = "rotation"``:
-:func:`reference.linearization.at_steady_rotation`, the modes in the spinning frame) — and then, in
-:meth:`LinearAnalysis.finish`, linearises there (:mod:`reference.linearization`) and solves the
+:func:`reference.algorithms.linearization.at_steady_rotation`, the modes in the spinning frame) — and then, in
+:meth:`LinearAnalysis.finish`, linearises there (:mod:`reference.algorithms.linearization`) and solves the
 eigenproblem (:mod:`reference.modal`).  The solution loop (:func:`reference.solution.run`) treats them
 like any algorithm: the records of the path (one record for the reference or spinning state) and, at the end, the analysis's datasets (docs/results.md):
 
@@ -41,7 +41,7 @@ import numpy as np
 from reference.algorithms.base import Algorithm
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem
 from reference.algorithms.static import Static, StaticRun
-from reference import linearization
+from reference.algorithms import linearization
 from reference.linalg import SingularMatrix, null_space
 from reference.modal import buckling, modes
 from reference.state import State
@@ -236,7 +236,7 @@ class Modes(LinearAnalysis):
 
     Undamped modes when the reduced damping is zero and the stiffness symmetric, else the damped or
     gyroscopic quadratic problem (:func:`reference.modal.modes`).  Zero modes are counted among the
-    lowest ``modes + mobility`` and compared with the mobility (:func:`reference.linearization.mobility`):
+    lowest ``modes + mobility`` and compared with the mobility (:func:`reference.algorithms.linearization.mobility`):
     more zero modes than rigid and mechanism motions is warned about (a direction without stiffness).
     """
 

@@ -127,7 +127,7 @@ def beam2_assemble_parallel(x, q, conn, offset, L0, psi0, gamma0, stiff, S, W):
     The elements are independent: the structure-of-arrays loop (:func:`soa_rows`) writes each element's
     row of ``W`` (E, ``ROW.width``) on the threads of :func:`reference.jit.use_threads`; then one thread
     adds the rows into ``S`` and ΣU in element order (:func:`reference.parallel.scatter`), so the result
-    does not depend on the thread count (docs/benchmarks.md §5).
+    does not depend on the thread count (docs/benchmarks.md §5, §10).
     """
     return _assemble_parallel(x, q, conn, offset, straight_elements(offset), soa_fixed_rows(L0, psi0, gamma0, stiff),
                               S, W)
@@ -293,8 +293,8 @@ class Beam2Formulation(BeamFormulation):
 
         The minimum of the axial ``L0 √(ρA/EA)``, torsional ``L0 √(ρJ1/GJ)``,
         bending–rotation ``L0 √(ρJ/EI)`` limits and the coupled shear–rotation
-        mode ``2/√((GA/ρA)(4/L0² + ρA/ρJ))`` (docs/formulation.md §3; each matched the
-        eigenvalue limit within 0.5 %, the last is ~9 % conservative).
+        mode ``2/√((GA/ρA)(4/L0² + ρA/ρJ))`` (docs/formulation.md §3 compares each with the
+        eigenvalue limit of the lumped element; the last is on the safe side).
         """
         s = self.section
         limits = [

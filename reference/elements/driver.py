@@ -8,7 +8,7 @@ and per-element functions with named inputs and outputs, all in the element's ow
   (n, 3) [m] and section triads ``P`` (n, 4) (Euler parameters); what else it computes (strains,
   resultants) goes to its own named fields of the work row ``w``;
 - ``element_tangent(data, e, X, P, w, K)``: its (6n × 6n) tangent ``∂S/∂[δx_a, δθ_a]`` in the section
-  frames into ``K`` (flat, row by row);
+  frames into ``K`` (flat, row by row; at least (6n)² entries);
 - ``element_resultants(w, N, M)``: after ``element_forces``, its section resultants [N], [N m] into the
   (3,) rows ``N``, ``M`` (section frame);
 - ``ROW``: its work row's fields as named slices (:func:`row_layout`).
@@ -39,8 +39,9 @@ from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy
 
 PARALLEL_ELEMENTS = 8
 """From this many elements on, a family's element loops (forces, tangent blocks) run as parallel loops
-(on one thread too: the same bits); below, on the calling thread, without the cost of starting a parallel
-region (docs/benchmarks.md §5)."""
+(on one thread too: the same bits), and Beam2's forces as its vectorised loop; below, on the calling
+thread, one element after the other, without the cost of starting a parallel region (the loops' times
+cross between a few elements and a dozen: docs/benchmarks.md §5, §10)."""
 
 FORMULATIONS: dict[type, type] = {}
 """A family's data class → its formulation class (filled by :func:`reference.elements.families.register`)."""
@@ -192,7 +193,7 @@ def assemble(data, W, x, q, S):
 def _tangent_range(data, W, x, q, psi, ck, values, p0, Jr, K, X, lo, hi):
     """``ck`` times the tangent blocks of the elements ``lo … hi − 1`` in the node frames, element e's into
     ``values`` from ``p0 + (6n)² e`` on, its rotation columns times each node's ``J_r(ψ)``
-    (:func:`reference.newton_blocks.store_block`); ``Jr`` (9,), ``K`` ((6n)²,), ``X`` (n, 3) scratch."""
+    (:func:`reference.newton_blocks.store_block`); ``Jr`` (9,), ``K`` (at least (6n)²), ``X`` (n, 3) scratch."""
     row = _layout(data)
     size = 6 * row.nodes
     Kb = K[:size * size].reshape((size, size))

@@ -68,7 +68,7 @@ class Deck:
     Attributes
     ----------
     domain : Domain
-        The ready-to-solve model (what :meth:`reference.domain.Domain.from_deck` returns).
+        The ready-to-solve model.
     path : str
         The deck file.
     text : str

@@ -25,7 +25,8 @@ from reference.observables import parse as parse_observable
 MAX_STEPS = 10**9
 """Default limit on the number of time steps; ``solver.max_steps`` raises it."""
 MAX_STEPS_LIMIT = 10**12
-"""Largest ``solver.max_steps``: 1e12 steps of the smallest model (~1 µs a step) take two weeks."""
+"""Largest ``solver.max_steps``: more steps than the smallest model takes in weeks (docs/benchmarks.md §10);
+a larger value is a typo."""
 MAX_ITERATIONS = 1000
 """Largest ``solver.max_iterations``: Newton converges quadratically in a few iterations or not at
 all (the implicit runs here need at most 7); a step that needs more needs a smaller step."""

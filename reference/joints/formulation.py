@@ -17,7 +17,6 @@ from typing import Callable
 
 import numpy as np
 
-from reference.joints.joint import ROWS
 from reference.joints.master_slave import master_slave_parameters
 from reference.joints.sparse import constraint_pattern
 from reference.state import Joints, MasterSlaveJoints
@@ -88,7 +87,7 @@ class Jacobian(JointFormulation):
             jt.i[k] = joint.body_i.id
             jt.j[k] = -1 if joint.body_j is None else joint.body_j.id
             jt.par[k] = joint.body_fixed()
-            jt.rows[k, : len(ROWS[joint.kind])] = ROWS[joint.kind]
+            jt.rows[k] = joint.rows
             jt.neq[k] = joint.n_equations
             jt.row0[k] = row0
             jt.drive[k] = joint.drive_code

@@ -81,8 +81,9 @@ class Joint(Connector):
     frame : array (3, 3)
         Joint frame, columns ``u1, u2, u3`` (inertial, t = 0); see :func:`joint_frame`.
     formulation : JointFormulation
-        How the constraint enters the equations of motion (default: Lagrange
-        multipliers, :class:`~reference.joints.formulation.Jacobian`).
+        How the constraint enters the equations of motion (:meth:`reference.domain.Domain.add_joint`
+        gives Lagrange multipliers, :class:`~reference.joints.formulation.Jacobian`, by default; a joint
+        knows no formulation class, so that the formulations may read joints).
     time_function : TimeFunction
         For drives: θ(t) or s(t) (``mode = "position"``), or their rates (``"velocity"``); for a
         prescribed displacement s(t) [m].
@@ -107,8 +108,6 @@ class Joint(Connector):
     intended_offset: bool = False
 
     def __post_init__(self):
-        from reference.joints.formulation import Jacobian
-
         if self.kind not in ROWS:
             raise ValueError(f"unknown joint kind {self.kind!r}; valid: {', '.join(ROWS)}")
         self.body_i = body_or_ground(self.body_i, f"joint {self.label!r} body_i")
@@ -121,7 +120,6 @@ class Joint(Connector):
         self.frame = np.asarray(self.frame, dtype=float).reshape(3, 3)
         if not np.allclose(self.frame.T @ self.frame, np.eye(3), atol=1e-9):
             raise ValueError(f"joint {self.label!r}: the joint frame is not orthonormal")
-        self.formulation = self.formulation or Jacobian()
         if self.mode not in ("position", "velocity"):
             raise ValueError(f"joint {self.label!r}: mode must be 'position' or 'velocity'")
         if self.kind == PRESCRIBED and (self.body_j is not None or self.mode != "position"):
@@ -131,6 +129,14 @@ class Joint(Connector):
     @property
     def n_equations(self) -> int:
         return EQUATIONS[self.kind]
+
+    @property
+    def rows(self) -> np.ndarray:
+        """The primitive constraint rows of ``reference/generated/joints.py`` its kind uses (:data:`ROWS`),
+        padded with −1 to six: a row of the joint table's ``rows``."""
+        rows = np.full(6, -1, dtype=np.int64)
+        rows[: len(ROWS[self.kind])] = ROWS[self.kind]
+        return rows
 
     @property
     def drive_code(self) -> int:
@@ -154,8 +160,6 @@ class Joint(Connector):
         tf = self.time_function
         m = self.n_equations
         phi, phit, B = np.zeros(m), np.zeros(m), np.zeros((m, 12))
-        rows = np.full(6, -1, dtype=np.int64)
-        rows[: len(ROWS[self.kind])] = ROWS[self.kind]
-        joint_rows(np.asarray(x, dtype=float), np.asarray(q, dtype=float), i, j, par, rows, self.drive_code,
+        joint_rows(np.asarray(x, dtype=float), np.asarray(q, dtype=float), i, j, par, self.rows, self.drive_code,
                    tf.kind, tf.parameters(), float(t), phi, B, phit, np.zeros(10), np.zeros(120))
         return phi, B, phit
