@@ -65,17 +65,6 @@ def element_tangent(data, e, X, P, w, K):
                       w[ROW.forces], K)
 
 
-@inlined
-def element_resultants(w, N, M):
-    """The element's constant section resultants ``N = C_Γ Γ`` [N] (1 axial, 2, 3 shear) and ``M = C_K K``
-    [N m] (1 torsion, 2, 3 bending) in section-frame components, the same at every section of the helicoid
-    (constant strains)."""
-    stress = w[ROW.stresses]
-    for k in range(3):
-        N[k] = stress[k]
-        M[k] = stress[3 + k]
-
-
 class Beam2SE3Formulation(Beam2Formulation):
     """Two-node beam with the helicoidal (SE(3)) interpolation: exact for every constant-strain state.
 
@@ -97,7 +86,7 @@ class Beam2SE3Formulation(Beam2Formulation):
     """Every constant-strain state (curvature included: a circle, a helix) is represented exactly."""
     element_forces = staticmethod(element_forces)
     element_tangent = staticmethod(element_tangent)
-    element_resultants = staticmethod(element_resultants)
+    # element_resultants: Beam2's, the stresses of the row (here constant along the helicoid)
     assemble = staticmethod(driver.assemble)
     """The generic element loop (Beam2's own is its vectorised generated code)."""
 
