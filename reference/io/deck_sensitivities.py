@@ -37,6 +37,7 @@ from reference.interactions import NodalLoad
 from reference.io.deck import SECTION_KEYS, load_deck
 from reference.io.deck_reader import read_toml
 from reference.sensitivity.derivatives import ParameterError, parse_outputs
+from reference.sensitivity.eigen import run_buckling, run_modes
 from reference.sensitivity.static import STATIC, StaticSensitivities, run_static
 
 GEOMETRY = re.compile(r"^(nodes\.[^.]+\.position|beams\.[^.]+\.(start|end|elements)|rigid_bodies\.[^.]+\."
@@ -169,13 +170,31 @@ def static_sensitivities(path, parameters, outputs, overrides: dict | None = Non
     ParameterError, ObservableError
         One line: an unknown or non-differentiable parameter, an output without a sensitivity, another algorithm.
     """
+    domain, params, moved, steps = _setup(path, parameters, overrides, STATIC)
+    return run_static(domain, [p.name for p in params], moved, steps, parse_outputs(outputs, domain))
+
+
+def eigen_sensitivities(path, parameters, overrides: dict | None = None):
+    """The eigenvalues of the modes or buckling deck at ``path`` and their derivatives
+    (:mod:`reference.sensitivity.eigen`): ``(ω [rad/s] (n,), dω/dp (P, n))`` for modes about the reference state,
+    ``(μ (n,), dμ/dp (P, n))`` for the buckling load factors."""
+    domain, _, moved, steps = _setup(path, parameters, overrides, ("modes", "buckling"))
+    try:
+        if domain.solver.algorithm == "modes":
+            return run_modes(domain, moved, steps)
+        return run_buckling(domain, moved, steps)
+    except ValueError as exc:
+        raise ParameterError(str(exc)) from None
+
+
+def _setup(path, parameters, overrides, algorithms):
+    """The deck's Domain, the resolved parameters, their moved models and steps Δ, for ``algorithms`` only."""
     overrides = dict(overrides or {})
     domain = load_deck(path, overrides=overrides).domain
-    if domain.solver.algorithm not in STATIC:
+    if domain.solver.algorithm not in algorithms:
         raise ParameterError(f"sensitivities of a {domain.solver.algorithm!r} run are not built here; "
-                             "use algorithm = \"static\"")
+                             f"use algorithm = {' or '.join(map(repr, algorithms))}")
     params = resolve_all(path, parameters, overrides)
-    observables = parse_outputs(outputs, domain)
     steps = [max(abs(p.value), 1.0) for p in params]
     moved = [p.model(path, overrides, p.value + d) for p, d in zip(params, steps)]
-    return run_static(domain, [p.name for p in params], moved, steps, observables)
+    return domain, params, moved, steps
