@@ -5,7 +5,8 @@ import math
 
 import pytest
 
-from reference.io.deck_sensitivities import ParameterError, eigen_sensitivities
+from reference.io.deck_parameters import ParameterError
+from reference.io.deck_sensitivities import eigen_sensitivities
 
 CANTILEVER = "models/cantilever_modes.toml"
 H = 1e-3
@@ -100,3 +101,11 @@ def test_explicit_and_static_decks_are_refused_for_eigen_sensitivities():
         eigen_sensitivities("models/three_bar.toml", ["sections.coupler.EI3"])
     with pytest.raises(ParameterError, match="geometry or mesh"):
         eigen_sensitivities(CANTILEVER, ["beams.0.elements"])
+
+
+def test_a_repeated_frequency_is_said_in_one_line():
+    # A square section (EI2 = EI3, rhoJ2 = rhoJ3, GA2 = GA3) bends alike towards y and z: ω₁ is double.
+    square = {"sections.rect.EI3": 1.0, "sections.rect.rhoJ3": 1e-4}
+    with pytest.warns(Warning, match=r"mode 1 is repeated .*one branch only") as record:
+        eigen_sensitivities(CANTILEVER, ["sections.rect.EI2"], square)
+    assert all("\n" not in str(w.message) for w in record)

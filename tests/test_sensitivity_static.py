@@ -8,7 +8,8 @@ import pytest
 
 from reference.interactions import NodalLoad
 from reference.io.deck import load_deck
-from reference.io.deck_sensitivities import ParameterError, resolve_all, static_sensitivities
+from reference.io.deck_parameters import ParameterError, resolve_all
+from reference.io.deck_sensitivities import model_at, static_sensitivities
 
 ROLLUP = "models/embedded_beam_static.toml"
 SE3 = {"beams.0.element": "beam2_se3", "solver.backend": "reference"}
@@ -69,7 +70,7 @@ def test_residual_is_affine_in_the_parameters():
     x[:, 2] += 0.01 * x[:, 0] ** 2  # a bent configuration
     rs = []
     for value in (100.0, 150.0, 200.0):
-        nw = Newton(p.model(ROLLUP, {}, value))
+        nw = Newton(model_at(p, ROLLUP, {}, value))
         rs.append(nw.evaluate(x, q, 0 * x, 0 * x, np.zeros((x.shape[0], 6)), np.zeros(0), 1.0, False).S)
     assert np.max(np.abs(rs[0] - 2 * rs[1] + rs[2])) <= 1e-12 * np.max(np.abs(rs[1]))
 
@@ -89,3 +90,39 @@ def test_bad_parameters_are_refused_in_one_line(name, words):
 def test_explicit_algorithm_is_refused():
     with pytest.raises(ParameterError, match="not built here"):
         static_sensitivities("models/three_bar.toml", ["sections.coupler.EI3"], ["position:coupler:end"])
+
+
+def _deck_with(tmp_path, table: str, source=ROLLUP):
+    path = tmp_path / "deck.toml"
+    path.write_text(open(source).read() + "\n" + table)
+    return path
+
+
+def test_the_sensitivities_table_is_read(tmp_path):
+    path = _deck_with(tmp_path, '[sensitivities]\nparameters = ["loads[0].moment", "sections.rollup.EI2"]\n'
+                                'outputs = ["position:beam:end"]\n')
+    deck = load_deck(path)
+    assert deck.sensitivities == {"parameters": ["loads[0].moment", "sections.rollup.EI2"],
+                                  "outputs": ["position:beam:end"]}
+
+
+@pytest.mark.parametrize("table, words", [
+    ('parameters = ["sections.rollup.EJ2"]', "sensitivities.parameters[0]: unknown parameter"),
+    ('parameters = ["nodes.tip.position"]', "geometry or mesh"),
+    ('parameters = ["sections.rollup.EI2"]\noutputs = ["energy:strain"]', "kinematic outputs only"),
+    ('parameters = ["sections.rollup.EI2"]\noutputs = ["position:bem:end"]', "sensitivities.outputs: no node"),
+    ('parameters = ["sections.rollup.EI2", "sections.rollup.EI2"]', "named twice"),
+    ('parameters = []', "no parameter named"),
+])
+def test_bad_sensitivities_tables_get_one_line(tmp_path, table, words):
+    from reference.io.deck_reader import DeckError
+    with pytest.raises(DeckError) as info:
+        load_deck(_deck_with(tmp_path, "[sensitivities]\n" + table + "\n"))
+    assert words in str(info.value) and "\n" not in str(info.value)
+
+
+def test_sensitivities_of_the_explicit_algorithm_are_refused_by_the_deck_reader(tmp_path):
+    from reference.io.deck_reader import DeckError
+    path = _deck_with(tmp_path, '[sensitivities]\nparameters = ["sections.coupler.EI3"]\n', "models/three_bar.toml")
+    with pytest.raises(DeckError, match="sensitivities of algorithm 'staggered_central_difference' are not built"):
+        load_deck(path)

@@ -2,7 +2,7 @@
 
 :class:`ResidualDerivatives` holds, for each parameter, a Newton system
 (:class:`reference.plain.newton.Newton`) of the model with the parameter moved by ``Δ``; the residual
-being affine in every parameter (:mod:`reference.io.deck_sensitivities`), ::
+being affine in every parameter (:mod:`reference.io.deck_parameters`), ::
 
     ∂r/∂p = (r(p + Δ) − r(p)) / Δ,      ∂Φ/∂p = (Φ(p + Δ) − Φ(p)) / Δ
 
@@ -16,17 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from reference.observables import ObservableError, _Names, parse
+from reference.observables import _Names
 from reference.plain.newton import Newton, compose
-
-KINEMATIC = ("position", "positions", "rotation", "distance", "deflection")
-"""Observable kinds with a sensitivity: functions of the nodes' configuration alone."""
-
-
-class ParameterError(ValueError):
-    """A parameter that is not in the deck or cannot be differentiated, or a run without sensitivities
-    (one line, ``problem; fix``)."""
-
 
 class ResidualDerivatives:
     """∂r/∂p and ∂Φ/∂p for the parameters of one run (module docstring).
@@ -37,7 +28,7 @@ class ResidualDerivatives:
         The run's own Newton system (the model at the nominal parameters).
     moved : list of Model
         Per parameter, the model with the parameter moved by its step
-        (:meth:`reference.io.deck_sensitivities.Parameter.model`).
+        (:func:`reference.io.deck_sensitivities.model_at`).
     steps : list of float
         Per parameter, that step Δ.
     """
@@ -49,7 +40,8 @@ class ResidualDerivatives:
 
     def __call__(self, x, q, v, w, vd, lam, t, dynamic) -> list:
         """``[(∂r/∂p (N,6), ∂Φ/∂p (m,)), …]`` per parameter at the state ``(x, q, V, V̇, λ, t)`` (the residual of
-        :meth:`reference.plain.newton.Newton.evaluate`, static or dynamic)."""
+        :meth:`reference.plain.newton.Newton.evaluate`, static or dynamic); the base system's last evaluation
+        (``base.last``, with its B) is left at this state."""
         angle = self.base.angle.copy()
         base = self.base.evaluate(x, q, v, w, vd, lam, t, dynamic)
         r0, phi0 = base.r.copy(), base.phi.copy()
@@ -81,19 +73,6 @@ class _Configuration:
     @property
     def positions(self):
         return self.x
-
-
-def parse_outputs(texts, domain) -> list:
-    """The observables ``texts`` parsed against ``domain``; one whose value is not a function of the
-    configuration alone (a velocity, a reaction, an energy, an angle since t = 0) is refused (ObservableError)."""
-    out = []
-    for text in texts:
-        obs = parse(text, domain)
-        if obs.kind not in KINEMATIC:
-            raise ObservableError(f"output {text!r}: the sensitivities give kinematic outputs only; name a position, "
-                                  "rotation, distance or deflection (midspan_deflection) of nodes")
-        out.append(obs)
-    return out
 
 
 def output_derivative(obs, names: _Names, x, q, dx, dtheta, length: float) -> np.ndarray:

@@ -58,8 +58,7 @@ def solve_static(nw, derivatives, x, q, lam, t) -> np.ndarray:
     """``[dx/dp | dθ/dp]`` (P, N, 6) at the equilibrium ``(x, q, λ)`` at load level t (module docstring): one
     factorisation of the Newton matrix and one back-substitution per parameter."""
     zero = np.zeros_like(x)
-    rhs = derivatives(x, q, zero, zero, np.zeros((x.shape[0], 6)), lam, t, False)
-    nw.evaluate(x, q, zero, zero, np.zeros((x.shape[0], 6)), lam, t, False)  # the matrix reads its B
+    rhs = derivatives(x, q, zero, zero, np.zeros((x.shape[0], 6)), lam, t, False)  # evaluates nw here: its B
     lu = nw.factor(nw.matrix(x, q, zero, zero, t, lam, 0.0, 0.0, 1.0, 1.0))
     if lu is None:
         raise ValueError(f"the tangent is singular at load level {t:.6g}: no sensitivity at a critical point")
