@@ -8,6 +8,8 @@ model with a parameter moved by Δ gives ∂R/∂p exactly (:mod:`reference.sens
 
 from __future__ import annotations
 
+import numpy as np
+
 from reference.interactions import NodalLoad
 from reference.io.deck import load_deck
 from reference.io.deck_parameters import ParameterError, parse_outputs, resolve_all
@@ -73,3 +75,24 @@ def _setup(path, parameters, overrides, algorithms):
     steps = [max(abs(p.value), 1.0) for p in params]
     moved = [model_at(p, path, overrides, p.value + d) for p, d in zip(params, steps)]
     return domain, params, moved, steps
+
+
+def sensitivity_datasets(path, sensitivities: dict, overrides: dict | None = None) -> dict:
+    """The results file's datasets of a deck's ``[sensitivities]`` table (docs/results.md): for a static run
+    ``sensitivities/<output>/<parameter>`` (one value per load step, the observable's shape after it) and
+    ``sensitivities/load_factor``; for modes ``sensitivities/frequency/<parameter>`` (dω/dp / 2π [Hz per unit of
+    p]); for buckling ``sensitivities/load_factor/<parameter>`` (dμ/dp).  ``/`` in a name (an output
+    ``deflection:…``) is written as ``|``, an HDF5 path separator otherwise."""
+    names, outputs = sensitivities["parameters"], sensitivities.get("outputs", [])
+    key = lambda text: text.replace("/", "|")  # noqa: E731
+    domain = load_deck(path, overrides=overrides).domain
+    if domain.solver.algorithm in STATIC:
+        result = static_sensitivities(path, names, outputs, overrides)
+        out = {"sensitivities/load_factor": np.asarray(result.t)}
+        for text, by_name in result.outputs.items():
+            out.update({f"sensitivities/{key(text)}/{key(n)}": np.asarray(v) for n, v in by_name.items()})
+        return out
+    values, d = eigen_sensitivities(path, names, overrides)
+    if domain.solver.algorithm == "modes":
+        return {f"sensitivities/frequency/{key(n)}": d[i] / (2.0 * np.pi) for i, n in enumerate(names)}
+    return {f"sensitivities/load_factor/{key(n)}": d[i] for i, n in enumerate(names)}
