@@ -492,8 +492,8 @@ def parser() -> argparse.ArgumentParser:
                     help="--path's load axis: a scalar observable in place of the load factor, e.g. "
                     "'prescribed_reaction:push' (a static run under displacement control)")
     pl.add_argument("--sensitivity", action="append", metavar="OUTPUT",
-                    help="a static run's sensitivities of an output of the deck's [sensitivities] table to every "
-                    "parameter, against the load factor, e.g. 'position:beam:end' (repeatable)")
+                    help="a static or generalized-α run's sensitivities of an output of the deck's [sensitivities] table "
+                    "to every parameter, against the load factor or time, e.g. 'position:beam:end' (repeatable)")
     pl.add_argument("--drift", action="store_true", help="constraint violation history")
     pl.add_argument("--energy", action="store_true", help="energy histories")
     pl.add_argument("--animate", metavar="NAME.gif", type=animation_name,

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 WHAT = ("--node LABEL (position and velocity histories), --observable EXPR (any observable, docs/observables.md), "
-        "--sensitivity EXPR (a static run's sensitivities of an output), "
+        "--sensitivity EXPR (a static or generalized-α run's sensitivities of an output), "
         "--path EXPR (an arc-length run's load factor, or --load EXPR, against an observable), "
         "--drift (constraint violation), --energy, --animate NAME.gif, --mode K (a mode as a ParaView animation)")
 
@@ -187,8 +187,8 @@ def _figures_asked(args) -> bool:
 
 
 def plot_sensitivity(source, text: str, out: Path, plt) -> Path:
-    """Figure of the sensitivities of the output ``text`` to every parameter of a static run
-    (``/sensitivities/<output>/<parameter>``, docs/results.md) against the load factor, one line per
+    """Figure of the sensitivities of the output ``text`` to every parameter of a static or generalized-α run
+    (``/sensitivities/<output>/<parameter>``, docs/results.md) against the load factor or time, one line per
     parameter and component; an output the file has no sensitivities of is refused in one line."""
     import h5py
 
@@ -198,14 +198,15 @@ def plot_sensitivity(source, text: str, out: Path, plt) -> Path:
             there = [k for k in f.get("sensitivities", {}) if isinstance(f["sensitivities"][k], h5py.Group)]
             raise OSError(f"{source}: no sensitivities of {text!r}; the file has them of "
                           f"{', '.join(map(repr, there)) or 'nothing (the deck has no [sensitivities] table)'}")
-        load = np.asarray(f["sensitivities/load_factor"])
+        axis = "time" if "sensitivities/time" in f else "load_factor"
+        load = np.asarray(f[f"sensitivities/{axis}"])
         curves = {name.replace("|", "/"): np.asarray(group[name]) for name in group}
     fig, ax = plt.subplots(figsize=(6.4, 3.6))
     for name, values in curves.items():
         values = values.reshape(len(load), -1)
         for k in range(values.shape[1]):
             ax.plot(load, values[:, k], label=name + (f" [{'xyzw'[k]}]" if values.shape[1] > 1 else ""))
-    ax.set_xlabel("load factor")
+    ax.set_xlabel("time t [s]" if axis == "time" else "load factor")
     ax.set_ylabel(f"d({text})/dp")
     ax.legend(fontsize=7)
     ax.set_title(f"sensitivities of {text}", fontsize=10)

@@ -8,7 +8,8 @@ A parameter is named in the vocabulary of ``flexmbs sweep`` (docs/deck.md, "Over
 - ``loads[i].force``, ``loads[i].moment`` — the scale ``s`` of the i-th ``[[loads]]`` entry
   (its vector times ``s``, nominal ``s = 1``);
 - ``rigid_bodies.NAME.mass`` — the mass of a rigid body [kg];
-- ``springs[i].stiffness`` — the stiffness of a force element with one stiffness.
+- ``springs[i].stiffness`` — the stiffness of a force element with one stiffness;
+- ``time_functions.NAME.v0``, ``.v1`` — the end values of a ramp or smooth step (a drive's speed, a load's level).
 
 Every one of them enters the equations of motion affinely (:mod:`reference.sensitivity.derivatives`).
 Geometry is refused: the reference strains γ0, κ0 and lengths L0 of the elements depend on the
@@ -28,8 +29,12 @@ from pathlib import Path
 from reference.io.deck_reader import Reader, read_toml
 from reference.observables import ObservableError, parse
 
-DIFFERENTIATED = ("static", "modes", "buckling")
+DIFFERENTIATED = ("static", "modes", "buckling", "generalized_alpha")
 """The algorithms whose runs have sensitivities."""
+
+AFFINE_TIME_FUNCTIONS = ("ramp", "smooth_step")
+"""Time-function kinds whose values are affine in their end values ``v0``, ``v1`` (a drive's speed or a load's
+level): ``time_functions.NAME.v0``/``.v1`` of these are parameters."""
 
 KINEMATIC = ("position", "positions", "rotation", "distance", "deflection")
 """Observable kinds with a sensitivity: functions of the nodes' configuration alone."""
@@ -61,12 +66,16 @@ class Parameter:
     Its model at another value: :func:`reference.io.deck_sensitivities.model_at`.
     value : float
         Its nominal value (1 for a load scale).
+    affine : bool
+        Whether the residual is affine in it (all but a time function's end value, which a drive's rotation
+        takes non-linearly).
     """
 
     name: str
     override: str
     load: int
     value: float
+    affine: bool = True
 
 
 def candidates(deck: dict) -> list[str]:
@@ -76,6 +85,8 @@ def candidates(deck: dict) -> list[str]:
     for i, ld in enumerate(deck.get("loads", [])):
         names += [f"loads[{i}].{k}" for k in ("force", "moment") if k in ld]
     names += [f"rigid_bodies.{rb.get('label')}.mass" for rb in deck.get("rigid_bodies", [])]
+    names += [f"time_functions.{n}.{k}" for n, tf in deck.get("time_functions", {}).items()
+              if isinstance(tf, dict) and tf.get("kind") in AFFINE_TIME_FUNCTIONS for k in ("v0", "v1")]
     names += [f"springs[{i}].stiffness" for i, sp in enumerate(deck.get("springs", [])) if "stiffness" in sp]
     return names
 
@@ -110,6 +121,10 @@ def resolve(name, deck: dict) -> Parameter:
     m = re.fullmatch(r"loads\[(\d+)\]\.(force|moment)", name)
     if m and int(m[1]) < len(deck.get("loads", [])) and m[2] in deck["loads"][int(m[1])]:
         return Parameter(name, "", int(m[1]), 1.0)
+    m = re.fullmatch(r"time_functions\.([^.]+)\.(v0|v1)", name)
+    tf = deck.get("time_functions", {}).get(m[1]) if m else None
+    if isinstance(tf, dict) and tf.get("kind") in AFFINE_TIME_FUNCTIONS:
+        return Parameter(name, name, -1, float(tf.get(m[2], 0.0 if m[2] == "v0" else 1.0)), affine=False)
     m = re.fullmatch(r"rigid_bodies\.([^.]+)\.mass", name)
     labels = [rb.get("label") for rb in deck.get("rigid_bodies", [])]
     if m and m[1] in labels:

@@ -31,12 +31,17 @@ class ResidualDerivatives:
         (:func:`reference.io.deck_sensitivities.model_at`).
     steps : list of float
         Per parameter, that step Δ.
+    minus : list of (Model or None), optional
+        Per parameter, None (the residual is affine in it: the one-sided difference is exact) or the model with
+        the parameter moved by −Δ: a central difference, for a parameter that enters non-linearly (a drive's
+        scale, through the drive's rotation; ``Δ = 1e-4 |p|``, truncation 1e-8 relative).
     """
 
-    def __init__(self, base: Newton, moved, steps):
+    def __init__(self, base: Newton, moved, steps, minus=None):
         self.base = base
         self.steps = list(steps)
         self.moved = [Newton(model) for model in moved]
+        self.minus = [None if model is None else Newton(model) for model in (minus or [None] * len(self.moved))]
 
     def __call__(self, x, q, v, w, vd, lam, t, dynamic) -> list:
         """``[(∂r/∂p (N,6), ∂Φ/∂p (m,)), …]`` per parameter at the state ``(x, q, V, V̇, λ, t)`` (the residual of
@@ -47,10 +52,15 @@ class ResidualDerivatives:
         r0, phi0 = base.r.copy(), base.phi.copy()
         self.base.angle[:] = angle
         out = []
-        for nw, d in zip(self.moved, self.steps):
+        for nw, back, d in zip(self.moved, self.minus, self.steps):
             nw.angle[:] = angle
             res = nw.evaluate(x, q, v, w, vd, lam, t, dynamic)
-            out.append(((res.r - r0) / d, (res.phi - phi0) / d))
+            if back is None:
+                out.append(((res.r - r0) / d, (res.phi - phi0) / d))
+                continue
+            back.angle[:] = angle
+            low = back.evaluate(x, q, v, w, vd, lam, t, dynamic)
+            out.append(((res.r - low.r) / (2.0 * d), (res.phi - low.phi) / (2.0 * d)))
         return out
 
 
