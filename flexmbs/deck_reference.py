@@ -42,10 +42,7 @@ _ENTRY = re.compile(r"^(?P<table>[a-z_]+)(?P<index>\[\d+\])?(?:\.(?P<rest>.+))?$
 _BAD = {"number": "x", "integer": 0, "vector": [1.0], "direction": [0.0, 0.0, 0.0], "rotation": [1.0, 1.0, 0.0, 0.0],
         "string": 1, "boolean": "yes", "choice": "?", "label": "a/b"}
 """A wrong value for each check, to show the reader's message for it."""
-PROBES = ("""
-[meta]
-name = "probe"
-[sections.bar]
+_SECTION = """[sections.bar]
 EA = 1.0
 GA2 = 1.0
 GA3 = 1.0
@@ -56,7 +53,12 @@ rhoA = 1.0
 rhoJ1 = 0.01
 rhoJ2 = 0.01
 rhoJ3 = 0.01
-[time_functions.turn]
+"""
+"""The probes' section."""
+PROBES = ("""
+[meta]
+name = "probe"
+""" + _SECTION + """[time_functions.turn]
 kind = "ramp"
 t0 = 0.0
 t1 = 1.0
@@ -94,9 +96,30 @@ dofs = ["y", "z", "rx", "ry", "rz"]
 [solver]
 dt = 0.001
 t_end = 0.01
-""",)
+""", """
+[meta]
+name = "sensitivity_probe"
+""" + _SECTION + """[[beams]]
+label = "b"
+start = [0.0, 0.0, 0.0]
+end = [1.0, 0.0, 0.0]
+elements = 2
+section = "bar"
+[[clamps]]
+node = "b:start"
+[[loads]]
+node = "b:end"
+force = [0.0, 0.0, -1.0]
+[solver]
+algorithm = "static"
+t_end = 1.0
+load_steps = 1
+[sensitivities]
+parameters = ["sections.bar.EI2", "loads[0].force"]
+outputs = ["position:b:end"]
+""")
 """Decks that use what no gallery deck does (a joint's ``reference``, a drive's default ``mode``,
-``[[prescribed_displacements]]``): read with the gallery so that their keys are typed too."""
+``[[prescribed_displacements]]``, ``[sensitivities]``): read with the gallery so that their keys are typed too."""
 
 MEANINGS = {
     "[sections.NAME]": {

@@ -37,13 +37,14 @@ from reference.interactions import (
     SmoothStep, Step,
 )
 from reference.io.deck_connectors import read_joints, read_prescribed_displacements, read_springs
+from reference.io.deck_parameters import read_sensitivities
 from reference.io.deck_reader import DeckError, Reader, override_value, read_toml, show
 from reference.io.deck_solution import check_backend, read_checks, read_solver
 from reference.validation import LabelError, ModelWarning
 
 TOP_LEVEL = {"meta", "sections", "time_functions", "nodes", "beams", "rigid_bodies", "joints", "clamps", "fixed",
              "loads", "line_loads", "springs", "gravity", "initial_velocities", "solver", "checks", "crosscheck",
-             "prescribed_displacements"}
+             "prescribed_displacements", "sensitivities"}
 SECTION_KEYS = ["EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ1", "rhoJ2", "rhoJ3"]
 TIME_FUNCTIONS = {
     "constant": (Constant, ["value"], {}),
@@ -77,6 +78,9 @@ class Deck:
         ``[meta]`` (``name``, ``description``, ``provenance`` …).
     checks, crosscheck : dict
         ``[checks.NAME]`` and ``[crosscheck.NAME]`` by name, their observables checked against the model.
+    sensitivities : dict
+        ``[sensitivities]``: ``parameters`` and ``outputs`` (lists of str), checked
+        (:func:`reference.io.deck_parameters.read_sensitivities`); {} without the table.
     """
 
     domain: Domain
@@ -85,6 +89,7 @@ class Deck:
     metadata: dict = field(default_factory=dict)
     checks: dict = field(default_factory=dict)
     crosscheck: dict = field(default_factory=dict)
+    sensitivities: dict = field(default_factory=dict)
 
     def solve(self, **kwargs):
         """:meth:`Domain.solve <reference.domain.Domain.solve>` with a results file that records this deck."""
@@ -141,6 +146,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     refs.renumbered(written)
     algorithm, algo_cls = read_solver(rd, deck, domain, overrides, refine)
     checks, crosscheck = read_checks(rd, deck, domain)
+    sensitivities = read_sensitivities(rd, deck, domain, algorithm)
     try:
         model = domain.initialization()
     except ValueError as exc:
@@ -153,7 +159,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     if problem:
         raise rd.fail(*problem)
     check_backend(rd, domain, algo, model)
-    return Deck(domain, str(path), text, metadata, checks, crosscheck)
+    return Deck(domain, str(path), text, metadata, checks, crosscheck, sensitivities)
 
 
 def _written_families(deck: dict) -> dict:
