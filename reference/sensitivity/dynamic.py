@@ -77,7 +77,7 @@ def initial_tangent(algo, run, state) -> Tangent:
     ``s' = (s(p+Δ) − s(p))/Δ + A⁻¹ [ΔM (V̇(p+Δ) − V̇(p))/Δ; 0]`` (ΔM = M(p+Δ) − M(p)), from the two solutions."""
     nw, h, al = run.newton, run.h, run.alpha
     bp, _ = _coefficients(algo, h)
-    x, q, v, w, t = state.x, state.q, state.v, state.w, float(state.clock[0])
+    x, q, v, w, t = state.x, state.q, state.v, state.w, state.t
     P, N = len(algo.derivatives.moved), x.shape[0]
     nw.evaluate(x, q, v, w, al.vd, al.lam, t, True)  # the matrix reads B here
     lu = nw.factor(nw.matrix(x, q, v, w, t, np.zeros(nw.m), 1.0, 0.0, 0.0, bp))
@@ -105,7 +105,7 @@ def tangent_step(algo, run, state, psi, h: float) -> None:
     tg, nw, al = algo.tangent, run.newton, run.alpha
     bp, gp = _coefficients(algo, h)
     c = (1.0 - algo.alpha_f) / (1.0 - algo.alpha_m)
-    x, q, t = state.x, state.q, float(state.clock[0]) + h  # the caller advances the clock after the step
+    x, q, t = state.x, state.q, state.t + h  # the caller advances the clock after the step
     rhs = algo.derivatives(x, q, state.v, state.w, al.vd, al.lam, t, True)  # leaves nw evaluated here (its B)
     lu = nw.factor(nw.matrix(x, q, state.v, state.w, t, al.lam, 1.0, gp / bp, 1.0 / bp, bp, psi))
     K = nw.ev.tangent(x, q, state.v, state.w, t, al.lam if nw.m else None, nw.angle)
@@ -163,9 +163,9 @@ def run_dynamic(domain, names, moved, steps, observables, minus=None):
     while True:
         code = algo.advance(model, state, run, chunk, None)
         if code != OK:
-            raise ValueError(f"the run stopped at t = {state.clock[0]:.6g}: no sensitivity beyond")
+            raise ValueError(f"the run stopped at t = {state.t:.6g}: no sensitivity beyond")
         done += chunk
-        times.append(float(state.clock[0]))
+        times.append(state.t)
         for o in observables:
             for k, n in enumerate(names):
                 c = algo.tangent.c[k]

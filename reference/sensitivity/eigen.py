@@ -149,8 +149,8 @@ def run_buckling(domain, moved, steps):
     ends = []
     for n_steps in (0, static.n_steps(domain.solver.t_end)):
         if static.advance(model, state, run, n_steps, None) != OK:
-            raise ValueError(f"the static path stopped at load level {state.clock[0]:.6g}: no buckling sensitivity")
-        equilibrium = (state.x.copy(), state.q.copy(), run.lam.copy(), float(state.clock[0]))
+            raise ValueError(f"the static path stopped at load level {state.t:.6g}: no buckling sensitivity")
+        equilibrium = (state.x.copy(), state.q.copy(), run.lam.copy(), state.t)
         d = solve_static(run.newton, derivatives, *equilibrium)
         K = stiffness(run.newton, *equilibrium)
         dK = [total_stiffness_derivative(run.newton, nw, s, equilibrium, (d[i], np.zeros(0)), run.L)

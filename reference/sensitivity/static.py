@@ -93,15 +93,15 @@ def run_static(domain, names, moved, steps, observables) -> StaticSensitivities:
     for level in range(algo.n_steps(domain.solver.t_end) + 1):
         code = algo.advance(model, state, run, 0 if level == 0 else 1, None)
         if code != OK:
-            raise ValueError(f"the static run stopped at load level {state.clock[0]:.6g}: no sensitivity beyond")
-        d = solve_static(run.newton, derivatives, state.x, state.q, run.lam, float(state.clock[0]))
+            raise ValueError(f"the static run stopped at load level {state.t:.6g}: no sensitivity beyond")
+        d = solve_static(run.newton, derivatives, state.x, state.q, run.lam, state.t)
         _store(result, observables, _Names(domain), names, state, d, run.L)
     return result
 
 
 def _store(result, observables, labels, names, state, d, length) -> None:
     """Append one level's state sensitivities and the outputs' derivatives to ``result``."""
-    result.t.append(float(state.clock[0]))
+    result.t.append(state.t)
     result.state.append(d)
     result.x.append(state.x.copy())
     result.q.append(state.q.copy())
