@@ -80,6 +80,10 @@ body_i = "crank"
 point = [0.0, 0.0, 0.0]
 reference = [1.0, 0.0, 0.0]
 time_function = "turn"
+formulation = "augmented_lagrangian"
+penalty = 1e9
+iterations = 50
+tolerance = 1e-12
 [[prescribed_displacements]]
 label = "push"
 node = "slider"
@@ -93,8 +97,9 @@ dofs = ["y", "z", "rx", "ry", "rz"]
 dt = 0.001
 t_end = 0.01
 """,)
-"""Decks that use what no gallery deck does (a joint's ``reference``, a drive's default ``mode``,
-``[[prescribed_displacements]]``): read with the gallery so that their keys are typed too."""
+"""Decks that use what no gallery deck does (a joint's ``reference``, a drive's default ``mode``, an
+augmented-Lagrangian joint's keys, ``[[prescribed_displacements]]``): read with the gallery so that their keys
+are typed too."""
 
 MEANINGS = {
     "[sections.NAME]": {

@@ -331,7 +331,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     h, bp, gp, ck = _coefficients(par)
     N, m = x.shape[0], lam.shape[0]
     n_free = rhs.shape[0] - m
-    row_eps, angle, control, floor = model.joints.eps, fe[1], par[CONTROL] != FIXED, _roundoff(x, L)
+    row_eps, angle, control, floor = model.joints.compliance, fe[1], par[CONTROL] != FIXED, _roundoff(x, L)
     if par[14] == 1.0:
         par[14] = 0.0
         _write_record(model, x, q, v, w, par[11], clock, lam, PHI, PHIt, Bl, rec)

@@ -41,10 +41,9 @@ from reference.evaluation.forces import model_forces
 from reference.evaluation.force_elements import force_element_dissipation
 from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_nodes, kick_range, node_sums
 from reference.jit import inlined, kernel, use_threads
-from reference.joints.assembly import (
-    assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
-)
-from reference.joints.master_slave import master_slave_positions, master_slave_project
+from reference.joints.assembly import constraint_power, jacobian_times
+from reference.joints.master_slave import master_slave_positions
+from reference.joints.stage import prepare_constraints, project_constraints
 from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, likely_cause
 from reference.parallel import n_chunks
 from reference.state import Model, Record, Scratch, State
@@ -108,14 +107,12 @@ def _balance(T, P_old, P_new, h, P_drive, mean, U, clock, guard):
 
 
 @inlined
-def _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows, n_ms):
-    """Stage 2b, the constraint forces: the multipliers of the joints at ``t_n`` and the master/slave
-    projection, alternated with the kick's gyroscopic sweeps; returns ``SINGULAR`` if the constraint
-    matrix lost rank, else ``OK``."""
-    if n_rows > 0:
-        assemble_constraints(model, x, q, t, scratch.PHI, scratch.PHIt, scratch.Bj, scratch.prim_phi, scratch.prim_B)
-        if factor_constraints(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, h, hk) != OK:
-            return SINGULAR
+def _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new):
+    """Stage 2b, the constraint forces: each joint layout's projection (:mod:`reference.joints.stage`:
+    the multipliers of the joints at ``t_n``, the master/slave projection), alternated with the kick's
+    gyroscopic sweeps; returns ``SINGULAR`` if the constraint matrix lost rank, else ``OK``."""
+    if prepare_constraints(model, scratch, x, q, t, h, hk) != OK:
+        return SINGULAR
     # The constraint stage changes ω^{n+½}: redo the predictor with the midpoint
     # gyroscopic term at the constrained velocity and constrain again (same factor),
     # so that the pair (kick, constraint) is solved together (otherwise the gyroscopic
@@ -124,12 +121,7 @@ def _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows,
     for sweep in range(1 + CONSTRAINED_SWEEPS):
         if sweep > 0:
             _kick(model, v, w, S, F, hk, v_new, w_new)
-        if n_rows > 0:
-            constraint_impulse(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, scratch.PHI, scratch.PHIt,
-                               v_new, w_new, h, hk, scratch.lam)
-        if n_ms > 0:
-            master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
-                                 scratch.TMT, scratch.rhs)
+        project_constraints(model, scratch, q, v_new, w_new, h, hk)
     return OK
 
 
@@ -190,8 +182,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         # below, which would only add gyroscopic sweeps to it: it gets all of them at once
         kick_nodes(model.nodes, model.damping, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS,
                    CONSTRAINED_SWEEPS if n_rows > 0 or n_ms > 0 else 0)
-        if (n_rows > 0 or n_ms > 0) and _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows,
-                                                    n_ms) != OK:
+        if (n_rows > 0 or n_ms > 0) and _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new) != OK:
             return SINGULAR
         c = model.damping
         node_sums(model.nodes, v, w, v_new, w_new, F, f_prev, c != 0.0, scratch.guard[2] > 0.0, n > 0, part, sums)

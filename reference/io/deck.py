@@ -39,6 +39,7 @@ from reference.interactions import (
 from reference.io.deck_connectors import read_joints, read_prescribed_displacements, read_springs
 from reference.io.deck_reader import DeckError, Reader, override_value, read_toml, show
 from reference.io.deck_solution import read_checks, read_solver
+from reference.joints.formulations import refusal as formulation_refusal
 from reference.validation import LabelError, ModelWarning
 
 TOP_LEVEL = {"meta", "sections", "time_functions", "nodes", "beams", "rigid_bodies", "joints", "clamps", "fixed",
@@ -146,7 +147,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     except ValueError as exc:
         raise rd.fail("model", str(exc)) from None
     algo = domain.algorithm()
-    problem = algo.refusal(model)
+    problem = algo.refusal(model) or formulation_refusal(domain.joints, algorithm)
     if problem:
         raise rd.fail("solver.algorithm", f"{algorithm!r} cannot run this model: {problem}")
     problem = algo.setting_problem(model)
