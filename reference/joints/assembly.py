@@ -292,9 +292,8 @@ def iterated_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
     """:func:`constraint_impulse` iterated, for rows whose solves are regularised beyond their equation
     (ε ≠ c: the augmented Lagrangian, :mod:`reference.joints.augmented_lagrangian`); ``v, w`` in place.
 
-    From the multipliers ``lam`` of the previous pass of the step (the estimate λ*), ``Λ = h_k λ*`` is
-    applied, ``V ← V − M⁻¹ Bᵀ Λ``; then, up to ``model.joints.iterations`` times, with the factor
-    ``Lx`` of ``W + E``, ``E = ε/(h h_k)``::
+    From no estimate (Λ = 0: each projection is solved afresh, as the direct one is), up to
+    ``model.joints.iterations`` times, with the factor ``Lx`` of ``W + E``, ``E = ε/(h h_k)``::
 
         (W + E) ΔΛ = B V + Φ_t + Φ/h − c Λ/(h h_k),    Λ ← Λ + ΔΛ,    V ← V − M⁻¹ Bᵀ ΔΛ
 
@@ -307,8 +306,7 @@ def iterated_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
     iperm, c = model.joints.pattern.row_iperm, model.joints.compliance
     jt_i, jt_j, jt_neq, jt_row0 = model.joints.i, model.joints.j, model.joints.neq, model.joints.row0
     for r in range(PHI.shape[0]):
-        lam[r] *= hk
-    subtract_transpose(model, BMj, lam, v, w)
+        lam[r] = 0.0
     for _ in range(model.joints.iterations):
         for k in range(Bj.shape[0]):  # the right-hand side: jacobian_times, row by row
             for r in range(jt_row0[k], jt_row0[k] + jt_neq[k]):

@@ -19,11 +19,11 @@ the estimate as its scheme allows:
   ``Φ_{n+1} = 0`` (Bayo & Ledesma's projection); the augmented iteration solves it with
   ``(B M⁻¹ Bᵀ + I/(α h h_k)) ΔΛ = B V + Φ_t + Φ/h`` and ``V ← V − M⁻¹ Bᵀ ΔΛ`` up to
   ``iterations`` times (each solve contracts the error by about ``1/(1 + α h h_k σ)``, σ the
-  eigenvalues of ``B M⁻¹ Bᵀ``), from no estimate at each step's first predictor pass and from the
-  pass before at the others.  The estimate is not carried from one step to the next: a force
-  ``λ* + α Φ`` whose λ* sums α Φ over the steps is an integral control of the constraint error
-  without damping, unstable where the iteration falls short (a penalty too small for the step);
-  restarted at each step, a short iteration leaves a penalty-regularised constraint instead;
+  eigenvalues of ``B M⁻¹ Bᵀ``), from no estimate at each projection.  The estimate is not carried
+  from one step to the next: a force ``λ* + α Φ`` whose λ* sums α Φ over the steps is an integral
+  control of the constraint error without damping, unstable where the iteration falls short (a
+  penalty too small for the step); restarted, a short iteration leaves a penalty-regularised
+  constraint instead (one solve: the penalty formulation);
 - implicit (static, generalized-α): the estimate is the current multiplier at
   every Newton iteration, so the rows' residual is Φ itself while the Newton matrix keeps the
   −ε block: Newton converges (linearly, by about ``ε/(ε + σ')`` per iteration, σ' the

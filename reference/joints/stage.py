@@ -1,58 +1,73 @@
-"""The explicit step's constraint stage, layout by layout (the behaviour of the joint formulations).
+"""The explicit step's constraint stage: the joints' behaviour in Park's staggered step, layout by layout.
 
-Park's staggered step (:mod:`reference.algorithms.staggered`, stage 2b) asks the joints two
-things: :func:`prepare_constraints` once per step, at ``t_n``, and :func:`project_constraints`
-after each predictor pass, to correct the predicted velocities.  Each layout of
-:data:`reference.joints.formulations.LAYOUTS` answers with its own functions:
+Park's staggered step (:mod:`reference.algorithms.staggered`, stage 2b) hands its predicted
+velocities to :func:`constrain`, which asks each layout of
+:data:`reference.joints.formulations.LAYOUTS` for its projection:
 
 - the multiplier rows (:class:`reference.joints.formulation.Multipliers`): Φ, Φ_t, B and the
-  sparse factor of ``B M⁻¹ Bᵀ + ε/(h h_k)`` (:mod:`reference.joints.assembly`), then the
-  stabilised impulse — one solve when every row's equation is its solve's (c = ε: Lagrange
-  multipliers), iterated from the previous multipliers otherwise (the augmented Lagrangian);
+  sparse factor of ``B M⁻¹ Bᵀ + ε/(h h_k)`` once per step (:mod:`reference.joints.assembly`),
+  then the stabilised impulse — one solve when every row's equation is its solve's (c = ε:
+  Lagrange multipliers), iterated otherwise (ε ≠ c: the augmented Lagrangian,
+  :func:`~reference.joints.assembly.iterated_impulse`);
 - the master/slave pairs (:mod:`reference.joints.master_slave`): the M-orthogonal projection
   onto the pairs' motions.
 
-A formulation of an existing layout changes only its rows' data (ε, c, the iteration), not
-this stage.
+A formulation of an existing layout changes only its rows' data (ε, c, the iteration), not this
+stage.  The stage is one inlined function with the layouts' calls written out, not a function per
+layout: an inlined helper's arguments cost two atomic reference-count updates per array and call
+(:mod:`reference.jit`), and the Model and the step's work arrays are some eighty arrays, passed at
+every predictor pass.
 """
 
 from __future__ import annotations
 
+from reference.algorithms.staggered_nodes import kick_range
 from reference.jit import inlined
 from reference.joints.assembly import assemble_constraints, constraint_impulse, factor_constraints, iterated_impulse
 from reference.joints.master_slave import master_slave_project
 from reference.status import OK, SINGULAR
 
+CONSTRAINED_SWEEPS = 3
+"""Extra (kick, projection) passes when there are joints (contraction ≈ h|ω|)."""
+
 
 @inlined
-def prepare_constraints(model, scratch, x, q, t, h, hk):
-    """What the projections need at ``t_n``: the multiplier rows' Φ, Φ_t, B blocks and factor (into
-    ``scratch``), and for iterated rows the estimate λ* = 0 (``scratch.lam``; the passes of the step
-    then carry it on); the master/slave pairs need nothing ahead.  Returns ``SINGULAR`` when the factor
-    lost rank, else ``OK``."""
-    if scratch.PHI.shape[0] > 0:
-        if model.joints.iterations > 0:
-            # the iterated rows start each step from no estimate: carried over from the step before, the
-            # estimate would integrate the constraint error with no damping where the iteration falls short
-            for r in range(scratch.lam.shape[0]):
-                scratch.lam[r] = 0.0
+def _kick(model, v, w, S, F, hk, v_new, w_new):
+    """The kick again at the nodes of joints (``model.nodes.constrained_ids``), one gyroscopic sweep from
+    the constrained velocities of the previous pass (:func:`constrain`; the full kick is
+    :func:`~reference.algorithms.staggered_nodes.kick_nodes`)."""
+    c, J, Jinv, free, mass = model.damping, model.nodes.inertia, model.nodes.inertia_inv, model.nodes.free, model.nodes.mass
+    ids = model.nodes.constrained_ids
+    kick_range(0, ids.shape[0], ids, True, c, J, Jinv, free, mass, model.nodes.constrained, v, w, S, F, hk, v_new,
+               w_new, 1, 0, True)
+
+
+@inlined
+def constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new):
+    """Stage 2b, the constraint forces: each joint layout's projection of the predicted velocities
+    ``v_new, w_new`` (N, 3, in place) at ``t_n``, alternated with the kick's gyroscopic sweeps;
+    ``scratch.lam`` receives the multipliers.  Returns ``SINGULAR`` if the constraint matrix lost
+    rank, else ``OK``.  ``v, w`` are the velocities at ``t_{n−½}``, ``S, F`` the forces of the kick."""
+    n_rows, n_pairs = scratch.PHI.shape[0], model.master_slave.master.shape[0]
+    if n_rows > 0:
         assemble_constraints(model, x, q, t, scratch.PHI, scratch.PHIt, scratch.Bj, scratch.prim_phi, scratch.prim_B)
         if factor_constraints(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, h, hk) != OK:
             return SINGULAR
-    return OK
-
-
-@inlined
-def project_constraints(model, scratch, q, v, w, h, hk):
-    """Correct the predicted velocities ``v, w`` (N, 3) in place, layout after layout: the multiplier
-    rows' impulse (``scratch.lam`` receives λ), then the master/slave projection."""
-    if scratch.PHI.shape[0] > 0:
-        if model.joints.iterations > 0:
+    # The constraint stage changes ω^{n+½}: redo the predictor with the midpoint
+    # gyroscopic term at the constrained velocity and constrain again (same factor),
+    # so that the pair (kick, constraint) is solved together (otherwise the gyroscopic
+    # term of a constrained spinning body is only first-order accurate).  With both
+    # multiplier and master/slave joints the passes also alternate the two projections.
+    for sweep in range(1 + CONSTRAINED_SWEEPS):
+        if sweep > 0:
+            _kick(model, v, w, S, F, hk, v_new, w_new)
+        if n_rows > 0 and model.joints.iterations > 0:
             iterated_impulse(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, scratch.PHI, scratch.PHIt,
-                             v, w, h, hk, scratch.lam)
-        else:
+                             v_new, w_new, h, hk, scratch.lam)
+        elif n_rows > 0:
             constraint_impulse(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, scratch.PHI, scratch.PHIt,
-                               v, w, h, hk, scratch.lam)
-    if model.master_slave.master.shape[0] > 0:
-        master_slave_project(model, q, v, w, scratch.T, scratch.A_m, scratch.A_s, scratch.MT, scratch.TMT,
-                             scratch.rhs)
+                               v_new, w_new, h, hk, scratch.lam)
+        if n_pairs > 0:
+            master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
+                                 scratch.TMT, scratch.rhs)
+    return OK
