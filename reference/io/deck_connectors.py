@@ -19,7 +19,7 @@ from reference.forces import KINDS as SPRING_KINDS
 from reference.forces import Bushing, PointToPoint, Rotational
 from reference.interactions import Expression
 from reference.io.deck_reader import Reader, show
-from reference.joints.formulations import DEFAULT, FORMULATIONS
+from reference.joints.formulations import DEFAULT, REGISTRY
 from reference.joints.formulations import deck_keys as formulation_keys
 from reference.joints.joint import PRESCRIBED
 from reference.joints.joint import ROWS as JOINT_KINDS
@@ -50,12 +50,12 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
             close = difflib.get_close_matches(kind, list(JOINT_KINDS), n=1)
             raise rd.fail(f"{entry}.kind", f"unknown joint kind {show(kind)}",
                           f"did you mean '{close[0]}'?" if close else f"one of: {', '.join(JOINT_KINDS)}")
-        name = rd.choice(jt.get("formulation", DEFAULT), f"{entry}.formulation", FORMULATIONS, "joint formulation")
+        name = rd.choice(jt.get("formulation", DEFAULT), f"{entry}.formulation", REGISTRY, "joint formulation")
         for key in jt:
-            if key in own_keys and key not in FORMULATIONS[name].deck_keys:
+            if key in own_keys and key not in REGISTRY[name].deck_keys:
                 raise rd.fail(f"{entry}.{key}", f"applies to formulation = {show(own_keys[key])}, not {show(name)}",
                               f"remove it, or set formulation = {show(own_keys[key])}")
-        formulation = FORMULATIONS[name].from_deck(rd, jt, entry)
+        formulation = REGISTRY[name].from_deck(rd, jt, entry)
         body_i = refs.node(jt["body_i"], f"{entry}.body_i")
         body_j = None
         if jt.get("body_j", "ground") != "ground":

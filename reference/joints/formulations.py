@@ -1,11 +1,11 @@
 """The registry of joint formulations: the deck's ``formulation = "NAME"`` → its class.
 
 A formulation (:class:`reference.joints.formulation.JointFormulation`) is registered here by
-name; the deck reader looks names up in :data:`FORMULATIONS` (with "did you mean" for a
+name; the deck reader looks names up in :data:`REGISTRY` (with "did you mean" for a
 misspelt one) and reads the keys the class declares (``deck_keys``, :meth:`from_deck`); the
 Domain lays out the Model field of each layout of :data:`LAYOUTS` from the joints of that
 layout; :func:`refusal` says, in one line, which joint an algorithm cannot run.  Adding a
-formulation is its module and one line of :data:`FORMULATIONS` (a new layout, with its own
+formulation is its module and one line of :data:`REGISTRY` (a new layout, with its own
 stage in the algorithms, also one line of :data:`LAYOUTS`).
 """
 
@@ -14,13 +14,14 @@ from __future__ import annotations
 from reference.joints.augmented_lagrangian import AugmentedLagrangian
 from reference.joints.formulation import Jacobian, MasterSlave, Multipliers
 
-FORMULATIONS = {cls.name: cls for cls in (Jacobian, MasterSlave, AugmentedLagrangian)}
-"""Formulation name (the deck's ``formulation``) → class; the first is the default."""
+REGISTRY = {cls.name: cls for cls in (Jacobian, MasterSlave, AugmentedLagrangian)}
+"""Formulation name (the deck's ``formulation``) → class."""
 
 LAYOUTS = (Multipliers, MasterSlave)
 """The layouts, in the order their Model fields are laid out: each formulation is a subclass of one."""
 
 DEFAULT = "jacobian"
+"""The formulation of a joint that names none (Lagrange multipliers)."""
 
 
 def layout_of(formulation) -> type:
@@ -34,7 +35,7 @@ def layout_of(formulation) -> type:
 
 def deck_keys() -> dict:
     """Every formulation's own ``[[joints]]`` keys: key → the formulation's name."""
-    return {key: cls.name for cls in FORMULATIONS.values() for key in cls.deck_keys}
+    return {key: cls.name for cls in REGISTRY.values() for key in cls.deck_keys}
 
 
 def refusal(joints: list, algorithm: str) -> str | None:
