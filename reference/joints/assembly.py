@@ -302,6 +302,8 @@ def iterated_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
     error contracts by ``(W + E)⁻¹ (E − C)`` per solve.  ``work`` holds the right-hand side and
     ΔΛ in the solve's elimination order (``row_iperm``: both loops below index it so, ``lam``
     keeping Λ in row order); ``lam`` receives λ = Λ/h_k.
+
+    Twelve parameters: those of :func:`constraint_impulse`, whose place it takes in the same stage.
     """
     iperm, c = model.joints.pattern.row_iperm, model.joints.compliance
     jt_i, jt_j, jt_neq, jt_row0 = model.joints.i, model.joints.j, model.joints.neq, model.joints.row0

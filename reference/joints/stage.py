@@ -47,7 +47,10 @@ def constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new):
     """Stage 2b, the constraint forces: each joint layout's projection of the predicted velocities
     ``v_new, w_new`` (N, 3, in place) at ``t_n``, alternated with the kick's gyroscopic sweeps;
     ``scratch.lam`` receives the multipliers.  Returns ``SINGULAR`` if the constraint matrix lost
-    rank, else ``OK``.  ``v, w`` are the velocities at ``t_{n−½}``, ``S, F`` the forces of the kick."""
+    rank, else ``OK``.  ``v, w`` are the velocities at ``t_{n−½}``, ``S, F`` the forces of the kick.
+
+    Thirteen parameters: the step's arrays the kick and the projections share, passed as the step holds
+    them (grouping them would add an inlined argument's reference counts at every step)."""
     n_rows, n_pairs = scratch.PHI.shape[0], model.master_slave.master.shape[0]
     if n_rows > 0:
         assemble_constraints(model, x, q, t, scratch.PHI, scratch.PHIt, scratch.Bj, scratch.prim_phi, scratch.prim_B)
