@@ -84,6 +84,10 @@ body_i = "crank"
 point = [0.0, 0.0, 0.0]
 reference = [1.0, 0.0, 0.0]
 time_function = "turn"
+formulation = "augmented_lagrangian"
+penalty = 1e9
+iterations = 50
+tolerance = 1e-12
 [[prescribed_displacements]]
 label = "push"
 node = "slider"
@@ -118,8 +122,9 @@ load_steps = 1
 parameters = ["sections.bar.EI2", "loads[0].force"]
 outputs = ["position:b:end"]
 """)
-"""Decks that use what no gallery deck does (a joint's ``reference``, a drive's default ``mode``,
-``[[prescribed_displacements]]``, ``[sensitivities]``): read with the gallery so that their keys are typed too."""
+"""Decks that use what no gallery deck does (a joint's ``reference``, a drive's default ``mode``, an
+augmented-Lagrangian joint's keys, ``[[prescribed_displacements]]``, ``[sensitivities]``): read with the gallery so
+that their keys are typed too."""
 
 MEANINGS = {
     "[sections.NAME]": {

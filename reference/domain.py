@@ -39,6 +39,7 @@ from reference.interactions import (
 )
 from reference.io.results import Results
 from reference.joints import Jacobian, Joint, joint_frame, setup
+from reference.joints.formulations import refusal as formulation_refusal
 from reference.monitor import damping_problem
 from reference.building import beam_arguments, resolve_node, with_axis2
 from reference.validation import direction, joint_offsets, vector
@@ -477,6 +478,9 @@ class Domain:
         self.last_run = {"path": None, "status": "not started", "t": 0.0}
         joint_offsets(self)
         model = self.initialization()
+        problem = formulation_refusal(self.joints, self.solver.algorithm)
+        if problem:
+            raise ValueError(problem)
         critical = self.critical_time_step()
         problem = damping_problem(model.damping, algo.dt, critical) if algo.explicit else ""
         if problem:

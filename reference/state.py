@@ -52,12 +52,14 @@ class TimeFunctions(NamedTuple):
 
 
 class Joints(NamedTuple):
-    """The J joints with Lagrange multipliers (:class:`reference.joints.Jacobian`), m rows in all:
-    ``i``, ``j`` (J,) node indices (−1 the ground), ``par`` (J,24) body-fixed point and frames,
+    """The J joints with multiplier rows (:class:`reference.joints.formulation.Multipliers`), m rows in
+    all: ``i``, ``j`` (J,) node indices (−1 the ground), ``par`` (J,24) body-fixed point and frames,
     ``rows`` (J,6) primitive rows (−1 padded), ``neq`` (J,) equations, ``row0`` (J,) first global
-    row, ``drive`` (J,) drive code, ``tf`` (J,) time function; ``eps`` (m,) the ε of each row;
-    ``pattern`` the fixed sparsity of ``B M⁻¹ Bᵀ``
-    (:class:`reference.joints.sparse.ConstraintPattern`)."""
+    row, ``drive`` (J,) drive code, ``tf`` (J,) time function; ``eps`` (m,) the ε of each row's
+    solves; ``pattern`` the fixed sparsity of ``B M⁻¹ Bᵀ``
+    (:class:`reference.joints.sparse.ConstraintPattern`); ``compliance`` (m,) the c of each row's
+    equation ``Φ − c λ = 0``; ``iterations`` the most multiplier solves of a constraint stage (0: one
+    direct solve) and ``tolerance`` the relative change of the multipliers that ends them."""
 
     i: np.ndarray
     j: np.ndarray
@@ -69,6 +71,9 @@ class Joints(NamedTuple):
     tf: np.ndarray
     eps: np.ndarray
     pattern: tuple
+    compliance: np.ndarray
+    iterations: int
+    tolerance: float
 
 
 class MasterSlaveJoints(NamedTuple):

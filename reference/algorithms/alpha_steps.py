@@ -356,13 +356,13 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     clock, par = clock[0], par[0]
     dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, psi = arr
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = wt
-    am, af, gamma, beta = par["alpha_m"], par["alpha_f"], par["gamma"], par["beta"]
+    am, af = par["alpha_m"], par["alpha_f"]
     tol, L, contraction = par["tolerance"], par["L"], par["contraction"]
     max_it = int(par["max_iterations"])
     h, bp, gp, ck = _coefficients(par)
     N, m = x.shape[0], lam.shape[0]
     n_free = rhs.shape[0] - m
-    row_eps, angle, control, floor = model.joints.eps, fe[1], par["control"] != FIXED, _roundoff(x, L)
+    row_eps, angle, control, floor = model.joints.compliance, fe[1], par["control"] != FIXED, _roundoff(x, L)
     if par["record"] == 1.0:
         par["record"] = 0.0
         _write_record(model, x, q, v, w, par["U"], clock, lam, PHI, PHIt, Bl, rec)

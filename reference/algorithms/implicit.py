@@ -10,19 +10,22 @@ Residual (per node, the paper's eq. (5) written as ``M a + Bᵀλ = Q``)::
 
     r_u = m v̇ + c m v + S_u − F_u + (Bᵀλ)_u
     r_θ = J ω̇ + ω × J ω + c J ω + S_θ − F_θ + (Bᵀλ)_θ      (body frame)
-    Φ(x, q, t) − ε λ = 0
+    Φ(x, q, t) − c λ = 0
 
 with ``S`` the internal forces of every element family and ``F`` the external
 forces (:func:`reference.evaluation.forces.generalized_forces`), B the joint
-Jacobian (:func:`reference.joints.assembly.joint_rows`) and ε the joint's
-regularisation (``ε λ = Φ``, the explicit scheme's meaning).  The Static
+Jacobian (:func:`reference.joints.assembly.joint_rows`) and c the rows'
+compliance (``model.joints.compliance``: a regularised joint's ε, ``ε λ = Φ``, the
+explicit scheme's meaning; 0 for an augmented-Lagrangian row, whose ε only regularises
+the Newton matrix below, so that the multiplier estimate is updated at every iteration:
+:mod:`reference.joints.augmented_lagrangian`).  The Static
 algorithm uses ``v = v̇ = 0``.
 
 Newton matrix with coefficients ``(c_m, c_c, c_k)`` (static: 0, 0, 1;
 generalized-α: 1, γ'/β', 1/β')::
 
     [ c_m M + c_c C + c_k K    Bᵀ  ] [δ]      [c_k r]
-    [ B                      −ε/c_k] [μ]  = − [Φ − ελ]      λ ← λ + μ / c_k
+    [ B                      −ε/c_k] [μ]  = − [Φ − cλ]      λ ← λ + μ / c_k
 
 ``C = ∂r/∂V`` (damping, the gyroscopic tangent and the force elements' dampers),
 ``K = ∂r/∂δ`` at fixed velocities: the element families' tangent stiffness (material +
@@ -224,9 +227,9 @@ class NewtonSystem:
         return evaluate(self.arg, x, q, v, w, vd, lam, t, dynamic, self.wt)
 
     def residual_norm(self, ck: float, lam) -> float:
-        """‖[c_k r; Φ − ελ]‖ of the last :meth:`evaluate` (free coordinates only)."""
+        """‖[c_k r; Φ − cλ]‖ of the last :meth:`evaluate` (free coordinates only)."""
         r = self.work.r[self.free]
-        phi = self.work.PHI - self.model.joints.eps * lam
+        phi = self.work.PHI - self.model.joints.compliance * lam
         return float(math.sqrt(ck * ck * r @ r + phi @ phi))
 
     def matrix(self, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
@@ -294,8 +297,8 @@ class NewtonSystem:
         return delta, sol[self.n_free:]
 
     def newton_correction(self, lu, ck, lam):
-        """Correction from the last :meth:`evaluate`: right-hand side ``−[c_k r; Φ − ελ]``."""
-        return self.solve(lu, -ck * self.work.r, -(self.work.PHI - self.model.joints.eps * lam))
+        """Correction from the last :meth:`evaluate`: right-hand side ``−[c_k r; Φ − cλ]``."""
+        return self.solve(lu, -ck * self.work.r, -(self.work.PHI - self.model.joints.compliance * lam))
 
     def write_record(self, rec, x, q, v, w, U, clock, lam) -> None:
         """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B; ``clock`` the

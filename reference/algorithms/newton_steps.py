@@ -141,7 +141,7 @@ def newton_loop(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr, p
     f_node, f_code, f_val, f_vec = follower
     S, F, r, PHI = wt[0], wt[1], wt[2], wt[3]
     Bl = wt[5]
-    eps = mdl.joints.eps
+    eps = mdl.joints.compliance  # the rows' equations are Φ − c λ = 0 (the Newton matrix keeps ε)
     jt_i, jt_j, jt_row0, jt_neq = mdl.joints.i, mdl.joints.j, mdl.joints.row0, mdl.joints.neq
     par = par[0]
     tol, L, max_it = par["tolerance"], par["L"], int(par["max_iterations"])

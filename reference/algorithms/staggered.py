@@ -15,9 +15,9 @@ staggered step"; the staging is a reconstruction, the originals of Park, Chiou
    ``ω̄ = ½(ω^{n−½} + ω*)`` solved by fixed-point sweeps (this midpoint
    gyroscopic term keeps the kinetic energy of a free rigid body; the fully
    explicit one drifts by percents);
-2b. **constraint forces** (implicit stage): the joints' Φ, Φ_t and B at t_n,
-   the stabilised multipliers λ^n and ``V^{n+½} = V* − h M⁻¹ Bᵀ λ^n``
-   (``reference/joints/assembly.py``);
+2b. **constraint forces** (implicit stage, :func:`reference.joints.stage.constrain`): the joints'
+   Φ, Φ_t and B at t_n, the stabilised multipliers λ^n and ``V^{n+½} = V* − h M⁻¹ Bᵀ λ^n``
+   (``reference/joints/assembly.py``), each joint formulation's own projection;
 3. **drift**: ``x^{n+1} = x^n + h v^{n+½}`` and the Euler parameters by the
    trapezoidal rule, ``q^{n+1} = q^n ⊗ p(h ω^{n+½})`` (closed-form Cayley
    factor, exactly unit).
@@ -39,12 +39,11 @@ import numpy as np
 from reference.algorithms.base import Algorithm, CallBudget
 from reference.evaluation.forces import model_forces
 from reference.evaluation.force_elements import force_element_dissipation
-from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_nodes, kick_range, node_sums
+from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_nodes, node_sums
 from reference.jit import inlined, kernel, use_threads
-from reference.joints.assembly import (
-    assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
-)
-from reference.joints.master_slave import master_slave_positions, master_slave_project
+from reference.joints.assembly import constraint_power, jacobian_times
+from reference.joints.master_slave import master_slave_positions
+from reference.joints.stage import CONSTRAINED_SWEEPS, constrain
 from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, likely_cause
 from reference.parallel import n_chunks
 from reference.state import Model, Record, Scratch, State
@@ -53,21 +52,6 @@ from reference.status import BLOWUP, DIVERGED, OK, SINGULAR, explicit_failure
 GYRO_SWEEPS = 4
 """Most fixed-point sweeps of the midpoint gyroscopic term (contraction factor
 ≈ h|ω|, so four sweeps reach round-off for h|ω| ≲ 1e-3)."""
-
-CONSTRAINED_SWEEPS = 3
-"""Extra (kick, projection) passes when there are joints (contraction ≈ h|ω|)."""
-
-
-
-@inlined
-def _kick(model, v, w, S, F, hk, v_new, w_new):
-    """The kick again at the nodes of joints (``model.nodes.constrained_ids``), one gyroscopic sweep from
-    the constrained velocities of the previous pass (:func:`_constrain`; the full kick is
-    :func:`~reference.algorithms.staggered_nodes.kick_nodes`)."""
-    c, J, Jinv, free, mass = model.damping, model.nodes.inertia, model.nodes.inertia_inv, model.nodes.free, model.nodes.mass
-    ids = model.nodes.constrained_ids
-    kick_range(0, ids.shape[0], ids, True, c, J, Jinv, free, mass, model.nodes.constrained, v, w, S, F, hk, v_new,
-               w_new, 1, 0, True)
 
 
 @inlined
@@ -106,35 +90,6 @@ def _balance(T, P_old, P_new, h, P_drive, mean, U, clock, guard):
     # (W ≈ −1e-20, E = 0) is no blow-up
     allowed = guard["tolerance"] * guard["scale"]
     return r > allowed + h * (abs(P_old) + abs(P_new) + abs(P_drive)) and E - guard["E0"] > allowed
-
-
-@inlined
-def _constrain(model, scratch, state, t, h, hk):
-    """Stage 2b, the constraint forces: the multipliers of the joints at ``t_n`` and the master/slave
-    projection, alternated with the kick's gyroscopic sweeps, on the predicted velocities of ``scratch``;
-    returns ``SINGULAR`` if the constraint matrix lost rank, else ``OK``."""
-    x, q, v, w = state.x, state.q, state.v, state.w
-    S, F, v_new, w_new = scratch.S, scratch.F, scratch.v_new, scratch.w_new
-    n_rows, n_ms = scratch.PHI.shape[0], model.master_slave.master.shape[0]
-    if n_rows > 0:
-        assemble_constraints(model, x, q, t, scratch.PHI, scratch.PHIt, scratch.Bj, scratch.prim_phi, scratch.prim_B)
-        if factor_constraints(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, h, hk) != OK:
-            return SINGULAR
-    # The constraint stage changes ω^{n+½}: redo the predictor with the midpoint
-    # gyroscopic term at the constrained velocity and constrain again (same factor),
-    # so that the pair (kick, constraint) is solved together (otherwise the gyroscopic
-    # term of a constrained spinning body is only first-order accurate).  With both
-    # multiplier and master/slave joints the passes also alternate the two projections.
-    for sweep in range(1 + CONSTRAINED_SWEEPS):
-        if sweep > 0:
-            _kick(model, v, w, S, F, hk, v_new, w_new)
-        if n_rows > 0:
-            constraint_impulse(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, scratch.PHI, scratch.PHIt,
-                               v_new, w_new, h, hk, scratch.lam)
-        if n_ms > 0:
-            master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
-                                 scratch.TMT, scratch.rhs)
-    return OK
 
 
 @kernel
@@ -198,7 +153,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         # below, which would only add gyroscopic sweeps to it: it gets all of them at once
         kick_nodes(model.nodes, model.damping, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS,
                    CONSTRAINED_SWEEPS if n_rows > 0 or n_ms > 0 else 0)
-        if (n_rows > 0 or n_ms > 0) and _constrain(model, scratch, state, t, h, hk) != OK:
+        if (n_rows > 0 or n_ms > 0) and constrain(model, scratch, state, t, h, hk) != OK:
             return SINGULAR
         c = model.damping
         node_sums(model.nodes, v, w, v_new, w_new, F, f_prev, c != 0.0, guard["tolerance"] > 0.0, n > 0, part, sums)

@@ -40,6 +40,7 @@ from reference.io.deck_connectors import read_joints, read_prescribed_displaceme
 from reference.io.deck_parameters import read_sensitivities
 from reference.io.deck_reader import DeckError, Reader, override_value, read_toml, show
 from reference.io.deck_solution import check_backend, read_checks, read_solver
+from reference.joints.formulations import refusal as formulation_refusal
 from reference.validation import LabelError, ModelWarning
 
 TOP_LEVEL = {"meta", "sections", "time_functions", "nodes", "beams", "rigid_bodies", "joints", "clamps", "fixed",
@@ -152,7 +153,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     except ValueError as exc:
         raise rd.fail("model", str(exc)) from None
     algo = domain.algorithm()
-    problem = algo.refusal(model)
+    problem = algo.refusal(model) or formulation_refusal(domain.joints, algorithm)
     if problem:
         raise rd.fail("solver.algorithm", f"{algorithm!r} cannot run this model: {problem}")
     problem = algo.setting_problem(model)

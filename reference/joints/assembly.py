@@ -290,6 +290,58 @@ def constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
 
 
 @inlined
+def iterated_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
+    """:func:`constraint_impulse` iterated, for rows whose solves are regularised beyond their equation
+    (ε ≠ c: the augmented Lagrangian, :mod:`reference.joints.augmented_lagrangian`); ``v, w`` in place.
+
+    From no estimate (Λ = 0: each projection is solved afresh, as the direct one is), up to
+    ``model.joints.iterations`` times, with the factor ``Lx`` of ``W + E``, ``E = ε/(h h_k)``::
+
+        (W + E) ΔΛ = B V + Φ_t + Φ/h − c Λ/(h h_k),    Λ ← Λ + ΔΛ,    V ← V − M⁻¹ Bᵀ ΔΛ
+
+    until ``max |ΔΛ| ≤ model.joints.tolerance · max |Λ|``.  Its fixed point is each row's equation
+    ``B V + Φ_t + Φ/h = c Λ/(h h_k)`` (for c = ε the one solve of :func:`constraint_impulse`); the
+    error contracts by ``(W + E)⁻¹ (E − C)`` per solve.  ``work`` holds the right-hand side and
+    ΔΛ in the solve's elimination order (``row_iperm``: both loops below index it so, ``lam``
+    keeping Λ in row order); ``lam`` receives λ = Λ/h_k.
+
+    Twelve parameters: those of :func:`constraint_impulse`, whose place it takes in the same stage.
+    """
+    iperm, c = model.joints.pattern.row_iperm, model.joints.compliance
+    jt_i, jt_j, jt_neq, jt_row0 = model.joints.i, model.joints.j, model.joints.neq, model.joints.row0
+    for r in range(PHI.shape[0]):
+        lam[r] = 0.0
+    for _ in range(model.joints.iterations):
+        for k in range(Bj.shape[0]):  # the right-hand side: jacobian_times, row by row
+            for r in range(jt_row0[k], jt_row0[k] + jt_neq[k]):
+                acc = 0.0
+                for side in range(2):
+                    n = jt_i[k] if side == 0 else jt_j[k]
+                    if n >= 0:
+                        for a in range(3):
+                            acc += Bj[k, r - jt_row0[k], 6 * side + a] * v[n, a]
+                            acc += Bj[k, r - jt_row0[k], 6 * side + 3 + a] * w[n, a]
+                work[iperm[r]] = acc + PHIt[r] + PHI[r] / h - c[r] * lam[r] / (h * hk)
+        sparse_solve(model, Lx, work)
+        change, big = 0.0, 0.0
+        for k in range(Bj.shape[0]):  # Λ += ΔΛ and V −= M⁻¹ Bᵀ ΔΛ: subtract_transpose, row by row
+            for r in range(jt_row0[k], jt_row0[k] + jt_neq[k]):
+                d = work[iperm[r]]
+                lam[r] += d
+                change, big = max(change, abs(d)), max(big, abs(lam[r]))
+                for side in range(2):
+                    n = jt_i[k] if side == 0 else jt_j[k]
+                    if n >= 0:
+                        for a in range(3):
+                            v[n, a] -= BMj[k, r - jt_row0[k], 6 * side + a] * d
+                            w[n, a] -= BMj[k, r - jt_row0[k], 6 * side + 3 + a] * d
+        if change <= model.joints.tolerance * big:
+            break
+    for r in range(PHI.shape[0]):
+        lam[r] /= hk
+
+
+@inlined
 def constraint_power(model, Bj, lam, v_old, w_old, v_new, w_new):
     """``−λᵀ B V̄`` with ``V̄ = ½(V_old + V_new)``: the power of the constraint forces."""
     P = 0.0

@@ -22,6 +22,8 @@ from __future__ import annotations
 import functools
 from typing import NamedTuple
 
+import numpy as np
+
 BACKENDS = ("compiled", "reference", "auto")
 """The values of ``[solver] backend``."""
 
@@ -127,6 +129,9 @@ def decide(requested: str, algo, model, steps: int) -> Choice:
     if requested == "compiled":
         return Choice("compiled", "asked for")
     refused = twin(algo).refusal(model) if algo.name in twins() else f"algorithm {algo.name!r} has no twin there"
+    if not refused and (model.joints.iterations > 0 or np.any(model.joints.compliance != model.joints.eps)):
+        refused = ("augmented-Lagrangian joints run on the compiled path only (the reference path solves the "
+                   "multiplier rows Φ − ελ = 0); set backend = \"compiled\"")
     if requested == "reference":
         if refused:
             raise ValueError(f"solver backend: {refused}")
