@@ -15,7 +15,7 @@ staggered step"; the staging is a reconstruction, the originals of Park, Chiou
    ``ω̄ = ½(ω^{n−½} + ω*)`` solved by fixed-point sweeps (this midpoint
    gyroscopic term keeps the kinetic energy of a free rigid body; the fully
    explicit one drifts by percents);
-2b. **constraint forces** (implicit stage, :func:`reference.joints.stage.constrain`): the joints'
+2b. **constraint forces** (implicit stage, :func:`reference.algorithms.constraint_stage.constrain`): the joints'
    Φ, Φ_t and B at t_n, the stabilised multipliers λ^n and ``V^{n+½} = V* − h M⁻¹ Bᵀ λ^n``
    (``reference/joints/assembly.py``), each joint formulation's own projection;
 3. **drift**: ``x^{n+1} = x^n + h v^{n+½}`` and the Euler parameters by the
@@ -37,13 +37,13 @@ from typing import NamedTuple
 import numpy as np
 
 from reference.algorithms.base import Algorithm, CallBudget
-from reference.evaluation.forces import model_forces
-from reference.evaluation.force_elements import force_element_dissipation
+from reference.algorithms.constraint_stage import CONSTRAINED_SWEEPS, constrain
 from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_nodes, node_sums
+from reference.evaluation.force_elements import force_element_dissipation
+from reference.evaluation.forces import model_forces
 from reference.jit import inlined, kernel, use_threads
 from reference.joints.assembly import constraint_power, jacobian_times
 from reference.joints.master_slave import master_slave_positions
-from reference.joints.stage import CONSTRAINED_SWEEPS, constrain
 from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, likely_cause
 from reference.parallel import n_chunks
 from reference.state import Model, Record, Scratch, State

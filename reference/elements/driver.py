@@ -22,7 +22,7 @@ energies' sum, the serial and parallel element loops and their size threshold
 and :func:`resultants`, are what :mod:`reference.elements.families` reaches for a family that gives no
 calls of its own (Beam2 gives its own vectorised :func:`assemble`).  In compiled code each call of a family's function
 is resolved for the type of ``data`` at compile time (numba ``overload``) and inlined; in plain Python it
-is looked up (:data:`FORMULATIONS`).
+is looked up (:data:`CLASS_OF_DATA`).
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ PARALLEL_ELEMENTS = 8
 thread, one element after the other, without the cost of starting a parallel region (the loops' times
 cross between a few elements and a dozen: docs/benchmarks.md §5, §10)."""
 
-FORMULATIONS: dict[type, type] = {}
+CLASS_OF_DATA: dict[type, type] = {}
 """A family's data class → its formulation class (filled by :func:`reference.elements.families.register`)."""
 
 REQUIRED = ("forces", "triads", "moments", "energy")
@@ -71,7 +71,7 @@ def row_layout(n_nodes: int, name: str, **sizes: int) -> tuple:
 
 def formulation_of(data) -> type:
     """The formulation class whose plain data ``data`` is."""
-    return FORMULATIONS[type(data)]
+    return CLASS_OF_DATA[type(data)]
 
 
 def _forces(data, e, X, P, w):
@@ -80,7 +80,7 @@ def _forces(data, e, X, P, w):
 
 @overload(_forces, inline="always")
 def _forces_typing(data, e, X, P, w):
-    function = FORMULATIONS[data.instance_class].element_forces
+    function = CLASS_OF_DATA[data.instance_class].element_forces
     return lambda data, e, X, P, w: function(data, e, X, P, w)
 
 
@@ -90,7 +90,7 @@ def _tangent(data, e, X, P, w, K):
 
 @overload(_tangent, inline="always")
 def _tangent_typing(data, e, X, P, w, K):
-    function = FORMULATIONS[data.instance_class].element_tangent
+    function = CLASS_OF_DATA[data.instance_class].element_tangent
     return lambda data, e, X, P, w, K: function(data, e, X, P, w, K)
 
 
@@ -100,7 +100,7 @@ def _layout(data):
 
 @overload(_layout, inline="always")
 def _layout_typing(data):
-    row = FORMULATIONS[data.instance_class].ROW
+    row = CLASS_OF_DATA[data.instance_class].ROW
     return lambda data: row
 
 
@@ -110,7 +110,7 @@ def _resultants(data, w, N, M):
 
 @overload(_resultants, inline="always")
 def _resultants_typing(data, w, N, M):
-    function = FORMULATIONS[data.instance_class].element_resultants
+    function = CLASS_OF_DATA[data.instance_class].element_resultants
     return lambda data, w, N, M: function(w, N, M)
 
 

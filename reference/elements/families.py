@@ -42,7 +42,7 @@ model of the engine's families has one type, so each kernel compiles once (not o
 families, e.g. again for a model of rigid bodies only).  A family registered from outside is packed only
 where a model uses it."""
 
-_BY_DATA = driver.FORMULATIONS
+_BY_DATA = driver.CLASS_OF_DATA
 
 
 def register(formulation: type, always: bool = False) -> type:
