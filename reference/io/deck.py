@@ -38,6 +38,7 @@ from reference.interactions import (
 )
 from reference.io.deck_connectors import read_joints, read_prescribed_displacements, read_springs
 from reference.io.deck_reader import DeckError, Reader, override_value, read_toml, show
+from reference.io.deck_reduce import read_reduce
 from reference.io.deck_solution import check_backend, read_checks, read_solver
 from reference.validation import LabelError, ModelWarning
 
@@ -153,6 +154,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     if problem:
         raise rd.fail(*problem)
     check_backend(rd, domain, algo, model)
+    read_reduce(rd, deck, domain)
     return Deck(domain, str(path), text, metadata, checks, crosscheck)
 
 
@@ -337,7 +339,8 @@ def _beams(rd: Reader, deck: dict, domain: Domain, refs: _References, sections: 
         entry = f"beams[{i}]"
         rigid = isinstance(bm, dict) and bm.get("rigid", False) is True  # a rigid bar has no elements
         rd.keys(bm, entry, required=["label", "section"] if rigid else ["label", "elements", "section"],
-                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center", "elements", "element"])
+                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center", "elements", "element",
+                          "reduce"])
         label = rd.label(bm["label"], f"{entry}.label")
         if label in beams:
             raise rd.fail(f"{entry}.label", f"duplicate beam label {show(label)}")
