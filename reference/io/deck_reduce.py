@@ -29,9 +29,6 @@ from reference.reduced.invariants import invariants
 BASES = ("craig_bampton", "free_free")
 """The reduced bases a deck may name (:mod:`reference.reduced.craig_bampton`)."""
 
-REDUCE_KEYS = ("modes", "interfaces", "basis")
-"""The keys of a ``reduce`` table."""
-
 _COLLECT: ContextVar = ContextVar("reduce_collect", default=None)
 """Set by :func:`collecting` to a dict that :func:`read_reduce` fills instead of refusing the deck."""
 
