@@ -46,9 +46,7 @@ _ENTRY = re.compile(r"^(?P<table>[a-z_]+)(?P<index>\[\d+\])?(?:\.(?P<rest>.+))?$
 _BAD = {"number": "x", "integer": 0, "vector": [1.0], "direction": [0.0, 0.0, 0.0], "rotation": [1.0, 1.0, 0.0, 0.0],
         "string": 1, "boolean": "yes", "choice": "?", "label": "a/b"}
 """A wrong value for each check, to show the reader's message for it."""
-PROBES = ("""
-[meta]
-name = "probe"
+_PROBE_SECTION = """
 [sections.bar]
 EA = 1.0
 GA2 = 1.0
@@ -60,7 +58,12 @@ rhoA = 1.0
 rhoJ1 = 0.01
 rhoJ2 = 0.01
 rhoJ3 = 0.01
-[time_functions.turn]
+"""
+"""The section of the probe decks' beams (unit stiffness and mass)."""
+PROBES = ("""
+[meta]
+name = "probe"
+""" + _PROBE_SECTION + """[time_functions.turn]
 kind = "ramp"
 t0 = 0.0
 t1 = 1.0
@@ -101,18 +104,7 @@ t_end = 0.01
 """, """
 [meta]
 name = "probe_reduce"
-[sections.bar]
-EA = 1.0
-GA2 = 1.0
-GA3 = 1.0
-GJ = 1.0
-EI2 = 1.0
-EI3 = 1.0
-rhoA = 1.0
-rhoJ1 = 0.01
-rhoJ2 = 0.01
-rhoJ3 = 0.01
-[[beams]]
+""" + _PROBE_SECTION + """[[beams]]
 label = "blade"
 start = [0.0, 0.0, 0.0]
 end = [1.0, 0.0, 0.0]
