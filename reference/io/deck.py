@@ -32,13 +32,12 @@ from reference.domain import Domain
 from reference.elements import Section
 from reference.elements.families import DEFAULT_FAMILY, ELEMENT_FAMILIES
 from reference.expressions import ExpressionError
-from reference.interactions import (
-    Clamp, Constant, Expression, FixedCoordinates, Gravity, LineLoad, NodalLoad, PiecewiseLinear, Ramp, Sine,
-    SmoothStep, Step,
-)
+from reference.interactions import (Clamp, Constant, Expression, FixedCoordinates, Gravity, LineLoad, NodalLoad,
+                                    PiecewiseLinear, Ramp, Sine, SmoothStep, Step)
 from reference.io.deck_connectors import read_joints, read_prescribed_displacements, read_springs
 from reference.io.deck_parameters import read_sensitivities
 from reference.io.deck_reader import DeckError, Reader, override_value, read_toml, show
+from reference.io.deck_reduce import read_reduce
 from reference.io.deck_solution import check_backend, read_checks, read_solver
 from reference.joints.formulations import refusal as formulation_refusal
 from reference.validation import LabelError, ModelWarning
@@ -160,6 +159,7 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     if problem:
         raise rd.fail(*problem)
     check_backend(rd, domain, algo, model)
+    read_reduce(rd, deck, domain)
     return Deck(domain, str(path), text, metadata, checks, crosscheck, sensitivities)
 
 
@@ -344,7 +344,8 @@ def _beams(rd: Reader, deck: dict, domain: Domain, refs: _References, sections: 
         entry = f"beams[{i}]"
         rigid = isinstance(bm, dict) and bm.get("rigid", False) is True  # a rigid bar has no elements
         rd.keys(bm, entry, required=["label", "section"] if rigid else ["label", "elements", "section"],
-                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center", "elements", "element"])
+                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center", "elements", "element",
+                          "reduce"])
         label = rd.label(bm["label"], f"{entry}.label")
         if label in beams:
             raise rd.fail(f"{entry}.label", f"duplicate beam label {show(label)}")
