@@ -296,6 +296,10 @@ def main(args=None) -> int:
 
     print("\n".join(modes_timing(repeat, targets)))
     print()
+    from flexmbs.bench_sensitivity import sensitivity_timing
+
+    print("\n".join(sensitivity_timing(repeat, targets)))
+    print()
     lines = static_rollup(targets)
     print("\n".join(lines))
     data = work_precision(quick)

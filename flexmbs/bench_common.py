@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 COMPILED = "compiled"
 """The backend every timed flexmbs run of the bench takes (``[solver] backend``): the bench measures the numba
-kernels' warm speed, and the default ``"auto"`` would give a short job to the plain NumPy path."""
+kernels' warm speed, which ``"auto"`` would give to the plain NumPy path for a short job."""
 
 
 @dataclass

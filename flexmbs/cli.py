@@ -170,7 +170,22 @@ def _run_deck(args, deck):
     line = domain.algorithm().summary(solver) if solver is not None else ""
     if line:
         print(f"{domain.name}: {line}")
+    if deck.sensitivities:
+        _write_sensitivities(args, deck, results_path)
     return result
+
+
+def _write_sensitivities(args, deck, results_path) -> None:
+    """The deck's ``[sensitivities]`` into the results file (``/sensitivities/…``, docs/results.md), from a second
+    run on the reference path that differentiates every step (:mod:`reference.io.deck_sensitivities`)."""
+    from reference.io.deck_sensitivities import sensitivity_datasets
+    from reference.io.results import append_datasets
+
+    started = time.perf_counter()
+    datasets = sensitivity_datasets(args.deck, deck.sensitivities, _overrides(args))
+    append_datasets(results_path, datasets)
+    print(f"{deck.domain.name}: {len(deck.sensitivities['parameters'])} parameter sensitivities "
+          f"in {time.perf_counter() - started:.2f} s → {results_path} (/sensitivities)")
 
 
 def cmd_modes(args) -> int:
@@ -476,6 +491,9 @@ def parser() -> argparse.ArgumentParser:
     pl.add_argument("--load", metavar="EXPR",
                     help="--path's load axis: a scalar observable in place of the load factor, e.g. "
                     "'prescribed_reaction:push' (a static run under displacement control)")
+    pl.add_argument("--sensitivity", action="append", metavar="OUTPUT",
+                    help="a static or generalized-α run's sensitivities of an output of the deck's [sensitivities] table "
+                    "to every parameter, against the load factor or time, e.g. 'position:beam:end' (repeatable)")
     pl.add_argument("--drift", action="store_true", help="constraint violation history")
     pl.add_argument("--energy", action="store_true", help="energy histories")
     pl.add_argument("--animate", metavar="NAME.gif", type=animation_name,

@@ -30,6 +30,7 @@ import reference.io.deck as deck_module
 from reference.algorithms import ALGORITHMS
 from reference.io.deck_connectors import SPRING_KEYS
 from reference.io.deck_reader import DeckError, Reader
+from reference.io.deck_reduce import collecting
 
 ROOT = Path(__file__).resolve().parent.parent
 NAMED = {"sections", "time_functions", "checks", "crosscheck"}
@@ -38,14 +39,14 @@ KINDS = {"time_functions": "kind", "springs": "kind", "solver": "algorithm"}
 """Tables whose keys depend on the value of one key: one key table per value."""
 COMMON_KEYS = {"[solver]": ("backend",)}
 """Keys that every value of such a table's key takes: rows of the table itself, beside that key."""
+SUBTABLES = {"reduce"}
+"""Tables of fixed keys inside an entry (``[[beams]]``'s ``reduce``): each key a row ``reduce.modes`` of the
+entry's table."""
 _ENTRY = re.compile(r"^(?P<table>[a-z_]+)(?P<index>\[\d+\])?(?:\.(?P<rest>.+))?$")
 _BAD = {"number": "x", "integer": 0, "vector": [1.0], "direction": [0.0, 0.0, 0.0], "rotation": [1.0, 1.0, 0.0, 0.0],
         "string": 1, "boolean": "yes", "choice": "?", "label": "a/b"}
 """A wrong value for each check, to show the reader's message for it."""
-PROBES = ("""
-[meta]
-name = "probe"
-[sections.bar]
+_SECTION = """[sections.bar]
 EA = 1.0
 GA2 = 1.0
 GA3 = 1.0
@@ -56,7 +57,12 @@ rhoA = 1.0
 rhoJ1 = 0.01
 rhoJ2 = 0.01
 rhoJ3 = 0.01
-[time_functions.turn]
+"""
+"""The probes' section."""
+PROBES = ("""
+[meta]
+name = "probe"
+""" + _SECTION + """[time_functions.turn]
 kind = "ramp"
 t0 = 0.0
 t1 = 1.0
@@ -82,6 +88,10 @@ body_i = "crank"
 point = [0.0, 0.0, 0.0]
 reference = [1.0, 0.0, 0.0]
 time_function = "turn"
+formulation = "augmented_lagrangian"
+penalty = 1e9
+iterations = 50
+tolerance = 1e-12
 [[prescribed_displacements]]
 label = "push"
 node = "slider"
@@ -94,9 +104,45 @@ dofs = ["y", "z", "rx", "ry", "rz"]
 [solver]
 dt = 0.001
 t_end = 0.01
-""",)
-"""Decks that use what no gallery deck does (a joint's ``reference``, a drive's default ``mode``,
-``[[prescribed_displacements]]``): read with the gallery so that their keys are typed too."""
+""", """
+[meta]
+name = "sensitivity_probe"
+""" + _SECTION + """[[beams]]
+label = "b"
+start = [0.0, 0.0, 0.0]
+end = [1.0, 0.0, 0.0]
+elements = 2
+section = "bar"
+[[clamps]]
+node = "b:start"
+[[loads]]
+node = "b:end"
+force = [0.0, 0.0, -1.0]
+[solver]
+algorithm = "static"
+t_end = 1.0
+load_steps = 1
+[sensitivities]
+parameters = ["sections.bar.EI2", "loads[0].force"]
+outputs = ["position:b:end"]
+""", """
+[meta]
+name = "probe_reduce"
+""" + _SECTION + """[[beams]]
+label = "blade"
+start = [0.0, 0.0, 0.0]
+end = [1.0, 0.0, 0.0]
+elements = 2
+section = "bar"
+reduce = { modes = 2, interfaces = ["blade:start"] }
+[solver]
+dt = 0.001
+t_end = 0.01
+""")
+"""Decks that use what no gallery deck does (a joint's ``reference``, a drive's default ``mode``, an
+augmented-Lagrangian joint's keys, ``[[prescribed_displacements]]``, ``[sensitivities]``, a beam's ``reduce``): read
+with the gallery so that their keys are typed too (a deck that reduces a beam within
+:func:`reference.io.deck_reduce.collecting`, past the reader's refusal)."""
 
 MEANINGS = {
     "[sections.NAME]": {
@@ -126,6 +172,12 @@ MEANINGS = {
         "points": "named points of the body (a table), inertial coordinates at t = 0; joints and loads refer to "
                   "them as `body.NAME`",
         "points.NAME": "one named point: 3 inertial coordinates at t = 0 [m]"},
+    "[[beams]]": {
+        "reduce.modes": "in `reduce`, required: the modes kept — fixed-interface normal modes (Craig–Bampton) "
+                        "or elastic modes (free-free)",
+        "reduce.interfaces": "in `reduce`: node references of the beam where joints, springs and loads attach "
+                             "(Craig–Bampton keeps their six coordinates each: at least one)",
+        "reduce.basis": "in `reduce`: `craig_bampton` (fixed-interface and constraint modes) or `free_free`"},
     "[[clamps]]": {"node": "the node or body whose six coordinates are fixed"},
     "[[fixed]]": {"node": "the node or body", "dofs": "the fixed coordinates: `x`, `y`, `z` (inertial translations), "
                                                       "`rx`, `ry`, `rz` (rotations about the body axes)"},
@@ -191,9 +243,9 @@ def _split(entry: str):
     if rest is None:
         return pattern, None
     key = re.sub(r"\[\d+\]$", "", rest)
-    if "." in key:  # rigid_bodies[i].points.NAME
+    if "." in key:  # rigid_bodies[i].points.NAME, beams[i].reduce.modes
         head, _, _ = key.partition(".")
-        return pattern, f"{head}.NAME"
+        return pattern, key if head in SUBTABLES else f"{head}.NAME"
     return pattern, key
 
 
@@ -210,7 +262,9 @@ class _Recorder(Reader):
         if isinstance(table, dict):
             self.present[entry] = set(table)
             where = _split(entry)
-            if where:
+            if where and where[1] in SUBTABLES:  # its keys are rows of the entry's table, each optional there
+                self.book.table(where[0], (), [f"{where[1]}.{k}" for k in [*required, *optional]], table)
+            elif where:
                 self.book.table(where[0], required, optional, table)
         return super().keys(table, entry, required, optional)
 
@@ -358,7 +412,7 @@ def record(decks=None) -> _Book:
     import tempfile
 
     book = _Book()
-    with _recording(book), tempfile.TemporaryDirectory() as scratch:
+    with _recording(book), collecting(), tempfile.TemporaryDirectory() as scratch:
         deck_module.Reader = lambda path: _Recorder(path, book)
         paths = decks or sorted((ROOT / "models").glob("*.toml"))
         if decks is None:

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 WHAT = ("--node LABEL (position and velocity histories), --observable EXPR (any observable, docs/observables.md), "
+        "--sensitivity EXPR (a static or generalized-α run's sensitivities of an output), "
         "--path EXPR (an arc-length run's load factor, or --load EXPR, against an observable), "
         "--drift (constraint violation), --energy, --animate NAME.gif, --mode K (a mode as a ParaView animation)")
 
@@ -179,10 +180,43 @@ def mode_animation(r, path, k: int, out: Path):
     return file, history
 
 
+def _figures_asked(args) -> bool:
+    """Whether ``args`` ask for a figure (a mode's animated file alone is not one)."""
+    return bool(args.node or getattr(args, "observable", None) or getattr(args, "path", None) or args.drift
+                or args.energy or args.animate or getattr(args, "sensitivity", None))
+
+
+def plot_sensitivity(source, text: str, out: Path, plt) -> Path:
+    """Figure of the sensitivities of the output ``text`` to every parameter of a static or generalized-α run
+    (``/sensitivities/<output>/<parameter>``, docs/results.md) against the load factor or time, one line per
+    parameter and component; an output the file has no sensitivities of is refused in one line."""
+    import h5py
+
+    with h5py.File(source, "r") as f:
+        group = f.get(f"sensitivities/{text.replace('/', '|')}")
+        if not isinstance(group, h5py.Group):
+            there = [k for k in f.get("sensitivities", {}) if isinstance(f["sensitivities"][k], h5py.Group)]
+            raise OSError(f"{source}: no sensitivities of {text!r}; the file has them of "
+                          f"{', '.join(map(repr, there)) or 'nothing (the deck has no [sensitivities] table)'}")
+        axis = "time" if "sensitivities/time" in f else "load_factor"
+        load = np.asarray(f[f"sensitivities/{axis}"])
+        curves = {name.replace("|", "/"): np.asarray(group[name]) for name in group}
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    for name, values in curves.items():
+        values = values.reshape(len(load), -1)
+        for k in range(values.shape[1]):
+            ax.plot(load, values[:, k], label=name + (f" [{'xyzw'[k]}]" if values.shape[1] > 1 else ""))
+    ax.set_xlabel("time t [s]" if axis == "time" else "load factor")
+    ax.set_ylabel(f"d({text})/dp")
+    ax.legend(fontsize=7)
+    ax.set_title(f"sensitivities of {text}", fontsize=10)
+    safe = "".join(c if c.isalnum() else "_" for c in text)
+    return save_figure(fig, out / f"sensitivity_{safe}.png")
+
+
 def main(args) -> int:
     mode = getattr(args, "mode", None)
-    if not (args.node or getattr(args, "observable", None) or getattr(args, "path", None) or args.drift
-            or args.energy or args.animate or mode):
+    if not (_figures_asked(args) or mode):
         raise OSError(f"{args.results}: nothing to plot; choose one or more of {WHAT}")
     if getattr(args, "load", None) and not getattr(args, "path", None):
         raise OSError(f"{args.results}: --load is the load axis of --path; give --path OBSERVABLE too")
@@ -195,8 +229,7 @@ def main(args) -> int:
     animated = r
     if mode:
         _, animated = mode_animation(r, args.results, mode, out)  # with --animate: the GIF shows the mode
-    if not (args.node or getattr(args, "observable", None) or getattr(args, "path", None) or args.drift
-            or args.energy or args.animate):
+    if not _figures_asked(args):
         return 0
     import matplotlib
 
@@ -247,6 +280,8 @@ def main(args) -> int:
         written.append(plot_observable(r, text, out, plt))
     for text in getattr(args, "path", None) or []:
         written.append(plot_path(r, args.results, text, out, plt, getattr(args, "load", None)))
+    for text in getattr(args, "sensitivity", None) or []:
+        written.append(plot_sensitivity(args.results, text, out, plt))
     if args.animate:
         from flexmbs.progress import ProgressBar
 

@@ -22,8 +22,20 @@
 # C_\Gamma = \mathrm{diag}(EA, GA_2, GA_3),\ C_K = \mathrm{diag}(GJ, EI_2, EI_3).$$
 #
 # Its internal force is the **exact gradient** of $U$ with respect to the nodal displacements and
-# body-frame rotations — derived by sympy in `derivations/beam2.py` and generated into
-# `reference/generated/beam2.py`. First we check that claim numerically.
+# body-frame rotations, and its tangent stiffness the exact derivative of that force. Neither is written
+# by hand. The code a run executes is reached in three files:
+#
+# 1. `derivations/beam2.py` — the equations above in sympy, differentiated symbolically
+#    (the tangent: `derivations/tangents.py`);
+# 2. `reference/generated/beam2.py` — the code sympy writes from them: `internal_forces` returns $U$
+#    and the force vector $S$ of one element (`reference/generated/tangents.py`: `beam2_tangent`, $K$);
+# 3. `reference/plain/elements.py` — the **reference path**: `element_forces` and `element_tangent` run
+#    that generated code with NumPy on every element of a model at once, turn the moments into the
+#    nodes' frames and add them up per node.
+#
+# The compiled path runs the same generated code through numba (`docs/reference_path.md`); a test
+# checks that both give the same numbers. Here we call the reference path on one element and check the
+# two claims numerically: $S$ is the gradient of $U$, $K$ the derivative of $S$.
 
 # %%
 import os
@@ -34,8 +46,10 @@ import numpy as np
 
 import reference
 from flexmbs.verification.analytic import elastica_tip, polygon_tip
-from reference.elements import Beam2Formulation, Section
+from reference.domain import Domain
+from reference.elements import Section
 from reference.io.deck import load_deck
+from reference.plain.elements import ADAPTERS, element_forces, element_tangent
 from reference.rotation import EulerParameters, RotationVector
 
 FIGURES = Path("figures") / "02_beam_rollup"  # this lesson's figures, saved next to where it runs
@@ -45,37 +59,64 @@ QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
 # the repository, wherever the notebook runs from (the editable install points here)
 ROOT = Path(reference.__file__).resolve().parents[1]
 
-section = Section(EA=10.0, GA2=3.0, GA3=4.0, GJ=2.0, EI2=5.0, EI3=7.0, rhoA=1.0, rhoJ1=0.2, rhoJ2=0.1, rhoJ3=0.1)
-beam = Beam2Formulation(section)
-reference_state = beam.reference_state(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), np.array([[1.0, 0, 0, 0], [1.0, 0, 0, 0]]))
+beam2 = ADAPTERS["beam2"]  # what the reference path calls for a Beam2 element: two generated functions
+print("forces: ", beam2.forces.__module__ + "." + beam2.forces.__name__)
+print("tangent:", beam2.tangent_function.__module__ + "." + beam2.tangent_function.__name__)
 
-# a large deformation of one element
+# %% [markdown]
+# One element of length 1 m along $x$, as a model of two nodes (`Domain`, the object a deck builds).
+# `element_forces(model, x, q)` takes the nodes' positions $x$ (N × 3) and Euler parameters $q$ (N × 4)
+# and returns $S$ (N × 6: per node the force and the body-frame moment) and $U$:
+
+# %%
+section = Section(EA=10.0, GA2=3.0, GA3=4.0, GJ=2.0, EI2=5.0, EI3=7.0, rhoA=1.0, rhoJ1=0.2, rhoJ2=0.1, rhoJ3=0.1)
+one = Domain("one element")
+one.add_beam("beam", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 1, section)
+model = one.initialization()  # the plain arrays every algorithm works on: connectivity, L0, stiffness, …
+
+# a large deformation of the element
 x = np.array([[0.0, 0.0, 0.0], [0.8, 0.3, 0.2]])
 q = np.array([RotationVector([0.1, 0.2, -0.1]).to_euler_parameters().q,
               RotationVector([0.5, -0.4, 0.9]).to_euler_parameters().q])
-S, U = beam.internal_forces(x, q, reference_state)
-print("strain energy U =", U)
+S, U = element_forces(model, x, q)
+print("strain energy U =", U, "J")
+print("S [N | N m], one row per node:\n", np.array2string(S, precision=4))
 
 
-def energy_after(k, s):
-    """U after moving coordinate k (0–5 node 1, 6–11 node 2; 3–5 are body-frame rotations) by s."""
+def moved(k, s):
+    """(x, q) after moving coordinate k (0–5 node 1, 6–11 node 2; 3–5 are body-frame rotations) by s."""
     node, rot, comp = k // 6, (k % 6) >= 3, k % 3
     xp, qp, d = x.copy(), q.copy(), np.zeros(3)
     d[comp] = s
-    if rot:
+    if rot:  # q ← q ⊗ exp(δθ): a rotation in the body frame
         qp[node] = EulerParameters(q[node]).product(RotationVector(d).to_euler_parameters()).q
     else:
         xp[node] += d
-    return beam.internal_forces(xp, qp, reference_state)[1]
+    return xp, qp
 
 
 eps = 1e-6
-fd = np.array([(energy_after(k, eps) - energy_after(k, -eps)) / (2 * eps) for k in range(12)])
-gap = np.max(np.abs(fd - S.reshape(-1))) / np.max(np.abs(S))
+fd = np.array([(element_forces(model, *moved(k, eps))[1] - element_forces(model, *moved(k, -eps))[1]) / (2 * eps)
+               for k in range(12)])
+gap = float(np.max(np.abs(fd - S.reshape(-1))) / np.max(np.abs(S)))
 print("relative gap between S and central differences of U:", gap)
 
+# %% [markdown]
+# The tangent stiffness $K = \partial S/\partial[\delta x_1, \delta\theta_1, \delta x_2, \delta\theta_2]$
+# (12 × 12 here: the static and implicit algorithms' Newton matrix is made of such blocks) against central
+# differences of $S$, column by column:
+
+# %%
+K = element_tangent(model, x, q).toarray()  # a sparse (6N × 6N) matrix: every element's block at its nodes
+fd_K = np.column_stack([(element_forces(model, *moved(k, eps))[0] - element_forces(model, *moved(k, -eps))[0]).reshape(-1)
+                        / (2 * eps) for k in range(12)])
+tangent_gap = float(np.max(np.abs(fd_K - K)) / np.max(np.abs(K)))
+print("relative gap between K and central differences of S:", tangent_gap)
+
 # %% tags=["check"] jupyter={"source_hidden": true}
-assert gap < 1e-8
+# central differences err by O(eps²) (~1e-12) plus the round-off of U or S divided by eps (~1e-16 / 1e-6);
+# a sign or a factor wrong in one entry of the derivation would give a gap of order 1
+assert gap < 1e-8 and tangent_gap < 1e-8
 
 # %% [markdown]
 # ## The paper's first example: a beam rolled into a circle
@@ -147,17 +188,21 @@ assert errors.max() < 5e-3
 # The roll-up is slow on purpose: the damped explicit run only approximates the sequence of
 # equilibria. The `static` algorithm solves for them directly — Newton–Raphson on the derived
 # tangent stiffness, the load factor $k$ advanced in `load_steps` steps
-# (`models/embedded_beam_static.toml` differs from the dynamic deck in its `[solver]` table only):
+# (`models/embedded_beam_static.toml` differs from the dynamic deck in its `[solver]` table only).
+# Twenty load steps of a 13-node model are a short job: `backend = "auto"` runs it on the reference path
+# (`docs/reference_path.md`), which compiles nothing, and says so in the results (`backend_reason`):
 
 # %%
 static_text = (ROOT / "models" / "embedded_beam_static.toml").read_text()
 print(static_text[static_text.index("[solver]"):static_text.index("[checks.")].strip())
-static = load_deck(ROOT / "models" / "embedded_beam_static.toml").domain.solve()
+static = load_deck(ROOT / "models" / "embedded_beam_static.toml", overrides={"solver.backend": "auto"}).domain.solve()
+print("backend:", static.attrs["backend"], "—", static.attrs["backend_reason"])
 static_lag = max(np.linalg.norm(p - polygon_tip(10, 12, k)) for p, k in zip(static.position("beam:12"), static.time)) / 10
 print(f"{len(static.time) - 1} load steps; largest distance of the tip from the 12-element polygon: {static_lag:.1e} L")
 
 # %% tags=["check"] jupyter={"source_hidden": true}
 assert static_lag < 1e-8  # no inertia, no lag: Newton converges to the discrete equilibrium
+assert static.attrs["backend"] == "reference"  # as the text says: the auto rule's estimate is far below 15 s
 
 # %% [markdown]
 # With no inertia there is no lag: every load step is the discrete equilibrium, the regular
@@ -197,7 +242,7 @@ assert abs(worst[0] / worst[1] - 4.0) < 0.1
 
 # %% tags=["solution", "rerun"] jupyter={"source_hidden": true}
 # Exercise 3
-fine = load_deck(ROOT / "models" / "embedded_beam_static.toml", overrides={"refine": 2}).domain.solve()
+fine = load_deck(ROOT / "models" / "embedded_beam_static.toml", overrides={"refine": 2, "solver.backend": "auto"}).domain.solve()
 i13 = int(np.argmin(abs(fine.time - 1.3)))
 tip12, tip24 = static.position("beam:12")[i13], fine.position("beam:24")[i13]
 e12, e24 = (np.linalg.norm(t - elastica_tip(L, 1.3)) / L for t in (tip12, tip24))

@@ -21,6 +21,8 @@
 # `derivations/joints.py` does for every joint (`docs/formulation.md` §5).
 
 # %%
+from pathlib import Path
+
 import sympy as sp
 
 try:
@@ -51,6 +53,92 @@ assert sp.simplify(B_omega - textbook) == sp.zeros(3, 3)
 assert phi_i.jacobian(x) == -sp.eye(3)  # and the v_i columns are −I
 
 # %% [markdown]
+# ## The same Jacobian in the code that runs
+# The engine does not contain this formula typed in by hand: it contains what sympy derived. Every joint
+# kind is a choice among ten **primitive** constraints (a spherical joint the three rows of $\Phi$ above, a
+# revolute those three and two dot-1 rows $u_{1,i}\cdot u_{3,j} = u_{2,i}\cdot u_{3,j} = 0$ that keep the
+# axes parallel), and a joint's Jacobian is reached in three files:
+#
+# 1. `derivations/joints.py` — the primitives and their Jacobian $B$, by differentiation as above;
+# 2. `reference/generated/joints.py` — the code sympy writes: `joint_primitives` returns the ten $\Phi$ and
+#    their $B$ (10 × 12, columns $[v_i, \omega_i, v_j, \omega_j]$) for one pair of bodies;
+# 3. `reference/plain/constraints.py` — the **reference path**: `joint_rows` evaluates the primitives of
+#    every joint at once with NumPy and keeps each joint's rows (a drive combines two of them with its time
+#    function); `Evaluation.constraints` (`reference/plain/model.py`) places them in the model's
+#    $B$ (m × 6N, six columns per node).
+#
+# Here they are on the three-bar mechanism (paper §5.2; lesson 4 steps it): four revolute joints and the
+# crank's rotation drive, 21 rows on 7 nodes. Joint `O1` is the crank's pivot: body $i$ the crank (a rigid
+# body, its node at its centre of mass), body $j$ the ground:
+
+# %%
+import numpy as np
+
+import reference
+from reference.io.deck import load_deck
+from reference.plain.model import Evaluation
+from reference.rotation import EulerParameters, RotationVector
+
+ROOT = Path(reference.__file__).resolve().parents[1]  # the repository, wherever the notebook runs from
+bar = load_deck(ROOT / "models" / "three_bar.toml").domain
+model = bar.initialization()  # the plain arrays the algorithms work on (model.joints: one row per joint)
+start = bar.initial_conditions()
+phi, B, phi_t = Evaluation(model).constraints(start.x, start.q, 0.0)  # Φ (m,), B (m × 6N, sparse), ∂Φ/∂t
+print("rows of each joint:", {j.label: f"{j.kind}, {j.n_equations}" for j in bar.joints})
+
+k = [j.label for j in bar.joints].index("O1")
+rows = slice(model.joints.row0[k], model.joints.row0[k] + model.joints.neq[k])
+i, j = model.joints.i[k], model.joints.j[k]
+print(f"joint O1: primitives {model.joints.rows[k, :5].tolist()}, body i = node {bar.nodes[i].label!r}, "
+      f"body j = {'the ground' if j < 0 else bar.nodes[j].label}; its ‖Φ‖ at t = 0: {np.linalg.norm(phi[rows]):.1e}")
+print("B of joint O1 on [v_i | ω_i] of node i (rows: the spherical three, then the two dot-1):")
+print(np.array2string(B[rows, 6 * i:6 * i + 6].toarray(), precision=4, suppress_small=True))
+
+# %% [markdown]
+# Its first three rows are the spherical joint's: $-I$ on $v_i$ and, on $\omega_i$, the formula sympy derived
+# above, $A_i\tilde s'_i$, here with the crank's rotation $A_i$ and the pivot $s'_i$ stored in the crank's
+# frame (`model.joints.par[k, 0:3]`, half the crank's length from its centre):
+
+# %%
+A_i = EulerParameters(start.q[i]).matrix()
+values = {**dict(zip(A, A_i.reshape(-1))), **dict(zip(s, model.joints.par[k, 0:3]))}
+derived = np.array(textbook.xreplace(values), dtype=float)
+spherical_gap = float(np.abs(B[rows, 6 * i + 3:6 * i + 6].toarray()[:3] - derived).max())
+print("A_i s̃'_i from the sympy cell:\n", np.array2string(derived, precision=4, suppress_small=True))
+print("largest difference from the engine's rows:", spherical_gap)
+
+# %% [markdown]
+# And the whole $B$ (all five joints, all 42 columns) is the derivative of $\Phi$: moving each coordinate of
+# each node by $\pm\epsilon$ (a rotation in the body frame, $q \leftarrow q\otimes\exp(\delta\theta)$) and
+# differencing $\Phi$ gives its columns.
+
+# %%
+ev = Evaluation(model)
+
+
+def moved(c, size):
+    """Node positions and Euler parameters with coordinate c (6 per node: δx, then body-frame δθ) moved by size."""
+    x, q, d = start.x.copy(), start.q.copy(), np.zeros(3)
+    node, d[c % 3] = c // 6, size
+    if c % 6 >= 3:
+        q[node] = EulerParameters(q[node]).product(RotationVector(d).to_euler_parameters()).q
+    else:
+        x[node] += d
+    return x, q
+
+
+eps = 1e-6
+fd_B = np.column_stack([(ev.constraints(*moved(c, eps), 0.0)[0] - ev.constraints(*moved(c, -eps), 0.0)[0]) / (2 * eps)
+                        for c in range(B.shape[1])])
+jacobian_gap = float(np.abs(fd_B - B.toarray()).max())
+print(f"B is {B.shape[0]} × {B.shape[1]}; largest difference from central differences of Φ: {jacobian_gap:.1e}")
+
+# %% tags=["check"] jupyter={"source_hidden": true}
+assert spherical_gap < 1e-14  # the same formula evaluated twice: round-off of a 3 × 3 product
+# central differences err by O(eps²) times Φ's third derivatives (lengths ~1 m) plus round-off ~1e-16 / eps
+assert jacobian_gap < 1e-8
+
+# %% [markdown]
 # ## Lagrange multipliers on a spherical pendulum
 # A rigid bar on a spherical joint to the ground, swinging around the vertical (a conical
 # pendulum started off its steady cone, so it also nods). The constraint forces are $B^{\mathsf T}\lambda$;
@@ -62,14 +150,11 @@ assert phi_i.jacobian(x) == -sp.eye(3)  # and the v_i columns are −I
 
 # %%
 import os
-from pathlib import Path
 
 import matplotlib.pyplot as plt
-import numpy as np
 
 from reference.domain import Domain, SolverSettings
 from reference.interactions import Gravity
-from reference.rotation import RotationVector
 
 FIGURES = Path("figures") / "03_joints"  # this lesson's figures, saved next to where it runs
 FIGURES.mkdir(parents=True, exist_ok=True)

@@ -34,6 +34,7 @@ from reference.interactions import Clamp, NodalLoad
 from reference.io.deck import load_deck
 from reference.plain import park
 from reference.plain.model import Evaluation
+from reference.state import GUARD
 
 FIGURES = Path("figures") / "04_staggered_algorithm"  # this lesson's figures, saved next to where it runs
 FIGURES.mkdir(parents=True, exist_ok=True)
@@ -63,7 +64,7 @@ h = bar.solver.dt
 joints = [j for j in bar.joints if j.formulation.multipliers]  # the joints with multipliers, in row order
 START = 500
 for _ in range(START):
-    park.solve_step(ev, state, h, guard=np.zeros(5))  # guard: the per-step energy check's slots (zeros: off)
+    park.solve_step(ev, state, h, guard=np.zeros(1, GUARD))  # guard: the per-step energy check (zeros: off)
 
 f = park.forces(ev, state)  # 1. internal S and external F at t_n (N × 6: force, body-frame moment)
 hk = park.kick_length(state, h)  # the kick spans h, h/2 at the first step
@@ -86,12 +87,12 @@ for node, row in zip(bar.nodes, a):
 # the damping removes) and the **drift** of positions and Euler parameters:
 
 # %%
-state.clock[2] += park.work_of_loads(state, f.F, h)  # 4. external work into t_n
+state.clock[0]["work"] += park.work_of_loads(state, f.F, h)  # 4. external work into t_n
 loss = park.damping_loss(ev, state, new, hk)  # energy removed by damping in this kick (none here)
-state.clock[2] += hk * park.power_of_constraints(state, new)  # work of the constraint forces (the drive's)
-state.clock[3] += loss
+state.clock[0]["work"] += hk * park.power_of_constraints(state, new)  # work of the constraint forces (the drive's)
+state.clock[0]["dissipated"] += loss
 park.drift(ev, state, new, f.F, h)  # 5. x += h v^{n+1/2}, q ← q ⊗ p(h ω^{n+1/2}); t = t_{n+1}
-print(f"t = {state.t:g} s, work of the drive so far {state.clock[2]:.3e} J")
+print(f"t = {state.t:g} s, work of the drive so far {state.work:.3e} J")
 
 
 def hand_step(state):
@@ -99,8 +100,8 @@ def hand_step(state):
     f = park.forces(ev, state)
     hk = park.kick_length(state, h)
     new = park.constrain(ev, state, f, park.predict(ev, state, f, hk, extra=park.CONSTRAINED_SWEEPS), h, hk)
-    state.clock[2] += park.work_of_loads(state, f.F, h) + hk * park.power_of_constraints(state, new)
-    state.clock[3] += park.damping_loss(ev, state, new, hk)
+    state.clock[0]["work"] += park.work_of_loads(state, f.F, h) + hk * park.power_of_constraints(state, new)
+    state.clock[0]["dissipated"] += park.damping_loss(ev, state, new, hk)
     park.drift(ev, state, new, f.F, h)
     return new.lam
 

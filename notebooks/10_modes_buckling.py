@@ -24,6 +24,12 @@
 # pendulum's gravity stiffness and a column's loss of stiffness under thrust are in it.
 # `algorithm = "modes"` solves it (docs/formulation.md §11); `algorithm = "buckling"` asks instead for
 # the load factor $\mu$ at which $\mathbf K$ itself becomes singular.
+#
+# Every job of this lesson is short: one eigenproblem, or a few load steps and one. Each runs with
+# `backend = "auto"`, which takes the **reference path** (the same equations in plain NumPy,
+# `docs/reference_path.md`) when its estimated run time is at most 15 s: the results are the compiled
+# path's to the Newton tolerance, and the lesson does not wait minutes for numba to compile the kernels
+# of the implicit algorithms on its first run.
 
 # %%
 import os
@@ -47,6 +53,7 @@ FIGURES.mkdir(parents=True, exist_ok=True)
 
 QUICK = os.environ.get("FLEXMBS_QUICK") == "1"
 MODELS = Path(reference.__file__).resolve().parents[1] / "models"
+AUTO = {"solver.backend": "auto"}  # short jobs on the reference path: nothing to compile (docs/reference_path.md)
 
 SLENDER = Section(EA=1e7, GA2=1e7, GA3=1e7, GJ=0.8, EI2=1.0, EI3=4.0, rhoA=1.0, rhoJ1=2e-6, rhoJ2=1e-8, rhoJ3=4e-8)
 """An Euler–Bernoulli-like beam: shear and rotary inertia move its third bending mode by < 3e-5."""
@@ -88,7 +95,7 @@ meshes = (16, 32) if QUICK else (16, 32, 64, 128)
 errors = {}
 for n in meshes:
     d, _ = cantilever(n)
-    d.solver = SolverSettings(algorithm="modes", modes=8)
+    d.solver = SolverSettings(algorithm="modes", modes=8, backend="auto")
     r = d.solve()
     kind = families(r.data("modes/shape"), SLENDER)
     w = 2 * np.pi * r.data("modes/frequency")[kind == "bending z"][:3]
@@ -128,7 +135,7 @@ from flexmbs.view import Show
 from reference.io.deck import load_deck
 
 scratch = Path(tempfile.mkdtemp(prefix="lesson10-"))
-load_deck(MODELS / "cantilever_modes.toml").solve(results_path=scratch / "cantilever_modes.h5")
+load_deck(MODELS / "cantilever_modes.toml", overrides=AUTO).solve(results_path=scratch / "cantilever_modes.h5")
 Show(scratch / "cantilever_modes.h5")
 
 # %% [markdown]
@@ -152,7 +159,7 @@ def double_pendulum(gravity):
     d.add_joint("revolute", lower, upper, (0, 0, -1), axis=(0, 1, 0))
     if gravity:
         d.add_interaction(Gravity((0.0, 0.0, -9.81)))
-    d.solver = SolverSettings(algorithm="modes", modes=2)
+    d.solver = SolverSettings(algorithm="modes", modes=2, backend="auto")
     return d
 
 
@@ -208,7 +215,8 @@ def blade(n):
 def first_modes(d, rate):
     """The first flapwise and lead-lag frequencies ω̄ of ``d`` spinning at ``rate`` about z through the root, and
     the largest damping ratio of the two lowest modes (one of each family)."""
-    d.solver = SolverSettings(algorithm="modes", modes=2, about="rotation", spin_rate=rate, spin_axis=(0.0, 0.0, 1.0))
+    d.solver = SolverSettings(algorithm="modes", modes=2, about="rotation", spin_rate=rate, spin_axis=(0.0, 0.0, 1.0),
+                              backend="auto")
     r = d.solve()
     shape = np.abs(r.data("modes/shape"))
     imaginary = r.data("modes/shape_imaginary")  # written when the problem is gyroscopic (Ω ≠ 0)
@@ -273,7 +281,7 @@ def column(n, algorithm="buckling", t_end=1.0, steps=1, imperfection=0.0):
     d, nodes = cantilever(n)
     d.add_interaction(NodalLoad(nodes[-1], (-P_cr, 0.0, imperfection * P_cr),
                                 time_function=Ramp(0.0, 10.0, 0.0, 10.0)))
-    d.solver = SolverSettings(algorithm=algorithm, modes=2, t_end=t_end, load_steps=steps)
+    d.solver = SolverSettings(algorithm=algorithm, modes=2, t_end=t_end, load_steps=steps, backend="auto")
     return d
 
 
@@ -295,7 +303,7 @@ for n, mu in factors.items():
 # infinitely stiff plane; 1.2 % more at a stiffness ratio 1 : 100, through the pre-buckling bending).
 
 # %%
-lateral = load_deck(MODELS / "lateral_buckling.toml").solve(results_path=scratch / "lateral_buckling.h5")
+lateral = load_deck(MODELS / "lateral_buckling.toml", overrides=AUTO).solve(results_path=scratch / "lateral_buckling.h5")
 mu = lateral.data("buckling/load_factor")
 exact = analytic.lateral_buckling_cantilever(100.0, 1.0, 1.0, 1.0)
 print(f"lateral buckling: P_cr = {4 * mu[0]:.5f} N, rod bifurcation {exact:.5f} N ({4 * mu[0] / exact - 1:+.1e})")
@@ -416,7 +424,7 @@ nodes = d.add_beam("beam", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 32, SLENDER)
 d.add_interaction(FixedCoordinates(nodes[0], (0, 1, 2, 3)))
 d.add_interaction(FixedCoordinates(nodes[-1], (1, 2)))
 d.add_interaction(NodalLoad(nodes[-1], (-1.0, 0.0, 0.0), time_function=Ramp(0.0, 10.0, 0.0, 10.0)))
-d.solver = SolverSettings(algorithm="buckling", modes=1)
+d.solver = SolverSettings(algorithm="buckling", modes=1, backend="auto")
 mu_pinned = d.solve().data("buckling/load_factor")[0]
 print(f"pinned-pinned: {mu_pinned:.5f} N against π²EI/L² = {np.pi**2:.5f} N")
 assert abs(mu_pinned / np.pi**2 - 1 - (np.pi / 32) ** 2 / 6) < 1e-4  # check of the exercise: Beam2's (kh)²/6

@@ -30,6 +30,11 @@
 # two kinds apart (§12). This lesson follows paths with `algorithm = "static"` (load control) and
 # `algorithm = "arc_length"` (path following, §12), and estimates a critical load from an experiment-like
 # path with the Southwell plot.
+#
+# Each model below is small and each path a few hundred points at most, so every solve takes
+# `backend = "auto"`: the **reference path** (plain NumPy, `docs/reference_path.md`) where its estimated run
+# time is at most 15 s, sparing the lesson the compilation of the implicit kernels on its first run, and the
+# compiled kernels for a longer path.
 
 # %%
 import tempfile
@@ -121,7 +126,7 @@ def truss(rise, **solver):
     d.add_interaction(FixedCoordinates(right[1], (3, 5)))  # its y follows the joint
     d.add_joint("spherical", left[1], right[1], (0.0, 0.0, rise))
     d.add_interaction(NodalLoad(left[1], (0.0, 0.0, -truss_limit(rise)[1]), time_function=LOAD_FACTOR))
-    d.solver = SolverSettings(**solver)
+    d.solver = SolverSettings(**{"backend": "auto", **solver})
     return d
 
 
@@ -255,7 +260,7 @@ def lateral(algorithm="arc_length", imperfection=0.0, **solver):
     if imperfection:
         d.add_interaction(NodalLoad(d.node(f"beam:{N_ELEMENTS}"), (0.0, 4.0 * imperfection, 0.0),
                                     time_function=LOAD_FACTOR))
-    d.solver = SolverSettings(**{"algorithm": algorithm, "t_end": 1.0, **solver})
+    d.solver = SolverSettings(**{"algorithm": algorithm, "t_end": 1.0, "backend": "auto", **solver})
     return d
 
 
@@ -394,7 +399,7 @@ def column(algorithm, imperfection=0.0, **solver):
     nodes = d.add_beam("beam", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 16, COLUMN)
     d.add_interaction(Clamp(nodes[0]))
     d.add_interaction(NodalLoad(nodes[-1], (-P_euler, 0.0, imperfection * P_euler), time_function=LOAD_FACTOR))
-    d.solver = SolverSettings(algorithm=algorithm, **solver)
+    d.solver = SolverSettings(**{"algorithm": algorithm, "backend": "auto", **solver})
     return d
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from reference.generated import rotation_maps as rm
+from reference.jit import inlined
 from reference.scalar import scalar_twin
 
 
@@ -32,6 +33,14 @@ def body_or_ground(body, entry: str):
                              f"{GROUND!r}")
         return None
     return body
+
+
+@inlined
+def body_fixed_parts(par):
+    """The parts of a connector's packed ``par`` (24,) (the layout above, :meth:`Connector.body_fixed`): the
+    points ``s_i``, ``s_j`` (3,) [m] and the frames ``f_i``, ``f_j`` (9,) (row-major), each in its body's
+    frame; views, for the compiled kernels and Python alike."""
+    return par[0:3], par[3:6], par[6:15], par[15:24]
 
 
 def body_matrix(body) -> np.ndarray:

@@ -39,6 +39,7 @@ from reference.interactions import (
 )
 from reference.io.results import Results
 from reference.joints import Jacobian, Joint, joint_frame, setup
+from reference.joints.formulations import refusal as formulation_refusal
 from reference.monitor import damping_problem
 from reference.building import beam_arguments, resolve_node, with_axis2
 from reference.validation import direction, joint_offsets, vector
@@ -46,7 +47,7 @@ from reference.mesh import arc_geometry, beam_triad, default_axis2, section_fram
 from reference.nodes import Node
 from reference.rotation import EulerParameters
 from reference.solution import SolverDiverged, run
-from reference.state import Model, Nodes, State
+from reference.state import Model, Nodes, State, new_clock
 from reference.status import OK
 
 
@@ -412,7 +413,7 @@ class Domain:
             v=np.array([n.velocity for n in self.nodes]).reshape(N, 3),
             w=np.array([n.angular_velocity for n in self.nodes]).reshape(N, 3),
             f_prev=np.zeros((N, 6)),
-            clock=np.zeros(4),
+            clock=new_clock(),
             angle=np.zeros(len(self.force_elements)),
         )
         if self.solver.consistent_initial_velocities and self.joints:
@@ -477,6 +478,9 @@ class Domain:
         self.last_run = {"path": None, "status": "not started", "t": 0.0}
         joint_offsets(self)
         model = self.initialization()
+        problem = formulation_refusal(self.joints, self.solver.algorithm)
+        if problem:
+            raise ValueError(problem)
         critical = self.critical_time_step()
         problem = damping_problem(model.damping, algo.dt, critical) if algo.explicit else ""
         if problem:

@@ -25,8 +25,9 @@ force reset, the element → node gather) and the implicit residual's and tangen
 results never depend on the thread count, by the rules of :mod:`reference.parallel`: a parallel loop
 writes per-item rows only, the element → node accumulation is a per-node gather in element order, and
 sums are taken over fixed chunks whose partial sums are added in order.  Whether a loop takes its
-parallel form depends on the model's size only (``reference.parallel.PARALLEL_NODES``, the families'
-``PARALLEL_ELEMENTS``).  Joints, master/slave joints, loads and force elements stay serial.  A Beam2 mesh below
+parallel form depends on the model's size only (``reference.parallel.PARALLEL_NODES``,
+``reference.elements.driver.PARALLEL_ELEMENTS``).  Joints, master/slave joints, loads and force elements stay
+serial.  A Beam2 mesh below
 ``PARALLEL_NODES`` nodes takes its element loop and its element → node sum in one serial pass (no parallel
 launch, no round trip of the rows through the work array; :func:`reference.elements.beam2_blocks.soa_forces`).
 The choice is the model's size, never the thread count read inside a kernel: ``numba.get_num_threads()`` in

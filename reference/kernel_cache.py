@@ -13,7 +13,12 @@ engine kernel's cached copy is keyed by the sources it can reach:
   (:mod:`reference.elements.families`); instead, the digest of each family the kernel's argument types carry
   enters the key of that compiled version (:meth:`EngineCache._index_key`).  A model of Beam2 elements only
   does not carry beam3's data, so editing the beam3 family leaves its kernels warm, and a beam3 model's
-  kernels compile again.
+  kernels compile again.  The generic element driver's kernels (:mod:`reference.elements.driver`), compiled
+  for one family's data at a time, are keyed by the digest of that family likewise.
+
+A kernel compiled for the data of a family registered from outside the engine (a test's toy family) is not
+written to the disk cache at all (:func:`outside`): another process, which cannot import that family's
+module, could not read the cache's index.
 
 The copies live below ``$NUMBA_CACHE_DIR``, or ``$XDG_CACHE_HOME/flexmbs/numba`` (``~/.cache/…`` without it),
 in one folder per source folder of each checkout (two checkouts do not overwrite each other's copies).
@@ -134,13 +139,17 @@ ALWAYS: set[str] = set()
 """The families every Model carries (:data:`reference.elements.families.ALWAYS_PACKED`)."""
 
 
-def families_in(signature) -> set[str]:
-    """The element families (deck names) whose data a compiled version's argument types carry, and the families
-    every Model carries (:data:`ALWAYS`)."""
-    found, by_data = set(ALWAYS), {f.Data: name for name, f in FAMILIES.items()}
+def carried(signature) -> set[str]:
+    """The element families (deck names) whose data a compiled version's argument types carry."""
+    found, by_data = set(), {f.Data: name for name, f in FAMILIES.items()}
     for typ in getattr(signature, "args", signature) or ():
         _families_in(typ, found, by_data)
     return found
+
+
+def families_in(signature) -> set[str]:
+    """:func:`carried` and the families every Model carries (:data:`ALWAYS`)."""
+    return carried(signature) | ALWAYS
 
 
 def family_digest(family: str) -> str:
@@ -187,10 +196,19 @@ class _EngineImpl(CompileResultCacheImpl):
     _locator_classes = [EngineLocator]
 
 
+def outside(families: set[str]) -> bool:
+    """True where one of ``families`` is registered from outside the engine (e.g. a test's toy family): a
+    kernel compiled for its data is not cached on disk, where other processes, which cannot import the
+    family's module, would find it in the cache's index and fail to read the index."""
+    return any(FAMILIES[name].__module__ not in modules() for name in families if name in FAMILIES)
+
+
 class EngineCache(FunctionCache):
     """numba's function cache, located by :class:`EngineLocator`, whose index key of each compiled version also
-    holds the digests of the element families of its argument types (when its module reaches the family
-    registry; module docstring)."""
+    holds the digests of the element families of its argument types (all of them when its module reaches the
+    family registry, module docstring; those its arguments carry otherwise, e.g. the generic element driver's
+    kernels).  A version compiled for a family from outside the engine is neither saved nor looked up
+    (:func:`outside`)."""
 
     _impl_class = _EngineImpl
 
@@ -200,9 +218,17 @@ class EngineCache(FunctionCache):
 
     def _index_key(self, sig, codegen):
         key = super()._index_key(sig, codegen)
-        if REGISTRY not in closure(self._module):
+        families = families_in(sig) if REGISTRY in closure(self._module) else carried(sig)
+        if not families:
             return key
-        return key + (tuple((name, family_digest(name)) for name in sorted(families_in(sig))),)
+        return key + (tuple((name, family_digest(name)) for name in sorted(families)),)
+
+    def load_overload(self, sig, target_context):
+        return None if outside(carried(sig)) else super().load_overload(sig, target_context)
+
+    def save_overload(self, sig, data):
+        if not outside(carried(sig)):
+            super().save_overload(sig, data)
 
 
 def enable(dispatcher):

@@ -143,11 +143,11 @@ class BlowUpMonitor:
     @staticmethod
     def guard_report(guard, work: float) -> str:
         """``" (kinetic + strain energy … against … of work done)"`` when the algorithm's per-step
-        guard (:attr:`reference.state.Scratch.guard`) stopped the run, else ``""``."""
-        E0, S, tol, r, E = guard
-        if not (tol > 0.0 and r > tol * S):  # the guard stopped the run (its lag allowance only adds)
-            return ""
-        return f" (energy {E:.3g} J, work {work:.3g} J)"
+        guard (the :data:`reference.state.GUARD` record ``guard``) stopped the run, else ``""``."""
+        tolerance, scale = guard["tolerance"], guard["scale"]
+        if not (tolerance > 0.0 and guard["residual"] > tolerance * scale):
+            return ""  # the guard did not stop the run (its lag allowance only adds)
+        return f" (energy {guard['energy']:.3g} J, work {work:.3g} J)"
 
     def stretch(self, x: np.ndarray) -> str | None:
         """The element whose length ratio (current / initial) is farthest outside ``(1/MAX_STRETCH, MAX_STRETCH)``

@@ -16,10 +16,10 @@ Results are bit for bit the same for any thread count (:func:`reference.jit.use_
    bits.  The element energies are summed serially, in element order (one addition per element).
 
 Whether a loop runs in parallel depends on the model's size only (:data:`PARALLEL_NODES`, the
-families' ``PARALLEL_ELEMENTS``), never on the thread count: the serial and parallel forms of a
-loop give the same bits anyway, the threshold only keeps a small model off the cost of starting
-a parallel region (the measured crossovers: docs/benchmarks.md §5, §10).  Joints, master/slave
-joints, force elements and loads stay serial (few, and they write into shared node rows).
+element driver's ``PARALLEL_ELEMENTS``, :mod:`reference.elements.driver`), never on the thread count:
+the serial and parallel forms of a loop give the same bits anyway, the threshold only keeps a small model
+off the cost of starting a parallel region (the measured crossovers: docs/benchmarks.md §5, §10).  Joints,
+master/slave joints, force elements and loads stay serial (few, and they write into shared node rows).
 """
 
 from __future__ import annotations

@@ -169,7 +169,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
         raise
     finally:
         domain.last_run.update(status=status, t=state.t, energy=float(getattr(run_state, "energy", math.nan)),
-                               work=float(state.clock[2]), where=_where(algo, state.t))
+                               work=state.work, where=_where(algo, state.t))
         sink.close(status)
     results = sink.results(_time.perf_counter() - wall0)
     results.attrs.update(backend=choice[0], backend_reason=choice[1])  # a run kept in memory too

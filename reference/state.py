@@ -52,12 +52,14 @@ class TimeFunctions(NamedTuple):
 
 
 class Joints(NamedTuple):
-    """The J joints with Lagrange multipliers (:class:`reference.joints.Jacobian`), m rows in all:
-    ``i``, ``j`` (J,) node indices (−1 the ground), ``par`` (J,24) body-fixed point and frames,
+    """The J joints with multiplier rows (:class:`reference.joints.formulation.Multipliers`), m rows in
+    all: ``i``, ``j`` (J,) node indices (−1 the ground), ``par`` (J,24) body-fixed point and frames,
     ``rows`` (J,6) primitive rows (−1 padded), ``neq`` (J,) equations, ``row0`` (J,) first global
-    row, ``drive`` (J,) drive code, ``tf`` (J,) time function; ``eps`` (m,) the ε of each row;
-    ``pattern`` the fixed sparsity of ``B M⁻¹ Bᵀ``
-    (:class:`reference.joints.sparse.ConstraintPattern`)."""
+    row, ``drive`` (J,) drive code, ``tf`` (J,) time function; ``eps`` (m,) the ε of each row's
+    solves; ``pattern`` the fixed sparsity of ``B M⁻¹ Bᵀ``
+    (:class:`reference.joints.sparse.ConstraintPattern`); ``compliance`` (m,) the c of each row's
+    equation ``Φ − c λ = 0``; ``iterations`` the most multiplier solves of a constraint stage (0: one
+    direct solve) and ``tolerance`` the relative change of the multipliers that ends them."""
 
     i: np.ndarray
     j: np.ndarray
@@ -69,6 +71,9 @@ class Joints(NamedTuple):
     tf: np.ndarray
     eps: np.ndarray
     pattern: tuple
+    compliance: np.ndarray
+    iterations: int
+    tolerance: float
 
 
 class MasterSlaveJoints(NamedTuple):
@@ -140,6 +145,34 @@ class Model(NamedTuple):
         return sum(int(data.conn.shape[0]) for data in self.elements)
 
 
+def record_dtype(*names: str) -> np.dtype:
+    """The dtype of a record of float fields ``names``, read and written by name, ``clock["t"]``, in the compiled
+    kernels (numba compiles a field as the slot of an array) and in Python (a :class:`numpy.void`, so that
+    ``NUMBA_DISABLE_JIT=1`` runs the kernels too; a :class:`numpy.record`'s attributes are Python code, too slow
+    for the per-output loop, docs/benchmarks.md §9).  Aligned, so that numba takes an array of them as an aligned
+    array.  The algorithms keep one record in an array of shape (1,) and pass the array to a kernel (numba takes
+    an array faster than a record), which works on its record ``[0]``."""
+    return np.dtype([(name, "f8") for name in names], align=True)
+
+
+CLOCK = record_dtype("t", "n", "work", "dissipated")
+"""The record of :attr:`State.clock`: the time ``t`` [s] (the load factor of a static run), the step count
+``n``, the external ``work`` done since t₀ and the ``dissipated`` energy [J]."""
+
+GUARD = record_dtype("E0", "scale", "tolerance", "residual", "energy")
+"""The record of :attr:`Scratch.guard`, the energy-balance guard (:mod:`reference.monitor`): the energy ``E0``
+[J] at the first step, the ``scale`` S [J] (the largest ``|E₀| + |W| + |D|`` so far), the relative
+``tolerance`` (0: off), the balance ``residual`` [J] and the kinetic + strain ``energy`` [J] of the last
+guarded step; an algorithm that supports it stops when the residual exceeds tolerance × S."""
+
+
+def new_clock(t: float = 0.0) -> np.ndarray:
+    """A :data:`CLOCK` (shape (1,): the kernels take its record ``clock[0]``) at time ``t``, step 0."""
+    clock = np.zeros(1, CLOCK)
+    clock[0]["t"] = t
+    return clock
+
+
 class State(NamedTuple):
     """The state at step n.
 
@@ -147,7 +180,7 @@ class State(NamedTuple):
     (N,3) inertial and ``w`` (N,3) body-frame velocities at ``t_{n−½}``
     (before the first step: the initial velocities at ``t_0``); ``f_prev``
     (N,6) external generalised forces of the previous step (for the work
-    integral); ``clock`` = [t, n, external work, dissipated energy];
+    integral); ``clock`` (1,) the :data:`CLOCK` record of t, n, external work and dissipated energy;
     ``angle`` (F,) the continuous angle of each rotational force element
     (:mod:`reference.forces`; 0 for the others).
     """
@@ -162,11 +195,16 @@ class State(NamedTuple):
 
     @property
     def t(self) -> float:
-        return float(self.clock[0])
+        return float(self.clock[0]["t"])
 
     @property
     def n(self) -> int:
-        return int(self.clock[1])
+        return int(self.clock[0]["n"])
+
+    @property
+    def work(self) -> float:
+        """The external work done since t₀ [J]."""
+        return float(self.clock[0]["work"])
 
     def copy(self) -> "State":
         return State(*(a.copy() for a in self))
@@ -229,8 +267,7 @@ class Scratch(NamedTuple):
     rhs: np.ndarray
     r4: np.ndarray
     guard: np.ndarray
-    """Energy-balance guard ``[E₀, S, tolerance, residual, energy]`` (:mod:`reference.monitor`): an
-    algorithm that supports it stops when the residual exceeds tolerance × S; tolerance 0 turns it off."""
+    """The energy-balance guard, a :data:`GUARD` record of shape (1,)."""
     elements: tuple
     G: np.ndarray
 
@@ -241,4 +278,4 @@ class Scratch(NamedTuple):
                    np.zeros(4), np.zeros(9), np.zeros(m), np.zeros(m), np.zeros((J, 6, 12)), np.zeros((J, 6, 12)),
                    np.zeros(model.joints.pattern.L_rowidx.shape[0]), np.zeros(m), np.zeros(m), np.zeros(10),
                    np.zeros(120), np.zeros((12, 9)), np.zeros(9), np.zeros(9), np.zeros((12, 9)), np.zeros((9, 9)),
-                   np.zeros(9), np.zeros(4), np.zeros(5), element_work(model), np.zeros((N, 6)))
+                   np.zeros(9), np.zeros(4), np.zeros(1, GUARD), element_work(model), np.zeros((N, 6)))

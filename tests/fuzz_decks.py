@@ -267,7 +267,10 @@ VOCABULARY = {
                 "start_node": ["hub", "b:end", "rb"], "end_node": ["b:2", "hub"], "elements": [1, 2, 8],
                 "section": ["s", "steel_rod", "rollup"], "axis2": [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
                 "rigid": [True, False], "center": [[0.5, 0.5, 0.0], [1.5, 0.0, 0.5], [0.0, 0.0, 0.0]],
-                "element": ["beam2", "beam3", "beam2_se3"]},
+                "element": ["beam2", "beam3", "beam2_se3"],
+                "reduce": [{"modes": 2, "interfaces": ["b:start"]}, {"modes": 3, "basis": "free_free"},
+                           {"modes": 99, "interfaces": ["b:end", "hub"]}, {"modes": 1, "interface": ["b:0"]},
+                           {"modes": 0, "interfaces": ["c:start", "c:end"], "basis": "craig"}]},
     "rigid_bodies[]": {"label": ["rb2", "rb"], "mass": [1.0, 1e-6], "inertia": [[1.0, 2.0, 3.0]],
                        "position": [[0.0, 0.0, 3.0]], "rotation": [[0.0, 0.0, 0.0, 1.0]],
                        "points": [{"p": [0.0, 0.0, 0.0]}, {}]},
@@ -276,7 +279,8 @@ VOCABULARY = {
                  "label": ["j", "pin"], "body_i": ["rb", "bar", "b:end", "b:start", "hub", "ground"],
                  "body_j": ["ground", "rb", "b:end", "bar"], "point": [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]],
                  "axis": [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]], "reference": [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
-                 "epsilon": [0.0, 1e-8, 1e-6], "formulation": ["jacobian", "master_slave"],
+                 "epsilon": [0.0, 1e-8, 1e-6], "formulation": ["jacobian", "master_slave", "augmented_lagrangian"],
+                 "penalty": [1e9, 1.0, 0.0], "iterations": [1, 50, 0], "tolerance": [1e-12, 0.0],
                  "time_function": ["sn", "r", "up"], "mode": ["position", "velocity"],
                  "intended_offset": [True, False, 1]},
     "prescribed_displacements[]": {"label": ["push", "pin"], "node": ["b:end", "rb", "bar", "hub", "b:1"],
@@ -321,6 +325,9 @@ VOCABULARY = {
                  "relative_to": ["length", "peak", "absolute"]},
     "crosscheck.*": {"observable": ["position:b:end", "angle.z:rocker"], "tolerance": [0.1, -1.0],
                      "relative_to": ["length", "peak", "absolute", "L"], "refine": [1, 2], "reason": ["r"]},
+    "sensitivities": {"parameters": [["sections.bar.EI2"], ["loads[0].force", "springs[0].stiffness"],
+                                     ["rigid_bodies.rb.mass"], ["nodes.b.position"], ["sections.bar.EI9"], []],
+                      "outputs": [["position:b:end"], ["midspan_deflection:b"], ["energy:strain"], ["position:zz"]]},
 }
 """Table → key → sample values.  ``[]``: an array of tables; ``.*``: a table of named entries."""
 

@@ -51,7 +51,8 @@ def elements(E, seed):
 
 
 def per_element_row(x, q, conn, offset, L0, psi0, gamma0, stiff, e):
-    """Element e's row as ``beam2_element`` writes it, from the per-element generated kernel."""
+    """Element e's row as the generic driver writes it (``reference.elements.driver.element_row``), from the
+    per-element generated kernel."""
     w = np.zeros(40)
     i, j = conn[e]
     p1, p2 = q[i].copy(), q[j].copy()

@@ -256,7 +256,7 @@ def test_every_deck_key_has_a_row_with_its_meaning():
         assert {*cls.deck_required, *cls.deck_optional} <= set(rows[f'`algorithm = "{name}"`']), name
     joints = rows["`[[joints]]`"]
     assert joints["mode"][2] == "one of `position`, `velocity`" and joints["mode"][3] == "`'position'`"
-    assert joints["formulation"][2] == "one of `jacobian`, `master_slave`"
+    assert joints["formulation"][2] == "one of `jacobian`, `master_slave`, `augmented_lagrangian`"
     assert "unknown joint formulation '?'" in joints["formulation"][4]
     assert joints["reference"][2].startswith("3 numbers")
     assert "one equation" in joints["kind"][0] and "`revolute`" in joints["kind"][0]

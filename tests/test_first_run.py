@@ -142,8 +142,8 @@ def test_the_first_run_bench_writes_the_element_family_into_a_copy_of_the_deck(t
 
 
 def test_a_first_run_of_a_static_deck_takes_the_reference_path(tmp_path, monkeypatch):
-    """The first-run measurement of embedded_beam_static from an empty cache: two ``flexmbs run`` processes; the
-    default backend ``auto`` takes the reference path (its one line), and each process returns a positive time."""
+    """The first-run measurement of embedded_beam_static from an empty cache: two ``flexmbs run --backend auto``
+    processes; ``auto`` takes the reference path (its one line), and each process returns a positive time."""
     from flexmbs.bench_first_run import ROOT, first_and_warm
 
     first, warm, line = first_and_warm(ROOT / "models" / "embedded_beam_static.toml")

@@ -146,8 +146,7 @@ def test_newton_matrix_matches_finite_differences():
     from reference.evaluation.tangent import tangent_values
 
     wk = algo.work
-    tangent_values(algo.arg, x, q, x, algo.zero_psi, t, lam, 0.0, 0.0, 1.0, 1.0, wk.values, algo.wt, wk.small, wk.K12,
-                   wk.Kel)
+    tangent_values(algo.arg, x, q, x, algo.zero_psi, t, lam, 0.0, 0.0, 1.0, 1.0, wk.values, algo.wt, wk.tangent)
     K = lu_matrix.matrix(wk.values).toarray()
     nf = algo.n_free
     num = np.zeros((nf + model.n_constraints, nf))

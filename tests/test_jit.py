@@ -81,6 +81,23 @@ def test_a_compiled_version_is_keyed_by_the_families_its_model_carries():
     assert carried == [{"beam2"}, {"beam2", "beam3"}]
     assert isinstance(advance._cache, kernel_cache.EngineCache)
     assert kernel_cache.family_digest("beam3") == kernel_cache.digest("reference.elements.beam3")
+
+
+@pytest.mark.skipif(numba.config.DISABLE_JIT, reason="nothing is cached with NUMBA_DISABLE_JIT=1")
+def test_the_element_driver_is_keyed_by_the_family_it_runs():
+    """The generic driver's kernels reach no family module by imports; a version compiled for one family's
+    data holds that family's digest in its key (and no other family's), so an edit of beam3 compiles them
+    again for beam3 only.  The engine's families are cached on disk (:func:`reference.kernel_cache.outside`
+    is false for them)."""
+    from reference.elements import driver
+    from reference.elements.beam3 import Beam3Data
+
+    beam3 = numba.typeof(jit.boundary(Beam3Data(*[np.zeros((1, 1))] * len(Beam3Data._fields))))
+    assert "reference.elements.beam3" not in kernel_cache.closure("reference.elements.driver")
+    assert kernel_cache.carried((beam3,)) == {"beam3"}
+    key = driver.rows_serial._cache._index_key((beam3,), driver.rows_serial.targetctx.codegen())
+    assert key[-1] == (("beam3", kernel_cache.family_digest("beam3")),)
+    assert not kernel_cache.outside({"beam2", "beam2_se3", "beam3"})
 class _Pair(NamedTuple):
     a: np.ndarray
     b: np.ndarray

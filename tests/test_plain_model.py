@@ -30,10 +30,10 @@ import pytest
 from reference.algorithms.implicit import NewtonSystem
 from reference.domain import Domain
 from reference.interactions import Clamp, Constant, Gravity, NodalLoad, PiecewiseLinear, Ramp, Sine, SmoothStep, Step
+from reference.io.deck import load_deck
 from reference.joints import MasterSlave
 from reference.plain.model import Evaluation
 from reference.rotation import EulerParameters
-from reference.io.deck import load_deck
 
 from test_beam2 import qexp, qmul
 from test_master_slave import SEC, floating
@@ -242,7 +242,7 @@ import sys
 import numpy as np
 import numba
 from test_plain_model import MODELS, joint_zoo, states
-from reference.domain import Domain
+from reference.io.deck import load_deck
 from reference.plain.model import Evaluation
 
 

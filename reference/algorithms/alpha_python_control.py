@@ -25,20 +25,21 @@ def controlled_python(alpha, state, run, n_steps, rec) -> int:
     with the step control in Python (:mod:`reference.algorithms.step_control`'s functions) around one compiled
     step of :data:`~reference.algorithms.alpha_steps.FIXED` mode per call: the steps to the output time
     ``n_steps`` steps of ``dt`` ahead; the status."""
-    system, par, stats = run.system, run.par, run.stats
-    x, q, v, w, f_prev, clock = state[:6]
-    par[ak.CONTROL] = ak.FIXED
+    system, par, stats = run.system, run.par[0], run.stats
+    x, q, v, w, f_prev = state[:5]
+    clock = state.clock[0]
+    par["control"] = ak.FIXED
     target = (run.nominal + n_steps) * alpha.dt
     control = alpha.error_tolerance is not None
-    held = (x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers)  # what a rejected step restores
+    held = (x, q, v, w, run.vd, run.a, run.lam, state.clock, f_prev, run.powers)  # what a rejected step restores
     saved, after_rejection = None, False
     while True:
-        left = target - clock[0]
+        left = target - clock["t"]
         if left <= 1e-9 * alpha.dt:
             break
-        h = par[ak.H_NEXT]
+        h = par["h_next"]
         h_use = landing_step(left, h)
-        set_step(par, h_use, clock[0], clock[1])
+        set_step(par, h_use, clock["t"], clock["n"])
         if control:
             saved = [arr.copy() for arr in held]
         angle = system.work.angle.copy()
@@ -58,9 +59,9 @@ def controlled_python(alpha, state, run, n_steps, rec) -> int:
                 for arr, old in zip(held, saved):
                     arr[...] = old
                 system.work.angle[:] = angle
-                par[11] = np.nan  # the last evaluation is no longer at the state
+                par["U"] = np.nan  # the last evaluation is no longer at the state
                 stats.rejected += 1
-                par[ak.H_NEXT] = h_next
+                par["h_next"] = h_next
                 after_rejection = True
                 continue
             if after_rejection:
@@ -68,12 +69,12 @@ def controlled_python(alpha, state, run, n_steps, rec) -> int:
             h_next = kept_step(h_use, h_next, alpha.dead_band)
             stats.step(h_use, err)
             # a step shortened to land on an output keeps the controller's step for the next
-            par[ak.H_NEXT] = h_next if h_use >= h else max(h, h_next)
+            par["h_next"] = h_next if h_use >= h else max(h, h_next)
         else:
             stats.step(h_use)
-            par[ak.GOOD] += 1
-            if par[ak.H_NEXT] < par[ak.CEILING] and par[ak.GOOD] >= GROW_AFTER:
-                par[ak.H_NEXT], par[ak.GOOD] = min(2.0 * par[ak.H_NEXT], par[ak.CEILING]), 0
-    clock[0] = target
+            par["good"] += 1
+            if par["h_next"] < par["ceiling"] and par["good"] >= GROW_AFTER:
+                par["h_next"], par["good"] = min(2.0 * par["h_next"], par["ceiling"]), 0
+    clock["t"] = target
     alpha._landed(state, run, n_steps)
     return OK

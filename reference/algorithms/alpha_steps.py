@@ -4,9 +4,9 @@ control between the outputs (:mod:`reference.algorithms.step_control`: the local
 controller, rejection and restore, the step cuts' growing back, landing on the output), all in one compiled
 call for many steps; the factorisations stay in Python.
 
-:func:`steps` works in one of three modes (``par[CONTROL]``): :data:`FIXED` steps of ``par[0]``, as many as
+:func:`steps` works in one of three modes (``par["control"]``): :data:`FIXED` steps of ``par["h"]``, as many as
 asked; :data:`GROWING` (a step cut after a Newton failure doubles back) and :data:`ERROR_CONTROL`
-(``error_tolerance``), which step to the output time ``par[TARGET]``, choosing each step.  The helpers of the
+(``error_tolerance``), which step to the output time ``par["target"]``, choosing each step.  The helpers of the
 controlled modes take the arrays they need, never a tuple of arrays or the Model (a helper's arguments cost
 two atomic reference-count updates per array in them and call, :mod:`reference.jit`), and they are compiled
 apart, not inlined into :func:`steps`, which inlines the whole evaluation (inlined, they lengthened its
@@ -26,26 +26,49 @@ from reference.algorithms.implicit import compose, evaluate_named, write_record_
 from reference.algorithms.step_control import FLOOR, GROW_AFTER, kept_step, landing_step, next_step, rejected
 from reference.jit import inlined, kernel, named
 from reference.linalg import lu_solve
-from reference.state import Model, Record
+from reference.state import Model, Record, record_dtype
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR
 
 FIXED, GROWING, ERROR_CONTROL = 0.0, 1.0, 2.0
-"""The modes of :func:`steps` (``par[CONTROL]``): fixed steps; a cut step growing back; error control."""
-(CONTROL, DT, TARGET, H_NEXT, DT_MIN, DT_MAX, ERROR_TOLERANCE, AFTER_REJECTION, GOOD, CEILING,
- DEAD_BAND, REUSE, H_FACTOR, ACCEPTED, H_MIN, H_MAX, ERROR, REJECTED, OVER) = range(17, 36)
-PAR_SIZE = 36
-"""The settings and counters ``par`` of :func:`steps`: [h, α_m, α_f, γ, β, Newton tolerance, L, contraction,
-max_iterations, fresh, iterations, U, resume, corrections of this step, record, t₀, n₀] (fresh: 1 the factor
-is new, −1 there is none for h; iterations counted in the kernel; U the strain energy of the last evaluation;
-resume: 1 to continue the interrupted step's iterate; record: 1 to first write the output record ``rec`` of
-the current state from the last evaluation; the time after step n is ``t₀ + (n − n₀) h``, t₀ and n₀ where the
-step h began), then, from :data:`CONTROL` on, the entries of the controlled modes: the mode; the output
-grid's step dt [s]; the output time to land on [s]; the controller's next step [s]; ``dt_min``, ``dt_max``
-[s]; ``error_tolerance``; 1 right after a rejected step; converged steps since the
-last cut; the step a cut step grows back to [s]; the dead band (:func:`reference.algorithms.step_control.kept_step`);
-the relative change of the step within which the factor is kept; the step of the factor [s]; and the
-statistics since the caller last read them: accepted steps, smallest and largest accepted step [s], largest
-error norm (NaN: none), rejected steps, accepted steps over the tolerance (at ``dt_min``)."""
+"""The modes of :func:`steps` (``par["control"]``): fixed steps; a cut step growing back; error control."""
+PAR = record_dtype(
+    "h", "alpha_m", "alpha_f", "gamma", "beta", "tolerance", "L", "contraction", "max_iterations", "fresh",
+    "iterations", "U", "resume", "corrections", "record", "t0", "n0",
+    "control", "dt", "target", "h_next", "dt_min", "dt_max", "error_tolerance", "after_rejection", "good", "ceiling",
+    "dead_band", "reuse", "h_factor", "accepted", "h_min", "h_max", "error", "rejected", "over")
+"""The settings and counters ``par`` of :func:`steps`, a record: the step ``h`` [s], ``alpha_m``, ``alpha_f``,
+``gamma``, ``beta``, the Newton ``tolerance``, the length scale ``L`` [m], the ``contraction`` below which the
+factor is kept, ``max_iterations``; ``fresh`` 1 the factor is new, −1 there is none for h; ``iterations``
+counted in the kernel; ``U`` the strain energy of the last evaluation [J]; ``resume`` 1 to continue the
+interrupted step's iterate; ``corrections`` of this step; ``record`` 1 to first write the output record ``rec``
+of the current state from the last evaluation; ``t0``, ``n0`` where the step h began (the time after step n is
+``t₀ + (n − n₀) h``).  Then the entries of the controlled modes: the mode ``control``; the output grid's step
+``dt`` [s]; the output time to land on, ``target`` [s]; the controller's next step ``h_next`` [s]; ``dt_min``,
+``dt_max`` [s]; ``error_tolerance``; ``after_rejection`` 1 right after a rejected step; ``good`` converged
+steps since the last cut; the step a cut step grows back to, ``ceiling`` [s]; the ``dead_band``
+(:func:`reference.algorithms.step_control.kept_step`); ``reuse``, the relative change of the step within which
+the factor is kept; ``h_factor`` the step of the factor [s]; and the statistics since the caller last read them
+(:func:`clear_statistics`): ``accepted`` steps, the smallest and largest accepted step ``h_min``, ``h_max`` [s],
+the largest ``error`` norm (NaN: none), ``rejected`` steps, accepted steps ``over`` the tolerance (at
+``dt_min``)."""
+
+
+def new_par(**values) -> np.ndarray:
+    """A :data:`PAR` array of shape (1,), its record with the fields ``values`` and the statistics cleared, the
+    others zero."""
+    par = np.zeros(1, PAR)
+    clear_statistics(par[0])
+    for name, value in values.items():
+        par[0][name] = value
+    return par
+
+
+def clear_statistics(par) -> None:
+    """The statistics of the record ``par`` (:data:`PAR`) back to none."""
+    for name, value in (("accepted", 0.0), ("h_min", math.inf), ("h_max", 0.0), ("error", math.nan),
+                        ("rejected", 0.0), ("over", 0.0)):
+        par[name] = value
+
 
 RECOVERABLE = (NO_CONVERGENCE, DIVERGED, SINGULAR)
 """Step failures that a smaller step may cure (:mod:`reference.algorithms.step_control`): Newton's, and a singular
@@ -97,9 +120,12 @@ with the Model costs an atomic reference-count update per array of it, twice."""
 
 
 @inlined
-def _predict(v, w, vd, a, lam, an, vdn, dq, Vn, lamn, h, am, gamma, beta):
+def _predict(v, w, vd, a, lam, arr, h, par):
     """The step's predictor from the converged state: algorithmic accelerations ``a_{n+1}`` at
-    ``V̇_{n+1} = V̇_n``, the increment ``Δq`` and velocities ``V_{n+1}`` of the scheme, ``λ_{n+1} = λ_n``."""
+    ``V̇_{n+1} = V̇_n``, the increment ``Δq`` and velocities ``V_{n+1}`` of the scheme, ``λ_{n+1} = λ_n``, into
+    the iterate's arrays of ``arr`` (:func:`steps`)."""
+    dq, Vn, vdn, an, _, _, _, lamn, _, _, _, _, _, _, _, _ = arr
+    am, gamma, beta = par["alpha_m"], par["gamma"], par["beta"]
     for i in range(v.shape[0]):
         for k in range(6):
             Vk = v[i, k] if k < 3 else w[i, k - 3]
@@ -136,8 +162,8 @@ def _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe
         for k in range(6):
             dW += 0.5 * (f_prev[i, k] + F[i, k]) * h * dq[i, k]
             f_prev[i, k] = F[i, k]
-    clock[2] += dW + 0.5 * h * (energy[0] + P1)
-    clock[3] += 0.5 * h * (energy[1] + D1)
+    clock["work"] += dW + 0.5 * h * (energy[0] + P1)
+    clock["dissipated"] += 0.5 * h * (energy[1] + D1)
     energy[0], energy[1] = P1, D1
     for i in range(N):
         for k in range(6):
@@ -210,9 +236,10 @@ def _roundoff(x, L):
 
 
 @inlined
-def _error_norm(a, an, vdn, vd, Vn, h, beta, L, tol, am, af):
+def _error_norm(a, an, vdn, vd, Vn, h, par):
     """:func:`reference.algorithms.step_control.error_norm` of the converged iterate before it is accepted: the
     new algorithmic accelerations as :func:`_accept` makes them, the same operations in the same order."""
+    beta, L, tol, am, af = par["beta"], par["L"], par["error_tolerance"], par["alpha_m"], par["alpha_f"]
     c = h * h * abs(beta - 1.0 / 6.0)
     floor = FLOOR * L
     err = 0.0
@@ -231,14 +258,14 @@ _rejected = inlined(rejected)
 
 
 def set_step(par, h, t0, n0):
-    """Steps of h [s] from time t0 after step n0 (``par`` of :func:`steps`).  A new h needs a new factor
-    (``par[9] = −1``: the Newton matrix's coefficients depend on h) unless it lies within ``par[REUSE]`` of the
-    factor's step."""
-    if h != par[0]:
-        par[0] = h
-        if abs(h - par[H_FACTOR]) > par[REUSE] * par[H_FACTOR]:
-            par[9] = -1.0
-    par[15], par[16] = t0, n0
+    """Steps of h [s] from time t0 after step n0 (the record ``par`` of :func:`steps`, in Python and compiled).
+    A new h needs a new factor (``fresh = −1``: the Newton matrix's coefficients depend on h) unless it lies
+    within ``reuse`` of the factor's step."""
+    if h != par["h"]:
+        par["h"] = h
+        if abs(h - par["h_factor"]) > par["reuse"] * par["h_factor"]:
+            par["fresh"] = -1.0
+    par["t0"], par["n0"] = t0, n0
 
 
 _set_step = inlined(set_step)
@@ -246,15 +273,15 @@ _set_step = inlined(set_step)
 
 @kernel
 def _choose(par, clock, angle, held):
-    """The next step of a controlled mode from the state at ``clock[0]``: the controller's ``par[H_NEXT]``
-    made to land on the output time ``par[TARGET]`` (:func:`reference.algorithms.step_control.landing_step`),
+    """The next step of a controlled mode from the state at ``clock["t"]``: the controller's ``par["h_next"]``
+    made to land on the output time ``par["target"]`` (:func:`reference.algorithms.step_control.landing_step`),
     and the force elements' continuous angles kept in ``held`` (every evaluation continues them); False, with
     the clock set to the output time, when that is reached."""
-    left = par[TARGET] - clock[0]
-    if left <= 1e-9 * par[DT]:
-        clock[0] = par[TARGET]
+    left = par["target"] - clock["t"]
+    if left <= 1e-9 * par["dt"]:
+        clock["t"] = par["target"]
         return False
-    _set_step(par, _landing_step(left, par[H_NEXT]), clock[0], clock[1])
+    _set_step(par, _landing_step(left, par["h_next"]), clock["t"], clock["n"])
     for k in range(angle.shape[0]):
         held[k] = angle[k]
     return True
@@ -263,49 +290,49 @@ def _choose(par, clock, angle, held):
 @inlined
 def _count(par, h, err):
     """:meth:`reference.algorithms.step_control.SolverStatistics.step` into ``par``'s statistics."""
-    par[ACCEPTED] += 1.0
-    par[H_MIN], par[H_MAX] = min(par[H_MIN], h), max(par[H_MAX], h)
+    par["accepted"] += 1.0
+    par["h_min"], par["h_max"] = min(par["h_min"], h), max(par["h_max"], h)
     if err == err:
-        par[ERROR] = err if par[ERROR] != par[ERROR] else max(par[ERROR], err)
+        par["error"] = err if par["error"] != par["error"] else max(par["error"], err)
         if err > 1.0:
-            par[OVER] += 1.0
+            par["over"] += 1.0
 
 
 @kernel
-def _judge(par, clock, a, an, vdn, vd, Vn, angle, held, beta, L, am, af):
-    """The converged iterate of a step of ``par[0]`` from ``clock[0]`` in a controlled mode, before it is accepted:
+def _judge(par, clock, a, an, vdn, vd, Vn, angle, held):
+    """The converged iterate of a step of ``par["h"]`` from ``clock["t"]`` in a controlled mode, before it is accepted:
     the statistics and the next step (:mod:`reference.algorithms.step_control`); True when the step is rejected
     for its error estimate (:func:`reference.algorithms.step_control.rejected`: the state is left as it was at the
     step's start, the angles restored from ``held``)."""
-    h_use, h = par[0], par[H_NEXT]
-    if par[CONTROL] != ERROR_CONTROL:
+    h_use, h = par["h"], par["h_next"]
+    if par["control"] != ERROR_CONTROL:
         _count(par, h_use, math.nan)
-        par[GOOD] += 1.0
-        if par[H_NEXT] < par[CEILING] and par[GOOD] >= GROW_AFTER:
-            par[H_NEXT], par[GOOD] = min(2.0 * par[H_NEXT], par[CEILING]), 0.0
+        par["good"] += 1.0
+        if par["h_next"] < par["ceiling"] and par["good"] >= GROW_AFTER:
+            par["h_next"], par["good"] = min(2.0 * par["h_next"], par["ceiling"]), 0.0
         return False
-    err = _error_norm(a, an, vdn, vd, Vn, h_use, beta, L, par[ERROR_TOLERANCE], am, af)
-    h_next = min(max(_next_step(h_use, err), par[DT_MIN]), par[DT_MAX])
-    if _rejected(err, h_use, _landing_step(par[TARGET] - clock[0], h_next), par[DT_MIN]):
-        par[REJECTED] += 1.0
-        par[H_NEXT], par[AFTER_REJECTION] = h_next, 1.0
+    err = _error_norm(a, an, vdn, vd, Vn, h_use, par)
+    h_next = min(max(_next_step(h_use, err), par["dt_min"]), par["dt_max"])
+    if _rejected(err, h_use, _landing_step(par["target"] - clock["t"], h_next), par["dt_min"]):
+        par["rejected"] += 1.0
+        par["h_next"], par["after_rejection"] = h_next, 1.0
         for k in range(angle.shape[0]):
             angle[k] = held[k]
         return True
-    if par[AFTER_REJECTION] == 1.0:
-        h_next, par[AFTER_REJECTION] = min(h_next, h_use), 0.0  # no growth right after a rejection (HNW §II.4)
-    h_next = _kept_step(h_use, h_next, par[DEAD_BAND])
+    if par["after_rejection"] == 1.0:
+        h_next, par["after_rejection"] = min(h_next, h_use), 0.0  # no growth right after a rejection (HNW §II.4)
+    h_next = _kept_step(h_use, h_next, par["dead_band"])
     _count(par, h_use, err)
     # a step shortened to land on an output keeps the controller's step for the next
-    par[H_NEXT] = h_next if h_use >= h else max(h, h_next)
+    par["h_next"] = h_next if h_use >= h else max(h, h_next)
     return False
 
 
 @inlined
 def _coefficients(par):
-    """``(h, β', γ', c_k)`` of the step ``par[0]``: ``β' = (1 − α_m)/(h²β(1 − α_f))``, ``γ' = γ/(hβ)``,
+    """``(h, β', γ', c_k)`` of the step ``par["h"]``: ``β' = (1 − α_m)/(h²β(1 − α_f))``, ``γ' = γ/(hβ)``,
     ``c_k = 1/β'``."""
-    h, am, af, gamma, beta = par[0], par[1], par[2], par[3], par[4]
+    h, am, af, gamma, beta = par["h"], par["alpha_m"], par["alpha_f"], par["gamma"], par["beta"]
     bp = (1.0 - am) / (h * h * beta * (1.0 - af))
     return h, bp, gamma / (h * beta), 1.0 / bp
 
@@ -313,46 +340,49 @@ def _coefficients(par):
 @kernel
 def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr, rec, held):
     """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton), or in a controlled
-    mode (``par[CONTROL]``) up to ``n_steps`` tries of a step (accepted or rejected) towards ``par[TARGET]``, each
+    mode (``par["control"]``) up to ``n_steps`` tries of a step (accepted or rejected) towards ``par["target"]``, each
     chosen by the step control; ``(status, steps)``, the steps those tried before the return (in a controlled mode
-    the clock is at ``par[TARGET]`` when it is reached; the caller bounds ``n_steps`` so that a call returns to
+    the clock is at ``par["target"]`` when it is reached; the caller bounds ``n_steps`` so that a call returns to
     Python within a fraction of a second, :class:`reference.algorithms.base.CallBudget`).
 
     ``REFACTOR`` (a correction shrank by less than ``contraction``, or no factor for the step yet) leaves the
     unfinished step's iterate in ``arr`` (x1, q1, V, λ, h Δq): the caller factors the Newton matrix there at
-    ``par[0]`` and calls again, and the step resumes from it.  ``NO_CONVERGENCE`` after ``max_iterations``
+    ``par["h"]`` and calls again, and the step resumes from it.  ``NO_CONVERGENCE`` after ``max_iterations``
     corrections.  Converged: :func:`_correction`'s imbalance (× θ/(1 − θ) once the contraction θ is known) below
-    the Newton tolerance, or a correction at :func:`_roundoff`.  ``par``: :data:`PAR_SIZE`; ``held``:
+    the Newton tolerance, or a correction at :func:`_roundoff`.  ``clock`` (1,) the state's
+    :data:`reference.state.CLOCK` and ``par`` (1,) the :data:`PAR` array, worked on in their records; ``held``:
     :func:`_choose`."""
     model, rec = named(model, Model), named(rec, Record)
+    clock, par = clock[0], par[0]
     dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, psi = arr
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, elements = wt
-    am, af, gamma, beta, tol, L, contraction = par[1], par[2], par[3], par[4], par[5], par[6], par[7]
-    max_it = int(par[8])
+    am, af = par["alpha_m"], par["alpha_f"]
+    tol, L, contraction = par["tolerance"], par["L"], par["contraction"]
+    max_it = int(par["max_iterations"])
     h, bp, gp, ck = _coefficients(par)
     N, m = x.shape[0], lam.shape[0]
     n_free = rhs.shape[0] - m
-    row_eps, angle, control, floor = model.joints.eps, fe[1], par[CONTROL] != FIXED, _roundoff(x, L)
-    if par[14] == 1.0:
-        par[14] = 0.0
-        _write_record(model, x, q, v, w, par[11], clock, lam, PHI, PHIt, Bl, rec)
+    row_eps, angle, control, floor = model.joints.compliance, fe[1], par["control"] != FIXED, _roundoff(x, L)
+    if par["record"] == 1.0:
+        par["record"] = 0.0
+        _write_record(model, x, q, v, w, par["U"], clock, lam, PHI, PHIt, Bl, rec)
     for step in range(n_steps):
-        if control and par[12] != 1.0:  # a new step of a controlled mode
+        if control and par["resume"] != 1.0:  # a new step of a controlled mode
             if not _choose(par, clock, angle, held):
                 return OK, step  # landed on the output time
             h, bp, gp, ck = _coefficients(par)
-        t1 = clock[0] + h
-        if not (step == 0 and par[12] == 1.0):
+        t1 = clock["t"] + h
+        if not (step == 0 and par["resume"] == 1.0):
             # predictor (unless resuming the iterate of an interrupted step with a new factor)
-            par[13] = 0.0
-            _predict(v, w, vd, a, lam, an, vdn, dq, Vn, lamn, h, am, gamma, beta)
-        par[12] = 1.0  # an interruption from here on keeps the iterate
+            par["corrections"] = 0.0
+            _predict(v, w, vd, a, lam, arr, h, par)
+        par["resume"] = 1.0  # an interruption from here on keeps the iterate
         previous = -1.0
         converged = False
-        while par[13] < max_it:
+        while par["corrections"] < max_it:
             _configuration(x, q, dq, h, x1, q1, tmp, psi)
-            par[11] = _evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
-            if par[9] < 0.0:
+            par["U"] = _evaluate(model, x1, q1, Vn[:, :3], Vn[:, 3:], vdn, lamn, t1, True, wt)
+            if par["fresh"] < 0.0:
                 return REFACTOR, step
             size, imbalance = _correction(r, S, F, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, delta, L,
                                           model.nodes.mass, model.nodes.inertia, vdn)
@@ -364,7 +394,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
             if previous >= 0.0 and size > contraction * previous and not done:
                 return REFACTOR, step  # a new factor at this iterate (full Newton when it keeps happening)
             previous = size
-            par[13] += 1.0
+            par["corrections"] += 1.0
             for i in range(N):
                 for k in range(6):
                     dq[i, k] += delta[i, k] / h
@@ -372,19 +402,19 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                     vdn[i, k] += bp * delta[i, k]
             for k in range(m):
                 lamn[k] += bp * sol[n_free + k]
-            par[10] += 1.0
+            par["iterations"] += 1.0
             if done:  # a slow contraction refactors only a step that has not converged
                 converged = True
                 break
         if not converged:
-            par[12] = 0.0
+            par["resume"] = 0.0
             return NO_CONVERGENCE, step
-        par[9] = 0.0
-        par[12] = 0.0
-        if control and _judge(par, clock, a, an, vdn, vd, Vn, angle, held, beta, L, am, af):
-            par[11] = math.nan  # rejected: the state stays, the last evaluation is not at it
+        par["fresh"] = 0.0
+        par["resume"] = 0.0
+        if control and _judge(par, clock, a, an, vdn, vd, Vn, angle, held):
+            par["U"] = math.nan  # rejected: the state stays, the last evaluation is not at it
             continue
         _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe[8], h, am, af)
-        clock[1] += 1
-        clock[0] = par[15] + (clock[1] - par[16]) * h
+        clock["n"] += 1
+        clock["t"] = par["t0"] + (clock["n"] - par["n0"]) * h
     return OK, n_steps

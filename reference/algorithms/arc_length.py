@@ -57,7 +57,7 @@ import numpy as np
 
 from reference.algorithms.critical_points import CriticalPoints
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
-from reference.algorithms.newton_steps import ENERGY, LAMBDA, NewtonArrays
+from reference.algorithms.newton_steps import NewtonArrays
 from reference.algorithms.path_checks import (START_FIX, STILL, STOP_OPERATORS, load_factor_jump, path_end,
                                               start_problem, unmoved)
 from reference.algorithms.static import _row_forces
@@ -299,15 +299,15 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         (:func:`reference.algorithms.newton_steps.newton_loop`); Python makes only the SuperLU factorisations
         it asks for (the first, and after the kept pivots went bad) and resumes it."""
         nw = run.newton
-        par = nw.par
+        par = nw.par[0]
         moved = np.zeros(run.system.n_free + 1)
-        par[LAMBDA] = lam
+        par["load"] = lam
         code = nw.solve(x, q, run.mu, self.t_end, normal, moved)
         run.history = nw.history()
-        run.U = par[ENERGY]
+        run.U = par["U"]
         if code == OK:
             run.iterations = len(run.history) - 1
-        return code, par[LAMBDA], moved
+        return code, par["load"], moved
 
     def _tangent(self, run, x, q, lam):
         """The tangent ``(δ_F (N,6), μ_F)``: ``K δ_F = F`` at the converged point (raises SingularMatrix)."""
@@ -317,7 +317,8 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         return system.solve(lu, F.copy(), np.zeros(system.model.n_constraints))
 
     def advance(self, model, state, run, n_steps, record) -> int:
-        x, q, v, w, _, clock = state[:6]
+        x, q, v, w, _ = state[:5]
+        clock = state.clock[0]
         system = run.system
         if not run.started:
             v[:] = 0.0
@@ -330,13 +331,13 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
             run.problem = start_problem(system, x, q, self.t_end, self.joint_labels)
             if run.problem:
                 return SINGULAR
-            run.started, clock[0] = True, 0.0
+            run.started, clock["t"] = True, 0.0
             run.F = system.work.F.copy()
             run.P = _row_forces(system, run.mu)
             self._stability(run, x, q)
         if record is not None:
             U = float(system.evaluate(x, q, x, x, x, run.mu, self.t_end, False))
-            system.write_record(record, x, q, v, w, U, clock, run.mu)
+            system.write_record(record, x, q, v, w, U, state.clock, run.mu)
             run.recorded = (run.lam, run.s, run.iterations, run.negative)
         for _ in range(n_steps):
             if run.done:
@@ -346,8 +347,8 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                 state.angle[:] = system.work.angle
                 run.stopped_at = run.lam
                 return code
-            clock[1] += 1
-            clock[0] = run.lam
+            clock["n"] += 1
+            clock["t"] = run.lam
             self._stability(run, x, q)
             run.done = path_end(x, run.lam, self.max_load_factor, self.stop_when)
         state.angle[:] = system.work.angle
@@ -409,7 +410,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                 run.s += float(np.linalg.norm(increment))
                 run.previous = increment
                 dW, run.P = self._work(run, saved[0], saved[1], x, q, lam)
-                clock[2] += dW
+                clock["work"] += dW
                 run.lam, run.jumped, run.switch = lam, run.switch is not None, None
                 run.peak, run.problem = max(run.peak, abs(lam)), ()
                 if self.control is None:

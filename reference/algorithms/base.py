@@ -208,12 +208,11 @@ class SolverSettings:
     spin_rate, spin_axis, spin_point : float, tuple, tuple
         Modes about a rotation: the rate Ω [rad/s], the axis (inertial) and a point of it [m].
     backend : str
-        Which implementation of the equations runs the algorithm: ``"compiled"`` (the numba kernels),
-        ``"reference"`` (the plain NumPy path of ``reference/plain/``, the same generated physics, no
-        compilation) or ``"auto"`` (default: the reference path when the run is too short to pay for
+        Which implementation of the equations runs the algorithm: ``"compiled"`` (default; the numba
+        kernels), ``"reference"`` (the plain NumPy path of ``reference/plain/``, the same generated
+        physics, no compilation) or ``"auto"`` (the reference path when the run is too short to pay for
         compiling the kernels it needs, else the compiled one; the rule, its measurements and its one
-        line on the terminal: ``reference/plain/backend.py``).  A first result then comes in seconds from an
-        empty compile cache (docs/benchmarks.md, "First run").
+        line on the terminal: ``reference/plain/backend.py``).
     arc_length, max_points, max_load_factor, branch_switch, stop_when, control
         Arc length: the initial arc (scaled norm), the converged points, the stop on ``|λ|``, the switch
         at a bifurcation, the stop on a node coordinate and the displacement control (:class:`reference.algorithms.arc_length.ArcLength`).
@@ -244,4 +243,4 @@ class SolverSettings:
     spin_rate: float = 0.0
     spin_axis: tuple = (0.0, 0.0, 1.0)
     spin_point: tuple = (0.0, 0.0, 0.0)
-    backend: str = "auto"
+    backend: str = "compiled"

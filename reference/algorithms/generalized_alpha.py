@@ -89,10 +89,10 @@ class GeneralizedAlphaRun:
     :class:`~reference.state.State`.
 
     ``system`` the model's Newton system; ``L`` the model size [m] of the convergence test;
-    ``h`` the first step [s] (then ``par[H_NEXT]``); ``vd``, ``a`` (N, 6) the accelerations V̇ and the
+    ``h`` the first step [s] (then ``par["h_next"]``); ``vd``, ``a`` (N, 6) the accelerations V̇ and the
     algorithmic accelerations; ``lam`` (m,) the multipliers; ``powers`` = [constraint power P, dissipated power D]
     of the last step; ``factors`` the kept LU factor (None: none yet); ``par`` the compiled steps'
-    settings, counters and step control (:data:`reference.algorithms.alpha_steps.PAR_SIZE`: the controller's
+    settings, counters and step control (:data:`reference.algorithms.alpha_steps.PAR`: the controller's
     next step, the converged steps since the last cut, the largest step a cut step grows back to — below the
     last that failed, doubled at every output up to ``dt`` —, …); ``arrays`` their work arrays; ``held`` the
     force elements' angles at the step's start (restored after a rejected or failed step); ``started`` whether the consistent initial accelerations
@@ -272,9 +272,10 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         """Consistent initial accelerations and multipliers at the state's time."""
         system = run.system
         model = system.model
-        x, q, v, w, f_prev, clock = state[:6]
+        x, q, v, w, f_prev = state[:5]
+        clock = state.clock[0]
         N, m = x.shape[0], model.n_constraints
-        t = clock[0]
+        t = clock["t"]
         system.work.angle[:] = state.angle  # the force elements' continuous angles
         h = run.h
         bp = (1.0 - self.alpha_m) / (h * h * self.beta * (1.0 - self.alpha_f))
@@ -293,12 +294,12 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             np.zeros(m), np.zeros(m), np.zeros(n), np.zeros(n), np.zeros(n),
             np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4), np.zeros((N, 3)))
         run.held = np.zeros_like(system.work.angle)
-        run.par = np.zeros(ak.PAR_SIZE)
-        run.par[:17] = [run.h, self.alpha_m, self.alpha_f, self.gamma, self.beta, self.tolerance, run.L,
-                        self.contraction, self.max_iterations, 0.0, 0.0, np.nan, 0.0, 0.0, 0.0, t, clock[1]]
-        run.par[ak.DT:ak.CEILING + 1] = [self.dt, 0.0, run.h, self.dt_min, self.dt_max,
-                                         self.error_tolerance or 0.0, 0.0, 0.0, math.inf]
-        run.par[ak.DEAD_BAND:] = [self.dead_band, self.reuse, run.h, 0.0, math.inf, 0.0, np.nan, 0.0, 0.0]
+        run.par = ak.new_par(h=run.h, alpha_m=self.alpha_m, alpha_f=self.alpha_f, gamma=self.gamma, beta=self.beta,
+                             tolerance=self.tolerance, L=run.L, contraction=self.contraction,
+                             max_iterations=self.max_iterations, U=np.nan, t0=t, n0=clock["n"], dt=self.dt,
+                             h_next=run.h, dt_min=self.dt_min, dt_max=self.dt_max,
+                             error_tolerance=self.error_tolerance or 0.0, ceiling=math.inf, dead_band=self.dead_band,
+                             reuse=self.reuse, h_factor=run.h)
         run.varying = self.error_tolerance is not None or run.h != self.dt
         run.nominal = int(round(t / self.dt))
         run.started = True
@@ -306,27 +307,28 @@ class GeneralizedAlpha(ImplicitAlgorithm):
 
     def advance(self, model, state, run, n_steps, record) -> int:
         system = run.system
-        x, q, v, w, f_prev, clock = state[:6]
+        x, q, v, w, f_prev = state[:5]
+        clock = state.clock[0]
         if not run.started:
             run.stopped_at = None
             code = self._initial_accelerations(run, state)
             if code != OK:
-                run.stopped_at = clock[0]
+                run.stopped_at = clock["t"]
                 return code
-        par = run.par
+        par = run.par[0]
         left = int(n_steps)
         rec = Record.empty(x.shape[0], model.n_constraints) if record is None else record
         if record is not None:
             r = system.work.r[system.free]
-            run.row = run.stats.output(par[0], math.sqrt(r @ r))
-            if left > 0 and math.isfinite(par[11]):
+            run.row = run.stats.output(par["h"], math.sqrt(r @ r))
+            if left > 0 and math.isfinite(par["U"]):
                 # the last Newton evaluation of the previous step is this state within the
                 # tolerance: the compiled steps write the record from it before stepping
-                par[14] = 1.0
+                par["record"] = 1.0
             else:
-                U = par[11] if np.isfinite(par[11]) else system.evaluate(x, q, v, w, run.vd, run.lam, clock[0], True)
-                system.write_record(record, x, q, v, w, U, clock, run.lam)
-        par[10] = 0.0
+                U = par["U"] if np.isfinite(par["U"]) else system.evaluate(x, q, v, w, run.vd, run.lam, clock["t"], True)
+                system.write_record(record, x, q, v, w, U, state.clock, run.lam)
+        par["iterations"] = 0.0
         if run.varying:
             code = self._controlled(state, run, left, rec)
         else:
@@ -334,72 +336,73 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             run.nominal += done
             run.stats.steps += done
             if done:
-                run.stats.h_min, run.stats.h_max = min(run.stats.h_min, par[0]), max(run.stats.h_max, par[0])
+                run.stats.h_min, run.stats.h_max = min(run.stats.h_min, par["h"]), max(run.stats.h_max, par["h"])
             if code in RECOVERABLE:
                 code = self._cut(state, run, code)
                 if code == OK:
                     code = self._controlled(state, run, left - done, rec)
         state.angle[:] = system.work.angle
-        run.stats.iterations += int(par[10])
+        run.stats.iterations += int(par["iterations"])
         if code != OK:
             run.factors = None
-            par[12] = 0.0
-            run.stopped_at = clock[0]
+            par["resume"] = 0.0
+            run.stopped_at = clock["t"]
         return code
 
     def _steps(self, state, run, n_steps, rec) -> tuple[int, int]:
-        """Up to ``n_steps`` compiled steps (in a controlled mode: tries to the output time ``par[TARGET]``), the
+        """Up to ``n_steps`` compiled steps (in a controlled mode: tries to the output time ``par["target"]``), the
         Newton matrix factored when they ask, in calls of at most ``run.budget`` steps (each returns to Python
         within a fraction of a second: a signal stops the run between two); returns (status, steps done)."""
-        system, par, budget = run.system, run.par, run.budget
-        x, q, v, w, f_prev, clock = state[:6]
-        control = par[ak.CONTROL] != ak.FIXED
+        system, par, budget = run.system, run.par[0], run.budget
+        x, q, v, w, f_prev = state[:5]
+        clock = state.clock[0]
+        control = par["control"] != ak.FIXED
         left, done = n_steps, 0
         while left > 0:
             if run.factors is None:
-                par[9] = -1.0  # only predict: the factor is made at the predictor
+                par["fresh"] = -1.0  # only predict: the factor is made at the predictor
             size = min(left, budget.start())
-            code, n = steps(system.arg, x, q, v, w, run.vd, run.a, run.lam, clock, f_prev, run.powers, system.dof,
-                            par, size, NO_FACTOR if run.factors is None else run.factors, system.wt, run.arrays,
-                            system.record_arg(rec), run.held)
+            factors = NO_FACTOR if run.factors is None else run.factors
+            code, n = steps(system.arg, x, q, v, w, run.vd, run.a, run.lam, state.clock, f_prev, run.powers,
+                            system.dof, run.par, size, factors, system.wt, run.arrays, system.record_arg(rec), run.held)
             budget.took(n)
             left -= n
             done += n
             if code == OK:
-                if control and clock[0] == par[ak.TARGET]:
+                if control and clock["t"] == par["target"]:
                     return OK, done  # landed on the output time
                 continue
             if code != REFACTOR:
                 return code, done
-            arr, h = run.arrays, par[0]
+            arr, h = run.arrays, par["h"]
             bp = (1.0 - self.alpha_m) / (h * h * self.beta * (1.0 - self.alpha_f))
             ck, cc = 1.0 / bp, (self.gamma / (h * self.beta)) / bp
             try:
-                run.factors = system.factor(arr[12], arr[13], np.ascontiguousarray(arr[1][:, 3:]), clock[0] + h,
+                run.factors = system.factor(arr[12], arr[13], np.ascontiguousarray(arr[1][:, 3:]), clock["t"] + h,
                                             arr[7], 1.0, cc, ck, psi=np.ascontiguousarray(h * arr[0][:, 3:]))
             except SingularMatrix:
                 return SINGULAR, done
             run.stats.factorizations += 1
-            par[9] = 1.0  # the interrupted step resumes with a fresh factor
-            par[ak.H_FACTOR] = h
+            par["fresh"] = 1.0  # the interrupted step resumes with a fresh factor
+            par["h_factor"] = h
         return OK, done
 
     def _cut(self, state, run, code) -> int:
         """Halve the step after a failed one (its iterate is dropped; the state is the last converged);
         the failure's code when the step would fall below ``dt_min``."""
-        par, stats = run.par, run.stats
+        par, stats = run.par[0], run.stats
         run.factors = None
-        par[12] = 0.0
-        h = par[0] * 0.5
+        par["resume"] = 0.0
+        h = par["h"] * 0.5
         if h < self.dt_min * (1.0 - 1e-12):
-            run.tried = (f"with the step cut from {self.dt:g} to {par[0]:g} s"
+            run.tried = (f"with the step cut from {self.dt:g} to {par['h']:g} s"
                          if self.error_tolerance is None else f"with the step at dt_min = {self.dt_min:g} s")
             return code
         stats.cuts += 1
-        par[ak.GOOD] = 0.0
-        par[ak.CEILING] = h  # the step grows back to below the one that failed, until the next output
+        par["good"] = 0.0
+        par["ceiling"] = h  # the step grows back to below the one that failed, until the next output
         run.varying = True
-        par[ak.H_NEXT] = h
+        par["h_next"] = h
         return OK
 
     def _controlled(self, state, run, n_steps, rec) -> int:
@@ -408,10 +411,10 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         compiled steps per call (:func:`steps`), the factorisations and the step cuts here."""
         if self.python_control:
             return controlled_python(self, state, run, n_steps, rec)
-        par, angle = run.par, run.system.work.angle
-        par[ak.CONTROL] = ak.GROWING if self.error_tolerance is None else ak.ERROR_CONTROL
-        par[ak.TARGET] = (run.nominal + n_steps) * self.dt
-        par[ak.AFTER_REJECTION] = 0.0
+        par, angle = run.par[0], run.system.work.angle
+        par["control"] = ak.GROWING if self.error_tolerance is None else ak.ERROR_CONTROL
+        par["target"] = (run.nominal + n_steps) * self.dt
+        par["after_rejection"] = 0.0
         while True:
             code, _ = self._steps(state, run, 1 << 62, rec)
             self._collect(run)
@@ -427,27 +430,27 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         return OK
 
     def _collect(self, run) -> None:
-        """The compiled steps' statistics (:data:`reference.algorithms.alpha_steps.PAR_SIZE`) into ``run.stats``."""
-        par, stats = run.par, run.stats
-        stats.steps += int(par[ak.ACCEPTED])
-        stats.rejected += int(par[ak.REJECTED])
-        stats.over += int(par[ak.OVER])
-        stats.h_min, stats.h_max = min(stats.h_min, par[ak.H_MIN]), max(stats.h_max, par[ak.H_MAX])
-        err = par[ak.ERROR]
+        """The compiled steps' statistics (:data:`reference.algorithms.alpha_steps.PAR`) into ``run.stats``."""
+        par, stats = run.par[0], run.stats
+        stats.steps += int(par["accepted"])
+        stats.rejected += int(par["rejected"])
+        stats.over += int(par["over"])
+        stats.h_min, stats.h_max = min(stats.h_min, par["h_min"]), max(stats.h_max, par["h_max"])
+        err = par["error"]
         if err == err:
             stats.error = err if stats.error != stats.error else max(stats.error, err)
             stats.worst = max(stats.worst, err)
-        par[ak.ACCEPTED:] = [0.0, math.inf, 0.0, np.nan, 0.0, 0.0]
+        ak.clear_statistics(par)
 
     def _landed(self, state, run, n_steps) -> None:
         """The output time ``n_steps`` steps of ``dt`` ahead is reached: the cut step's ceiling doubles, and a
         step grown back to ``dt`` returns to the fixed steps."""
-        par, clock = run.par, state.clock
+        par, clock = run.par[0], state.clock[0]
         run.nominal += n_steps
-        par[ak.CEILING] = min(2.0 * par[ak.CEILING], self.dt)
-        if self.error_tolerance is None and par[ak.H_NEXT] == self.dt:
-            set_step(par, self.dt, clock[0], clock[1])  # back to the fixed steps
-            par[ak.CONTROL] = ak.FIXED
+        par["ceiling"] = min(2.0 * par["ceiling"], self.dt)
+        if self.error_tolerance is None and par["h_next"] == self.dt:
+            set_step(par, self.dt, clock["t"], clock["n"])  # back to the fixed steps
+            par["control"] = ak.FIXED
             run.varying = False
 
     def recorded(self, run) -> dict:

@@ -10,19 +10,22 @@ Residual (per node, the paper's eq. (5) written as ``M a + Bᵀλ = Q``)::
 
     r_u = m v̇ + c m v + S_u − F_u + (Bᵀλ)_u
     r_θ = J ω̇ + ω × J ω + c J ω + S_θ − F_θ + (Bᵀλ)_θ      (body frame)
-    Φ(x, q, t) − ε λ = 0
+    Φ(x, q, t) − c λ = 0
 
 with ``S`` the internal forces of every element family and ``F`` the external
 forces (:func:`reference.evaluation.forces.generalized_forces`), B the joint
-Jacobian (:func:`reference.joints.assembly.joint_rows`) and ε the joint's
-regularisation (``ε λ = Φ``, the explicit scheme's meaning).  The Static
+Jacobian (:func:`reference.joints.assembly.joint_rows`) and c the rows'
+compliance (``model.joints.compliance``: a regularised joint's ε, ``ε λ = Φ``, the
+explicit scheme's meaning; 0 for an augmented-Lagrangian row, whose ε only regularises
+the Newton matrix below, so that the multiplier estimate is updated at every iteration:
+:mod:`reference.joints.augmented_lagrangian`).  The Static
 algorithm uses ``v = v̇ = 0``.
 
 Newton matrix with coefficients ``(c_m, c_c, c_k)`` (static: 0, 0, 1;
 generalized-α: 1, γ'/β', 1/β')::
 
     [ c_m M + c_c C + c_k K    Bᵀ  ] [δ]      [c_k r]
-    [ B                      −ε/c_k] [μ]  = − [Φ − ελ]      λ ← λ + μ / c_k
+    [ B                      −ε/c_k] [μ]  = − [Φ − cλ]      λ ← λ + μ / c_k
 
 ``C = ∂r/∂V`` (damping, the gyroscopic tangent and the force elements' dampers),
 ``K = ∂r/∂δ`` at fixed velocities: the element families' tangent stiffness (material +
@@ -55,7 +58,7 @@ import numpy as np
 from reference.algorithms.base import Algorithm
 from reference.elements.families import family_of
 from reference.evaluation.forces import model_forces
-from reference.evaluation.tangent import newton_pattern, tangent_values
+from reference.evaluation.tangent import TangentWork, newton_pattern, tangent_values
 from reference.generated import rotation_maps as rm
 from reference.jit import boundary, inlined, kernel, named, parallel_kernel, prange
 from reference.joints.assembly import joint_rows
@@ -80,10 +83,8 @@ class Work:
         self.A = np.zeros(9)
         self.jphi, self.jB, self.jphit = np.zeros(6), np.zeros((6, 12)), np.zeros(6)
         self.prim_phi, self.prim_B = np.zeros(10), np.zeros(120)
-        self.small = np.zeros((8, 12))
-        self.K12 = np.zeros((12, 12))
         sizes = [6 * family_of(data).n_nodes for data in model.elements]
-        self.Kel = np.zeros(max(sizes + [12]) ** 2)  # one element's tangent block (flat)
+        self.tangent = TangentWork.for_sizes(max(sizes + [12]) ** 2)
         nF = model.force_elements.kind.shape[0]
         blocks = sum(size * size * data.conn.shape[0] for size, data in zip(sizes, model.elements))
         self.values = np.zeros(36 * N + blocks + 144 * J + 24 * m + m + 144 * nF)
@@ -226,9 +227,9 @@ class NewtonSystem:
         return evaluate(self.arg, x, q, v, w, vd, lam, t, dynamic, self.wt)
 
     def residual_norm(self, ck: float, lam) -> float:
-        """‖[c_k r; Φ − ελ]‖ of the last :meth:`evaluate` (free coordinates only)."""
+        """‖[c_k r; Φ − cλ]‖ of the last :meth:`evaluate` (free coordinates only)."""
         r = self.work.r[self.free]
-        phi = self.work.PHI - self.model.joints.eps * lam
+        phi = self.work.PHI - self.model.joints.compliance * lam
         return float(math.sqrt(ck * ck * r @ r + phi @ phi))
 
     def matrix(self, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
@@ -238,7 +239,7 @@ class NewtonSystem:
         wk = self.work
         ce = 1.0 / ck if ce is None else ce
         psi = self.zero_psi if psi is None else psi
-        tangent_values(self.arg, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.small, wk.K12, wk.Kel)
+        tangent_values(self.arg, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.tangent)
         return self.pattern.matrix(wk.values)
 
     def mass(self, x, q):
@@ -296,12 +297,13 @@ class NewtonSystem:
         return delta, sol[self.n_free:]
 
     def newton_correction(self, lu, ck, lam):
-        """Correction from the last :meth:`evaluate`: right-hand side ``−[c_k r; Φ − ελ]``."""
-        return self.solve(lu, -ck * self.work.r, -(self.work.PHI - self.model.joints.eps * lam))
+        """Correction from the last :meth:`evaluate`: right-hand side ``−[c_k r; Φ − cλ]``."""
+        return self.solve(lu, -ck * self.work.r, -(self.work.PHI - self.model.joints.compliance * lam))
 
-    def write_record(self, rec, x, q, v, w, U, energy_clock, lam) -> None:
-        """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B)."""
-        write_record(self.arg, x, q, v, w, U, energy_clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl,
+    def write_record(self, rec, x, q, v, w, U, clock, lam) -> None:
+        """Fill ``rec`` as the explicit scheme does (uses the last :meth:`evaluate` for Φ and B; ``clock`` the
+        state's, :data:`reference.state.CLOCK` (1,))."""
+        write_record(self.arg, x, q, v, w, U, clock, lam, self.work.PHI, self.work.PHIt, self.work.Bl,
                      self.record_arg(rec))
 
     def record_arg(self, rec):
@@ -422,13 +424,15 @@ def relative_rotation(q0, q1, out, tmp):
 
 @kernel
 def write_record(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
-    """Record: configuration, velocities, energies [T, U, W, D], ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
-    write_record_named(named(model, Model), x, q, v, w, U, clock, lam, PHI, PHIt, Bl, named(rec, Record))
+    """Record: configuration, velocities, energies [T, U, W, D] (W and D from ``clock``, the state's
+    :data:`reference.state.CLOCK` (1,)), ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
+    write_record_named(named(model, Model), x, q, v, w, U, clock[0], lam, PHI, PHIt, Bl, named(rec, Record))
 
 
 @inlined
 def write_record_named(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
-    """:func:`write_record` of a Model and Record that are named tuples already (the form a kernel inlines)."""
+    """:func:`write_record` of a Model and Record that are named tuples already and of the clock's record (the
+    form a kernel inlines)."""
     T = 0.0
     J, mass = model.nodes.inertia, model.nodes.mass
     rx, rq, rv, rw = rec.x, rec.q, rec.v, rec.w
@@ -444,8 +448,8 @@ def write_record_named(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
             rq[i, a] = q[i, a]
     rec.energy[0] = T
     rec.energy[1] = U
-    rec.energy[2] = clock[2]
-    rec.energy[3] = clock[3]
+    rec.energy[2] = clock["work"]
+    rec.energy[3] = clock["dissipated"]
     c0 = 0.0
     c1 = 0.0
     jt_i, jt_j, jt_row0, jt_neq, rlam = model.joints.i, model.joints.j, model.joints.row0, model.joints.neq, rec.lam

@@ -43,7 +43,7 @@ from reference.algorithms.implicit import NewtonSystem, compose
 from reference.generated import rotation_maps as rm
 from reference.linalg import RANK_TOLERANCE, SingularMatrix, null_space
 from reference.scalar import scalar_twin
-from reference.state import Model, State
+from reference.state import Model, State, new_clock
 
 CONSISTENCY_STEP = 1e-6
 """Step [s] of the central difference of ``B V + Φ_t`` along the motion, for the multipliers consistent
@@ -166,7 +166,7 @@ def at_results(model: Model, results, t: float, system: NewtonSystem | None = No
     v = np.nan_to_num(np.asarray(results.velocities[k], dtype=float))
     w = np.nan_to_num(np.asarray(results.angular_velocities[k], dtype=float))
     lam = np.asarray(results.multipliers, dtype=float)
-    state = State(x.copy(), q.copy(), v, w, np.zeros((N, 6)), np.array([float(results.time[k]), 0.0, 0.0, 0.0]),
+    state = State(x.copy(), q.copy(), v, w, np.zeros((N, 6)), new_clock(float(results.time[k])),
                   np.zeros(model.force_elements.kind.shape[0]))
     if lam.shape[1:] == (model.n_constraints,) and np.all(np.isfinite(lam[k])):
         return linearize(model, x, q, v, w, lam[k], state.t, state.angle, system)

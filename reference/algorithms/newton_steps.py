@@ -26,27 +26,28 @@ from reference.evaluation.tangent import tangent_values
 from reference.jit import kernel, named
 from reference.linalg import SingularMatrix, lu_solve, refactor
 from reference.modal import SYMMETRY
-from reference.state import Model
+from reference.state import Model, record_dtype
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR
 
 NO_FACTOR = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
              np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
 """Empty factor arrays, passed before the first factorisation (the kernel asks for one at once)."""
 
-(TOLERANCE, LENGTH, MAX_ITERATIONS, CORRECTIONS, RESUME, ENERGY, THRESHOLD, FACTORED, TANGENT, SIGN, BORDERED,
- LAMBDA) = range(12)
-"""Slots of :func:`newton_loop`'s ``par``: the Newton tolerance, the model size L [m], the iteration limit,
-the corrections made (in/out), 1 to resume with a fresh factor of the matrix left assembled (in; cleared),
-the strain energy of the last evaluation (out), the pivot threshold of the kept pivot order
-(:attr:`reference.linalg.SparseLU.PIVOT_THRESHOLD`), 1 when a factor exists (in), what to leave at the
-equilibrium for the static stability count (in: 0 nothing, 1 the tangent, 2 the tangent and the sign of its
-determinant, :func:`tangent_sign`), that sign (out), 1 when the load factor is an unknown on a normal plane
-(arc length; in), the load factor λ (1 for the static algorithm; in/out)."""
+PAR = record_dtype("tolerance", "L", "max_iterations", "corrections", "resume", "U", "threshold", "factored",
+                   "tangent", "sign", "bordered", "load")
+"""The record of :func:`newton_loop`'s ``par`` (an array of shape (1,), :func:`reference.state.record_dtype`):
+the Newton ``tolerance``, the model size ``L`` [m], the iteration limit ``max_iterations``, the ``corrections``
+made (in/out), ``resume`` 1 to resume with a fresh factor of the matrix left assembled (in; cleared), the strain
+energy ``U`` of the last evaluation [J] (out), the pivot ``threshold`` of the kept pivot order
+(:attr:`reference.linalg.SparseLU.PIVOT_THRESHOLD`), ``factored`` 1 when a factor exists (in), what to leave at
+the equilibrium for the static stability count, ``tangent`` (in: 0 nothing, 1 the tangent, 2 the tangent and the
+sign of its determinant, :func:`tangent_sign`), that ``sign`` (out), ``bordered`` 1 when the load factor is an
+unknown on a normal plane (arc length; in), the ``load`` factor λ (1 for the static algorithm; in/out)."""
 
 
 class NewtonArrays:
     """What :func:`newton_loop` works in for one :class:`reference.algorithms.implicit.NewtonSystem`, made once
-    per run: ``par`` (the slots above), the CSC arrays and scatter of the Newton matrix, the scratch of the
+    per run: ``par`` (a :data:`PAR` array of shape (1,)), the CSC arrays and scatter of the Newton matrix, the scratch of the
     tangent assembly (``dense`` (n, n) for the static stability sign, else empty), ``hist``
     (max_iterations + 1), the loop's ``arrays`` and, for a path, the scaled norm's ``weights`` (n_free) and the
     follower loads ``follower`` (node, code 1 force / 2 moment, f, vector (k, 3)), none by default."""
@@ -55,14 +56,15 @@ class NewtonArrays:
                  follower=None):
         n, N, nf = system.pattern.n, system.dof.shape[0], system.n_free
         self.system = system
-        self.par = np.zeros(12)
-        self.par[LAMBDA] = 1.0
-        self.par[TOLERANCE], self.par[LENGTH], self.par[MAX_ITERATIONS] = tolerance, L, max_iterations
-        self.par[THRESHOLD] = system.slu.PIVOT_THRESHOLD
+        self.par = np.zeros(1, PAR)
+        par = self.par[0]
+        par["load"] = 1.0
+        par["tolerance"], par["L"], par["max_iterations"] = tolerance, L, max_iterations
+        par["threshold"] = system.slu.PIVOT_THRESHOLD
         A, wk = system.pattern.assembled, system.work
         self.csc = (A.indptr, A.indices, A.data)
         self.scatter = (system.pattern.slot, system.pattern.keep, wk.values)
-        self.tangent_work = (wk.small, wk.K12, wk.Kel, system.zero_psi, np.zeros((0, 0)) if dense is None else dense)
+        self.tangent_work = (wk.tangent, system.zero_psi, np.zeros((0, 0)) if dense is None else dense)
         self.arrays = (np.zeros(n), np.zeros(n), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4),
                        np.zeros((N, 6)), np.zeros(n), np.zeros((N, 6)), np.zeros(nf), np.zeros(nf), np.zeros((N, 6)))
         self.hist = np.zeros(max_iterations + 1)
@@ -73,10 +75,10 @@ class NewtonArrays:
         self.moved = np.zeros(nf + 1)  # the path increment of a static solve (not read)
 
     def solve(self, x, q, lam, t, normal=None, moved=None) -> int:
-        """:func:`newton_loop` from ``(x, q, λ)`` at t (load factor ``par[LAMBDA]``) in place, on the plane of
-        ``normal`` when given (``par[BORDERED]``), accumulating the scaled corrections into ``moved``; a status."""
+        """:func:`newton_loop` from ``(x, q, λ)`` at t (load factor ``par["load"]``) in place, on the plane of
+        ``normal`` when given (``par["bordered"]``), accumulating the scaled corrections into ``moved``; a status."""
         system, par = self.system, self.par
-        par[BORDERED] = 0.0 if normal is None else 1.0
+        par[0]["bordered"] = 0.0 if normal is None else 1.0
         plane = self.plane if normal is None else np.ascontiguousarray(normal, dtype=float)
         moved = self.moved if moved is None else moved
         return self.run(lambda factors, csc: newton_loop(system.arg, x, q, lam, t, system.dof, factors, csc, system.wt,
@@ -86,10 +88,10 @@ class NewtonArrays:
     def run(self, call) -> int:
         """``call(factors, csc)`` (a compiled loop given its factor and CSC arrays) until it ends, with the
         SuperLU factorisations it asks for (REFACTOR: the matrix it left assembled, then resumed); a status."""
-        slu, par = self.system.slu, self.par
-        par[CORRECTIONS], par[RESUME] = 0.0, 0.0
+        slu, par = self.system.slu, self.par[0]
+        par["corrections"], par["resume"] = 0.0, 0.0
         while True:
-            par[FACTORED] = 0.0 if slu.f is None else 1.0
+            par["factored"] = 0.0 if slu.f is None else 1.0
             csc = (*self.csc, NO_FACTOR[6] if slu.f is None else slu.inv_perm_c, slu.w, slu.work, slu.rs, slu.cs,
                    *self.scatter)
             code = call(NO_FACTOR if slu.f is None else slu.f, csc)
@@ -99,24 +101,24 @@ class NewtonArrays:
                 slu.factor(self.system.pattern.assembled)
             except SingularMatrix:
                 return SINGULAR
-            par[RESUME] = 1.0
+            par["resume"] = 1.0
 
     def history(self) -> list:
         """The residual norms of the last loop's evaluations."""
-        return list(self.hist[: int(self.par[CORRECTIONS]) + 1])
+        return list(self.hist[: int(self.par[0]["corrections"]) + 1])
 
 
 @kernel
 def newton_loop(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr, par, hist, normal, weights,
                 follower, moved):
     """Full Newton–Raphson on ``S − Λ F + Bᵀλ = 0``, ``Φ − ελ = 0`` at time (load factor) t from
-    ``(x, q, λ)``, in place (docs/formulation.md §10, §12), Λ = ``par[LAMBDA]`` the arc length's load factor
+    ``(x, q, λ)``, in place (docs/formulation.md §10, §12), Λ = ``par["load"]`` the arc length's load factor
     (1 for the static algorithm: the residual of the evaluation as it is).
 
     Converged when the residual is balanced (every free residual force below ``tolerance`` times the largest
     internal force, ``|Λ|`` times the largest external force or the largest joint force, and ``|Φ − ελ|``
     below ``tolerance × L``) or, after a correction, when the correction is below ``tolerance``
-    (translations over L, rotations in rad).  With ``par[BORDERED] = 1`` Λ is an unknown on the plane of
+    (translations over L, rotations in rad).  With ``par["bordered"] = 1`` Λ is an unknown on the plane of
     the unit ``normal`` (n_free + 1, scaled: translations × ``weights``), solved by bordering (two solves
     with the one factor, :func:`_bordered`); ``moved`` (n_free + 1) accumulates the scaled corrections and
     ΔΛ.  At Λ ≠ 1 the configuration-dependent load blocks of the matrix, assembled at Λ = 1, are scaled to
@@ -130,60 +132,61 @@ def newton_loop(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr, p
     Returns OK, DIVERGED (non-finite residual), SINGULAR (a pivot below the equilibrated threshold, a
     non-finite correction or ΔΛ), NO_CONVERGENCE (``max_iterations`` corrections) or REFACTOR (the kept
     pivot order failed, or there is no factor yet: the matrix at the iterate is assembled in ``data``;
-    factor it with SuperLU and call again with ``par[RESUME] = 1``).
+    factor it with SuperLU and call again with ``par["resume"] = 1``).
     """
     mdl = named(model, Model)
     Ap, Ai, Ax, work, slot, keep, values = csc[0], csc[1], csc[2], csc[5], csc[8], csc[9], csc[10]
-    small, K12, Kel, psi, dense = tangent_work
+    tw, psi, dense = tangent_work
     rhs, sol, delta, dth, q_new, tmp, rows, solF, dF, sc, scF, reff = arr
     f_node, f_code, f_val, f_vec = follower
     S, F, r, PHI = wt[0], wt[1], wt[2], wt[3]
     Bl = wt[5]
-    eps = mdl.joints.eps
+    eps = mdl.joints.compliance  # the rows' equations are Φ − c λ = 0 (the Newton matrix keeps ε)
     jt_i, jt_j, jt_row0, jt_neq = mdl.joints.i, mdl.joints.j, mdl.joints.row0, mdl.joints.neq
-    tol, L, max_it = par[TOLERANCE], par[LENGTH], int(par[MAX_ITERATIONS])
+    par = par[0]
+    tol, L, max_it = par["tolerance"], par["L"], int(par["max_iterations"])
     n_free = rhs.shape[0] - lam.shape[0]
     while True:
-        it = int(par[CORRECTIONS])
-        load = par[LAMBDA]
-        if par[RESUME] != 1.0:
-            par[ENERGY] = evaluate(model, x, q, x, x, x, lam, t, False, wt)
+        it = int(par["corrections"])
+        load = par["load"]
+        if par["resume"] != 1.0:
+            par["U"] = evaluate(model, x, q, x, x, x, lam, t, False, wt)
             hist[it] = _load_residual(r, F, PHI, eps, lam, load, dof, reff)
             if not math.isfinite(hist[it]):
                 return DIVERGED
             if _balanced(S, abs(load) * _largest(F), reff, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq,
                          rows, tol, L) or (it > 0 and _correction_size(delta, L) <= tol):
-                if par[TANGENT] > 0.0:
+                if par["tangent"] > 0.0:
                     # the stability count's tangent at the equilibrium: [K Bᵀ; B 0] (c_e = 0) at zero velocity
-                    tangent_values(model, x, q, psi, psi, t, lam, 0.0, 0.0, 1.0, 0.0, values, wt, small, K12, Kel)
+                    tangent_values(model, x, q, psi, psi, t, lam, 0.0, 0.0, 1.0, 0.0, values, wt, tw)
                     _scatter(Ax, slot, keep, values)
-                    if par[TANGENT] == 2.0:
-                        par[SIGN] = tangent_sign(Ap, Ai, Ax, dense)
+                    if par["tangent"] == 2.0:
+                        par["sign"] = tangent_sign(Ap, Ai, Ax, dense)
                 return OK
             if it == max_it:
                 return NO_CONVERGENCE
-            tangent_values(model, x, q, x, psi, t, lam, 0.0, 0.0, 1.0, 1.0, values, wt, small, K12, Kel)
+            tangent_values(model, x, q, x, psi, t, lam, 0.0, 0.0, 1.0, 1.0, values, wt, tw)
             if load != 1.0:
                 _scale_load_blocks(values, q, load, f_node, f_code, f_val, f_vec)
             code = _refactor_values(factors, csc, par)
             if code != OK:
                 return code
-        par[RESUME] = 0.0
+        par["resume"] = 0.0
         _newton_rhs(reff, PHI, eps, lam, dof, rhs)
         if not _solve(factors, rhs, work, sol, dof, delta):
             return SINGULAR
         dload = 0.0
-        if par[BORDERED] == 1.0:
+        if par["bordered"] == 1.0:
             dload = _bordered(factors, F, dof, weights, normal, rhs, work, sol, solF, delta, dF, sc, scF)
             if not math.isfinite(dload):
                 return SINGULAR
         _update(x, q, lam, delta, sol, dth, q_new, tmp)
-        par[LAMBDA] = load + dload
+        par["load"] = load + dload
         _scaled(delta, dof, weights, sc)
         for k in range(n_free):
             moved[k] += sc[k]
         moved[n_free] += dload
-        par[CORRECTIONS] = it + 1
+        par["corrections"] = it + 1
 
 
 @kernel
@@ -207,9 +210,9 @@ def _refactor_values(factors, csc, par):
     factor yet, or a kept pivot below the threshold: SuperLU's turn) or SINGULAR."""
     Ap, Ai, Ax, inv_perm_c, w_lu, work, rs, cs, slot, keep, values = csc
     _scatter(Ax, slot, keep, values)
-    if par[FACTORED] != 1.0:
+    if par["factored"] != 1.0:
         return REFACTOR
-    code = refactor(factors, Ap, Ai, Ax, inv_perm_c, w_lu, par[THRESHOLD], rs, cs)
+    code = refactor(factors, Ap, Ai, Ax, inv_perm_c, w_lu, par["threshold"], rs, cs)
     return REFACTOR if code == 1 else SINGULAR if code == 2 else OK
 
 

@@ -27,9 +27,11 @@ import warnings
 import numpy as np
 
 from reference.algorithms.implicit import relative_rotation
+from reference.connector import body_fixed_parts
 from reference.generated.joints import joint_primitives
 from reference.interactions import tf_integral, tf_value
 from reference.status import NO_CONVERGENCE, OK
+from reference.state import new_clock
 from reference.validation import ModelWarning
 
 JUMP = 0.5
@@ -135,7 +137,7 @@ def limit_point_trace(static, model, state, run, saved, F0, now, t0, t1) -> None
         return
     trace.lam, trace.F, trace.P = c, trace.system.work.F.copy(), _row_forces(trace.system, trace.mu)
     path = [(0.0, c)]
-    clock = np.zeros(3)
+    clock = new_clock()[0]
     for _ in range(TRACE_POINTS):
         if arc._point(trace, x, q, clock) != OK:
             return
@@ -246,8 +248,7 @@ def drive_alignment(model, x, q, t):
             continue
         j = int(jt.j[k])
         xj, qj = (x[j], q[j]) if j >= 0 else (np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))
-        par = jt.par[k]
-        joint_primitives(x[int(jt.i[k])], q[int(jt.i[k])], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], phi, B)
+        joint_primitives(x[int(jt.i[k])], q[int(jt.i[k])], xj, qj, *body_fixed_parts(jt.par[k]), phi, B)
         th = drive_value(model, k, int(jt.tf[k]), t)
         out.append((k, float(phi[9] * math.cos(th) + phi[5] * math.sin(th))))
     return out

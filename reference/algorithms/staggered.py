@@ -15,9 +15,9 @@ staggered step"; the staging is a reconstruction, the originals of Park, Chiou
    ``ω̄ = ½(ω^{n−½} + ω*)`` solved by fixed-point sweeps (this midpoint
    gyroscopic term keeps the kinetic energy of a free rigid body; the fully
    explicit one drifts by percents);
-2b. **constraint forces** (implicit stage): the joints' Φ, Φ_t and B at t_n,
-   the stabilised multipliers λ^n and ``V^{n+½} = V* − h M⁻¹ Bᵀ λ^n``
-   (``reference/joints/assembly.py``);
+2b. **constraint forces** (implicit stage, :func:`reference.algorithms.constraint_stage.constrain`): the joints'
+   Φ, Φ_t and B at t_n, the stabilised multipliers λ^n and ``V^{n+½} = V* − h M⁻¹ Bᵀ λ^n``
+   (``reference/joints/assembly.py``), each joint formulation's own projection;
 3. **drift**: ``x^{n+1} = x^n + h v^{n+½}`` and the Euler parameters by the
    trapezoidal rule, ``q^{n+1} = q^n ⊗ p(h ω^{n+½})`` (closed-form Cayley
    factor, exactly unit).
@@ -37,14 +37,13 @@ from typing import NamedTuple
 import numpy as np
 
 from reference.algorithms.base import Algorithm, CallBudget
-from reference.evaluation.forces import model_forces
+from reference.algorithms.constraint_stage import CONSTRAINED_SWEEPS, constrain
+from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_nodes, node_sums
 from reference.evaluation.force_elements import force_element_dissipation
-from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_nodes, kick_range, node_sums
+from reference.evaluation.forces import model_forces
 from reference.jit import inlined, kernel, use_threads
-from reference.joints.assembly import (
-    assemble_constraints, constraint_impulse, constraint_power, factor_constraints, jacobian_times,
-)
-from reference.joints.master_slave import master_slave_positions, master_slave_project
+from reference.joints.assembly import constraint_power, jacobian_times
+from reference.joints.master_slave import master_slave_positions
 from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, likely_cause
 from reference.parallel import n_chunks
 from reference.state import Model, Record, Scratch, State
@@ -53,21 +52,6 @@ from reference.status import BLOWUP, DIVERGED, OK, SINGULAR, explicit_failure
 GYRO_SWEEPS = 4
 """Most fixed-point sweeps of the midpoint gyroscopic term (contraction factor
 ≈ h|ω|, so four sweeps reach round-off for h|ω| ≲ 1e-3)."""
-
-CONSTRAINED_SWEEPS = 3
-"""Extra (kick, projection) passes when there are joints (contraction ≈ h|ω|)."""
-
-
-
-@inlined
-def _kick(model, v, w, S, F, hk, v_new, w_new):
-    """The kick again at the nodes of joints (``model.nodes.constrained_ids``), one gyroscopic sweep from
-    the constrained velocities of the previous pass (:func:`_constrain`; the full kick is
-    :func:`~reference.algorithms.staggered_nodes.kick_nodes`)."""
-    c, J, Jinv, free, mass = model.damping, model.nodes.inertia, model.nodes.inertia_inv, model.nodes.free, model.nodes.mass
-    ids = model.nodes.constrained_ids
-    kick_range(0, ids.shape[0], ids, True, c, J, Jinv, free, mass, model.nodes.constrained, v, w, S, F, hk, v_new,
-               w_new, 1, 0, True)
 
 
 @inlined
@@ -89,54 +73,32 @@ def _balance(T, P_old, P_new, h, P_drive, mean, U, clock, guard):
     that no force put in; energy lost, e.g. to the constraint stabilisation, is no blow-up)
     and ``E − E₀ > tolerance × S`` (the energy itself has grown).  E is the kinetic
     energy ``T`` at the integer-step velocities plus the strain energy ``U``; W and D come from
-    ``clock``; S is the largest ``|E₀| + |W| + |D|`` so far; the last term, a step of the
+    the ``clock`` record; S is the largest ``|E₀| + |W| + |D|`` so far; the last term, a step of the
     external power ``F`` at the half-step velocities V⁻ (``P_old``) and V⁺ (``P_new``) and of the
     constraint forces' power ``P_drive``, covers the half-step lag or lead of the work behind or
     ahead of E (the sums: :func:`~reference.algorithms.staggered_nodes.node_sums`).
-    ``guard`` = [E₀, S, tolerance, residual, E]."""
+    ``guard`` the :data:`reference.state.GUARD` record."""
     E = T + U
     if not mean:  # the first step: E₀ only
-        guard[0] = E
-        guard[1] = max(guard[1], abs(E))  # S starts at the round-off floor (monitor.energy_floor)
+        guard["E0"] = E
+        guard["scale"] = max(guard["scale"], abs(E))  # S starts at the round-off floor (monitor.energy_floor)
         return False
-    guard[1] = max(guard[1], abs(guard[0]) + abs(clock[2]) + abs(clock[3]))
-    r = E - guard[0] - clock[2] + clock[3]
-    guard[3], guard[4] = r, E
+    guard["scale"] = max(guard["scale"], abs(guard["E0"]) + abs(clock["work"]) + abs(clock["dissipated"]))
+    r = E - guard["E0"] - clock["work"] + clock["dissipated"]
+    guard["residual"], guard["energy"] = r, E
     # the energy itself must have grown too: negative work at round-off level on a held model
     # (W ≈ −1e-20, E = 0) is no blow-up
-    return r > guard[2] * guard[1] + h * (abs(P_old) + abs(P_new) + abs(P_drive)) and E - guard[0] > guard[2] * guard[1]
-
-
-@inlined
-def _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows, n_ms):
-    """Stage 2b, the constraint forces: the multipliers of the joints at ``t_n`` and the master/slave
-    projection, alternated with the kick's gyroscopic sweeps; returns ``SINGULAR`` if the constraint
-    matrix lost rank, else ``OK``."""
-    if n_rows > 0:
-        assemble_constraints(model, x, q, t, scratch.PHI, scratch.PHIt, scratch.Bj, scratch.prim_phi, scratch.prim_B)
-        if factor_constraints(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, h, hk) != OK:
-            return SINGULAR
-    # The constraint stage changes ω^{n+½}: redo the predictor with the midpoint
-    # gyroscopic term at the constrained velocity and constrain again (same factor),
-    # so that the pair (kick, constraint) is solved together (otherwise the gyroscopic
-    # term of a constrained spinning body is only first-order accurate).  With both
-    # multiplier and master/slave joints the passes also alternate the two projections.
-    for sweep in range(1 + CONSTRAINED_SWEEPS):
-        if sweep > 0:
-            _kick(model, v, w, S, F, hk, v_new, w_new)
-        if n_rows > 0:
-            constraint_impulse(model, scratch.Bj, scratch.BMj, scratch.Lx, scratch.work, scratch.PHI, scratch.PHIt,
-                               v_new, w_new, h, hk, scratch.lam)
-        if n_ms > 0:
-            master_slave_project(model, q, v_new, w_new, scratch.T, scratch.A_m, scratch.A_s, scratch.MT,
-                                 scratch.TMT, scratch.rhs)
-    return OK
+    allowed = guard["tolerance"] * guard["scale"]
+    return r > allowed + h * (abs(P_old) + abs(P_new) + abs(P_drive)) and E - guard["E0"] > allowed
 
 
 @kernel
-def _record(model, scratch, rec, x, q, v, w, v_new, w_new, first, U, dD_fe, clock, n_rows):
-    """The output record at ``t_n``: integer-step velocities (the mean of the two half-step ones, the
-    initial ones at the first step), energies and constraint residuals, multipliers."""
+def _record(model, scratch, rec, state, first, U, dD_fe):
+    """The output record at ``t_n``: integer-step velocities (the mean of the two half-step ones of ``state``
+    and ``scratch``, the initial ones at the ``first`` step), energies (``U`` the strain energy [J], ``dD_fe``
+    the energy the kick dissipates [J]) and constraint residuals, multipliers."""
+    x, q, v, w, clock = state.x, state.q, state.v, state.w, state.clock[0]
+    v_new, w_new, n_rows = scratch.v_new, scratch.w_new, scratch.PHI.shape[0]
     N = x.shape[0]
     for i in range(N):
         for a in range(3):
@@ -147,8 +109,8 @@ def _record(model, scratch, rec, x, q, v, w, v_new, w_new, first, U, dD_fe, cloc
             rec.q[i, a] = q[i, a]
     rec.energy[0] = _kinetic(model, rec.v, rec.w)
     rec.energy[1] = U
-    rec.energy[2] = clock[2]
-    rec.energy[3] = clock[3] + (0.0 if first else 0.5 * dD_fe)
+    rec.energy[2] = clock["work"]
+    rec.energy[3] = clock["dissipated"] + (0.0 if first else 0.5 * dD_fe)
     rec.constraint[0] = 0.0
     rec.constraint[1] = 0.0
     PHI, PHIt, lam, work = scratch.PHI, scratch.PHIt, scratch.lam, scratch.work
@@ -173,14 +135,15 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     ``DIVERGED`` (non-finite state, checked before the energy guard: the state is left at the last finite step),
     ``SINGULAR`` (the constraint matrix lost rank) or ``BLOWUP`` (the energy guard).
     """
-    x, q, v, w, f_prev, clock = state.x, state.q, state.v, state.w, state.f_prev, state.clock
+    x, q, v, w, f_prev = state.x, state.q, state.v, state.w, state.f_prev
+    clock, guard = state.clock[0], scratch.guard[0]
     S, F, v_new, w_new, G = scratch.S, scratch.F, scratch.v_new, scratch.w_new, scratch.G
     n_fe = model.force_elements.kind.shape[0]
     n_rows = scratch.PHI.shape[0]
     n_ms = model.master_slave.master.shape[0]
     part, sums, q_tmp = np.empty((n_chunks(x.shape[0]), SUMS)), np.empty(SUMS), scratch.q_tmp
     for k in range(max(n_steps, 1)):
-        t, n = clock[0], clock[1]
+        t, n = clock["t"], clock["n"]
         # dampers of the force elements at V^{n−½}
         U, _ = model_forces(model.nodes.mass, model.gravity, model.loads, model.time_functions, model.elements,
                             model.force_elements, scratch.elements, x, q, v, w, t, S, F, G, state.angle,
@@ -190,13 +153,12 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         # below, which would only add gyroscopic sweeps to it: it gets all of them at once
         kick_nodes(model.nodes, model.damping, v, w, S, F, hk, v_new, w_new, GYRO_SWEEPS,
                    CONSTRAINED_SWEEPS if n_rows > 0 or n_ms > 0 else 0)
-        if (n_rows > 0 or n_ms > 0) and _constrain(model, scratch, x, q, t, h, hk, v, w, S, F, v_new, w_new, n_rows,
-                                                    n_ms) != OK:
+        if (n_rows > 0 or n_ms > 0) and constrain(model, scratch, state, t, h, hk) != OK:
             return SINGULAR
         c = model.damping
-        node_sums(model.nodes, v, w, v_new, w_new, F, f_prev, c != 0.0, scratch.guard[2] > 0.0, n > 0, part, sums)
+        node_sums(model.nodes, v, w, v_new, w_new, F, f_prev, c != 0.0, guard["tolerance"] > 0.0, n > 0, part, sums)
         if n > 0:  # the trapezoidal work of the external forces over the increment into t_n
-            clock[2] += h * sums[0]
+            clock["work"] += h * sums[0]
         # energy removed by the damping (mass-proportional and the force elements' dampers) in this
         # kick: force at V^{n−½} times the mean velocity; t_n (integer-step velocities) gets half
         dD_fe = hk * c * sums[1] if c != 0.0 else 0.0
@@ -204,7 +166,7 @@ def advance(model, state, h, n_steps, record, rec, scratch):
             dD_fe += hk * force_element_dissipation(model, x, q, v, w, v_new, w_new, scratch.prim_phi,
                                                     scratch.prim_B)
         if record and k == 0:
-            _record(model, scratch, rec, x, q, v, w, v_new, w_new, n == 0, U, dD_fe, clock, n_rows)
+            _record(model, scratch, rec, state, n == 0, U, dD_fe)
         if n_steps == 0:
             break
         if not math.isfinite(sums[5]):  # a new velocity is not finite: the state stays at the last finite step
@@ -213,17 +175,16 @@ def advance(model, state, h, n_steps, record, rec, scratch):
         if n_rows > 0:
             # work of the constraint forces (the driving motions) over [t_{n−½}, t_{n+½}]
             P_drive = constraint_power(model, scratch.Bj, scratch.lam, v, w, v_new, w_new)
-            clock[2] += hk * P_drive
-        clock[3] += 0.5 * dD_fe
-        if scratch.guard[2] > 0.0 and _balance(sums[2], sums[3], sums[4], h, P_drive, n > 0, U, clock,
-                                               scratch.guard):
+            clock["work"] += hk * P_drive
+        clock["dissipated"] += 0.5 * dD_fe
+        if guard["tolerance"] > 0.0 and _balance(sums[2], sums[3], sums[4], h, P_drive, n > 0, U, clock, guard):
             return BLOWUP
-        clock[3] += 0.5 * dD_fe
+        clock["dissipated"] += 0.5 * dD_fe
         drift_nodes(x, q, v, w, v_new, w_new, f_prev, F, h)
         if n_ms > 0:
             master_slave_positions(model, x, q, scratch.A_m, scratch.A_s, q_tmp, scratch.r4)
-        clock[1] = n + 1
-        clock[0] = (n + 1) * h
+        clock["n"] = n + 1
+        clock["t"] = (n + 1) * h
     return OK
 
 
@@ -259,12 +220,13 @@ class StaggeredCentralDifference(Algorithm):
         energy guard on when ``guard`` (the energy scale's round-off floor [J],
         :func:`reference.monitor.energy_floor`) is given, and the critical step for the messages."""
         scratch = Scratch.for_model(model)
-        scratch.guard[1:3] = (guard, GUARD_TOLERANCE) if guard is not None else (0.0, 0.0)
+        if guard is not None:
+            scratch.guard[0]["scale"], scratch.guard[0]["tolerance"] = guard, GUARD_TOLERANCE
         return ExplicitRun(scratch, float(critical_step), CallBudget())
 
     def failure(self, code, state, run):
         status, message = explicit_failure(code, state.t, likely_cause(self.dt, run.critical_step))
-        return status, message + BlowUpMonitor.guard_report(run.scratch.guard, state.clock[2])
+        return status, message + BlowUpMonitor.guard_report(run.scratch.guard[0], state.work)
 
     def advance(self, model: Model, state: State, run: "ExplicitRun", n_steps: int, record: Record | None) -> int:
         """``n_steps`` steps in compiled calls of at most ``run.budget`` steps (each returns to Python within a
@@ -293,7 +255,7 @@ class ExplicitRun(NamedTuple):
     @property
     def energy(self) -> float:
         """Kinetic + strain energy at the last guarded step [J]."""
-        return float(self.scratch.guard[4])
+        return float(self.scratch.guard[0]["energy"])
 
 
 def step(model: Model, state: State, h: float) -> State:

@@ -56,7 +56,7 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, relative_rotation
-from reference.algorithms.newton_steps import ENERGY, SIGN, TANGENT, NewtonArrays
+from reference.algorithms.newton_steps import NewtonArrays
 from reference.algorithms.path_checks import PUSHED_FIX, RATIO, limit_point_trace, moved, why_refused
 from reference.algorithms.step_control import SolverStatistics
 from reference.linalg import null_space
@@ -159,19 +159,20 @@ class Static(ImplicitAlgorithm):
         makes only the SuperLU factorisations the kernel asks for (the first, and any after the kept
         pivots went bad) and resumes it."""
         nw = run.newton
-        par = nw.par
+        par = nw.par[0]
         # the stability count's tangent is assembled at the equilibrium, and the sign of its determinant
         # computed there when that is all the count needs (negative_eigenvalues' known-count path)
-        par[TANGENT], par[SIGN] = (2.0 if run.dense and run.negative >= 0 else 1.0), 3.0
+        par["tangent"], par["sign"] = (2.0 if run.dense and run.negative >= 0 else 1.0), 3.0
         code = nw.solve(x, q, lam, t)
         run.history = nw.history()
         run.stats.iterations += len(run.history) - 1
         if code == OK:
-            run.U = par[ENERGY]
+            run.U = par["U"]
         return code
 
     def advance(self, model, state, run, n_steps, record) -> int:
-        x, q, v, w, f_prev, clock = state[:6]
+        x, q, v, w, f_prev = state[:5]
+        clock = state.clock[0]
         system, lam = run.system, run.lam
         if not run.started:
             # equilibrium at the starting load level (gravity or loads at t = 0, drives)
@@ -179,27 +180,27 @@ class Static(ImplicitAlgorithm):
             w[:] = 0.0
             system.work.angle[:] = state.angle  # the force elements' continuous angles
             run.stopped_at = None
-            code = self._equilibrium(run, x, q, lam, clock[0])
+            code = self._equilibrium(run, x, q, lam, clock["t"])
             if code != OK:
-                run.stopped_at = clock[0]
+                run.stopped_at = clock["t"]
                 return code
-            run.refused = why_refused(run, self.joint_labels, x, q, lam, clock[0], clock[0])
+            run.refused = why_refused(run, self.joint_labels, x, q, lam, clock["t"], clock["t"])
             if run.refused:
-                run.stopped_at = clock[0]
+                run.stopped_at = clock["t"]
                 return NO_CONVERGENCE
             run.P = _row_forces(system, lam)
             f_prev[:] = system.work.F
             run.started = True
-            self._stability(run, x, q, lam, clock[0])
+            self._stability(run, x, q, lam, clock["t"])
         if record is not None:
-            U = run.U = float(system.evaluate(x, q, x, x, x, lam, clock[0], False))
-            system.write_record(record, x, q, v, w, U, clock, lam)
-            run.recorded, run.recorded_at = run.negative, float(clock[0])
+            U = run.U = float(system.evaluate(x, q, x, x, x, lam, clock["t"], False))
+            system.write_record(record, x, q, v, w, U, state.clock, lam)
+            run.recorded, run.recorded_at = run.negative, float(clock["t"])
             r = system.work.r[system.free]
             run.stats.factorizations = run.stats.iterations  # full Newton: a factor every iteration
             run.row = run.stats.output(run.h, float(np.sqrt(r @ r)))
         for _ in range(n_steps):
-            t0, target = clock[0], clock[0] + self.dt
+            t0, target = clock["t"], clock["t"] + self.dt
             sub, t = self.dt, t0
             run.refused = ""
             while t < target - 1e-12 * self.dt:
@@ -215,7 +216,7 @@ class Static(ImplicitAlgorithm):
                         limit_point_trace(self, model, state, run, saved, f_prev, (x, q, lam), t, t_try)
                     run.rate = rate
                     dW, run.P = _work_increment(system, saved[0], saved[1], f_prev, run.P, x, q, lam)
-                    clock[2] += dW
+                    clock["work"] += dW
                     f_prev[:] = system.work.F
                     self._stability(run, x, q, lam, t_try)
                     run.h = t_try - t
@@ -229,11 +230,11 @@ class Static(ImplicitAlgorithm):
                 if sub < self.dt / 2**MAX_CUTS:
                     state.angle[:] = system.work.angle
                     run.stopped_at = t
-                    clock[0] = t
+                    clock["t"] = t
                     return code
             state.angle[:] = system.work.angle
-            clock[1] += 1
-            clock[0] = clock[1] * self.dt
+            clock["n"] += 1
+            clock["t"] = clock["n"] * self.dt
         return OK
 
     def failure(self, code: int, state, run) -> tuple[str, str]:
@@ -253,7 +254,7 @@ class Static(ImplicitAlgorithm):
     def record_last(self, model, state, run, record) -> bool:
         """After a failed step: the last converged load level (a sub-level of the cut step, or a whole
         step between outputs), when it is not recorded yet."""
-        if not run.started or run.recorded_at == float(state.clock[0]):
+        if not run.started or run.recorded_at == state.t:
             return False
         self.advance(model, state, run, 0, record)
         return True
@@ -278,7 +279,7 @@ class Static(ImplicitAlgorithm):
         tangent the compiled Newton loop assembled, are at it); a change from the previous equilibrium
         becomes an event and a warning."""
         system = run.system
-        sign = run.newton.par[SIGN]
+        sign = run.newton.par[0]["sign"]
         if sign in (-1.0, 0.0, 1.0) and int(sign) == run.sign:
             # a non-symmetric tangent whose determinant kept its sign: the count is the previous one
             # (negative_eigenvalues with known = (count, sign), its sign from the compiled loop)

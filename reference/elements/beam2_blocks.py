@@ -1,6 +1,6 @@
 """The vectorised Beam2 element loop: blocks of elements in the structure-of-arrays rows of
 ``reference/generated/beam2_soa.py`` (derivations/soa.py), bit for bit the per-element kernel's rows
-(:func:`reference.elements.beam2.beam2_element`).
+(:func:`reference.elements.driver.element_row`).
 
 :func:`soa_rows` fills every element's row of the work array (the parallel loop over blocks, from
 :data:`reference.parallel.PARALLEL_NODES` nodes on); below, :func:`soa_forces` runs the blocks on one
@@ -13,9 +13,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from reference.elements.driver import row_layout
 from reference.elements.formulation import section_quaternion, to_node_frame
 from reference.generated import beam2_soa as soa
 from reference.jit import inlined, kernel, parallel_kernel, prange
+
+ROW = row_layout(2, "Beam2Row", forces=12, strains=6, stresses=6, triads=8, moments=6, spare=1, energy=1)
+"""The work row of a Beam2 element (and of a beam2_se3 one), :func:`reference.elements.driver.row_layout`:
+section-frame forces (12), the strains ``Γ, K`` (6) and resultants ``N, M`` (6) at the midpoint, the ends'
+section triads (8), the node-frame moments (6), the strain energy."""
 
 _section_quaternion = inlined(section_quaternion)
 _to_node_frame = inlined(to_node_frame)
@@ -45,22 +51,21 @@ def soa_fixed_rows(L0, psi0, gamma0, stiff) -> np.ndarray:
 
 @inlined
 def add_element(conn, e, W, r, S):
-    """Add the node-frame forces of element e (row r of ``W``, see :func:`beam2_element`) into ``S``."""
-    i, j = conn[e, 0], conn[e, 1]
-    for k in range(3):
-        S[i, k] += W[r, k]
-        S[i, 3 + k] += W[r, 32 + k]
-    for k in range(3):
-        S[j, k] += W[r, 6 + k]
-        S[j, 3 + k] += W[r, 35 + k]
+    """Add the node-frame forces of element e (row r of ``W``, :data:`ROW`) into ``S``."""
+    s, m = W[r, ROW.forces], W[r, ROW.moments]
+    for a in range(2):
+        n = conn[e, a]
+        for k in range(3):
+            S[n, k] += s[6 * a + k]
+            S[n, 3 + k] += m[3 * a + k]
 
 
 
 @inlined
 def gather_block(x, q, conn, offset, straight, W, e0, n, v):
     """The inputs of elements ``e0 … e0+n−1`` that change into the rows of ``v`` (``generated.beam2_soa``'s
-    layout): positions and section quaternions (composed ``p_a = q_a ⊗ o_a`` into ``W[e, 24:32]`` as
-    :func:`beam2_element` does, unless both offsets are the identity)."""
+    layout): positions and section quaternions (composed ``p_a = q_a ⊗ o_a`` into the row's triads as the
+    generic driver does, :func:`reference.elements.driver.gather`, unless both offsets are the identity)."""
     B = soa.BLOCK
     for k in range(n):
         e = e0 + k
@@ -73,36 +78,38 @@ def gather_block(x, q, conn, offset, straight, W, e0, n, v):
                 v[(soa.ROW_Q1 + c) * B + k] = q[i, c]
                 v[(soa.ROW_Q2 + c) * B + k] = q[j, c]
         else:
-            _section_quaternion(q[i], offset[e, 0], W[e, 24:28])
-            _section_quaternion(q[j], offset[e, 1], W[e, 28:32])
+            P = W[e, ROW.triads].reshape((2, 4))
+            _section_quaternion(q[i], offset[e, 0], P[0])
+            _section_quaternion(q[j], offset[e, 1], P[1])
             for c in range(4):
-                v[(soa.ROW_Q1 + c) * B + k] = W[e, 24 + c]
-                v[(soa.ROW_Q2 + c) * B + k] = W[e, 28 + c]
+                v[(soa.ROW_Q1 + c) * B + k] = P[0, c]
+                v[(soa.ROW_Q2 + c) * B + k] = P[1, c]
 
 
 @inlined
 def scatter_block(offset, straight, W, e0, n, v):
     """The forces and energies of elements ``e0 … e0+n−1`` from the rows of ``v`` into their rows of ``W``
-    (the layout of :func:`beam2_element`), the moments taken back to the node frames; the strains and
-    resultants (``W[e, 12:24]``) are not written (nothing of the step reads them)."""
+    (:data:`ROW`), the moments taken back to the node frames; the strains and resultants are not written
+    (nothing of the step reads them)."""
     B = soa.BLOCK
     for k in range(n):
         e = e0 + k
+        s, m = W[e, ROW.forces], W[e, ROW.moments]
         for c in range(12):
-            W[e, c] = v[(soa.ROW_S + c) * B + k]
-        W[e, 39] = v[soa.ROW_RETURNS * B + k]
-        if straight[e]:
-            for c in range(3):
-                W[e, 32 + c] = W[e, 3 + c]
-                W[e, 35 + c] = W[e, 9 + c]
-        else:
-            _to_node_frame(offset[e, 0], W[e, 3:6], W[e, 32:35])
-            _to_node_frame(offset[e, 1], W[e, 9:12], W[e, 35:38])
+            s[c] = v[(soa.ROW_S + c) * B + k]
+        W[e, ROW.energy] = v[soa.ROW_RETURNS * B + k]
+        for a in range(2):
+            if straight[e]:
+                for c in range(3):
+                    m[3 * a + c] = s[6 * a + 3 + c]
+            else:
+                _to_node_frame(offset[e, a], s[6 * a + 3:6 * a + 6], m[3 * a:3 * a + 3])
 
 
 @parallel_kernel
 def soa_rows(x, q, conn, offset, straight, blocked, W):
-    """Every element's forces and energy in its row of ``W`` (E, 40), bit for bit :func:`beam2_element`'s:
+    """Every element's forces and energy in its row of ``W`` (E, ``ROW.width``), bit for bit the generic
+    driver's (:func:`reference.elements.driver.element_row`):
     blocks of ``soa.BLOCK`` elements gathered into a structure of arrays, the generated
     ``internal_forces_soa`` (vectorised across the elements; ``blocked`` its rows that never change,
     :func:`soa_fixed_rows`), scattered back."""

@@ -22,13 +22,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from reference.elements.beam2 import PARALLEL_ELEMENTS, Beam2Formulation
-from reference.elements.formulation import section_quaternion, tangent_to_node_frames, to_node_frame, vector_norms
+import reference.elements.driver as driver
+from reference.elements.beam2 import ROW, Beam2Formulation
+from reference.elements.formulation import vector_norms
 from reference.generated import beam2_se3 as generated
 from reference.generated import rotation_maps as rm
-from reference.jit import inlined, kernel, parallel_kernel, prange
-from reference.newton_blocks import store_block
-from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum
+from reference.jit import inlined
 from reference.scalar import build_time_form
 
 
@@ -52,97 +51,19 @@ _internal_forces = inlined(generated.internal_forces)
 
 
 @inlined
-def _element(data, x, q, e, w):
-    """Forces of element e into ``w`` (40,) in Beam2's layout (``beam2.beam2_element``): node-frame
-    moments in ``w[32:38]``, the section quaternions in ``w[24:32]``; returns the strain energy."""
-    i, j = data.conn[e, 0], data.conn[e, 1]
-    o1, o2 = data.offset[e, 0], data.offset[e, 1]
-    section_quaternion(q[i], o1, w[24:28])
-    section_quaternion(q[j], o2, w[28:32])
-    w[39] = _internal_forces(x[i], x[j], w[24:28], w[28:32], data.L0[e], data.psi0[e], data.gamma0[e],
-                             data.stiff[e], w[:12], w[12:18], w[18:24])
-    to_node_frame(o1, w[3:6], w[32:35])
-    to_node_frame(o2, w[9:12], w[35:38])
-    return w[39]
-
-
-@parallel_kernel
-def _elements(data, x, q, W):
-    for e in prange(data.conn.shape[0]):
-        _element(data, x, q, e, W[e])
-
-
-_elements_serial = kernel(getattr(_elements, "py_func", _elements))
-""":func:`_elements` on the calling thread (a mesh below ``PARALLEL_ELEMENTS``): a kernel of its own, so that
-the generated element code is compiled once, not again inside every algorithm's kernel."""
+def element_forces(data, e, X, P, w):
+    """Element e's section-frame forces, strains and resultants into ``w`` (Beam2's row,
+    :data:`~reference.elements.beam2.ROW`) from its ends' positions ``X`` (2, 3) and section triads
+    ``P`` (2, 4); returns its strain energy [J] (the generated ``internal_forces``)."""
+    return _internal_forces(X[0], X[1], P[0], P[1], data.L0[e], data.psi0[e], data.gamma0[e], data.stiff[e],
+                            w[ROW.forces], w[ROW.strains], w[ROW.stresses])
 
 
 @inlined
-def _assemble(data, W, x, q, S):
-    """:meth:`Beam2SE3Formulation.assemble`: each element's forces into its row of ``W`` (a parallel loop
-    from ``PARALLEL_ELEMENTS`` elements on), added into ``S`` (N, 6) in element order
-    (:func:`reference.parallel.accumulate`); returns the strain energy [J]."""
-    if data.conn.shape[0] >= PARALLEL_ELEMENTS:
-        _elements(data, x, q, W)
-    else:
-        _elements_serial(data, x, q, W)
-    accumulate(data.conn, data.node_start, data.node_item, W, 32, S)
-    return energy_sum(W, 39)
-
-
-@inlined
-def _tangent_range(data, W, x, q, psi, ck, values, p0, Jr, K144, lo, hi):
-    """The 12×12 tangents times ``ck`` of the elements ``lo … hi − 1``, element e's into ``values`` from
-    ``p0 + 144 e`` on (``Jr`` (9,), ``K144`` scratch)."""
-    K12 = K144.reshape((12, 12))
-    for e in range(lo, hi):
-        i, j = data.conn[e, 0], data.conn[e, 1]
-        w = W[e]
-        if ck != 0.0:
-            section_quaternion(q[i], data.offset[e, 0], w[24:28])
-            section_quaternion(q[j], data.offset[e, 1], w[28:32])
-            generated.tangent(x[i], x[j], w[24:28], w[28:32], data.L0[e], data.psi0[e], data.gamma0[e],
-                              data.stiff[e], w[:12], K144)
-            tangent_to_node_frames(data.offset[e], K12, w[32:35], w[35:38])
-        else:
-            K12[:, :] = 0.0
-        store_block(K12, data.conn[e], 2, psi, Jr, ck, values, p0 + 144 * e)
-
-
-@parallel_kernel
-def _tangent_parallel(data, W, x, q, psi, ck, values, p):
-    E = data.conn.shape[0]
-    for k in prange(element_chunks(E)):
-        Jr, K144 = np.empty(9), np.empty(144)
-        _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K144, k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK))
-
-
-@inlined
-def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
-    """:meth:`Beam2SE3Formulation.tangent_values`: each element's 12×12 tangent (the generated
-    ``tangent``, section frames taken back to the node frames) times ``ck``;
-    from ``PARALLEL_ELEMENTS`` elements on a parallel loop, each element writing its own slice."""
-    E = data.conn.shape[0]
-    if E >= PARALLEL_ELEMENTS:
-        _tangent_parallel(data, W, x, q, psi, ck, values, p)
-        return p + 144 * E
-    _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K[:144], 0, E)
-    return p + 144 * E
-
-
-@inlined
-def _resultants(data, W, x, q, N, M):
-    """:meth:`Beam2SE3Formulation.resultants`: the element's constant section resultants ``N = C_Γ Γ``
-    [N] (1 axial, 2, 3 shear) and ``M = C_K K`` [N m] (1 torsion, 2, 3 bending) in section-frame
-    components, the same at every section of the helicoid (constant strains), into the rows ``data.index``."""
-    for e in range(data.conn.shape[0]):
-        w = W[e]
-        _element(data, x, q, e, w)
-        r = data.index[e]
-        for k in range(3):
-            N[r, k] = w[18 + k]
-            M[r, k] = w[21 + k]
-    return 0.0
+def element_tangent(data, e, X, P, w, K):
+    """Element e's 12×12 section-frame tangent into ``K`` (144,) (the generated ``tangent``)."""
+    generated.tangent(X[0], X[1], P[0], P[1], data.L0[e], data.psi0[e], data.gamma0[e], data.stiff[e],
+                      w[ROW.forces], K)
 
 
 class Beam2SE3Formulation(Beam2Formulation):
@@ -164,9 +85,11 @@ class Beam2SE3Formulation(Beam2Formulation):
     Data = Beam2SE3Data
     exact_curvature = True
     """Every constant-strain state (curvature included: a circle, a helix) is represented exactly."""
-    assemble = staticmethod(_assemble)
-    tangent_values = staticmethod(_tangent_values)
-    resultants = staticmethod(_resultants)
+    element_forces = staticmethod(element_forces)
+    element_tangent = staticmethod(element_tangent)
+    # element_resultants: Beam2's, the stresses of the row (here constant along the helicoid)
+    assemble = staticmethod(driver.assemble)
+    """The generic element loop (Beam2's own is its vectorised generated code)."""
 
     curve_segments = 8
 

@@ -16,20 +16,22 @@ from typing import NamedTuple
 
 import numpy as np
 
-from reference.elements.beam2 import PARALLEL_ELEMENTS, Beam2Formulation
-from reference.elements.formulation import (
-    PlacedElements, section_quaternion, tangent_to_node_frames, to_node_frame, vector_norms,
-)
+from reference.elements.driver import row_layout
+from reference.elements.element_type import Beam3
+from reference.elements.formulation import BeamFormulation, PlacedElements, vector_norms
 from reference.generated import beam3 as generated
-from reference.jit import inlined, kernel, parallel_kernel, prange
-from reference.newton_blocks import store_block
-from reference.parallel import ELEMENT_CHUNK, accumulate, element_chunks, energy_sum, node_incidence
+from reference.jit import inlined
+from reference.parallel import node_incidence
 from reference.scalar import scalar_twin
 
-WIDTH = 250
-"""Work row per element: forces (18), strains (12), resultants (12), section quaternions (12), node-frame
-moments (9), energy (1), scratch (6), the Gauss points' inputs u (18) and Hessians (162)."""
-GAUSS = (-1.0 / np.sqrt(3.0), 1.0 / np.sqrt(3.0))
+ROW = row_layout(3, "Beam3Row", forces=18, strains=12, stresses=12, triads=12, moments=9, energy=1, u=18,
+                 hessians=162)
+"""The work row of a beam3 element (:func:`reference.elements.driver.row_layout`): section-frame forces (18),
+the strains ``Γ, K`` (12) and resultants ``N, M`` (12) at the two Gauss points (6 each), the section triads
+(12), the node-frame moments (9), the strain energy, the Gauss points' inputs ``u`` (18: 9 each) and their
+Hessians (162: 81 each) of the generated kernels."""
+GAUSS = tuple(Beam3().integration_points()[0])
+"""The element type's two Gauss points ξ = ∓1/√3."""
 
 
 class Beam3Data(NamedTuple):
@@ -56,102 +58,39 @@ _internal_forces = inlined(generated.internal_forces)
 
 
 @inlined
-def _element(data, x, q, e, w):
-    """Forces of element e into ``w`` (WIDTH,): ``w[:18]`` section frames, ``w[54:63]`` the three
-    node-frame moments, ``w[63]`` the energy, ``w[18:30]`` strains, ``w[30:42]`` resultants."""
-    i, j, m = data.conn[e, 0], data.conn[e, 1], data.conn[e, 2]
-    section_quaternion(q[i], data.offset[e, 0], w[42:46])
-    section_quaternion(q[j], data.offset[e, 1], w[46:50])
-    section_quaternion(q[m], data.offset[e, 2], w[50:54])
-    w[63] = _internal_forces(x[i], x[j], x[m], w[42:46], w[46:50], w[50:54], data.L0[e], data.gamma0[e],
-                             data.kappa0[e], data.stiff[e], w[:18], w[70:88], w[18:30], w[30:42])
-    for a in range(3):
-        to_node_frame(data.offset[e, a], w[6 * a + 3:6 * a + 6], w[54 + 3 * a:57 + 3 * a])
-    return w[63]
-
-
-@parallel_kernel
-def _elements(data, x, q, W):
-    for e in prange(data.conn.shape[0]):
-        _element(data, x, q, e, W[e])
-
-
-_elements_serial = kernel(getattr(_elements, "py_func", _elements))
-""":func:`_elements` on the calling thread (a mesh below ``PARALLEL_ELEMENTS``): a kernel of its own, so that
-the generated element code is compiled once, not again inside every algorithm's kernel."""
+def element_forces(data, e, X, P, w):
+    """Element e's section-frame forces, its Gauss points' strains, resultants and inputs ``u`` into its row
+    ``w`` (:data:`ROW`) from its nodes' positions ``X`` (3, 3) [m] and section triads ``P`` (3, 4), node
+    order (end 1, end 2, middle); returns its strain energy [J] (the generated ``internal_forces``)."""
+    return _internal_forces(X[0], X[1], X[2], P[0], P[1], P[2], data.L0[e], data.gamma0[e], data.kappa0[e],
+                            data.stiff[e], w[ROW.forces], w[ROW.u], w[ROW.strains], w[ROW.stresses])
 
 
 @inlined
-def _assemble(data, W, x, q, S):
-    """:meth:`Beam3Formulation.assemble`: each element's forces into its row of ``W`` (a parallel loop
-    from ``PARALLEL_ELEMENTS`` elements on), added into ``S`` (N, 6) in element order
-    (:func:`reference.parallel.accumulate`); returns the energy [J]."""
-    if data.conn.shape[0] >= PARALLEL_ELEMENTS:
-        _elements(data, x, q, W)
-    else:
-        _elements_serial(data, x, q, W)
-    accumulate(data.conn, data.node_start, data.node_item, W, 54, S)
-    return energy_sum(W, 63)
+def element_tangent(data, e, X, P, w, K):
+    """Element e's 18×18 section-frame tangent into ``K`` (324,): the forces' inputs at the Gauss points
+    (:func:`element_forces`), each point's Hessian of the energy density (``gauss_hessian``), then the
+    generated ``tangent``."""
+    element_forces(data, e, X, P, w)
+    u, hessians = w[ROW.u].reshape((2, 9)), w[ROW.hessians].reshape((2, 81))
+    gamma0, kappa0 = data.gamma0[e].reshape((2, 3)), data.kappa0[e].reshape((2, 3))
+    for g in range(2):
+        generated.gauss_hessian(u[g], gamma0[g], kappa0[g], data.stiff[e], data.L0[e], hessians[g])
+    generated.tangent(X[0], X[1], X[2], P[0], P[1], P[2], data.L0[e], data.gamma0[e], data.kappa0[e],
+                      data.stiff[e], w[ROW.hessians], w[ROW.forces], K)
 
 
 @inlined
-def _tangent_range(data, W, x, q, psi, ck, values, p0, Jr, K324, lo, hi):
-    """The 18×18 tangents times ``ck`` of the elements ``lo … hi − 1``, element e's into ``values`` from
-    ``p0 + 324 e`` on (``Jr`` (9,), ``K324`` scratch)."""
-    K18 = K324.reshape((18, 18))
-    for e in range(lo, hi):
-        i, j, m = data.conn[e, 0], data.conn[e, 1], data.conn[e, 2]
-        w = W[e]
-        if ck != 0.0:
-            _element(data, x, q, e, w)
-            for g in range(2):
-                generated.gauss_hessian(w[70 + 9 * g:79 + 9 * g], data.gamma0[e, 3 * g:3 * g + 3],
-                                        data.kappa0[e, 3 * g:3 * g + 3], data.stiff[e], data.L0[e],
-                                        w[88 + 81 * g:169 + 81 * g])
-            generated.tangent(x[i], x[j], x[m], w[42:46], w[46:50], w[50:54], data.L0[e], data.gamma0[e],
-                              data.kappa0[e], data.stiff[e], w[88:250], w[:18], K324)
-            tangent_to_node_frames(data.offset[e], K18, w[64:67], w[67:70])
-        else:
-            K18[:, :] = 0.0
-        store_block(K18, data.conn[e], 3, psi, Jr, ck, values, p0 + 324 * e)
+def element_resultants(w, N, M):
+    """The mean of the two Gauss points' resultants ``N`` [N] and ``M`` [N m] (section-frame components; the
+    midpoint value to second order)."""
+    stress = w[ROW.stresses].reshape((2, 6))
+    for k in range(3):
+        N[k] = 0.5 * (stress[0, k] + stress[1, k])
+        M[k] = 0.5 * (stress[0, 3 + k] + stress[1, 3 + k])
 
 
-@parallel_kernel
-def _tangent_parallel(data, W, x, q, psi, ck, values, p):
-    E = data.conn.shape[0]
-    for k in prange(element_chunks(E)):
-        Jr, K324 = np.empty(9), np.empty(324)
-        _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K324, k * ELEMENT_CHUNK, min(E, (k + 1) * ELEMENT_CHUNK))
-
-
-@inlined
-def _tangent_values(data, W, x, q, psi, ck, values, p, Jr, K):
-    """:meth:`Beam3Formulation.tangent_values`: each element's 18×18 tangent (the generated ``tangent``,
-    taken to the node frames) times ``ck``; ``K`` at least 324 entries;
-    from ``PARALLEL_ELEMENTS`` elements on a parallel loop, each element writing its own slice."""
-    E = data.conn.shape[0]
-    if E >= PARALLEL_ELEMENTS:
-        _tangent_parallel(data, W, x, q, psi, ck, values, p)
-        return p + 324 * E
-    _tangent_range(data, W, x, q, psi, ck, values, p, Jr, K[:324], 0, E)
-    return p + 324 * E
-
-
-@inlined
-def _resultants(data, W, x, q, N, M):
-    """:meth:`Beam3Formulation.resultants`: the mean of the two Gauss points' resultants (section-frame
-    components; the midpoint value to second order) into the rows ``data.index``."""
-    for e in range(data.conn.shape[0]):
-        w = W[e]
-        _element(data, x, q, e, w)
-        r = data.index[e]
-        for k in range(3):
-            N[r, k] = 0.5 * (w[30 + k] + w[36 + k])
-            M[r, k] = 0.5 * (w[33 + k] + w[39 + k])
-    return 0.0
-
-
-class Beam3Formulation(Beam2Formulation):
+class Beam3Formulation(BeamFormulation):
     """Three-node geometrically exact beam, quadratic interpolation, two-point Gauss integration.
 
     Lumped mass: the row sums of the consistent quadratic mass, ``ρA L0 (1/6, 1/6, 2/3)`` and the
@@ -168,9 +107,11 @@ class Beam3Formulation(Beam2Formulation):
     Data = Beam3Data
     exact_curvature = False
     """Constant stretch, shear and twist exact; a constant curvature only to the quadratic's accuracy."""
-    assemble = staticmethod(_assemble)
-    tangent_values = staticmethod(_tangent_values)
-    resultants = staticmethod(_resultants)
+    default_type = Beam3
+    ROW = ROW
+    element_forces = staticmethod(element_forces)
+    element_tangent = staticmethod(element_tangent)
+    element_resultants = staticmethod(element_resultants)
 
     @classmethod
     def pack(cls, placed: PlacedElements) -> Beam3Data:
@@ -185,10 +126,6 @@ class Beam3Formulation(Beam2Formulation):
             data.L0[e], data.gamma0[e], data.kappa0[e] = ref["L0"], ref["gamma0"], ref["kappa0"]
             data.stiff[e] = item.element.formulation.section.stiffness
         return data
-
-    @staticmethod
-    def work(data: Beam3Data) -> np.ndarray:
-        return np.zeros((data.conn.shape[0], WIDTH))
 
     curve_segments = 8
     node_xi = (0.0, 1.0, 0.5)
@@ -210,16 +147,12 @@ class Beam3Formulation(Beam2Formulation):
         """The beam's own triads at the element's three nodes (on an arc, its tangent frames)."""
         return node_frames[2 * i], node_frames[2 * i + 2], node_frames[2 * i + 1]
 
-    def lumped_mass(self, x_nodes):
-        """The lumped masses and rotary inertias (section frame) of one element (:meth:`lumped_masses`)."""
-        mass, inertia = self.lumped_masses(np.asarray(x_nodes, dtype=float)[None])
-        return [(mass[0, a], inertia[0, a]) for a in range(3)]
-
     def lumped_masses(self, x):
         """E elements' (``x`` (E, 3, 3)) shares 1/6, 1/6, 2/3 of ``ρA L`` (E, 3) [kg] and of
-        ``diag(ρJ1, ρJ2, ρJ3) L`` (E, 3, 3) [kg m²] (Simpson's weights), ``L`` the Gauss length (:meth:`_lengths`)."""
+        ``diag(ρJ1, ρJ2, ρJ3) L`` (E, 3, 3) [kg m²] (Simpson's weights, the element type's
+        :data:`~reference.elements.element_type.Beam3.MASS_SHARES`), ``L`` the Gauss length (:meth:`_lengths`)."""
         length = self._lengths(x)[:, None]
-        share = np.array([1 / 6, 1 / 6, 2 / 3])[None, :]
+        share = np.array(self.element_type.MASS_SHARES)[None, :]
         inertia = np.zeros(length.shape[:1] + (3, 3, 3))
         for k, rho_j in enumerate(self.section.rotary_inertia):
             inertia[..., k, k] = rho_j * share * length

@@ -1,4 +1,4 @@
-"""Element kinematics: shape functions and quadrature (the paper's ``Element_Type``).
+"""Element interpolations: shape functions and quadrature (the paper's ``Element_Type``).
 
 An :class:`ElementType` knows nothing about mechanics; a formulation
 (:mod:`reference.elements.formulation`) asks it for shape functions, their
@@ -63,3 +63,32 @@ class Beam2(ElementType):
     def mass_points(self):
         g = 1.0 / np.sqrt(3.0)
         return np.array([-g, g]), np.array([1.0, 1.0])
+
+
+class Beam3(ElementType):
+    """Three-node quadratic beam element on ξ ∈ [−1, 1], nodes in the order (end 1, end 2, middle)
+    at ξ = −1, 1, 0 (Crisfield & Jelenić 1999).
+
+    ``N1 = ξ(ξ − 1)/2``, ``N2 = ξ(ξ + 1)/2``, ``N3 = 1 − ξ²``.  Stiffness uses the **two Gauss points**
+    ``ξ = ∓1/√3`` (reduced integration of the quadratic element: free of shear and membrane locking),
+    the points the generated beam3 kernels evaluate (``derivations/beam3.py``); the lumped mass takes
+    Simpson's rule (weights 1/3, 1/3, 4/3 at the nodes), whose shares of the length are
+    :data:`MASS_SHARES`.
+    """
+
+    n_nodes = 3
+    MASS_SHARES = (1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0)
+    """Each node's share of the element's length in the lumped mass, ``∫ N_i dξ / 2`` with Simpson's rule."""
+
+    def shape_functions(self, xi):
+        return np.array([xi * (xi - 1.0) / 2.0, xi * (xi + 1.0) / 2.0, 1.0 - xi * xi])
+
+    def shape_derivatives(self, xi, length):
+        return np.array([xi - 0.5, xi + 0.5, -2.0 * xi]) * (2.0 / length)
+
+    def integration_points(self):
+        g = 1.0 / np.sqrt(3.0)
+        return np.array([-g, g]), np.array([1.0, 1.0])
+
+    def mass_points(self):
+        return np.array([-1.0, 1.0, 0.0]), np.array([1.0, 1.0, 4.0]) / 3.0

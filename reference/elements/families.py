@@ -8,16 +8,15 @@ families, :data:`ALWAYS_PACKED`, present or not) into that family's plain data
 (``family.pack``), and :class:`reference.state.Model` carries them as the tuple
 ``Model.elements``, one entry per family, in registry order.
 
-The algorithms never name a family.  They call the three functions below, which
-numba resolves at compile time, for the model's tuple of family data, into a
-straight sequence of calls of each family's own kernels (no run-time dispatch;
-the code of each sequence is generated from the registry when a kernel using it
-is compiled): :func:`assemble_forces`, :func:`tangent_values` and
-:func:`resultants`.  With ``NUMBA_DISABLE_JIT=1`` the same functions loop over the
-tuple in Python.
+The algorithms never name a family.  They call the three functions below,
+:func:`assemble_forces`, :func:`tangent_values` and :func:`resultants`: in Python a loop over
+the model's tuple of family data; compiled, the same loop unrolled at compile time for the
+tuple's type (numba ``overload``: the first family's call, then the rest of the tuple), a
+straight sequence of calls of each family's own functions with no run-time dispatch.
 
 What a family provides is listed in
-:class:`~reference.elements.formulation.ElementFormulation`.
+:class:`~reference.elements.formulation.ElementFormulation`; a family that gives per-element
+functions only is executed by the generic driver (:mod:`reference.elements.driver`).
 """
 
 from __future__ import annotations
@@ -28,6 +27,7 @@ from numba.extending import overload
 from reference.elements.beam2 import Beam2Formulation
 from reference.elements.beam2_se3 import Beam2SE3Formulation
 from reference.elements.beam3 import Beam3Formulation
+import reference.elements.driver as driver
 from reference.elements.formulation import end_offsets, section_quaternion
 import reference.kernel_cache as kernel_cache
 from reference.jit import TAG
@@ -42,12 +42,14 @@ model of the engine's families has one type, so each kernel compiles once (not o
 families, e.g. again for a model of rigid bodies only).  A family registered from outside is packed only
 where a model uses it."""
 
-_BY_DATA: dict[type, type] = {}
+_BY_DATA = driver.CLASS_OF_DATA
 
 
 def register(formulation: type, always: bool = False) -> type:
     """Add an element formulation class to :data:`ELEMENT_FAMILIES` (usable as a class decorator);
-    ``always``: carried by every Model (:data:`ALWAYS_PACKED`, for the engine's own families)."""
+    ``always``: carried by every Model (:data:`ALWAYS_PACKED`, for the engine's own families).  The calls
+    the family does not give itself (``assemble``, ``tangent_values``, ``resultants``, ``work``) are the
+    generic driver's (:mod:`reference.elements.driver`)."""
     name = formulation.family
     known = ELEMENT_FAMILIES.get(name)
     if known is not None and known is not formulation:
@@ -55,6 +57,9 @@ def register(formulation: type, always: bool = False) -> type:
     ELEMENT_FAMILIES[name] = formulation
     kernel_cache.FAMILIES[name] = formulation  # a compiled kernel's cache key holds the families it carries
     _BY_DATA[formulation.Data] = formulation
+    for call in ("assemble", "tangent_values", "resultants", "work"):
+        if getattr(formulation, call, None) is None:  # the generic driver executes the per-element functions
+            setattr(formulation, call, staticmethod(getattr(driver, call)))
     if always:
         ALWAYS_PACKED.add(name)
         kernel_cache.ALWAYS.add(name)
@@ -65,63 +70,75 @@ def register(formulation: type, always: bool = False) -> type:
     return formulation
 
 
-def family_of(data) -> type:
-    """The formulation class whose plain data ``data`` is."""
-    return _BY_DATA[type(data)]
+family_of = driver.formulation_of
 
 
-def _calls(method: str, arguments: str, through: str | None = None):
-    """A function ``f(elements, works, <arguments>)`` calling ``family.<method>(data, work, <arguments>)``
-    for every family's data and work arrays in turn.
-
-    It returns the sum of what the calls return or, with ``through`` (an argument's
-    name), passes each call's return value to the next as that argument and returns
-    the last.  Compiled, it is resolved for the type of the tuple ``elements`` (numba
-    ``overload``) into one call per family, the tuple indexed by constants; in plain
-    Python it loops.
-    """
-    into = f"{through} = " if through else "total += "
-    result = through or "total"
-
-    def source(name: str, calls: list[str]) -> str:
-        lines = [f"def {name}(elements, works, {arguments}):", "    total = 0.0"]
-        lines += [f"    {into}{call}(elements[{k}], works[{k}], {arguments})" for k, call in enumerate(calls)]
-        return "\n".join(lines + [f"    return {result}", ""])
-
-    scope: dict = {"family_of": family_of}
-    loop = (f"def all_{method}(elements, works, {arguments}):\n    total = 0.0\n"
-            f"    for data, work in zip(elements, works):\n"
-            f"        {into}getattr(family_of(data), {method!r})(data, work, {arguments})\n"
-            f"    return {result}\n")
-    exec(loop, scope)  # noqa: S102 - generated from this module's own strings
-    python = scope[f"all_{method}"]
-
-    def implementation(elements):
-        kinds = [_BY_DATA[t.instance_class] for t in getattr(elements, "types", ())]
-        local = {f"f{k}": getattr(kind, method) for k, kind in enumerate(kinds)}
-        exec(source("call", [f"f{k}" for k in range(len(kinds))]), local)  # noqa: S102 - from the registry
-        return local["call"]
-
-    # numba's typing function must have the overloaded function's own signature
-    typing = {"implementation": implementation}
-    exec(f"def typed(elements, works, {arguments}):\n    return implementation(elements)\n", typing)  # noqa: S102
-    overload(python, inline="always")(typing["typed"])
-    return python
+def assemble_forces(elements, works, x, q, S):
+    """Every family adds its internal forces into ``S`` (N, 6: inertial forces, body-frame moments; not
+    zeroed here); returns the sum of their strain energies [J], ``((0 + U_1) + U_2) + …`` in tuple order."""
+    return _assemble_from(elements, works, x, q, S, 0.0)
 
 
-assemble_forces = _calls("assemble", "x, q, S")
-"""``assemble_forces(elements, works, x, q, S) → U``: every family adds its internal forces into
-``S`` (N, 6: inertial forces, body-frame moments; not zeroed here) and returns its strain energy [J]."""
+def _assemble_from(elements, works, x, q, S, U):
+    for data, work in zip(elements, works):
+        U += family_of(data).assemble(data, work, x, q, S)
+    return U
 
-tangent_values = _calls("tangent_values", "x, q, psi, ck, values, p, Jr, K", through="p")
-"""``tangent_values(elements, works, x, q, psi, ck, values, p, Jr, K) → count``: every family writes
-``c_k`` times its elements' tangent blocks (node frames, columns times ``J_r(ψ)`` of each node)
-into ``values`` from position ``p`` on, in the order of its ``conn``, and returns the position after
-its last value; ``Jr`` (9,) and ``K`` (flat, at least (6n)² entries) are scratch."""
 
-resultants = _calls("resultants", "x, q, N, M")
-"""``resultants(elements, works, x, q, N, M)``: section resultants of every element into the rows
-``data.index`` of ``N``, ``M`` (E, 3), in its section frame (returns 0)."""
+@overload(_assemble_from, inline="always")
+def _assemble_typing(elements, works, x, q, S, U):
+    if len(elements) == 0:
+        return lambda elements, works, x, q, S, U: U
+    first = _BY_DATA[elements[0].instance_class].assemble
+    return lambda elements, works, x, q, S, U: _assemble_from(elements[1:], works[1:], x, q, S,
+                                                              U + first(elements[0], works[0], x, q, S))
+
+
+@overload(assemble_forces, inline="always")
+def _assemble_forces_typing(elements, works, x, q, S):
+    return lambda elements, works, x, q, S: _assemble_from(elements, works, x, q, S, 0.0)
+
+
+def tangent_values(elements, works, x, q, psi, ck, values, p, Jr, K):
+    """Every family writes ``c_k`` times its elements' tangent blocks (node frames, columns times ``J_r(ψ)``
+    of each node) into ``values`` from position ``p`` on, in the order of its ``conn``; returns the position
+    after the last family's last value.  ``Jr`` (9,) and ``K`` (flat, at least (6n)² entries) are scratch."""
+    for data, work in zip(elements, works):
+        p = family_of(data).tangent_values(data, work, x, q, psi, ck, values, p, Jr, K)
+    return p
+
+
+@overload(tangent_values, inline="always")
+def _tangent_typing(elements, works, x, q, psi, ck, values, p, Jr, K):
+    if len(elements) == 0:
+        return lambda elements, works, x, q, psi, ck, values, p, Jr, K: p
+    first = _BY_DATA[elements[0].instance_class].tangent_values
+
+    def implementation(elements, works, x, q, psi, ck, values, p, Jr, K):
+        p = first(elements[0], works[0], x, q, psi, ck, values, p, Jr, K)
+        return tangent_values(elements[1:], works[1:], x, q, psi, ck, values, p, Jr, K)
+    return implementation
+
+
+def resultants(elements, works, x, q, N, M):
+    """Section resultants of every family's elements into the rows ``data.index`` of ``N``, ``M`` (E, 3),
+    each in its section frame (returns 0)."""
+    for data, work in zip(elements, works):
+        family_of(data).resultants(data, work, x, q, N, M)
+    return 0.0
+
+
+@overload(resultants, inline="always")
+def _resultants_typing(elements, works, x, q, N, M):
+    if len(elements) == 0:
+        return lambda elements, works, x, q, N, M: 0.0
+    first = _BY_DATA[elements[0].instance_class].resultants
+
+    def implementation(elements, works, x, q, N, M):
+        first(elements[0], works[0], x, q, N, M)
+        return resultants(elements[1:], works[1:], x, q, N, M)
+    return implementation
+
 
 def integration_point_resultants(domain, x, q) -> list:
     """Section resultants at every element's integration points, every family (plain Python; a results

@@ -120,19 +120,25 @@ class ElementFormulation(ABC):
 
     - ``family``: the deck name; ``n_nodes``; ``Data``: the NamedTuple of the family's plain
       data in :attr:`reference.state.Model.elements`, whose first fields are ``conn`` (E, n)
-      node numbers and ``index`` (E,) the elements' numbers in the Domain;
+      node numbers, ``index`` (E,) the elements' numbers in the Domain and ``offset`` (E, n, 4) the
+      ends' offsets, with ``node_start``, ``node_item`` the node incidence
+      (:func:`reference.parallel.node_incidence`);
     - ``pack(placed)`` → ``Data`` from the family's :class:`PlacedElements` (arrays over its elements, or
       one :class:`PlacedElement` after the other);
-    - ``work(data)`` → the family's work array(s) for the compiled calls;
     - ``characteristic_energy(data)`` → the strain energy of a unit strain (and curvature) in every
       element [J], the scale of the energy guard's round-off floor (:func:`reference.monitor.energy_floor`);
-    - compiled (numba, inlined; ``data, work`` first): ``assemble(data, work, x, q, S) → U``
-      adds the internal forces into S (N, 6) and returns the strain energy;
-      ``tangent_values(data, work, x, q, psi, ck, values, p, Jr, K) → p`` writes the
-      elements' tangent blocks (:func:`reference.newton_blocks.store_block`);
-      ``resultants(data, work, x, q, N, M)`` the section resultants into rows ``index``.
+    - its physics, per element and compiled (numba, inlined), in the element's section frames:
+      ``element_forces(data, e, X, P, w) → U``, ``element_tangent(data, e, X, P, w, K)``,
+      ``element_resultants(w, N, M)`` and ``ROW``, its work row as named slices
+      (:mod:`reference.elements.driver`, which executes them: gathering, frames, loops, sums,
+      tangent blocks).  A family may give its own ``assemble``, ``tangent_values``, ``resultants``
+      or ``work`` (Beam2 gives its vectorised ``assemble``); those it does not give are the driver's.
     """
 
+    assemble = None
+    tangent_values = None
+    resultants = None
+    work = None
     element_type: ElementType
     family: str
     n_nodes: int
@@ -189,6 +195,36 @@ class ElementFormulation(ABC):
 
     @abstractmethod
     def critical_time_step(self, length: float) -> float: ...
+
+
+class BeamFormulation(ElementFormulation):
+    """What every beam family shares: a :class:`~reference.elements.section.Section`, the element type
+    (interpolation) its formulation is derived with (``default_type`` unless given), the energy scale and
+    the per-element Python calls built on the family's ``_evaluate(x, q, reference) → (S, U, strain,
+    stress)`` and ``lumped_masses``."""
+
+    default_type: type = ElementType
+
+    def __init__(self, section, element_type: ElementType | None = None):
+        self.section = section
+        self.element_type = element_type or self.default_type()
+        self._shape_integrals = None
+
+    @staticmethod
+    def characteristic_energy(data) -> float:
+        """The strain energy of a unit strain and curvature in every element [J],
+        ``½ Σ ((EA + GA₂ + GA₃) L0 + (GJ + EI₂ + EI₃)/L0)`` (:func:`reference.monitor.energy_floor`)."""
+        L, stiff = data.L0, data.stiff
+        return 0.5 * float(np.sum(stiff[:, :3].sum(axis=1) * L + stiff[:, 3:].sum(axis=1) / L))
+
+    def lumped_mass(self, x_nodes):
+        """The lumped masses and rotary inertias (section frame) of one element (:meth:`lumped_masses`)."""
+        mass, inertia = self.lumped_masses(np.asarray(x_nodes, dtype=float)[None])
+        return [(mass[0, a], inertia[0, a]) for a in range(mass.shape[1])]
+
+    def internal_forces(self, x_nodes, q_nodes, reference):
+        s, U, _, _ = self._evaluate(x_nodes, q_nodes, reference)
+        return s, U
 
 
 @kernel

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 
+from reference.connector import body_fixed_parts
 from reference.forces import POINT_TO_POINT, ROTATIONAL
 from reference.generated import forces as generated
 from reference.interactions import tf_value
@@ -30,7 +31,7 @@ def _measures(fe, x, q, k, e, B):
     group (not the Model: every array of an argument of an inlined function costs two atomic updates).
     """
     i, j = fe.i[k], fe.j[k]
-    par = fe.par[k]
+    s_i, s_j, f_i, f_j = body_fixed_parts(fe.par[k])
     kind = fe.kind[k]
     xj, qj = GROUND_X, GROUND_Q
     if j >= 0:
@@ -38,14 +39,14 @@ def _measures(fe, x, q, k, e, B):
     m = 6
     if kind == POINT_TO_POINT:
         # generated: d and its Jacobian; here ℓ = |d| and B_ℓ = (d/ℓ)ᵀ B_d
-        generated.point_to_point_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
+        generated.point_to_point_measures(x[i], q[i], xj, qj, s_i, s_j, f_i, f_j, e, B)
         length = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
         for col in range(12):
             B[col] = (e[0] * B[col] + e[1] * B[12 + col] + e[2] * B[24 + col]) / length if length > 0.0 else 0.0
         e[0] = length
         m = 1
     elif kind == ROTATIONAL:
-        generated.rotational_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
+        generated.rotational_measures(x[i], q[i], xj, qj, s_i, s_j, f_i, f_j, e, B)
         sn, cs = e[0], e[1]
         r2 = sn * sn + cs * cs
         e[0] = math.atan2(sn, cs)
@@ -53,7 +54,7 @@ def _measures(fe, x, q, k, e, B):
             B[col] = (cs * B[col] - sn * B[12 + col]) / r2
         m = 1
     else:
-        generated.bushing_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
+        generated.bushing_measures(x[i], q[i], xj, qj, s_i, s_j, f_i, f_j, e, B)
     if j < 0:
         for r in range(m):
             for col in range(6, 12):
@@ -179,15 +180,15 @@ def force_element_tangent(model, x, q, v, w, angle, k, K, C, e, B, G):
     (≥ 6, ≥ 72, ≥ 864); ``angle`` is read, not updated.
     """
     i, j = model.force_elements.i[k], model.force_elements.j[k]
-    par = model.force_elements.par[k]
+    s_i, s_j, f_i, f_j = body_fixed_parts(model.force_elements.par[k])
     kind = model.force_elements.kind[k]
     xj, qj = GROUND_X, GROUND_Q
     if j >= 0:
         xj, qj = x[j], q[j]
     if kind == POINT_TO_POINT:
         # chain rule through ℓ = |d|: G_ℓ = (Σ d_k G_k + Σ B_k ⊗ B_k)/ℓ − B_ℓ ⊗ B_ℓ/ℓ
-        generated.point_to_point_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
-        generated.point_to_point_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
+        generated.point_to_point_tangent(x[i], q[i], xj, qj, s_i, s_j, f_i, f_j, G)
+        generated.point_to_point_measures(x[i], q[i], xj, qj, s_i, s_j, f_i, f_j, e, B)
         length = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
         for a in range(12):
             bl_a = (e[0] * B[a] + e[1] * B[12 + a] + e[2] * B[24 + a]) / length
@@ -199,8 +200,8 @@ def force_element_tangent(model, x, q, v, w, angle, k, K, C, e, B, G):
                 G[12 * a + c] = (g - bl_a * bl_c) / length
     elif kind == ROTATIONAL:
         # chain rule through φ = atan2(s, c): G_φ from the tangents of s and c
-        generated.rotational_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
-        generated.rotational_measures(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], e, B)
+        generated.rotational_tangent(x[i], q[i], xj, qj, s_i, s_j, f_i, f_j, G)
+        generated.rotational_measures(x[i], q[i], xj, qj, s_i, s_j, f_i, f_j, e, B)
         sn, cs = e[0], e[1]
         r2 = sn * sn + cs * cs
         for a in range(12):
@@ -209,7 +210,7 @@ def force_element_tangent(model, x, q, v, w, angle, k, K, C, e, B, G):
                 g = (B[12 + c] * B[a] + cs * G[12 * a + c] - B[c] * B[12 + a] - sn * G[144 + 12 * a + c]) / r2
                 G[12 * a + c] = g - bphi * 2.0 * (sn * B[c] + cs * B[12 + c]) / r2
     else:
-        generated.bushing_tangent(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], G)
+        generated.bushing_tangent(x[i], q[i], xj, qj, s_i, s_j, f_i, f_j, G)
     m = _measures(model.force_elements, x, q, k, e, B)
     if kind == ROTATIONAL:
         e[0] = _continuous(angle, k, e[0])

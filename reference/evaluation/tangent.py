@@ -24,6 +24,8 @@ the joints' Hessian blocks, B's rows and columns, the −ε diagonal, the force 
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from reference.elements.families import tangent_values as element_tangent_values
@@ -37,6 +39,25 @@ from reference.linalg import BlockPattern
 from reference.newton_blocks import times_right_jacobian
 from reference.parallel import CHUNK, PARALLEL_NODES, n_chunks
 from reference.state import Model
+
+
+class TangentWork(NamedTuple):
+    """The scratch of :func:`tangent_values`, made once per Newton system (:meth:`for_sizes`): ``weights``
+    (10,) the joint primitives' multiplier weights of a constraint Hessian, ``B_row`` (1, 12) one row of B
+    times ``J_r(ψ)``, ``Jr`` (9,) a node's tangent operator ``J_r(ψ)``, ``J9`` (9,) a node's inertia tensor
+    (row-major) for the gyroscopic tangent, ``K12`` (12, 12) a joint's or force element's block, ``Kel`` (flat)
+    one element's tangent block, the largest family's (``block`` [entries])."""
+
+    weights: np.ndarray
+    B_row: np.ndarray
+    Jr: np.ndarray
+    J9: np.ndarray
+    K12: np.ndarray
+    Kel: np.ndarray
+
+    @classmethod
+    def for_sizes(cls, block: int) -> "TangentWork":
+        return cls(np.zeros(10), np.zeros((1, 12)), np.zeros(9), np.zeros(9), np.zeros((12, 12)), np.zeros(block))
 
 
 @inlined
@@ -129,11 +150,11 @@ def _node_blocks(model, q, w, psi, t, cm, cc, ck, values, p, K12, Jr, J9, A):
 
 
 @inlined
-def _joint_blocks(model, x, q, psi, t, lam, ck, ce, values, p, w_, small, K12, Jr):
+def _joint_blocks(model, x, q, psi, t, lam, ck, ce, values, p, w_, tw):
     """The joints' λ-weighted constraint Hessians ``c_k ∂(Bᵀλ)/∂δ`` (12×12 each), B's rows (times
     ``J_r(ψ)``) and columns, and the −ε diagonal times ``c_e``; returns the position after them."""
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, element_work = w_
-    wts = small[5, :10]
+    K12, Jr, Bs = tw.K12, tw.Jr, tw.B_row
     joints, tfs = model.joints, model.time_functions
     NJ = joints.i.shape[0]
     m = lam.shape[0]
@@ -144,7 +165,7 @@ def _joint_blocks(model, x, q, psi, t, lam, ck, ce, values, p, w_, small, K12, J
             tf = joints.tf[k]
             joint_rows_hessian(x, q, joints.i[k], joints.j[k], joints.par[k], joints.rows[k], joints.drive[k],
                                tfs.kind[tf], tfs.par[tf], t, lam[r0:r0 + neq], jphi[:neq], jB[:neq], jphit[:neq],
-                               K12, prim_phi, prim_B, wts)
+                               K12, prim_phi, prim_B, tw.weights)
         else:
             K12[:, :] = 0.0
         times_right_jacobian(K12, 3, psi[joints.i[k]], Jr)
@@ -154,14 +175,13 @@ def _joint_blocks(model, x, q, psi, t, lam, ck, ce, values, p, w_, small, K12, J
             for b in range(12):
                 values[p] = ck * K12[a, b]
                 p += 1
-    Bs = small[5:7, :]
     for k in range(NJ):
         for rr in range(joints.row0[k], joints.row0[k] + joints.neq[k]):
             for b in range(12):
                 Bs[0, b] = Bl[rr, b]
-            times_right_jacobian(Bs[:1], 3, psi[joints.i[k]], Jr)
+            times_right_jacobian(Bs, 3, psi[joints.i[k]], Jr)
             if joints.j[k] >= 0:
-                times_right_jacobian(Bs[:1], 9, psi[joints.j[k]], Jr)
+                times_right_jacobian(Bs, 9, psi[joints.j[k]], Jr)
             for b in range(12):
                 values[p] = Bs[0, b]
                 p += 1
@@ -205,7 +225,7 @@ def _force_element_blocks(model, x, q, psi, t, cc, ck, values, p, w_, K12, Jr):
 
 
 @kernel
-def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, small, K12, Kel):
+def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, tw):
     """Block values of the Newton matrix (order of :func:`newton_pattern`) into ``values``; returns
     how many were written.
 
@@ -216,16 +236,15 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, smal
     ``J_r(ψ)`` of each node (``exp(ψ + δ) = exp(ψ) exp(J_r(ψ) δ) + O(δ²)``); zeros for the
     static update ``q ⊗ exp(δ)``.  The force elements' blocks come last, at the velocities and
     angles of the last :func:`reference.algorithms.implicit.evaluate`.  ``w_`` the implicit
-    algorithms' work tuple (:func:`reference.algorithms.implicit.work_tuple`); ``small`` (8, 12),
-    ``K12`` (12, 12) and ``Kel`` (flat, the element families' largest block) scratch.
+    algorithms' work tuple (:func:`reference.algorithms.implicit.work_tuple`); ``tw`` the scratch
+    (:class:`TangentWork`).
     """
     model = named(model, Model)
-    Jr = small[7, :9]
     A = w_[6]
-    p = _node_blocks(model, q, w, psi, t, cm, cc, ck, values, 0, K12, Jr, small[6, :9], A)
-    p = element_tangent_values(model.elements, w_[13], x, q, psi, ck, values, p, Jr, Kel)
-    p = _joint_blocks(model, x, q, psi, t, lam, ck, ce, values, p, w_, small, K12, Jr)
-    return _force_element_blocks(model, x, q, psi, t, cc, ck, values, p, w_, K12, Jr)
+    p = _node_blocks(model, q, w, psi, t, cm, cc, ck, values, 0, tw.K12, tw.Jr, tw.J9, A)
+    p = element_tangent_values(model.elements, w_[13], x, q, psi, ck, values, p, tw.Jr, tw.Kel)
+    p = _joint_blocks(model, x, q, psi, t, lam, ck, ce, values, p, w_, tw)
+    return _force_element_blocks(model, x, q, psi, t, cc, ck, values, p, w_, tw.K12, tw.Jr)
 
 
 def newton_pattern(model) -> tuple[BlockPattern, np.ndarray]:

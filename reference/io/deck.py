@@ -32,18 +32,19 @@ from reference.domain import Domain
 from reference.elements import Section
 from reference.elements.families import DEFAULT_FAMILY, ELEMENT_FAMILIES
 from reference.expressions import ExpressionError
-from reference.interactions import (
-    Clamp, Constant, Expression, FixedCoordinates, Gravity, LineLoad, NodalLoad, PiecewiseLinear, Ramp, Sine,
-    SmoothStep, Step,
-)
+from reference.interactions import (Clamp, Constant, Expression, FixedCoordinates, Gravity, LineLoad, NodalLoad,
+                                    PiecewiseLinear, Ramp, Sine, SmoothStep, Step)
 from reference.io.deck_connectors import read_joints, read_prescribed_displacements, read_springs
+from reference.io.deck_parameters import read_sensitivities
 from reference.io.deck_reader import DeckError, Reader, override_value, read_toml, show
+from reference.io.deck_reduce import read_reduce
 from reference.io.deck_solution import check_backend, read_checks, read_solver
+from reference.joints.formulations import refusal as formulation_refusal
 from reference.validation import LabelError, ModelWarning
 
 TOP_LEVEL = {"meta", "sections", "time_functions", "nodes", "beams", "rigid_bodies", "joints", "clamps", "fixed",
              "loads", "line_loads", "springs", "gravity", "initial_velocities", "solver", "checks", "crosscheck",
-             "prescribed_displacements"}
+             "prescribed_displacements", "sensitivities"}
 SECTION_KEYS = ["EA", "GA2", "GA3", "GJ", "EI2", "EI3", "rhoA", "rhoJ1", "rhoJ2", "rhoJ3"]
 TIME_FUNCTIONS = {
     "constant": (Constant, ["value"], {}),
@@ -77,6 +78,9 @@ class Deck:
         ``[meta]`` (``name``, ``description``, ``provenance`` …).
     checks, crosscheck : dict
         ``[checks.NAME]`` and ``[crosscheck.NAME]`` by name, their observables checked against the model.
+    sensitivities : dict
+        ``[sensitivities]``: ``parameters`` and ``outputs`` (lists of str), checked
+        (:func:`reference.io.deck_parameters.read_sensitivities`); {} without the table.
     """
 
     domain: Domain
@@ -85,6 +89,7 @@ class Deck:
     metadata: dict = field(default_factory=dict)
     checks: dict = field(default_factory=dict)
     crosscheck: dict = field(default_factory=dict)
+    sensitivities: dict = field(default_factory=dict)
 
     def solve(self, **kwargs):
         """:meth:`Domain.solve <reference.domain.Domain.solve>` with a results file that records this deck."""
@@ -141,19 +146,21 @@ def load_deck(path, overrides: dict | None = None) -> Deck:
     refs.renumbered(written)
     algorithm, algo_cls = read_solver(rd, deck, domain, overrides, refine)
     checks, crosscheck = read_checks(rd, deck, domain)
+    sensitivities = read_sensitivities(rd, deck, domain, algorithm)
     try:
         model = domain.initialization()
     except ValueError as exc:
         raise rd.fail("model", str(exc)) from None
     algo = domain.algorithm()
-    problem = algo.refusal(model)
+    problem = algo.refusal(model) or formulation_refusal(domain.joints, algorithm)
     if problem:
         raise rd.fail("solver.algorithm", f"{algorithm!r} cannot run this model: {problem}")
     problem = algo.setting_problem(model)
     if problem:
         raise rd.fail(*problem)
     check_backend(rd, domain, algo, model)
-    return Deck(domain, str(path), text, metadata, checks, crosscheck)
+    read_reduce(rd, deck, domain)
+    return Deck(domain, str(path), text, metadata, checks, crosscheck, sensitivities)
 
 
 def _written_families(deck: dict) -> dict:
@@ -337,7 +344,8 @@ def _beams(rd: Reader, deck: dict, domain: Domain, refs: _References, sections: 
         entry = f"beams[{i}]"
         rigid = isinstance(bm, dict) and bm.get("rigid", False) is True  # a rigid bar has no elements
         rd.keys(bm, entry, required=["label", "section"] if rigid else ["label", "elements", "section"],
-                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center", "elements", "element"])
+                optional=["start", "end", "start_node", "end_node", "axis2", "rigid", "center", "elements", "element",
+                          "reduce"])
         label = rd.label(bm["label"], f"{entry}.label")
         if label in beams:
             raise rd.fail(f"{entry}.label", f"duplicate beam label {show(label)}")

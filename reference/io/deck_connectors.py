@@ -19,7 +19,8 @@ from reference.forces import KINDS as SPRING_KINDS
 from reference.forces import Bushing, PointToPoint, Rotational
 from reference.interactions import Expression
 from reference.io.deck_reader import Reader, show
-from reference.joints import Jacobian, MasterSlave
+from reference.joints.formulations import DEFAULT, REGISTRY
+from reference.joints.formulations import deck_keys as formulation_keys
 from reference.joints.joint import PRESCRIBED
 from reference.joints.joint import ROWS as JOINT_KINDS
 from reference.validation import ModelWarning
@@ -37,9 +38,10 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
     tfs = refs.tfs
     for i, jt in enumerate(rd.items(deck, "joints")):
         entry = f"joints[{i}]"
+        own_keys = formulation_keys()
         rd.keys(jt, entry, required=["kind", "body_i", "point"],
-                optional=["label", "body_j", "axis", "reference", "epsilon", "formulation", "time_function", "mode",
-                          "intended_offset"])
+                optional=["label", "body_j", "axis", "reference", "formulation", "time_function", "mode",
+                          "intended_offset", *own_keys])
         kind = rd.string(jt["kind"], f"{entry}.kind")
         if kind == PRESCRIBED:
             raise rd.fail(f"{entry}.kind", "a prescribed displacement is not a [[joints]] kind",
@@ -48,9 +50,12 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
             close = difflib.get_close_matches(kind, list(JOINT_KINDS), n=1)
             raise rd.fail(f"{entry}.kind", f"unknown joint kind {show(kind)}",
                           f"did you mean '{close[0]}'?" if close else f"one of: {', '.join(JOINT_KINDS)}")
-        formulation = rd.choice(jt.get("formulation", "jacobian"), f"{entry}.formulation", ("jacobian", "master_slave"),
-                                "joint formulation", "'jacobian' (Lagrange multipliers, stabilised) or 'master_slave' "
-                                "(elimination; spherical and revolute joints, slave = body_i a beam node)")
+        name = rd.choice(jt.get("formulation", DEFAULT), f"{entry}.formulation", REGISTRY, "joint formulation")
+        for key in jt:
+            if key in own_keys and key not in REGISTRY[name].deck_keys:
+                raise rd.fail(f"{entry}.{key}", f"applies to formulation = {show(own_keys[key])}, not {show(name)}",
+                              f"remove it, or set formulation = {show(own_keys[key])}")
+        formulation = REGISTRY[name].from_deck(rd, jt, entry)
         body_i = refs.node(jt["body_i"], f"{entry}.body_i")
         body_j = None
         if jt.get("body_j", "ground") != "ground":
@@ -75,7 +80,6 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
                 tf = tfs[jt["time_function"]] = Expression(tf.expr, with_integral=True)
             except ExpressionError as exc:
                 raise rd.fail(f"time_functions.{jt['time_function']}.expr", str(exc)) from None
-        eps = rd.number(jt.get("epsilon", 0.0), f"{entry}.epsilon", nonnegative=True)
         intended = rd.boolean(jt.get("intended_offset", False), f"{entry}.intended_offset")
         reference = rd.vector(jt["reference"], f"{entry}.reference") if "reference" in jt else None
         label = rd.label(jt.get("label", f"{kind}:{i}"), f"{entry}.label")
@@ -85,7 +89,7 @@ def read_joints(rd: Reader, deck: dict, domain: Domain, refs) -> None:
             reference = rd.direction(jt["reference"], f"{entry}.reference")
         try:
             domain.add_joint(kind, body_i, body_j, point, axis=axis, reference=reference,
-                             formulation=Jacobian(eps) if formulation == "jacobian" else MasterSlave(),
+                             formulation=formulation,
                              time_function=tf, mode=mode, label=label, intended_offset=intended)
         except ValueError as exc:
             raise rd.fail(entry, str(exc)) from None

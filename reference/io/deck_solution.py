@@ -102,7 +102,7 @@ def read_solver(rd: Reader, deck: dict, domain: Domain, overrides: dict, refine:
 def _backend(rd: Reader, sv: dict, algorithm: str) -> str:
     """``solver.backend``: one of :data:`reference.plain.backend.BACKENDS`, and for ``"reference"`` an algorithm
     that the reference path runs (:func:`reference.plain.backend.problem`)."""
-    value = rd.choice(sv.get("backend", "auto"), "solver.backend", BACKENDS, "backend",
+    value = rd.choice(sv.get("backend", "compiled"), "solver.backend", BACKENDS, "backend",
                       "'compiled' (the numba kernels), 'reference' (plain NumPy, no compilation) or 'auto'")
     why = problem(value, algorithm) if value != "compiled" else ""
     if why:

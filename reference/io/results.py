@@ -264,6 +264,17 @@ class ResultsWriter:
         self.close("completed" if exc_type is None else f"failed: {exc_type.__name__}")
 
 
+def append_datasets(path, datasets: dict) -> None:
+    """Write ``datasets`` (HDF5 path → array) into the closed results file at ``path``, replacing any of the same
+    path: the sensitivities of a run (:func:`reference.io.deck_sensitivities.sensitivity_datasets`), computed
+    after it."""
+    with h5py.File(path, "a") as f:
+        for key, value in datasets.items():
+            if key in f:
+                del f[key]
+            f.create_dataset(key, data=np.asarray(value))
+
+
 def load_results(path):
     """A results file (from either engine) as :class:`Results`; arrays are read on first use."""
     return Results(source=Path(path))

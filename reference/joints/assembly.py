@@ -34,6 +34,7 @@ import math
 
 import numpy as np
 
+from reference.connector import body_fixed_parts
 from reference.generated import joints as generated
 from reference.interactions import tf_derivative, tf_integral, tf_value
 from reference.jit import inlined
@@ -51,12 +52,13 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
     ``j = -1`` is the ground (x = 0, identity rotation; its columns are zero).
     ``drive`` 0 none; 1/2 rotation drive with θ = f(t) / θ = ∫f; 3/4 displacement
     drive with s = f(t) / s = ∫f; 5 prescribed displacement, s = f(t) along the ground-fixed
-    u3 (``par[15:24]``, the ground's frame, is inertial).
+    u3 (of ``f_j``, the ground's frame, is inertial).
     """
     xj, qj = GROUND_X, GROUND_Q  # one type for both branches: the generated kernel compiles once
     if j >= 0:
         xj, qj = x[j], q[j]
-    generated.joint_primitives(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], prim_phi, prim_B)
+    s_i, s_j, f_i, f_j = body_fixed_parts(par)
+    generated.joint_primitives(x[i], q[i], xj, qj, s_i, s_j, f_i, f_j, prim_phi, prim_B)
     if drive == 0:
         for r in range(phi.shape[0]):
             row = rows[r]
@@ -85,7 +87,7 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
             B[0, k] = prim_B[96 + k]
     else:
         # prescribed displacement: u · (P − P_i) = −s with u = u3 of the ground's frame (inertial, fixed)
-        u0, u1, u2 = par[17], par[20], par[23]
+        u0, u1, u2 = f_j[2], f_j[5], f_j[8]  # u3, the last column of the ground's frame
         phi[0] = u0 * prim_phi[0] + u1 * prim_phi[1] + u2 * prim_phi[2] + tf_value(tf_kind, tf_par, t)
         phit[0] = tf_derivative(tf_kind, tf_par, t)
         for k in range(12):
@@ -284,6 +286,58 @@ def constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
         lam[r] = work[iperm[r]]
     subtract_transpose(model, BMj, lam, v, w)
     for r in range(m):
+        lam[r] /= hk
+
+
+@inlined
+def iterated_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
+    """:func:`constraint_impulse` iterated, for rows whose solves are regularised beyond their equation
+    (ε ≠ c: the augmented Lagrangian, :mod:`reference.joints.augmented_lagrangian`); ``v, w`` in place.
+
+    From no estimate (Λ = 0: each projection is solved afresh, as the direct one is), up to
+    ``model.joints.iterations`` times, with the factor ``Lx`` of ``W + E``, ``E = ε/(h h_k)``::
+
+        (W + E) ΔΛ = B V + Φ_t + Φ/h − c Λ/(h h_k),    Λ ← Λ + ΔΛ,    V ← V − M⁻¹ Bᵀ ΔΛ
+
+    until ``max |ΔΛ| ≤ model.joints.tolerance · max |Λ|``.  Its fixed point is each row's equation
+    ``B V + Φ_t + Φ/h = c Λ/(h h_k)`` (for c = ε the one solve of :func:`constraint_impulse`); the
+    error contracts by ``(W + E)⁻¹ (E − C)`` per solve.  ``work`` holds the right-hand side and
+    ΔΛ in the solve's elimination order (``row_iperm``: both loops below index it so, ``lam``
+    keeping Λ in row order); ``lam`` receives λ = Λ/h_k.
+
+    Twelve parameters: those of :func:`constraint_impulse`, whose place it takes in the same stage.
+    """
+    iperm, c = model.joints.pattern.row_iperm, model.joints.compliance
+    jt_i, jt_j, jt_neq, jt_row0 = model.joints.i, model.joints.j, model.joints.neq, model.joints.row0
+    for r in range(PHI.shape[0]):
+        lam[r] = 0.0
+    for _ in range(model.joints.iterations):
+        for k in range(Bj.shape[0]):  # the right-hand side: jacobian_times, row by row
+            for r in range(jt_row0[k], jt_row0[k] + jt_neq[k]):
+                acc = 0.0
+                for side in range(2):
+                    n = jt_i[k] if side == 0 else jt_j[k]
+                    if n >= 0:
+                        for a in range(3):
+                            acc += Bj[k, r - jt_row0[k], 6 * side + a] * v[n, a]
+                            acc += Bj[k, r - jt_row0[k], 6 * side + 3 + a] * w[n, a]
+                work[iperm[r]] = acc + PHIt[r] + PHI[r] / h - c[r] * lam[r] / (h * hk)
+        sparse_solve(model, Lx, work)
+        change, big = 0.0, 0.0
+        for k in range(Bj.shape[0]):  # Λ += ΔΛ and V −= M⁻¹ Bᵀ ΔΛ: subtract_transpose, row by row
+            for r in range(jt_row0[k], jt_row0[k] + jt_neq[k]):
+                d = work[iperm[r]]
+                lam[r] += d
+                change, big = max(change, abs(d)), max(big, abs(lam[r]))
+                for side in range(2):
+                    n = jt_i[k] if side == 0 else jt_j[k]
+                    if n >= 0:
+                        for a in range(3):
+                            v[n, a] -= BMj[k, r - jt_row0[k], 6 * side + a] * d
+                            w[n, a] -= BMj[k, r - jt_row0[k], 6 * side + 3 + a] * d
+        if change <= model.joints.tolerance * big:
+            break
+    for r in range(PHI.shape[0]):
         lam[r] /= hk
 
 

@@ -1,12 +1,23 @@
 """How constraints enter the equations of motion (the paper's ``Joint_Formulation``, Fig. 5).
 
 Each formulation is a strategy the Domain hands its joints to: it validates them
-and lays out their part of the :class:`~reference.state.Model`
-(:meth:`JointFormulation.model_fields`); the algorithms then treat each part with
-its own stage (multiplier rows: ``reference/joints/assembly.py``; eliminated
-coordinates: ``reference/joints/master_slave.py``).  :data:`REGISTRY` lists
-them in the order their fields are laid out; a penalty or augmented-Lagrangian
-formulation would be one more class there.
+and lays out their part of the :class:`~reference.state.Model`, and it says which
+algorithms it serves.  Formulations share a **layout** — the Model field and the
+algorithms' stage that treat their joints:
+
+- :class:`Multipliers`: rows of the constraint equations Φ(x, q, t) = 0 with their
+  Jacobian B (the generated joint primitives, ``reference/joints/assembly.py``) and
+  one multiplier λ per row.  A formulation of this layout is its rows' treatment:
+  the regularisation ε of the solves (``B M⁻¹ Bᵀ + ε/(h h_k)``, the Newton matrix's
+  −ε block), the compliance c of the row's equation ``Φ − c λ = 0``, and how often
+  the multiplier solve is iterated (``λ ← λ + ΔΛ/h_k`` until converged): the
+  Lagrange multipliers (:class:`Jacobian`, ε = c, one solve) and the augmented
+  Lagrangian (:mod:`reference.joints.augmented_lagrangian`, ε = 1/α, c = 0,
+  iterated) are two such treatments of the same rows;
+- :class:`MasterSlave`: elimination of the slave's dependent coordinates
+  (``reference/joints/master_slave.py``).
+
+The registry (:mod:`reference.joints.formulations`) names them for the deck reader.
 """
 
 from __future__ import annotations
@@ -21,29 +32,45 @@ from reference.joints.master_slave import master_slave_parameters
 from reference.joints.sparse import constraint_pattern
 from reference.state import Joints, MasterSlaveJoints
 
+EXPLICIT, STATIC, ALPHA = "staggered_central_difference", "static", "generalized_alpha"
+"""The algorithms' names (:data:`reference.algorithms.ALGORITHMS`) that formulations name in ``algorithms``."""
+
 
 class JointFormulation(ABC):
     """Abstract treatment of a joint's constraint equations.
 
-    Subclasses provide ``name`` (the deck's ``formulation``), ``epsilon`` (the
-    regularisation, if any), ``multipliers`` (True when the joint has rows of the
-    Lagrange-multiplier system, hence reactions from its multipliers) and
-    :meth:`model_fields`, the Model fields of all joints of the formulation:
-
-    - :class:`Jacobian`: Lagrange multipliers from the constraint Jacobian B,
-      solved by the stabilised implicit procedure (``reference/joints/assembly.py``);
-    - :class:`MasterSlave`: elimination of the slave's dependent coordinates
-      (``reference/joints/master_slave.py``).
+    Subclasses provide ``name`` (the deck's ``formulation``), ``deck_keys`` (the keys of a
+    ``[[joints]]`` entry they read, each with its meaning), :meth:`from_deck`, ``algorithms``
+    (the names of the algorithms that can run them; None: all), ``multipliers`` (True when the
+    joint has rows of the multiplier layout, hence reactions from its multipliers), ``epsilon``
+    (the regularisation of its rows' solves, if any) and :meth:`model_fields`, the Model fields
+    of all joints of their layout.
     """
 
     name: str
+    deck_keys: dict = {}
+    algorithms: tuple | None = None
     epsilon: float = 0.0
     multipliers: bool = True
 
     @classmethod
+    def from_deck(cls, rd, table: dict, entry: str) -> "JointFormulation":
+        """The formulation of a ``[[joints]]`` entry from its keys (``rd`` the deck's
+        :class:`~reference.io.deck_reader.Reader`, whose checks give the one-line messages)."""
+        return cls()
+
+    @classmethod
+    def refusal(cls, algorithm: str) -> str | None:
+        """Why ``algorithm`` cannot run joints of this formulation, or None."""
+        if cls.algorithms is None or algorithm in cls.algorithms:
+            return None
+        return (f"formulation {cls.name!r} is available with {', '.join(cls.algorithms)} only, not with "
+                f"{algorithm}; use formulation = \"jacobian\" for this analysis")
+
+    @classmethod
     @abstractmethod
     def model_fields(cls, joints: list, n_nodes: int, tf_index: Callable, beam_nodes: set, fixed: set) -> dict:
-        """Validate ``joints`` (all of this formulation, in the Domain's order) and return their
+        """Validate ``joints`` (all of this layout, in the Domain's order) and return their
         :class:`~reference.state.Model` fields.
 
         ``tf_index(time_function) → int`` gives a time function's row in the Model's table
@@ -52,37 +79,31 @@ class JointFormulation(ABC):
         """
 
 
-@dataclass
-class Jacobian(JointFormulation):
-    """Lagrange multipliers via the constraint Jacobian, Park–Chiou stabilised.
+class Multipliers(JointFormulation):
+    """The layout of constraint rows with multipliers: Φ (m,), B (m × 6N in per-joint blocks), λ (m,).
 
-    Parameters
-    ----------
-    epsilon : float
-        Penalty/regularisation ``ε`` of ``ε λ = Φ`` [units of Φ per unit of λ];
-        default 0: the stabilised equations are then a linearised position
-        projection, exact and drift-free for independent constraints.  Give
-        ``ε > 0`` (e.g. 1e-8 of the inverse mass scale) to regularise redundant
-        constraints instead of having them reported.
+    A formulation of this layout gives per joint ``epsilon`` (ε, the regularisation of the
+    solves), ``compliance`` (c, in the row's equation ``Φ − c λ = 0``: ε of a regularised joint,
+    0 for an exact constraint), ``iterations`` (the most multiplier solves per constraint stage:
+    one for a direct solve) and ``tolerance`` (the relative change of the multipliers that ends the
+    iteration).  All joints of the layout share the stage: it iterates as much as the most
+    demanding of them asks.
     """
 
-    epsilon: float = 0.0
-    name = "jacobian"
-    multipliers = True
-
-    def __post_init__(self):
-        if not self.epsilon >= 0.0:
-            raise ValueError(f"epsilon must be ≥ 0, got {self.epsilon!r}")
+    compliance: float = 0.0
+    iterations: int = 1
+    tolerance: float = 0.0
 
     @classmethod
     def model_fields(cls, joints, n_nodes, tf_index, beam_nodes, fixed) -> dict:
         """``joints``: the joint tables (:class:`~reference.state.Joints`, rows in the joints' order),
-        each row's ε and the fixed sparsity of ``B M⁻¹ Bᵀ`` (:func:`reference.joints.sparse.constraint_pattern`)."""
+        each row's ε and c, the stage's iterations and tolerance, and the fixed sparsity of
+        ``B M⁻¹ Bᵀ`` (:func:`reference.joints.sparse.constraint_pattern`)."""
         J = len(joints)
         jt = Joints(np.zeros(J, dtype=np.int64), np.zeros(J, dtype=np.int64), np.zeros((J, 24)),
                     np.full((J, 6), -1, dtype=np.int64), np.zeros(J, dtype=np.int64), np.zeros(J, dtype=np.int64),
-                    np.zeros(J, dtype=np.int64), np.zeros(J, dtype=np.int64), None, None)
-        row_eps, row0 = [], 0
+                    np.zeros(J, dtype=np.int64), np.zeros(J, dtype=np.int64), None, None, None, 0, 0.0)
+        row_eps, row_c, row0 = [], [], 0
         for k, joint in enumerate(joints):
             jt.i[k] = joint.body_i.id
             jt.j[k] = -1 if joint.body_j is None else joint.body_j.id
@@ -94,9 +115,47 @@ class Jacobian(JointFormulation):
             jt.tf[k] = tf_index(joint.time_function)
             row0 += joint.n_equations
             row_eps += [joint.formulation.epsilon] * joint.n_equations
+            row_c += [joint.formulation.compliance] * joint.n_equations
         pattern = constraint_pattern(jt.i, jt.j, jt.neq,
                                      np.array([joint.formulation.epsilon > 0.0 for joint in joints], dtype=np.int64))
-        return {"joints": jt._replace(eps=np.array(row_eps, dtype=float), pattern=pattern)}
+        iterative = [j.formulation for j in joints if j.formulation.compliance != j.formulation.epsilon]
+        return {"joints": jt._replace(
+            eps=np.array(row_eps, dtype=float), compliance=np.array(row_c, dtype=float), pattern=pattern,
+            iterations=max([f.iterations for f in iterative], default=0),
+            tolerance=min([f.tolerance for f in iterative], default=0.0))}
+
+
+@dataclass
+class Jacobian(Multipliers):
+    """Lagrange multipliers via the constraint Jacobian, Park–Chiou stabilised.
+
+    Parameters
+    ----------
+    epsilon : float
+        Penalty/regularisation ``ε`` of ``ε λ = Φ`` [units of Φ per unit of λ];
+        default 0: the stabilised equations are then a linearised position
+        projection, exact and drift-free for independent constraints.  Give
+        ``ε > 0`` (e.g. 1e-8 of the inverse mass scale) to regularise redundant
+        constraints instead of having them reported.  ε is the row's compliance:
+        the constraint gives way by ε λ.
+    """
+
+    epsilon: float = 0.0
+    name = "jacobian"
+    multipliers = True
+    deck_keys = {"epsilon": "ε ≥ 0 of the stabilised multipliers (default 0), a compliance"}
+
+    def __post_init__(self):
+        if not self.epsilon >= 0.0:
+            raise ValueError(f"epsilon must be ≥ 0, got {self.epsilon!r}")
+
+    @property
+    def compliance(self) -> float:
+        return self.epsilon
+
+    @classmethod
+    def from_deck(cls, rd, table, entry):
+        return cls(rd.number(table.get("epsilon", 0.0), f"{entry}.epsilon", nonnegative=True))
 
 
 @dataclass
@@ -112,6 +171,7 @@ class MasterSlave(JointFormulation):
     name = "master_slave"
     epsilon: float = 0.0
     multipliers = False
+    algorithms = (EXPLICIT,)
 
     @classmethod
     def model_fields(cls, joints, n_nodes, tf_index, beam_nodes, fixed) -> dict:
@@ -142,7 +202,3 @@ class MasterSlave(JointFormulation):
             np.array([j.body_j.id for j in joints], dtype=np.int64), np.array([j.body_i.id for j in joints], dtype=np.int64),
             np.array([0 if j.kind == "spherical" else 1 for j in joints], dtype=np.int64),
             np.array([master_slave_parameters(j) for j in joints]).reshape(len(joints), 9))}
-
-
-REGISTRY = (Jacobian, MasterSlave)
-"""The joint formulations, in the order their Model fields are laid out."""

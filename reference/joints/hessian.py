@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 
+from reference.connector import body_fixed_parts
 from reference.generated import tangents as generated
 from reference.interactions import tf_integral, tf_value
 from reference.jit import kernel
@@ -44,7 +45,8 @@ def primitive_weights(par, rows, drive, tf_kind, tf_par, t, lam, w):
     elif drive <= 4:
         w[8] = lam[0]
     else:
-        w[0], w[1], w[2] = lam[0] * par[17], lam[0] * par[20], lam[0] * par[23]
+        f_j = body_fixed_parts(par)[3]  # u3, its last column: the ground's frame, inertial
+        w[0], w[1], w[2] = lam[0] * f_j[2], lam[0] * f_j[5], lam[0] * f_j[8]
 
 
 @kernel
@@ -82,7 +84,8 @@ def joint_rows_hessian(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, lam, ph
     xj, qj = GROUND_X, GROUND_Q  # one type for both branches: the generated kernel compiles once
     if j >= 0:
         xj, qj = x[j], q[j]
-    generated.joint_primitive_hessian(x[i], q[i], xj, qj, par[0:3], par[3:6], par[6:15], par[15:24], w, Hf)
+    s_i, s_j, f_i, f_j = body_fixed_parts(par)
+    generated.joint_primitive_hessian(x[i], q[i], xj, qj, s_i, s_j, f_i, f_j, w, Hf)
     if j < 0:
         for a in range(12):
             for b in range(6, 12):

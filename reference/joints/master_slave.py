@@ -40,10 +40,18 @@ SPHERICAL, REVOLUTE = 0, 1
 
 
 @inlined
+def pair_parts(par):
+    """The parts of a pair's packed ``par`` (9,) (:class:`reference.state.MasterSlaveJoints`): the master's
+    body-fixed offset ``p`` to the slave's node [m], the master's body-fixed axis and the slave's body-fixed
+    axis (unit; a revolute pair's)."""
+    return par[0:3], par[3:6], par[6:9]
+
+
+@inlined
 def _pair_matrices(model, k, q, T, A_m, A_s):
     """Fill ``T`` (12 × d) for pair k at Euler parameters ``q``; return d."""
     m, s = model.master_slave.master[k], model.master_slave.slave[k]
-    par = model.master_slave.par[k]
+    p, _, axis_s = pair_parts(model.master_slave.par[k])
     rm.rotation_matrix(q[m], A_m)
     rm.rotation_matrix(q[s], A_s)
     T[:, :] = 0.0
@@ -52,7 +60,7 @@ def _pair_matrices(model, k, q, T, A_m, A_s):
     for a in range(3):
         T[6 + a, a] = 1.0
     # −A_m p̃ ω_m: column b of −A_m p̃ is −A_m (p × e_b) = A_m (e_b × p)... written out:
-    p0, p1, p2 = par[0], par[1], par[2]
+    p0, p1, p2 = p[0], p[1], p[2]
     for r in range(3):
         # (A_m p̃)[r, :] = A_m[r, :] @ p̃ with p̃ = [[0,-p2,p1],[p2,0,-p0],[-p1,p0,0]]
         a0, a1, a2 = A_m[3 * r], A_m[3 * r + 1], A_m[3 * r + 2]
@@ -70,7 +78,7 @@ def _pair_matrices(model, k, q, T, A_m, A_s):
             for l in range(3):
                 acc += A_s[3 * l + r] * A_m[3 * l + c]
             T[9 + r, 3 + c] = acc
-        T[9 + r, 6] = par[6 + r]
+        T[9 + r, 6] = axis_s[r]
     return 7
 
 
@@ -134,19 +142,19 @@ def master_slave_positions(model, x, q, A_m, A_s, q_tmp, r):
     """Set each slave's dependent coordinates from its master (after the drift)."""
     for k in range(model.master_slave.master.shape[0]):
         m, s = model.master_slave.master[k], model.master_slave.slave[k]
-        par = model.master_slave.par[k]
+        p, axis_m, axis_s = pair_parts(model.master_slave.par[k])
         rm.rotation_matrix(q[m], A_m)
         for a in range(3):
-            x[s, a] = x[m, a] + A_m[3 * a] * par[0] + A_m[3 * a + 1] * par[1] + A_m[3 * a + 2] * par[2]
+            x[s, a] = x[m, a] + A_m[3 * a] * p[0] + A_m[3 * a + 1] * p[1] + A_m[3 * a + 2] * p[2]
         if model.master_slave.kind[k] != REVOLUTE:
             continue
         rm.rotation_matrix(q[s], A_s)
-        c0 = A_s[0] * par[6] + A_s[1] * par[7] + A_s[2] * par[8]
-        c1 = A_s[3] * par[6] + A_s[4] * par[7] + A_s[5] * par[8]
-        c2 = A_s[6] * par[6] + A_s[7] * par[7] + A_s[8] * par[8]
-        d0 = A_m[0] * par[3] + A_m[1] * par[4] + A_m[2] * par[5]
-        d1 = A_m[3] * par[3] + A_m[4] * par[4] + A_m[5] * par[5]
-        d2 = A_m[6] * par[3] + A_m[7] * par[4] + A_m[8] * par[5]
+        c0 = A_s[0] * axis_s[0] + A_s[1] * axis_s[1] + A_s[2] * axis_s[2]
+        c1 = A_s[3] * axis_s[0] + A_s[4] * axis_s[1] + A_s[5] * axis_s[2]
+        c2 = A_s[6] * axis_s[0] + A_s[7] * axis_s[1] + A_s[8] * axis_s[2]
+        d0 = A_m[0] * axis_m[0] + A_m[1] * axis_m[1] + A_m[2] * axis_m[2]
+        d1 = A_m[3] * axis_m[0] + A_m[4] * axis_m[1] + A_m[5] * axis_m[2]
+        d2 = A_m[6] * axis_m[0] + A_m[7] * axis_m[1] + A_m[8] * axis_m[2]
         # the smallest rotation taking c to d: Euler parameters ∝ (1 + c·d, c × d)
         r[0] = 1.0 + c0 * d0 + c1 * d1 + c2 * d2
         r[1] = c1 * d2 - c2 * d1

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from reference.connector import body_fixed_parts
 from reference.generated import rotation_maps as rm
 from reference.jit import kernel
 from reference.joints.assembly import joint_rows
@@ -73,9 +74,10 @@ def joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, p
             M1 -= jB[r, 4] * lr
             M2 -= jB[r, 5] * lr
         rm.rotation_matrix(q[i], A)
-        d0 = A[0] * par[0] + A[1] * par[1] + A[2] * par[2]
-        d1 = A[3] * par[0] + A[4] * par[1] + A[5] * par[2]
-        d2 = A[6] * par[0] + A[7] * par[1] + A[8] * par[2]
+        s_i = body_fixed_parts(par)[0]
+        d0 = A[0] * s_i[0] + A[1] * s_i[1] + A[2] * s_i[2]
+        d1 = A[3] * s_i[0] + A[4] * s_i[1] + A[5] * s_i[2]
+        d2 = A[6] * s_i[0] + A[7] * s_i[1] + A[8] * s_i[2]
         o = slot[k]
         force[o, 0], force[o, 1], force[o, 2] = F0, F1, F2
         moment[o, 0] = A[0] * M0 + A[1] * M1 + A[2] * M2 - (d1 * F2 - d2 * F1)

@@ -1,9 +1,10 @@
 """Constraint set-up: from the Domain's joints to the Model's constraint fields, checked at t = 0.
 
 When the Domain is initialised (paper §4.3, ``Initialization``) its joints are
-split by formulation (§4.2.3): the :class:`~reference.joints.Jacobian` ones
-give Lagrange-multiplier rows, the :class:`~reference.joints.MasterSlave` ones
-eliminated coordinates.  This module
+split by the layout of their formulation (§4.2.3): the multiplier ones
+(:class:`~reference.joints.Jacobian`, the augmented Lagrangian) give rows with
+multipliers, the :class:`~reference.joints.MasterSlave` ones eliminated coordinates.
+This module
 
 1. hands them to their formulations, which validate them and lay out the
    :class:`~reference.state.Model`'s constraint fields (:func:`constraint_fields`):
@@ -28,7 +29,7 @@ from reference.joints.assembly import (
     apply_inverse_mass, assemble_constraints, assemble_w, jacobian_times, sparse_cholesky, sparse_solve,
     subtract_transpose,
 )
-from reference.joints.formulation import REGISTRY
+from reference.joints.formulations import LAYOUTS, layout_of
 from reference.joints.joint import PRESCRIBED, Joint
 from reference.scalar import build_time_form
 from reference.state import Model, State
@@ -48,9 +49,9 @@ def multiplier_joints(joints: list[Joint]) -> list[Joint]:
 
 def constraint_fields(joints: list[Joint], n_nodes: int, tf_index: Callable, beam_nodes: set,
                       fixed: set) -> tuple[dict, np.ndarray]:
-    """The :class:`~reference.state.Model` fields of the constraints — each formulation's own
-    (:meth:`~reference.joints.formulation.JointFormulation.model_fields` of every class of
-    :data:`~reference.joints.formulation.REGISTRY`, with its joints in the Domain's order) — and
+    """The :class:`~reference.state.Model` fields of the constraints — each layout's own
+    (:meth:`~reference.joints.formulation.JointFormulation.model_fields` of every layout of
+    :data:`~reference.joints.formulations.LAYOUTS`, with its joints in the Domain's order) — and
     per node (N,) 1 for a node of any joint, else 0.
 
     Parameters
@@ -64,14 +65,15 @@ def constraint_fields(joints: list[Joint], n_nodes: int, tf_index: Callable, bea
     beam_nodes, fixed : set of int
         Ids of the nodes of elements, and of the nodes with fixed coordinates.
     """
-    unknown = [j for j in joints if type(j.formulation) not in REGISTRY]
-    if unknown:
-        raise ValueError(f"joint {unknown[0].label!r}: formulation {type(unknown[0].formulation).__name__} is not one "
-                         f"of {', '.join(f.__name__ for f in REGISTRY)}")
+    for joint in joints:
+        try:
+            layout_of(joint.formulation)
+        except ValueError as exc:
+            raise ValueError(f"joint {joint.label!r}: {exc}") from None
     fields: dict = {}
-    for formulation in REGISTRY:
-        own = [j for j in joints if type(j.formulation) is formulation]
-        fields.update(formulation.model_fields(own, n_nodes, tf_index, beam_nodes, fixed))
+    for layout in LAYOUTS:
+        own = [j for j in joints if isinstance(j.formulation, layout)]
+        fields.update(layout.model_fields(own, n_nodes, tf_index, beam_nodes, fixed))
     node_constrained = np.zeros(n_nodes, dtype=np.int64)
     for joint in joints:
         for body in (joint.body_i, joint.body_j):

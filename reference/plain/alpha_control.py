@@ -44,7 +44,7 @@ class StepControl:
 def to_output(algo, state, run, n_steps: int) -> int:
     """Advance ``state`` to the output ``n_steps`` steps of ``dt`` ahead (``algo`` a
     :class:`reference.plain.generalized_alpha.PlainGeneralizedAlpha`, ``run`` its run); the status."""
-    c, clock = run.control, state.clock
+    c, clock = run.control, state.clock[0]
     done, code = 0, OK
     if not c.varying:
         for _ in range(n_steps):
@@ -52,8 +52,8 @@ def to_output(algo, state, run, n_steps: int) -> int:
             if code != OK:
                 break
             done += 1
-            clock[1] += 1
-            clock[0] = run.start[0] + (clock[1] - run.start[1]) * algo.dt
+            clock["n"] += 1
+            clock["t"] = run.start[0] + (clock["n"] - run.start[1]) * algo.dt
         c.nominal += done
         if code == OK:
             return OK
@@ -77,10 +77,10 @@ def _cut(algo, run, h: float) -> bool:
 
 def _varying(algo, state, run, n_steps: int) -> int:
     """Steps chosen one by one to the output ``n_steps`` steps of ``dt`` ahead, the last landing on it."""
-    c, clock, stats = run.control, state.clock, run.stats
+    c, clock, stats = run.control, state.clock[0], run.stats
     target = run.start[0] + (c.nominal + n_steps) * algo.dt
-    while target - clock[0] > 1e-9 * algo.dt:
-        left = target - clock[0]
+    while target - clock["t"] > 1e-9 * algo.dt:
+        left = target - clock["t"]
         h = c.h_next
         c.h = h_use = landing_step(left, h)
         a_old = run.alpha.a.copy()
@@ -110,11 +110,11 @@ def _varying(algo, state, run, n_steps: int) -> int:
             h_next = kept_step(h_use, h_next, algo.dead_band)
             stats.step(h_use, err)
             c.h_next = h_next if h_use >= h else max(h, h_next)  # a step shortened to land keeps the controller's
-        clock[1] += 1
-        clock[0] += h_use
-    clock[0] = target
+        clock["n"] += 1
+        clock["t"] += h_use
+    clock["t"] = target
     c.nominal += n_steps
     c.ceiling = min(2.0 * c.ceiling, algo.dt)
     if algo.error_tolerance is None and c.h_next == algo.dt:
-        c.varying, c.h, run.start = False, algo.dt, (float(clock[0]), int(clock[1]))  # back to the fixed steps
+        c.varying, c.h, run.start = False, algo.dt, (float(clock["t"]), int(clock["n"]))  # back to the fixed steps
     return OK

@@ -28,6 +28,7 @@ from reference.plain.loads import load_tangent
 from reference.plain.newton import EngineFace, Newton, compose, relative_rotation
 from reference.plain.corrector import LoadPath, static_newton
 from reference.scalar import scalar_twin
+from reference.state import new_clock
 from reference.status import NO_CONVERGENCE, OK, SINGULAR
 from reference.validation import ModelWarning
 
@@ -162,7 +163,7 @@ class PlainArcLength(ArcLength):
                 run.s += float(np.linalg.norm(increment))
                 run.previous = increment
                 dW, run.P = self._work(run, saved[0], saved[1], x, q, lam)
-                clock[2] += dW
+                clock["work"] += dW
                 run.lam, run.jumped, run.switch = lam, run.switch is not None, None
                 run.peak = max(run.peak, abs(lam))
                 run.problem = ()
@@ -245,7 +246,7 @@ def limit_point_trace(static, model, state, run, saved, F0, t0, t1) -> None:
     if arc._correct(trace, x, q, c, None)[0] != OK:
         return
     trace.lam, trace.F, trace.P = c, trace.plain.last.F.copy(), trace.plain.joint_forces(trace.plain.last, trace.mu)
-    path, clock = [(0.0, c)], np.zeros(3)
+    path, clock = [(0.0, c)], new_clock()[0]
     for _ in range(TRACE_POINTS):
         if arc._point(trace, x, q, clock) != OK or trace.lam >= 1.0:
             return

@@ -1,11 +1,11 @@
 """Which implementation runs a job: ``[solver] backend`` (``SolverSettings.backend``) and its ``auto`` rule.
 
-- ``"compiled"``: the numba kernels of :mod:`reference.algorithms`.  Fast per step, but the first run of an
+- ``"compiled"`` (the default: every deck's results as before the reference path existed): the numba kernels of :mod:`reference.algorithms`.  Fast per step, but the first run of an
   algorithm for a version of the engine compiles its kernels, minutes on a small machine (docs/benchmarks.md
   §9).
 - ``"reference"``: the same algorithm's twin on the plain NumPy path (``reference/plain/``): nothing to
   compile, slower per step (:data:`COSTS`).
-- ``"auto"`` (the default): the reference path when its estimated run time (:func:`estimate`) is at most
+- ``"auto"``: the reference path when its estimated run time (:func:`estimate`) is at most
   :data:`REFERENCE_SECONDS` and the twin runs these settings, else the compiled path.  The estimate depends
   only on the job (algorithm, steps, nodes, joint rows, force elements), never on what is cached, so the same
   deck always runs on the same path: a short job (a static solve, modes, a lesson's cell, a short explicit
@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import functools
 from typing import NamedTuple
+
+import numpy as np
 
 BACKENDS = ("compiled", "reference", "auto")
 """The values of ``[solver] backend``."""
@@ -127,6 +129,9 @@ def decide(requested: str, algo, model, steps: int) -> Choice:
     if requested == "compiled":
         return Choice("compiled", "asked for")
     refused = twin(algo).refusal(model) if algo.name in twins() else f"algorithm {algo.name!r} has no twin there"
+    if not refused and (model.joints.iterations > 0 or np.any(model.joints.compliance != model.joints.eps)):
+        refused = ("augmented-Lagrangian joints run on the compiled path only (the reference path solves the "
+                   "multiplier rows Φ − ελ = 0); set backend = \"compiled\"")
     if requested == "reference":
         if refused:
             raise ValueError(f"solver backend: {refused}")

@@ -25,11 +25,12 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from reference.connector import body_fixed_parts
 from reference.generated import joints as generated_joints
 from reference.generated import rotation_maps as rm
 from reference.generated import tangents as generated_tangents
 from reference.interactions import tf_derivative, tf_integral, tf_value
-from reference.joints.master_slave import SPHERICAL
+from reference.joints.master_slave import SPHERICAL, pair_parts
 from reference.plain.loads import rotation_matrices, time_functions_at
 from reference.plain.vectorise import plain
 
@@ -42,8 +43,7 @@ def _ends(joints, x, q):
     xj = np.where(ground, 0.0, x[np.maximum(joints.j, 0)])
     qj = np.where(ground, np.array([1.0, 0.0, 0.0, 0.0]), q[np.maximum(joints.j, 0)])
     par = joints.par
-    return (x[joints.i].T, q[joints.i].T, xj.T, qj.T, par[:, 0:3].T, par[:, 3:6].T, par[:, 6:15].T,
-            par[:, 15:24].T)
+    return (x[joints.i].T, q[joints.i].T, xj.T, qj.T, *plain(body_fixed_parts)(par.T))
 
 
 def primitives(joints, x, q):
@@ -207,10 +207,11 @@ def master_slave_positions(model, x, q):
         m, s = ms.master[k], ms.slave[k]
         par = ms.par[k]
         A_m, A_s = rotation_matrices(q[[m, s]])
-        x[s] = x[m] + A_m @ par[0:3]
+        offset, axis_m, axis_s = plain(pair_parts)(par)
+        x[s] = x[m] + A_m @ offset
         if ms.kind[k] == SPHERICAL:
             continue
-        c, d = A_s @ par[6:9], A_m @ par[3:6]
+        c, d = A_s @ axis_s, A_m @ axis_m
         r = np.concatenate([[1.0 + c @ d], np.cross(c, d)])
         out = np.empty(4)
         product(r / np.sqrt(r @ r), q[s].copy(), out)

@@ -90,9 +90,9 @@ def alpha_step(nw: Newton, st, al: AlphaState, h: float, p: AlphaParameters) -> 
     Newton on the configuration correction δ of ``h Δq``, with ``V += γ' δ``, ``V̇ += β' δ``, ``λ += β' μ``,
     on the iteration matrix ``[M + (γ'/β') C + K T(hΔθ)/β', Bᵀ; B T(hΔθ), −β' ε]``, kept while the
     corrections contract by :attr:`AlphaParameters.contraction` (module docstring)."""
-    x, q, clock = st.x, st.q, st.clock
+    x, q, clock = st.x, st.q, st.clock[0]
     bp, gp = (1.0 - p.alpha_m) / (h * h * p.beta * (1.0 - p.alpha_f)), p.gamma / (h * p.beta)
-    t1, floor = clock[0] + h, ROUNDOFF * max(1.0, float(np.max(np.abs(x))) / p.L)
+    t1, floor = clock["t"] + h, ROUNDOFF * max(1.0, float(np.max(np.abs(x))) / p.L)
     an, dq, Vn, vdn, lamn = _predict(al, np.hstack([st.v, st.w]), h, p)
     if al.lu is not None and abs(h - al.h_lu) > p.reuse * al.h_lu:
         al.lu = None  # the matrix's coefficients depend on h
@@ -163,10 +163,10 @@ def _accept(nw: Newton, st, al: AlphaState, h: float, it, p) -> None:
     """The converged step into the state: the external work (trapezoidal on the increments, loads and
     constraint power) and the dissipation from the last evaluation, then ``x, q, V, V̇, a, λ``."""
     x, q, dq, Vn, vdn, an, lamn, res = it
-    clock, f_prev = st.clock, st.f_prev
+    clock, f_prev = st.clock[0], st.f_prev
     P1, D1 = powers(nw, res, lamn, Vn)
-    clock[2] += float(np.sum(0.5 * (f_prev + res.F) * h * dq)) + 0.5 * h * (al.powers[0] + P1)
-    clock[3] += 0.5 * h * (al.powers[1] + D1)
+    clock["work"] += float(np.sum(0.5 * (f_prev + res.F) * h * dq)) + 0.5 * h * (al.powers[0] + P1)
+    clock["dissipated"] += 0.5 * h * (al.powers[1] + D1)
     al.powers[:] = P1, D1
     f_prev[:] = res.F
     al.a[:] = an + (1.0 - p.alpha_f) / (1.0 - p.alpha_m) * (vdn - al.vd)
@@ -225,38 +225,39 @@ class PlainGeneralizedAlpha(GeneralizedAlpha):
         """Consistent initial accelerations and multipliers (``τ = 10⁻³ h``, ``c_e = β'``), the first
         evaluation's loads and powers."""
         nw, h = run.newton, run.h
-        x, q, v, w, f_prev, clock = state[:6]
+        x, q, v, w, f_prev = state[:5]
+        clock = state.clock[0]
         nw.angle[:] = state.angle
         bp = (1.0 - self.alpha_m) / (h * h * self.beta * (1.0 - self.alpha_f))
-        solved = nw.consistent_accelerations(x, q, v, w, clock[0], 1e-3 * h, ce=bp)
+        solved = nw.consistent_accelerations(x, q, v, w, clock["t"], 1e-3 * h, ce=bp)
         if solved is None:
             run.tried = "at the initial accelerations"
             return SINGULAR
         vd, lam = solved
-        res = nw.evaluate(x, q, v, w, vd, lam, clock[0], True)
+        res = nw.evaluate(x, q, v, w, vd, lam, clock["t"], True)
         f_prev[:] = res.F
         run.alpha = AlphaState(vd, vd.copy(), lam, np.array(powers(nw, res, lam, np.hstack([v, w]))))
-        run.control.nominal = int(round(clock[0] / self.dt))
+        run.control.nominal = int(round(clock["t"] / self.dt))
         return OK
 
     def advance(self, model, state, run, n_steps, record) -> int:
-        nw, clock = run.newton, state.clock
+        nw, clock = run.newton, state.clock[0]
         if run.alpha is None:
             run.stopped_at = None
             code = self._initial(run, state)
             if code != OK:
-                run.stopped_at = clock[0]
+                run.stopped_at = clock["t"]
                 return code
         if record is not None:
             al = run.alpha
-            res = nw.evaluate(state.x, state.q, state.v, state.w, al.vd, al.lam, clock[0], True)
-            nw.write_record(record, state.x, state.q, state.v, state.w, clock, al.lam, res)
+            res = nw.evaluate(state.x, state.q, state.v, state.w, al.vd, al.lam, clock["t"], True)
+            nw.write_record(record, state.x, state.q, state.v, state.w, state.clock, al.lam, res)
             run.row = run.stats.output(run.control.h, nw.free_norm(res.r))
         code = to_output(self, state, run, int(n_steps))
         state.angle[:] = nw.angle
         if code != OK:
             run.alpha.lu = None
-            run.stopped_at = clock[0]
+            run.stopped_at = clock["t"]
         return code
 
     def summary(self, run) -> str:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from reference.connector import body_fixed_parts
 from reference.forces import POINT_TO_POINT, ROTATIONAL
 from reference.generated import forces as generated_forces
 from reference.generated import rotation_maps as rm
@@ -114,8 +115,7 @@ def _ends(fe, x, q, ks):
     xj = np.where(ground, 0.0, x[np.maximum(j, 0)])
     qj = np.where(ground, np.array([1.0, 0.0, 0.0, 0.0]), q[np.maximum(j, 0)])
     par = fe.par[ks]
-    return (x[fe.i[ks]].T, q[fe.i[ks]].T, xj.T, qj.T, par[:, 0:3].T, par[:, 3:6].T, par[:, 6:15].T,
-            par[:, 15:24].T)
+    return (x[fe.i[ks]].T, q[fe.i[ks]].T, xj.T, qj.T, *plain(body_fixed_parts)(par.T))
 
 
 def measures(fe, x, q, angle):

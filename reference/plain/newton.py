@@ -195,7 +195,7 @@ class Newton:
         m, J = self.ev.masses
         rec.x[:], rec.q[:], rec.v[:], rec.w[:] = x, q, v, w
         T = 0.5 * float(np.sum(m[:, None] * v * v)) + 0.5 * float(np.einsum("na,nab,nb->", w, J, w))
-        rec.energy[:] = T, res.U, clock[2], clock[3]
+        rec.energy[:] = T, res.U, clock[0]["work"], clock[0]["dissipated"]
         rate = res.phi_t + res.B @ np.hstack([v, w]).ravel()
         rec.constraint[:] = np.linalg.norm(res.phi), np.linalg.norm(rate)
         rec.lam[:] = lam

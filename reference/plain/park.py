@@ -40,7 +40,7 @@ from reference.algorithms.staggered_nodes import SWEEP_TOLERANCE
 from reference.generated import rotation_maps
 from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, likely_cause
 from reference.plain.model import Evaluation
-from reference.state import Record, State
+from reference.state import GUARD, Record, State
 from reference.status import BLOWUP, DIVERGED, OK, SINGULAR, explicit_failure
 
 SINGULAR_PIVOT = 1e-13
@@ -237,20 +237,21 @@ def energy_guard(ev: Evaluation, state: State, f: Forces, new: Corrected, h: flo
     True (a blow-up) when ``E − E₀ − W + D`` exceeds the tolerance × the largest ``|E₀| + |W| + |D|`` so far
     plus one step of the external and constraint powers, and E itself has grown.  E is the kinetic energy at
     the integer-step velocities plus U; ``drive`` the constraint forces' power [W];
-    ``guard`` = [E₀, scale, tolerance, residual, E] (tolerance 0: off)."""
-    if guard[2] == 0.0:
+    ``guard`` the :data:`reference.state.GUARD` record array (1,) (tolerance 0: off)."""
+    g, clock = guard[0], state.clock[0]
+    if g["tolerance"] == 0.0:
         return False
     V_old = np.hstack([state.v, state.w])
     if state.n == 0:  # the first step fixes E₀
-        guard[0] = kinetic(ev, state.v, state.w) + f.U
-        guard[1] = max(guard[1], abs(guard[0]))
+        g["E0"] = kinetic(ev, state.v, state.w) + f.U
+        g["scale"] = max(g["scale"], abs(g["E0"]))
         return False
     E = kinetic(ev, 0.5 * (state.v + new.v), 0.5 * (state.w + new.w)) + f.U
-    work, dissipated = state.clock[2], state.clock[3]
-    guard[1] = max(guard[1], abs(guard[0]) + abs(work) + abs(dissipated))
-    guard[3], guard[4] = E - guard[0] - work + dissipated, E
+    work, dissipated = clock["work"], clock["dissipated"]
+    g["scale"] = max(g["scale"], abs(g["E0"]) + abs(work) + abs(dissipated))
+    g["residual"], g["energy"] = E - g["E0"] - work + dissipated, E
     lag = h * (abs(np.sum(f.F * V_old)) + abs(np.sum(f.F * np.hstack([new.v, new.w]))) + abs(drive))
-    return guard[3] > guard[2] * guard[1] + lag and E - guard[0] > guard[2] * guard[1]
+    return g["residual"] > g["tolerance"] * g["scale"] + lag and E - g["E0"] > g["tolerance"] * g["scale"]
 
 
 def drift(ev: Evaluation, state: State, new: Corrected, F: np.ndarray, h: float) -> None:
@@ -263,7 +264,7 @@ def drift(ev: Evaluation, state: State, new: Corrected, F: np.ndarray, h: float)
     state.v[:], state.w[:], state.f_prev[:] = new.v, new.w, F
     ev.master_slave_positions(state.x, state.q)
     n = state.n
-    state.clock[1], state.clock[0] = n + 1, (n + 1) * h
+    state.clock[0]["n"], state.clock[0]["t"] = n + 1, (n + 1) * h
 
 
 def record(ev: Evaluation, rec: Record, state: State, new: Corrected, U: float, loss: float) -> None:
@@ -275,7 +276,8 @@ def record(ev: Evaluation, rec: Record, state: State, new: Corrected, U: float, 
     rec.x[:], rec.q[:] = state.x, state.q
     rec.v[:] = state.v if first else 0.5 * (state.v + new.v)
     rec.w[:] = state.w if first else 0.5 * (state.w + new.w)
-    rec.energy[:] = (kinetic(ev, rec.v, rec.w), U, state.clock[2], state.clock[3] + (0.0 if first else 0.5 * loss))
+    clock = state.clock[0]
+    rec.energy[:] = (kinetic(ev, rec.v, rec.w), U, clock["work"], clock["dissipated"] + (0.0 if first else 0.5 * loss))
     rate = new.phi_t + new.B @ np.hstack([rec.v, rec.w]).ravel()
     rec.constraint[:] = (np.linalg.norm(new.phi), np.linalg.norm(rate))
     rec.lam[:] = new.lam
@@ -294,7 +296,7 @@ def solve_step(ev: Evaluation, state: State, h: float, guard: np.ndarray, rec: R
         new = constrain(ev, state, f, kick, h, hk)
     except SingularConstraints:
         return SINGULAR
-    state.clock[2] += work_of_loads(state, f.F, h)
+    state.clock[0]["work"] += work_of_loads(state, f.F, h)
     loss = damping_loss(ev, state, new, hk)
     if rec is not None:
         record(ev, rec, state, new, f.U, loss)
@@ -303,18 +305,18 @@ def solve_step(ev: Evaluation, state: State, h: float, guard: np.ndarray, rec: R
     if not (np.all(np.isfinite(new.v)) and np.all(np.isfinite(new.w))):
         return DIVERGED  # the state stays at the last finite step
     drive = power_of_constraints(state, new)
-    state.clock[2] += hk * drive
-    state.clock[3] += 0.5 * loss
+    state.clock[0]["work"] += hk * drive
+    state.clock[0]["dissipated"] += 0.5 * loss
     if energy_guard(ev, state, f, new, h, drive, guard):
         return BLOWUP
-    state.clock[3] += 0.5 * loss
+    state.clock[0]["dissipated"] += 0.5 * loss
     drift(ev, state, new, f.F, h)
     return OK
 
 
 class ReferenceRun(NamedTuple):
-    """The reference step's run state: the model's :class:`Evaluation`, the energy guard
-    ``[E₀, scale, tolerance, residual, E]`` and the Domain's critical step [s] (for a blow-up's message)."""
+    """The reference step's run state: the model's :class:`Evaluation`, the energy guard (a
+    :data:`reference.state.GUARD` record array (1,)) and the Domain's critical step [s] (for a blow-up's message)."""
 
     evaluation: Evaluation
     guard: np.ndarray
@@ -323,7 +325,7 @@ class ReferenceRun(NamedTuple):
     @property
     def energy(self) -> float:
         """Kinetic + strain energy at the last guarded step [J]."""
-        return float(self.guard[4])
+        return float(self.guard[0]["energy"])
 
 
 class ReferenceStaggered(StaggeredCentralDifference):
@@ -335,13 +337,14 @@ class ReferenceStaggered(StaggeredCentralDifference):
     def start(self, model, state, critical_step=math.inf, guard=None) -> ReferenceRun:
         """The run state; the per-step energy guard is on when ``guard`` (the energy scale's round-off floor
         [J], :func:`reference.monitor.energy_floor`) is given."""
-        on = guard is not None
-        return ReferenceRun(Evaluation(model), np.array([0.0, guard if on else 0.0, GUARD_TOLERANCE if on else 0.0,
-                                                         0.0, 0.0]), float(critical_step))
+        record = np.zeros(1, GUARD)
+        if guard is not None:
+            record[0]["scale"], record[0]["tolerance"] = guard, GUARD_TOLERANCE
+        return ReferenceRun(Evaluation(model), record, float(critical_step))
 
     def failure(self, code, state, run):
         status, message = explicit_failure(code, state.t, likely_cause(self.dt, run.critical_step))
-        return status, message + BlowUpMonitor.guard_report(run.guard, state.clock[2])
+        return status, message + BlowUpMonitor.guard_report(run.guard[0], state.work)
 
     def advance(self, model, state, run: ReferenceRun, n_steps: int, record: Record | None) -> int:
         """``n_steps`` steps of :func:`solve_step`, the record at the starting time into ``record`` if given

@@ -125,24 +125,25 @@ class PlainStatic(Static):
                       ModelWarning, stacklevel=3)
 
     def advance(self, model, state, run, n_steps, record) -> int:
-        x, q, v, w, f_prev, clock = state[:6]
+        x, q, v, w, f_prev = state[:5]
+        clock = state.clock[0]
         nw, lam = run.newton, run.lam
         if not run.started:
             v[:], w[:] = 0.0, 0.0
             nw.angle[:] = state.angle
             run.stopped_at = None
-            code = self._level(run, x, q, lam, clock[0], clock[0])
+            code = self._level(run, x, q, lam, clock["t"], clock["t"])
             if code != OK:
-                run.stopped_at = clock[0]
+                run.stopped_at = clock["t"]
                 return code
             f_prev[:] = run.F
             run.started = True
-            self._stability(run, x, q, lam, clock[0])
+            self._stability(run, x, q, lam, clock["t"])
         if record is not None:
             N = x.shape[0]
-            res = nw.evaluate(x, q, v, w, np.zeros((N, 6)), lam, clock[0], False)
-            nw.write_record(record, x, q, v, w, clock, lam, res)
-            run.U, run.recorded, run.recorded_at = res.U, run.negative, float(clock[0])
+            res = nw.evaluate(x, q, v, w, np.zeros((N, 6)), lam, clock["t"], False)
+            nw.write_record(record, x, q, v, w, state.clock, lam, res)
+            run.U, run.recorded, run.recorded_at = res.U, run.negative, float(clock["t"])
             run.stats.factorizations = run.stats.iterations  # full Newton: a factor every iteration
             run.row = run.stats.output(run.h, nw.free_norm(res.r))
         for _ in range(int(n_steps)):
@@ -150,17 +151,17 @@ class PlainStatic(Static):
             if code != OK:
                 state.angle[:] = nw.angle
                 return code
-            clock[1] += 1
-            clock[0] = clock[1] * self.dt
+            clock["n"] += 1
+            clock["t"] = clock["n"] * self.dt
         state.angle[:] = nw.angle
         return OK
 
     def _load_step(self, state, run) -> int:
-        """One load step of ``dt`` from ``clock[0]``, in sub-levels halved after a failure and doubled after a
+        """One load step of ``dt`` from ``clock["t"]``, in sub-levels halved after a failure and doubled after a
         success; the work of the loads and drives over each (trapezoidal)."""
-        x, q, f_prev, clock = state.x, state.q, state.f_prev, state.clock
+        x, q, f_prev, clock = state.x, state.q, state.f_prev, state.clock[0]
         nw, lam = run.newton, run.lam
-        target, sub, t = clock[0] + self.dt, self.dt, clock[0]
+        target, sub, t = clock["t"] + self.dt, self.dt, clock["t"]
         run.refused = ""
         while t < target - 1e-12 * self.dt:
             t_try = min(t + sub, target)
@@ -173,7 +174,7 @@ class PlainStatic(Static):
                 if run.rate > 0.0 and rate > RATIO * run.rate:
                     limit_point_trace(self, nw.model, state, run, saved[:4], f_prev, t, t_try)
                 run.rate = rate
-                clock[2] += 0.5 * float(np.sum((f_prev + run.F) * d)) - 0.5 * float(np.sum((saved[4] + run.P) * d))
+                clock["work"] += 0.5 * float(np.sum((f_prev + run.F) * d)) - 0.5 * float(np.sum((saved[4] + run.P) * d))
                 f_prev[:] = run.F
                 self._stability(run, x, q, lam, t_try)
                 run.h = t_try - t
@@ -185,6 +186,6 @@ class PlainStatic(Static):
             sub *= 0.5
             run.stats.cuts += 1
             if sub < self.dt / 2**MAX_CUTS:
-                run.stopped_at = clock[0] = t
+                run.stopped_at = clock["t"] = t
                 return code
         return OK

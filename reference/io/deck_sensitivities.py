@@ -1,0 +1,126 @@
+"""The sensitivities of a deck's run (issue 40): the models its parameters make, and the runs.
+
+The parameters by name: :mod:`reference.io.deck_parameters`.  Every one enters the residual affinely, so the
+model with a parameter moved by Δ gives ∂R/∂p exactly (:mod:`reference.sensitivity.derivatives`).
+:func:`static_sensitivities` and :func:`eigen_sensitivities` read a deck and run
+:mod:`reference.sensitivity.static` and :mod:`reference.sensitivity.eigen` on it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from reference.interactions import NodalLoad
+from reference.io.deck import load_deck
+from reference.io.deck_parameters import ParameterError, parse_outputs, resolve_all
+from reference.sensitivity.dynamic import run_dynamic
+from reference.sensitivity.eigen import run_buckling, run_modes
+from reference.sensitivity.static import STATIC, StaticSensitivities, run_static
+
+def model_at(parameter, path, overrides: dict, value: float):
+    """The assembled Model (:meth:`reference.domain.Domain.initialization`) of the deck at ``path`` with
+    ``overrides`` and ``parameter`` (:class:`reference.io.deck_parameters.Parameter`) set to ``value``."""
+    if parameter.override:
+        return load_deck(path, overrides={**overrides, parameter.override: float(value)}).domain.initialization()
+    domain = load_deck(path, overrides=overrides).domain
+    loads = [i for i in domain.loading if isinstance(i, NodalLoad)]
+    loads[parameter.load].vector = loads[parameter.load].vector * float(value)
+    return domain.initialization()
+
+
+def static_sensitivities(path, parameters, outputs, overrides: dict | None = None) -> StaticSensitivities:
+    """Solve the static deck at ``path`` on the reference path and differentiate every load level
+    (:func:`reference.sensitivity.static.run_static`).
+
+    Parameters
+    ----------
+    path : path-like
+        A deck with ``algorithm = "static"``.
+    parameters : list of str
+        Parameter names (:mod:`reference.io.deck_parameters`).
+    outputs : list of str
+        Kinematic observables (docs/observables.md; :data:`reference.io.deck_parameters.KINEMATIC`).
+    overrides : dict, optional
+        As :func:`reference.io.deck.load_deck`'s.
+
+    Raises
+    ------
+    ParameterError, ObservableError
+        One line: an unknown or non-differentiable parameter, an output without a sensitivity, another algorithm.
+    """
+    domain, params, (moved, _), steps = _setup(path, parameters, overrides, STATIC)
+    _affine_only(params, "static")
+    return run_static(domain, [p.name for p in params], moved, steps, parse_outputs(outputs, domain))
+
+
+def dynamic_sensitivities(path, parameters, outputs, overrides: dict | None = None):
+    """Solve the generalized-α deck at ``path`` on the reference path with the tangent-linear sensitivities
+    (:mod:`reference.sensitivity.dynamic`): ``(t (n,), {output: {parameter: (n, …)}})`` at its outputs."""
+    domain, params, (moved, minus), steps = _setup(path, parameters, overrides, ("generalized_alpha",))
+    try:
+        return run_dynamic(domain, [p.name for p in params], moved, steps, parse_outputs(outputs, domain), minus)
+    except ValueError as exc:
+        raise ParameterError(str(exc)) from None
+
+
+def eigen_sensitivities(path, parameters, overrides: dict | None = None):
+    """The eigenvalues of the modes or buckling deck at ``path`` and their derivatives
+    (:mod:`reference.sensitivity.eigen`): ``(ω [rad/s] (n,), dω/dp (P, n))`` for modes about the reference state,
+    ``(μ (n,), dμ/dp (P, n))`` for the buckling load factors."""
+    domain, params, (moved, _), steps = _setup(path, parameters, overrides, ("modes", "buckling"))
+    _affine_only(params, domain.solver.algorithm)
+    try:
+        if domain.solver.algorithm == "modes":
+            return run_modes(domain, moved, steps)
+        return run_buckling(domain, moved, steps)
+    except ValueError as exc:
+        raise ParameterError(str(exc)) from None
+
+
+def _affine_only(params, algorithm: str) -> None:
+    """Refuse a parameter the residual is not affine in (a time function's end value) for ``algorithm``."""
+    for p in params:
+        if not p.affine:
+            raise ParameterError(f"parameter {p.name!r} (a time function's end value) has sensitivities in "
+                                 f"generalized-α runs only, not {algorithm!r}; name a stiffness, mass or load scale")
+
+
+def _setup(path, parameters, overrides, algorithms):
+    """The deck's Domain, the resolved parameters, their models moved by +Δ and by −Δ (None for a parameter the
+    residual is affine in: :class:`reference.sensitivity.derivatives.ResidualDerivatives`) and the steps Δ, for
+    ``algorithms`` only."""
+    overrides = dict(overrides or {})
+    domain = load_deck(path, overrides=overrides).domain
+    if domain.solver.algorithm not in algorithms:
+        raise ParameterError(f"sensitivities of a {domain.solver.algorithm!r} run are not built here; "
+                             f"use algorithm = {' or '.join(map(repr, algorithms))}")
+    params = resolve_all(path, parameters, overrides)
+    steps = [max(abs(p.value), 1.0) if p.affine else 1e-4 * max(abs(p.value), 1e-300) for p in params]
+    moved = [model_at(p, path, overrides, p.value + d) for p, d in zip(params, steps)]
+    minus = [None if p.affine else model_at(p, path, overrides, p.value - d) for p, d in zip(params, steps)]
+    return domain, params, (moved, minus), steps
+
+
+def sensitivity_datasets(path, sensitivities: dict, overrides: dict | None = None) -> dict:
+    """The results file's datasets of a deck's ``[sensitivities]`` table (docs/results.md): for a static run
+    ``sensitivities/<output>/<parameter>`` (one value per load step, the observable's shape after it) and
+    ``sensitivities/load_factor``; for generalized-α the same per output time, with ``sensitivities/time``; for modes ``sensitivities/frequency/<parameter>`` (dω/dp / 2π [Hz per unit of
+    p]); for buckling ``sensitivities/load_factor/<parameter>`` (dμ/dp).  ``/`` in a name (an output
+    ``deflection:…``) is written as ``|``, an HDF5 path separator otherwise."""
+    names, outputs = sensitivities["parameters"], sensitivities.get("outputs", [])
+    key = lambda text: text.replace("/", "|")  # noqa: E731
+    domain = load_deck(path, overrides=overrides).domain
+    if domain.solver.algorithm in STATIC or domain.solver.algorithm == "generalized_alpha":
+        if domain.solver.algorithm in STATIC:
+            result = static_sensitivities(path, names, outputs, overrides)
+            t, histories, axis = result.t, result.outputs, "load_factor"
+        else:
+            (t, histories), axis = dynamic_sensitivities(path, names, outputs, overrides), "time"
+        out = {f"sensitivities/{axis}": np.asarray(t)}
+        for text, by_name in histories.items():
+            out.update({f"sensitivities/{key(text)}/{key(n)}": np.asarray(v) for n, v in by_name.items()})
+        return out
+    values, d = eigen_sensitivities(path, names, overrides)
+    if domain.solver.algorithm == "modes":
+        return {f"sensitivities/frequency/{key(n)}": d[i] / (2.0 * np.pi) for i, n in enumerate(names)}
+    return {f"sensitivities/load_factor/{key(n)}": d[i] for i, n in enumerate(names)}

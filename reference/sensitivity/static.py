@@ -1,0 +1,111 @@
+"""Static sensitivities by direct differentiation: ``K dx/dp = −∂R/∂p`` at every converged load step.
+
+At an equilibrium of the static problem (:mod:`reference.plain.static`) ::
+
+    r(x, λ; p) = S − F + Bᵀλ = 0,        Φ(x; p) − ε λ = 0,
+
+differentiating along p with the increments of the Newton update (inertial ``dx``, body-frame ``dθ``:
+``q(p + dp) = q(p) ⊗ exp(dθ dp)``) gives the Newton matrix itself ::
+
+    [ K   Bᵀ ] [ dx/dp ]     [ ∂r/∂p ]
+    [ B  −ε  ] [ dλ/dp ] = − [ ∂Φ/∂p ]
+
+(K the tangent with the constraints' geometric stiffness, :meth:`reference.plain.newton.Newton.matrix`).
+It is factorised once per load step at the converged state and back-substituted once per parameter;
+∂r/∂p and ∂Φ/∂p are exact (:class:`reference.sensitivity.derivatives.ResidualDerivatives`).  The
+sensitivity of a rotation is the body-frame ``dθ/dp`` [rad per unit of p].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from reference.observables import _Names
+from reference.plain.backend import twin
+from reference.sensitivity.derivatives import ResidualDerivatives, output_derivative
+from reference.status import OK
+
+STATIC = ("static",)
+"""The algorithms whose runs :func:`run_static` differentiates."""
+
+
+@dataclass
+class StaticSensitivities:
+    """The sensitivities of a static run, one entry per recorded load level.
+
+    Attributes
+    ----------
+    t : list of float
+        The load levels (the deck's time).
+    state : list of ndarray (P, N, 6)
+        Per level, per parameter, ``[dx/dp | dθ/dp]`` per node.
+    outputs : dict
+        ``outputs[text][name]``: the list over levels of ``d(observable)/dp`` (shape of the observable at one time).
+    x, q : list of ndarray
+        The converged configurations.
+    """
+
+    t: list = field(default_factory=list)
+    state: list = field(default_factory=list)
+    outputs: dict = field(default_factory=dict)
+    x: list = field(default_factory=list)
+    q: list = field(default_factory=list)
+
+
+def solve_static(nw, derivatives, x, q, lam, t) -> np.ndarray:
+    """``[dx/dp | dθ/dp]`` (P, N, 6) at the equilibrium ``(x, q, λ)`` at load level t (module docstring): one
+    factorisation of the Newton matrix and one back-substitution per parameter."""
+    zero = np.zeros_like(x)
+    rhs = derivatives(x, q, zero, zero, np.zeros((x.shape[0], 6)), lam, t, False)  # evaluates nw here: its B
+    lu = nw.factor(nw.matrix(x, q, zero, zero, t, lam, 0.0, 0.0, 1.0, 1.0))
+    if lu is None:
+        raise ValueError(f"the tangent is singular at load level {t:.6g}: no sensitivity at a critical point")
+    out = np.empty((len(rhs), x.shape[0], 6))
+    for k, (dr, dphi) in enumerate(rhs):
+        solved = nw.solve(lu, -dr, -dphi)
+        out[k] = solved[0] if solved is not None else np.nan
+    return out
+
+
+def run_static(domain, names, moved, steps, observables) -> StaticSensitivities:
+    """Solve the static problem of ``domain`` on the reference path and differentiate every load level.
+
+    Parameters
+    ----------
+    domain : Domain
+        Ready to solve, ``algorithm = "static"``.
+    names : list of str
+        The parameters' names.
+    moved, steps
+        Per parameter, the model with the parameter moved by the step Δ, and Δ
+        (:class:`reference.sensitivity.derivatives.ResidualDerivatives`).
+    observables : list of Observable
+        :func:`reference.sensitivity.derivatives.parse_outputs`'s.
+    """
+    model = domain.initialization()
+    state = domain.initial_conditions()
+    algo = twin(domain.algorithm())
+    run = algo.start(model, state)
+    derivatives = ResidualDerivatives(run.newton, moved, steps)
+    result = StaticSensitivities(outputs={o.text: {p: [] for p in names} for o in observables})
+    for level in range(algo.n_steps(domain.solver.t_end) + 1):
+        code = algo.advance(model, state, run, 0 if level == 0 else 1, None)
+        if code != OK:
+            raise ValueError(f"the static run stopped at load level {state.t:.6g}: no sensitivity beyond")
+        d = solve_static(run.newton, derivatives, state.x, state.q, run.lam, state.t)
+        _store(result, observables, _Names(domain), names, state, d, run.L)
+    return result
+
+
+def _store(result, observables, labels, names, state, d, length) -> None:
+    """Append one level's state sensitivities and the outputs' derivatives to ``result``."""
+    result.t.append(state.t)
+    result.state.append(d)
+    result.x.append(state.x.copy())
+    result.q.append(state.q.copy())
+    for obs in observables:
+        for k, name in enumerate(names):
+            value = output_derivative(obs, labels, state.x, state.q, d[k, :, :3], d[k, :, 3:], length)
+            result.outputs[obs.text][name].append(value)
