@@ -387,12 +387,12 @@ def mobility(model: Model, lin: Linearization, tol: float = RANK_TOLERANCE) -> i
     graph = sps.csr_matrix((np.ones(edges.shape[0]), (edges[:, 0], edges[:, 1])), shape=(N, N))
     n_bodies, body = connected_components(graph, directed=False)
     R = np.zeros((N, 6, 6 * n_bodies))
-    A = np.zeros(9)
+    A, rotation_matrix = np.zeros(9), scalar_twin(rm.rotation_matrix)  # Python: nothing to compile
     for b in range(n_bodies):
         nodes = np.flatnonzero(body == b)
         c = x[nodes].mean(axis=0)
         for i in nodes:
-            rm.rotation_matrix(lin.q[i], A)
+            rotation_matrix(lin.q[i], A)
             R[i, :3, 6 * b:6 * b + 3] = np.eye(3)
             R[i, :3, 6 * b + 3:6 * b + 6] = -_skew(x[i] - c)
             R[i, 3:, 6 * b + 3:6 * b + 6] = A.reshape(3, 3).T
