@@ -62,11 +62,11 @@ tolerance = 1e-12  # the default 1e-8 of the forces leaves 1e-8 in the axial for
 """
 
 
-def _central(path, name, value, index):
-    """Central difference (relative step :data:`H`) of the eigenvalues of the deck at ``path``."""
-    plus = eigen_sensitivities(path, [], {name: value * (1.0 + H)})[0]
-    minus = eigen_sensitivities(path, [], {name: value * (1.0 - H)})[0]
-    return (plus[index] - minus[index]) / (2.0 * H * value)
+def _central(path, name, value, index, step=H):
+    """Central difference (relative step ``step``) of the eigenvalues of the deck at ``path``."""
+    plus = eigen_sensitivities(path, [], {name: value * (1.0 + step)})[0]
+    minus = eigen_sensitivities(path, [], {name: value * (1.0 - step)})[0]
+    return (plus[index] - minus[index]) / (2.0 * step * value)
 
 
 def test_cantilever_first_frequency_sensitivities():
@@ -109,3 +109,118 @@ def test_a_repeated_frequency_is_said_in_one_line():
     with pytest.warns(Warning, match=r"mode 1 is repeated .*one branch only") as record:
         eigen_sensitivities(CANTILEVER, ["sections.rect.EI2"], square)
     assert all("\n" not in str(w.message) for w in record)
+
+
+PENDULUM = """
+[meta]
+name = "torsion_double_pendulum_modes"
+description = "models/torsion_double_pendulum.toml at rest, hanging: its two modes about the reference state"
+
+[[rigid_bodies]]
+label = "upper"
+mass = 1.0
+inertia = [0.0208333333333333, 0.0208333333333333, 1e-3]
+position = [0.0, 0.0, -0.25]
+points = { pivot = [0.0, 0.0, 0.0], hinge = [0.0, 0.0, HINGE] }
+
+[[rigid_bodies]]
+label = "lower"
+mass = 1.0
+inertia = [0.0208333333333333, 0.0208333333333333, 1e-3]
+position = [0.0, 0.0, -0.75]
+
+[[joints]]
+kind = "revolute"
+label = "pivot"
+body_i = "upper"
+point = [0.0, 0.0, 0.0]
+axis = [0.0, 1.0, 0.0]
+
+[[joints]]
+kind = "revolute"
+label = "hinge"
+body_i = "lower"
+body_j = "upper"
+point = [0.0, 0.0, HINGE]
+axis = [0.0, 1.0, 0.0]
+
+[[springs]]
+kind = "rotational"
+label = "k1"
+body_i = "upper"
+axis = [0.0, 1.0, 0.0]
+stiffness = 5.0
+
+[[springs]]
+kind = "rotational"
+label = "k2"
+body_i = "lower"
+body_j = "upper"
+axis = [0.0, 1.0, 0.0]
+stiffness = 2.0
+
+[gravity]
+g = [0.0, 0.0, -9.81]
+
+[solver]
+algorithm = "modes"
+modes = 2
+about = "reference"
+"""
+PENDULUM_PARAMETERS = {"springs[0].stiffness": ("springs.0.stiffness", 5.0),
+                       "springs[1].stiffness": ("springs.1.stiffness", 2.0),
+                       "rigid_bodies.upper.mass": ("rigid_bodies.0.mass", 1.0),
+                       "rigid_bodies.lower.mass": ("rigid_bodies.1.mass", 1.0)}
+
+
+def _pendulum_omegas(k1, k2, m1, m2):
+    """The closed form: ``M θ'' + K θ = 0`` of the chain in the absolute angles θ1, θ2 (bars of length l = 0.5,
+    centres at mid-length, inertias J about their centres; the deck's description with m and J apart)."""
+    l, g, J = 0.5, 9.81, 0.0208333333333333
+    M = [[J + m1 * l**2 / 4 + m2 * l**2, m2 * l**2 / 2], [m2 * l**2 / 2, J + m2 * l**2 / 4]]
+    K = [[(m1 / 2 + m2) * g * l + k1 + k2, -k2], [-k2, m2 * g * l / 2 + k2]]
+    import scipy.linalg
+    return [math.sqrt(w2) for w2 in scipy.linalg.eigh(K, M, eigvals_only=True)]
+
+
+def test_jointed_double_pendulum_mode_sensitivities(tmp_path):
+    path = tmp_path / "pendulum.toml"
+    path.write_text(PENDULUM.replace("HINGE", "-0.5"))
+    names = list(PENDULUM_PARAMETERS)
+    omega, d = eigen_sensitivities(path, names)
+    nominal = [5.0, 2.0, 1.0, 1.0]
+    # the closed form's ω (the deck's 4.520738 and 15.53328 rad/s): the constrained pencil is the 2 x 2 one to
+    # round-off (joints' Jacobian and null space exact for bodies on the axis); bound 1e-9 relative
+    for k, w in enumerate(_pendulum_omegas(*nominal)):
+        assert abs(omega[k] - w) <= 1e-9 * w
+    for i, name in enumerate(names):
+        override, value = PENDULUM_PARAMETERS[name]
+        central = [_central(path, override, value, k, 1e-5) for k in range(2)]
+        # issue 40: within 1e-6 relative of central differences (the mass moves the pivot's and hinge's
+        # multipliers, hence the joints' geometric stiffness: a test that λ(p) is carried).  Relative step
+        # 1e-5: rigid bodies leave round-off of 1e-14 in ω (1e-9 in the difference), truncation 1e-10 (the
+        # step 1e-3 of the beams leaves up to 6e-7 here, measured)
+        for k in range(2):
+            assert abs(d[i, k] - central[k]) <= 1e-6 * max(abs(d[i, k]), 1e-3 * omega[k])
+        # and the closed form's derivative (central difference of the formula, relative step 1e-5: truncation
+        # 1e-10, round-off 1e-11) within 1e-8 relative
+        h = 1e-5 * value
+        up, down = (_pendulum_omegas(*[v + s * h * (j == i) for j, v in enumerate(nominal)]) for s in (1, -1))
+        for k in range(2):
+            exact = (up[k] - down[k]) / (2.0 * h)
+            assert abs(d[i, k] - exact) <= 1e-8 * max(abs(exact), 1e-3 * omega[k])
+
+
+def test_a_parameter_that_moves_the_joints_is_refused(tmp_path):
+    from reference.io.deck import load_deck
+    from reference.sensitivity.eigen import linearised, mode_sensitivities
+    path, moved = tmp_path / "pendulum.toml", tmp_path / "moved.toml"
+    path.write_text(PENDULUM.replace("HINGE", "-0.5"))
+    moved.write_text(PENDULUM.replace("HINGE", "-0.501"))  # the hinge's point: B changes at the same state
+    domain = load_deck(path).domain
+    state = domain.initial_conditions()
+    base = linearised(domain.initialization(), state)
+    other = linearised(load_deck(moved).domain.initialization(), state)
+    with pytest.raises(ValueError, match=r"^parameter 'hinge' moves the joints' constraints .*; name a") as info:
+        mode_sensitivities(base, [other], [1e-3], 2, ["'hinge'"])
+    assert "\n" not in str(info.value)

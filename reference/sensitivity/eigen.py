@@ -6,8 +6,18 @@ gives (Fox & Kapoor 1968, "Rates of change of eigenvalues and eigenvectors", AIA
 
     dλ/dp = φᵀ (dA/dp − λ dC/dp) φ / (φᵀ C φ).
 
-- **Modes** about the reference state (``about = "reference"``): ``K φ = ω² M φ`` on the free coordinates,
-  φ mass-normalised, so ``dω²/dp = φᵀ(∂K/∂p − ω² ∂M/∂p)φ`` and ``dω/dp = dω²/dp / (2ω)``.
+- **Modes** about the reference state (``about = "reference"``), with or without joints: the modes algorithm's
+  own pencil (:func:`reference.algorithms.linearization.linearize` at the consistent multipliers, reduced to
+  the null space Z of the joints' Jacobian B, :func:`reference.algorithms.linearization.reduce`),
+  ``K_r φ_r = ω² M_r φ_r`` with ``K_r = Zᵀ K Z``, ``M_r = Zᵀ M Z``, φ_r mass-normalised.  When p does not move
+  the constraints (B, hence Z, the same at p + Δ), Z is constant along p and the formula holds on the reduced
+  pencil: ``dω²/dp = φᵀ(∂K/∂p − ω² ∂M/∂p)φ`` with ``φ = Z φ_r`` the constrained, mass-normalised mode, and
+  ``dω/dp = dω²/dp / (2ω)``.  K holds the joints' geometric stiffness ``∂(Bᵀλ)/∂q`` at the multipliers λ that
+  carry the loads (a hanging pendulum's weight): ∂K/∂p includes its change with λ(p), each model's K being
+  taken at its own consistent λ (affine in p at an equilibrium, so the difference stays exact).  A parameter
+  that moves the constraints (B at p + Δ differs from B at p beyond :data:`CONSTRAINT_CHANGE`: a joint's
+  point or axis) is refused in one line, as are damped or gyroscopic modes (the first-order pencil's
+  formula needs the left eigenvectors, not built).
 - **Buckling** (:class:`reference.algorithms.linear.Buckling`): ``(K_0 + μ K_g) φ = 0`` with
   ``K_g = K_T(t_end) − K_T(t_0)``, i.e. ``A = K_0``, ``C = −K_g``.  The tangents are taken at the static
   equilibria, which move with p: their total derivative is the direct one (affine,
@@ -17,8 +27,8 @@ gives (Fox & Kapoor 1968, "Rates of change of eigenvalues and eigenvectors", AIA
   not generated).
 
 A repeated eigenvalue (relative gap below :data:`REPEATED`) has no derivative: the formula gives one of
-its branches' and a one-line warning says so.  Models with joints are refused (the reduction to the
-constraints' null space moves with p; its derivative is not written here).
+its branches' and a one-line warning says so.  Buckling of a model with joints is refused (the equilibria's
+multiplier sensitivities, which the constraints' geometric stiffness needs, are not carried here).
 """
 
 from __future__ import annotations
@@ -28,7 +38,10 @@ import warnings
 import numpy as np
 import scipy.linalg as sla
 
-from reference.plain.newton import Newton, compose
+from reference.algorithms import linearization
+from reference.linalg import SingularMatrix
+from reference.modal import is_symmetric, undamped
+from reference.plain.newton import EngineFace, Newton, compose
 from reference.plain.static import PlainStatic
 from reference.sensitivity.derivatives import ResidualDerivatives
 from reference.sensitivity.static import solve_static
@@ -39,11 +52,17 @@ REPEATED = 1e-8
 """Relative gap ``|λ_k − λ_j| / |λ_k|`` under which two eigenvalues count as repeated."""
 
 
+CONSTRAINT_CHANGE = 1e-12
+"""Relative change ``max |B(p + Δ) − B(p)| / max |B(p)|`` of the joints' Jacobian at the reference state beyond
+which a parameter moves the constraints (a joint's point or axis): round-off leaves none (B does not read the
+parameters offered), so any change is the parameter's."""
+
+
 def refusal(model) -> str:
-    """Why the eigenvalue sensitivities of ``model`` are not built ("" when they are): joints."""
+    """Why the buckling sensitivities of ``model`` are not built ("" when they are): joints."""
     if model.n_constraints > 0:
-        return ("eigenvalue sensitivities of a model with joints are not built (the constraints' null space moves "
-                "with the parameter); use a model with fixed coordinates (clamps) only")
+        return ("buckling sensitivities of a model with joints are not built (the multipliers' sensitivity along "
+                "the static path is not carried); use a model with fixed coordinates (clamps) only, or modes")
     return ""
 
 
@@ -62,29 +81,57 @@ def _warn_repeated(values, k: int, what: str) -> None:
                       "is that of one branch only, not a derivative", ModelWarning, stacklevel=3)
 
 
-def mode_sensitivities(base: Newton, moved, steps, x, q, n: int):
-    """``(ω (n,) [rad/s], dω/dp (P, n))`` of the n lowest modes about ``(x, q)`` (the reference state, t = 0).
+def linearised(model, state) -> linearization.Linearization:
+    """M, D, K, B of ``model`` at the reference ``state`` with the multipliers consistent with it, as the modes
+    algorithm takes them (:meth:`reference.algorithms.linear.LinearAnalysis.advance`), on the reference path."""
+    face = EngineFace(Newton(model))
+    face.work.angle[:] = state.angle
+    lam = np.zeros(model.n_constraints)
+    if model.n_constraints:
+        try:
+            _, lam = face.consistent_accelerations(state.x, state.q, state.v, state.w, state.t, 1e-6, ce=1.0)
+        except SingularMatrix:
+            raise ValueError("the constraint Jacobian at the reference state is singular (redundant, unregularised "
+                             "joints): no mode sensitivity; regularise the joints (epsilon > 0)") from None
+    return linearization.linearize(model, state.x, state.q, state.v, state.w, lam, state.t, state.angle, face)
 
-    ``moved``/``steps``: per parameter the Newton system of the model with the parameter moved by Δ and Δ
-    (exact differences: K and M are affine in every parameter offered)."""
-    lam = np.zeros(0)
-    K0, M0 = stiffness(base, x, q, lam, 0.0), _mass(base)
-    w2, phi = sla.eigh(K0, M0)  # φᵀ M φ = I
-    w2, phi = w2[:n], phi[:, :n]
+
+def mode_sensitivities(base, moved, steps, n: int, names=None):
+    """``(ω (n,) [rad/s], dω/dp (P, n))`` of the n lowest modes of the linearisation ``base``
+    (:func:`linearised`), constrained to the null space of its B (module docstring).
+
+    ``moved``/``steps``: per parameter the linearisation of the model with the parameter moved by Δ, and Δ
+    (exact differences: K, M and the consistent λ are affine in every parameter offered); ``names`` the
+    parameters' names for the messages.  ω is the modes algorithm's ``2π frequency``: for an unstable mode
+    (ω² < 0) its growth rate ``sqrt(−ω²)``; a zero mode (rigid-body or mechanism) stays zero along p: 0."""
+    names = list(names) if names is not None else [f"number {i + 1}" for i in range(len(moved))]
+    size = abs(base.B).max() if base.B.nnz else 0.0
+    for lin, name in zip(moved, names):
+        change = abs(lin.B - base.B).max() if (lin.B - base.B).nnz else 0.0
+        if change > CONSTRAINT_CHANGE * size:
+            raise ValueError(f"parameter {name} moves the joints' constraints (their Jacobian changes by "
+                             f"{change / size:.1e} relative): its mode sensitivities are not built; name a "
+                             "stiffness, mass or spring that the joints do not depend on")
+    red = linearization.reduce(base)
+    if red.D.nnz and abs(red.D).max() > 0.0 or not is_symmetric(red.K):
+        raise ValueError("mode sensitivities of damped or gyroscopic modes (dampers, a moving reference state, "
+                         "follower loads) are not built; take modes of the undamped model at rest")
+    if n > red.M.shape[0]:
+        raise ValueError(f"{n} modes asked of a model with {red.M.shape[0]} independent coordinates; "
+                         f"ask at most {red.M.shape[0]}")
+    found = undamped(red.M, red.K, min(n + 1, red.M.shape[0]))  # one more: the last one's gap
+    w2, phi = found.omega2, red.Z @ found.phi  # φ = Z φ_r, φᵀ M φ = 1
     for k in range(n):
         _warn_repeated(w2, k, "mode")
-    omega = np.sqrt(np.maximum(w2, 0.0))
+    w2, phi, kind = w2[:n], phi[:, :n], found.kind[:n]
+    omega = np.sqrt(np.abs(w2))
+    rate = np.where(kind == "zero", 0.0, np.where(kind == "unstable", -0.5, 0.5) / np.where(omega > 0, omega, 1))
     out = np.empty((len(moved), n))
-    for i, (nw, d) in enumerate(zip(moved, steps)):
-        dK = (stiffness(nw, x, q, lam, 0.0) - K0) / d
-        dM = (_mass(nw) - M0) / d
-        dw2 = np.einsum("ak,ab,bk->k", phi, dK, phi) - w2 * np.einsum("ak,ab,bk->k", phi, dM, phi)
-        out[i] = dw2 / (2.0 * omega)
+    for i, (lin, d) in enumerate(zip(moved, steps)):
+        dK, dM = (lin.K - base.K) / d, (lin.M - base.M) / d
+        dw2 = np.einsum("ak,ak->k", phi, dK @ phi) - w2 * np.einsum("ak,ak->k", phi, dM @ phi)
+        out[i] = rate * dw2
     return omega, out
-
-
-def _mass(nw: Newton):
-    return nw.M.tocsr()[nw.index][:, nw.index].toarray()
 
 
 def total_stiffness_derivative(base: Newton, nw: Newton, d: float, equilibrium, sensitivity, length: float):
@@ -124,16 +171,16 @@ def buckling_sensitivities(K0, K1, dK0, dK1, n: int):
     return mu, out
 
 
-def run_modes(domain, moved, steps):
+def run_modes(domain, moved, steps, names=None):
     """``(ω, dω/dp)`` (:func:`mode_sensitivities`) of the modes deck ``domain`` (about the reference state), on the
-    reference path; ``moved``/``steps`` per parameter as :class:`reference.sensitivity.derivatives.ResidualDerivatives`'s."""
+    reference path; ``moved``/``steps`` per parameter as :class:`reference.sensitivity.derivatives.ResidualDerivatives`'s,
+    ``names`` the parameters' names for the messages."""
     if domain.solver.about != "reference":
         raise ValueError(f"mode sensitivities about = {domain.solver.about!r} are not built; use about = \"reference\"")
     model = domain.initialization()
-    _refuse(model)
     state = domain.initial_conditions()
-    return mode_sensitivities(Newton(model), [Newton(m) for m in moved], steps, state.x, state.q,
-                              int(domain.solver.modes))
+    return mode_sensitivities(linearised(model, state), [linearised(m, state) for m in moved], steps,
+                              int(domain.solver.modes), names)
 
 
 def run_buckling(domain, moved, steps):
