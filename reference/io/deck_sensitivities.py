@@ -1,18 +1,24 @@
 """The sensitivities of a deck's run (issue 40): the models its parameters make, and the runs.
 
-The parameters by name: :mod:`reference.io.deck_parameters`.  Every one enters the residual affinely, so the
-model with a parameter moved by Δ gives ∂R/∂p exactly (:mod:`reference.sensitivity.derivatives`).
+The parameters by name: :mod:`reference.io.deck_parameters`.  :func:`parameter_kinds` tells how each is
+differentiated (:mod:`reference.sensitivity.derivatives`): a section stiffness by the generated ``∂S/∂c``, a
+load's scale by its own vector, a mass by the masses' change, a spring's stiffness or a time function's value by
+the model with the parameter moved by Δ (exact where the residual is affine in it).
 :func:`static_sensitivities` and :func:`eigen_sensitivities` read a deck and run
 :mod:`reference.sensitivity.static` and :mod:`reference.sensitivity.eigen` on it.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from reference.interactions import NodalLoad
 from reference.io.deck import load_deck
 from reference.io.deck_parameters import ParameterError, parse_outputs, resolve_all
+from reference.io.deck_reader import read_toml
+from reference.sensitivity.derivatives import LoadScale, Mass, Moved, Stiffness
 from reference.sensitivity.dynamic import run_dynamic
 from reference.sensitivity.eigen import run_buckling, run_modes
 from reference.sensitivity.static import STATIC, StaticSensitivities, run_static
@@ -48,17 +54,17 @@ def static_sensitivities(path, parameters, outputs, overrides: dict | None = Non
     ParameterError, ObservableError
         One line: an unknown or non-differentiable parameter, an output without a sensitivity, another algorithm.
     """
-    domain, params, (moved, _), steps = _setup(path, parameters, overrides, STATIC)
+    domain, params, kinds = parameter_kinds(path, parameters, overrides, STATIC)
     _affine_only(params, "static")
-    return run_static(domain, [p.name for p in params], moved, steps, parse_outputs(outputs, domain))
+    return run_static(domain, [p.name for p in params], kinds, parse_outputs(outputs, domain))
 
 
 def dynamic_sensitivities(path, parameters, outputs, overrides: dict | None = None):
     """Solve the generalized-α deck at ``path`` on the reference path with the tangent-linear sensitivities
     (:mod:`reference.sensitivity.dynamic`): ``(t (n,), {output: {parameter: (n, …)}})`` at its outputs."""
-    domain, params, (moved, minus), steps = _setup(path, parameters, overrides, ("generalized_alpha",))
+    domain, params, kinds = parameter_kinds(path, parameters, overrides, ("generalized_alpha",))
     try:
-        return run_dynamic(domain, [p.name for p in params], moved, steps, parse_outputs(outputs, domain), minus)
+        return run_dynamic(domain, [p.name for p in params], kinds, parse_outputs(outputs, domain))
     except ValueError as exc:
         raise ParameterError(str(exc)) from None
 
@@ -83,6 +89,50 @@ def _affine_only(params, algorithm: str) -> None:
         if not p.affine:
             raise ParameterError(f"parameter {p.name!r} (a time function's end value) has sensitivities in "
                                  f"generalized-α runs only, not {algorithm!r}; name a stiffness, mass or load scale")
+
+
+STIFFNESS = ("EA", "GA2", "GA3", "GJ", "EI2", "EI3")
+"""The section entries differentiated by the generated ``∂S/∂c`` (derivations/sensitivities.py), in its column
+order."""
+MASSES = ("rhoA", "rhoJ1", "rhoJ2", "rhoJ3")
+"""The section entries the lumped masses are affine in (:class:`reference.sensitivity.derivatives.Mass`)."""
+
+
+def _section_members(deck: dict, domain, section: str) -> np.ndarray:
+    """(E,) bool over the Domain's elements: those of the deck's (TOML dict) beams whose ``section`` is
+    ``section`` (an element of beam ``B`` is labelled ``B/i``, :meth:`reference.domain.Domain.add_beam`)."""
+    beams = {b.get("label") for b in deck.get("beams", []) if b.get("section") == section}
+    return np.array([e.label.rsplit("/", 1)[0] in beams for e in domain.elements], dtype=bool)
+
+
+def parameter_kinds(path, parameters, overrides, algorithms):
+    """The deck's Domain, the resolved parameters and how each is differentiated
+    (:class:`reference.sensitivity.derivatives.ParameterDerivatives`' kinds), for ``algorithms`` only.  A mass
+    parameter's ``∂m/∂p``, ``∂J/∂p`` are the change of the assembled lumped masses over Δ = max(|p|, 1)
+    (exact: affine); a :class:`~reference.sensitivity.derivatives.Moved` one carries its moved models (as
+    :func:`_setup`)."""
+    overrides = dict(overrides or {})
+    domain = load_deck(path, overrides=overrides).domain
+    if domain.solver.algorithm not in algorithms:
+        raise ParameterError(f"sensitivities of a {domain.solver.algorithm!r} run are not built here; "
+                             f"use algorithm = {' or '.join(map(repr, algorithms))}")
+    params = resolve_all(path, parameters, overrides)
+    base, deck, kinds = None, read_toml(Path(path))[1], []
+    for p in params:
+        parts = p.override.split(".")
+        step = max(abs(p.value), 1.0) if p.affine else 1e-4 * max(abs(p.value), 1e-300)
+        if parts[0] == "sections" and parts[2] in STIFFNESS:
+            kinds.append(Stiffness(_section_members(deck, domain, parts[1]), STIFFNESS.index(parts[2])))
+        elif p.load >= 0:
+            kinds.append(LoadScale(p.load))
+        elif (parts[0] == "sections" and parts[2] in MASSES) or (parts[0] == "rigid_bodies" and parts[-1] == "mass"):
+            base = model_at(p, path, overrides, p.value) if base is None else base
+            moved = model_at(p, path, overrides, p.value + step).nodes
+            kinds.append(Mass((moved.mass - base.nodes.mass) / step, (moved.inertia - base.nodes.inertia) / step))
+        else:
+            kinds.append(Moved(model_at(p, path, overrides, p.value + step), step,
+                               None if p.affine else model_at(p, path, overrides, p.value - step)))
+    return domain, params, kinds
 
 
 def _setup(path, parameters, overrides, algorithms):

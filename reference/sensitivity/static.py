@@ -12,7 +12,7 @@ differentiating along p with the increments of the Newton update (inertial ``dx`
 
 (K the tangent with the constraints' geometric stiffness, :meth:`reference.plain.newton.Newton.matrix`).
 It is factorised once per load step at the converged state and back-substituted once per parameter;
-∂r/∂p and ∂Φ/∂p are exact (:class:`reference.sensitivity.derivatives.ResidualDerivatives`).  The
+∂r/∂p and ∂Φ/∂p are exact (:class:`reference.sensitivity.derivatives.ParameterDerivatives`).  The
 sensitivity of a rotation is the body-frame ``dθ/dp`` [rad per unit of p].
 """
 
@@ -24,7 +24,7 @@ import numpy as np
 
 from reference.observables import _Names
 from reference.plain.backend import twin
-from reference.sensitivity.derivatives import ResidualDerivatives, output_derivative
+from reference.sensitivity.derivatives import ParameterDerivatives, output_derivatives
 from reference.status import OK
 
 STATIC = ("static",)
@@ -69,7 +69,7 @@ def solve_static(nw, derivatives, x, q, lam, t) -> np.ndarray:
     return out
 
 
-def run_static(domain, names, moved, steps, observables) -> StaticSensitivities:
+def run_static(domain, names, kinds, observables) -> StaticSensitivities:
     """Solve the static problem of ``domain`` on the reference path and differentiate every load level.
 
     Parameters
@@ -78,9 +78,8 @@ def run_static(domain, names, moved, steps, observables) -> StaticSensitivities:
         Ready to solve, ``algorithm = "static"``.
     names : list of str
         The parameters' names.
-    moved, steps
-        Per parameter, the model with the parameter moved by the step Δ, and Δ
-        (:class:`reference.sensitivity.derivatives.ResidualDerivatives`).
+    kinds : list
+        Per parameter, how it is differentiated (:class:`reference.sensitivity.derivatives.ParameterDerivatives`).
     observables : list of Observable
         :func:`reference.sensitivity.derivatives.parse_outputs`'s.
     """
@@ -88,7 +87,7 @@ def run_static(domain, names, moved, steps, observables) -> StaticSensitivities:
     state = domain.initial_conditions()
     algo = twin(domain.algorithm())
     run = algo.start(model, state)
-    derivatives = ResidualDerivatives(run.newton, moved, steps)
+    derivatives = ParameterDerivatives(run.newton, kinds)
     result = StaticSensitivities(outputs={o.text: {p: [] for p in names} for o in observables})
     for level in range(algo.n_steps(domain.solver.t_end) + 1):
         code = algo.advance(model, state, run, 0 if level == 0 else 1, None)
@@ -106,6 +105,5 @@ def _store(result, observables, labels, names, state, d, length) -> None:
     result.x.append(state.x.copy())
     result.q.append(state.q.copy())
     for obs in observables:
-        for k, name in enumerate(names):
-            value = output_derivative(obs, labels, state.x, state.q, d[k, :, :3], d[k, :, 3:], length)
+        for name, value in zip(names, output_derivatives(obs, labels, state.x, state.q, d, length)):
             result.outputs[obs.text][name].append(value)
