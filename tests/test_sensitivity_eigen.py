@@ -5,6 +5,7 @@ import math
 
 import pytest
 
+from flexmbs.verification.sensitivities import COLUMN
 from reference.io.deck_parameters import ParameterError
 from reference.io.deck_sensitivities import eigen_sensitivities
 
@@ -14,52 +15,6 @@ H = 1e-3
 4e-10 relative (the static equilibrium and the eigen-solver; it changes with the BLAS threads), 4e-10 / 2e-3 =
 2e-7; the truncation error, O(H²) times the eigenvalue's curvature in p, measured below 1e-7 (steps of 1e-4 and
 1e-3 agree to 1e-7).  Both below the 1e-6 of issue 40."""
-
-COLUMN = """
-[meta]
-name = "euler_column"
-description = "clamped-free column of length 1 under a dead axial tip load ramped to 2 at t = 1"
-
-[sections.col]
-EA = 1e5      # axial shortening P/EA = 2e-5: negligible in P_cr; shear P/GA likewise
-GA2 = 1e5     # (stiffer sections leave round-off of 1e-8 in the eigenvalue: GA/EI = 1e7 cancels digits)
-GA3 = 1e5
-GJ = 1.0
-EI2 = 1.0
-EI3 = 4.0
-rhoA = 1.0
-rhoJ1 = 1e-4
-rhoJ2 = 1e-4
-rhoJ3 = 1e-4
-
-[time_functions.load_factor]
-kind = "ramp"
-t0 = 0.0
-t1 = 1.0
-
-[[beams]]
-label = "column"
-start = [0.0, 0.0, 0.0]
-end = [1.0, 0.0, 0.0]
-elements = 32
-section = "col"
-axis2 = [0.0, 1.0, 0.0]
-
-[[clamps]]
-node = "column:start"
-
-[[loads]]
-node = "column:end"
-force = [-2.0, 0.0, 0.0]
-time_function = "load_factor"
-
-[solver]
-algorithm = "buckling"
-modes = 1
-t_end = 1.0
-load_steps = 1
-tolerance = 1e-12  # the default 1e-8 of the forces leaves 1e-8 in the axial force, so in μ (2e-6 in the differences)
-"""
 
 
 def _central(path, name, value, index, step=H):
