@@ -116,9 +116,13 @@ def tangent_step(algo, run, state, psi, h: float) -> None:
     c = (1.0 - algo.alpha_f) / (1.0 - algo.alpha_m)
     x, q, t = state.x, state.q, state.t + h  # the caller advances the clock after the step
     rhs = algo.derivatives(x, q, state.v, state.w, al.vd, al.lam, t, True)  # leaves nw evaluated here (its B)
-    lu = nw.factor(nw.matrix(x, q, state.v, state.w, t, al.lam, 1.0, gp / bp, 1.0 / bp, bp, psi))
     K = nw.ev.tangent(x, q, state.v, state.w, t, al.lam if nw.m else None, nw.angle)
     C = nw.ev.damping_matrix(x, q, state.v, state.w)
+    ev, nw.ev = nw.ev, _Known(nw.ev, K, C)  # the matrix from these K and C, not computed again
+    try:
+        lu = nw.factor(nw.matrix(x, q, state.v, state.w, t, al.lam, 1.0, gp / bp, 1.0 / bp, bp, psi))
+    finally:
+        nw.ev = ev
     Rt, Jr = _rotation_maps(psi)
     for k, (dr, dphi) in enumerate(rhs):
         a_p = (tg.vd[k] - algo.alpha_m * tg.a[k]) / (1.0 - algo.alpha_m)
@@ -139,6 +143,24 @@ def tangent_step(algo, run, state, psi, h: float) -> None:
         tg.a[k] = a_p + c * bp * delta
         tg.lam[k] = tg.lam[k] + bp * mu
     tg.history.append((t, x.copy(), q.copy(), tg.c.copy()))
+
+
+class _Known:
+    """An :class:`reference.plain.model.Evaluation` whose tangent and damping matrix at the state at hand are
+    known (``K``, ``C``): :meth:`reference.plain.newton.Newton.matrix` reads them through it instead of
+    assembling them a second time (the step's residual needs ``K (x', θ')`` and ``C V'`` too)."""
+
+    def __init__(self, ev, K, C):
+        self._ev, self._K, self._C = ev, K, C
+
+    def tangent(self, *state, **keywords):
+        return self._K
+
+    def damping_matrix(self, *state):
+        return self._C
+
+    def __getattr__(self, name):
+        return getattr(self._ev, name)
 
 
 def _rotation_maps(psi):
