@@ -87,3 +87,19 @@ def test_the_summary_of_a_cluster_study_has_the_sensitivity_columns(tmp_path):
     serial = run_case(study.deck, {"sections.rollup.EI2": EI[0]}, tmp_path / "serial", True)
     column = f"sensitivity.{TIP}.sections.rollup.EI2.z"
     assert float(rows[0][column]) == serial[column]  # same code, same machine; the CSV keeps 17 digits
+
+
+def test_a_modes_study_gives_the_frequencies_and_their_derivatives(tmp_path):
+    text = (ROOT / "models" / "cantilever_modes.toml").read_text().replace("[solver]\n", '[solver]\nbackend = "reference"\n')
+    (tmp_path / "modes.toml").write_text(text + '\n[sensitivities]\nparameters = ["sections.rect.EI2"]\n')
+    study = tmp_path / "study.toml"
+    study.write_text('deck = "modes.toml"\nsensitivities = true\n[grid]\n"sections.rect.EI2" = [0.999, 1.001]\n')
+    deck = load_study(study).deck
+    a, b = (run_case(deck, {"sections.rect.EI2": ei}, tmp_path / f"case_{ei}", True) for ei in (0.999, 1.001))
+    assert a["status"] == b["status"] == "completed"
+    secant = (b["frequency.1"] - a["frequency.1"]) / 0.002
+    mean = 0.5 * (a["sensitivity.frequency.sections.rect.EI2.1"] + b["sensitivity.frequency.sections.rect.EI2.1"])
+    # f ∝ EI^(1/2) to the shear's 1e-3: the secant's trapezoid error (1e-3)²/12 · 3/4 = 6e-8 of the slope, the
+    # frequencies' round-off 4e-10 / 2e-3 = 2e-7 of it: bound 2e-6
+    assert abs(secant - mean) <= 2e-6 * abs(mean)
+    assert "sensitivity.frequency.sections.rect.EI2.10" in a  # every mode of the deck's 10
