@@ -50,8 +50,6 @@ from reference.validation import ModelWarning
 
 REPEATED = 1e-8
 """Relative gap ``|λ_k − λ_j| / |λ_k|`` under which two eigenvalues count as repeated."""
-
-
 CONSTRAINT_CHANGE = 1e-12
 """Relative change ``max |B(p + Δ) − B(p)| / max |B(p)|`` of the joints' Jacobian at the reference state beyond
 which a parameter moves the constraints (a joint's point or axis): round-off leaves none (B does not read the
