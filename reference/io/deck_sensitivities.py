@@ -10,6 +10,8 @@ the model with the parameter moved by Δ (exact where the residual is affine in 
 
 from __future__ import annotations
 
+import json
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +20,7 @@ from reference.interactions import NodalLoad
 from reference.io.deck import load_deck
 from reference.io.deck_parameters import ParameterError, parse_outputs, resolve_all
 from reference.io.deck_reader import read_toml
+from reference.plain.newton import relative_rotation
 from reference.sensitivity.derivatives import LoadScale, Mass, Moved, Stiffness
 from reference.sensitivity.dynamic import run_dynamic
 from reference.sensitivity.eigen import run_buckling, run_modes
@@ -55,7 +58,6 @@ def static_sensitivities(path, parameters, outputs, overrides: dict | None = Non
         One line: an unknown or non-differentiable parameter, an output without a sensitivity, another algorithm.
     """
     domain, params, kinds = parameter_kinds(path, parameters, overrides, STATIC)
-    _affine_only(params, "static")
     return run_static(domain, [p.name for p in params], kinds, parse_outputs(outputs, domain))
 
 
@@ -74,7 +76,6 @@ def eigen_sensitivities(path, parameters, overrides: dict | None = None):
     (:mod:`reference.sensitivity.eigen`): ``(ω [rad/s] (n,), dω/dp (P, n))`` for modes about the reference state,
     ``(μ (n,), dμ/dp (P, n))`` for the buckling load factors."""
     domain, params, (moved, _), steps = _setup(path, parameters, overrides, ("modes", "buckling"))
-    _affine_only(params, domain.solver.algorithm)
     try:
         if domain.solver.algorithm == "modes":
             return run_modes(domain, moved, steps)
@@ -83,12 +84,64 @@ def eigen_sensitivities(path, parameters, overrides: dict | None = None):
         raise ParameterError(str(exc)) from None
 
 
-def _affine_only(params, algorithm: str) -> None:
-    """Refuse a parameter the residual is not affine in (a time function's end value) for ``algorithm``."""
+def _refuse(params, algorithm: str) -> None:
+    """Refuse, before any model is built, a parameter ``algorithm`` has no sensitivity for: a time function's end
+    value (generalized-α only) or a node's coordinate (static only: in a dynamic run the initial state moves with
+    it, and the modes and buckling loads are not built for it)."""
     for p in params:
-        if not p.affine:
+        if p.geometry and algorithm not in STATIC:
+            raise ParameterError(f"parameter {p.name!r} (a node's coordinate) has sensitivities in static runs only, "
+                                 f"not {algorithm!r}; name a stiffness, mass or load scale")
+        if not p.affine and not p.geometry and algorithm != "generalized_alpha":
             raise ParameterError(f"parameter {p.name!r} (a time function's end value) has sensitivities in "
                                  f"generalized-α runs only, not {algorithm!r}; name a stiffness, mass or load scale")
+
+
+def _toml(value) -> str:
+    """The TOML text of a deck value (a number, string, boolean, array or table, inline)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)  # JSON's escapes are TOML's basic-string escapes
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return "{" + ", ".join(f"{json.dumps(str(k))} = {_toml(v)}" for k, v in value.items()) + "}"
+
+
+def geometry_domain(parameter, path, overrides: dict, value: float):
+    """The Domain of the deck at ``path`` (with ``overrides``) with the node coordinate ``parameter``
+    (:attr:`reference.io.deck_parameters.Parameter.geometry`) set to ``value`` [m]: the deck's TOML with the
+    coordinate changed, written to a temporary file and read again, so that the mesh, the frames and the rest state
+    are rebuilt as the deck reader builds them."""
+    _, deck = read_toml(Path(path))
+    table, k, key, c = parameter.geometry
+    deck[table][k][key][c] = float(value)
+    with tempfile.TemporaryDirectory() as folder:
+        moved = Path(folder) / Path(path).name
+        moved.write_text("\n".join(f"{json.dumps(name)} = {_toml(v)}" for name, v in deck.items()) + "\n",
+                         encoding="utf-8")
+        return load_deck(moved, overrides=overrides).domain
+
+
+def geometry_kind(parameter, path, overrides: dict, domain) -> Moved:
+    """A node coordinate's :class:`~reference.sensitivity.derivatives.Moved`: the models rebuilt at ``X ± Δ``
+    (``Δ = 1e-4`` of the model's extent: truncation 1e-8 relative) and the derivative of the coordinates the run
+    holds fixed (a clamp's position and frame move with the geometry), ``[dx | dθ]`` (N,6) by the same central
+    difference (body-frame rotations, zero on the free coordinates)."""
+    start = domain.initial_conditions()
+    step = 1e-4 * max(float(np.ptp(start.x)), abs(parameter.value), 1e-300)
+    plus, minus = (geometry_domain(parameter, path, overrides, parameter.value + s) for s in (step, -step))
+    ends = [d.initial_conditions() for d in (plus, minus)]
+    if any(e.x.shape != start.x.shape for e in ends):
+        raise ParameterError(f"parameter {parameter.name!r}: moving the node changes the number of nodes; name a "
+                             "coordinate that moves nodes without re-meshing")
+    fixed = np.hstack([ends[0].x - ends[1].x, relative_rotation(start.q, ends[0].q) -
+                       relative_rotation(start.q, ends[1].q)]) / (2.0 * step)
+    model = plus.initialization()
+    fixed[model.nodes.free > 0.5] = 0.0
+    return Moved(model, step, minus.initialization(), fixed)
 
 
 STIFFNESS = ("EA", "GA2", "GA3", "GJ", "EI2", "EI3")
@@ -117,11 +170,14 @@ def parameter_kinds(path, parameters, overrides, algorithms):
         raise ParameterError(f"sensitivities of a {domain.solver.algorithm!r} run are not built here; "
                              f"use algorithm = {' or '.join(map(repr, algorithms))}")
     params = resolve_all(path, parameters, overrides)
+    _refuse(params, domain.solver.algorithm)
     base, deck, kinds = None, read_toml(Path(path))[1], []
     for p in params:
         parts = p.override.split(".")
         step = max(abs(p.value), 1.0) if p.affine else 1e-4 * max(abs(p.value), 1e-300)
-        if parts[0] == "sections" and parts[2] in STIFFNESS:
+        if p.geometry:
+            kinds.append(geometry_kind(p, path, overrides, domain))
+        elif parts[0] == "sections" and parts[2] in STIFFNESS:
             kinds.append(Stiffness(_section_members(deck, domain, parts[1]), STIFFNESS.index(parts[2])))
         elif p.load >= 0:
             kinds.append(LoadScale(p.load))
@@ -145,6 +201,7 @@ def _setup(path, parameters, overrides, algorithms):
         raise ParameterError(f"sensitivities of a {domain.solver.algorithm!r} run are not built here; "
                              f"use algorithm = {' or '.join(map(repr, algorithms))}")
     params = resolve_all(path, parameters, overrides)
+    _refuse(params, domain.solver.algorithm)
     steps = [max(abs(p.value), 1.0) if p.affine else 1e-4 * max(abs(p.value), 1e-300) for p in params]
     moved = [model_at(p, path, overrides, p.value + d) for p, d in zip(params, steps)]
     minus = [None if p.affine else model_at(p, path, overrides, p.value - d) for p, d in zip(params, steps)]

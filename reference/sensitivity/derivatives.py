@@ -14,7 +14,10 @@
   (``−∂m/∂p g`` alone when static);
 - a spring's stiffness or a time function's end value (a drive's speed): the residual of the model with the
   parameter moved, ``(r(p + Δ) − r(p)) / Δ`` (exact: affine; a central difference for a drive's speed)
-  (:class:`Moved`).
+  (:class:`Moved`);
+- a node's coordinate X (geometry): the central difference ``(r(X + Δ) − r(X − Δ)) / 2Δ`` of the residual at the
+  fixed state between the decks rebuilt with X moved (:class:`Moved`, with the fixed coordinates' own derivative:
+  :func:`reference.sensitivity.static.solve_static`).
 
 :class:`ResidualDerivatives` is that re-evaluation for every parameter: the oracle the tests compare the
 kinds above with.  :func:`output_derivatives` carries a state sensitivity ``(dx, dθ)`` (inertial translations,
@@ -60,11 +63,13 @@ class Mass:
 @dataclass
 class Moved:
     """A parameter differentiated by the residual of the model moved by ``step`` (and by −step: ``minus``, for a
-    parameter the residual is not affine in; None otherwise)."""
+    parameter the residual is not affine in; None otherwise); ``fixed`` (N,6), for a node's coordinate, the
+    derivative ``[dx | dθ]`` of the coordinates the run holds fixed (None: they do not move)."""
 
     model: object
     step: float
     minus: object = None
+    fixed: np.ndarray | None = None
 
 
 class ParameterDerivatives:

@@ -56,9 +56,17 @@ class StaticSensitivities:
 
 def solve_static(nw, derivatives, x, q, lam, t) -> np.ndarray:
     """``[dx/dp | dθ/dp]`` (P, N, 6) at the equilibrium ``(x, q, λ)`` at load level t (module docstring): one
-    factorisation of the Newton matrix and one back-substitution per parameter."""
+    factorisation of the Newton matrix and one back-substitution per parameter.  A parameter that moves the
+    coordinates the run holds fixed (a node's coordinate: ``fixed`` of its kind) adds their share
+    ``K_fc d_c``, ``B_c d_c`` to its right-hand side (K, B over every coordinate) and keeps ``d_c`` as their
+    sensitivity."""
     zero = np.zeros_like(x)
     rhs = derivatives(x, q, zero, zero, np.zeros((x.shape[0], 6)), lam, t, False)  # evaluates nw here: its B
+    fixed = [getattr(kind, "fixed", None) for kind in getattr(derivatives, "kinds", [None] * len(rhs))]
+    if any(f is not None for f in fixed):
+        K = nw.ev.tangent(x, q, zero, zero, t, lam, nw.angle)
+        rhs = [(dr, dphi) if f is None else (dr + (K @ f.ravel()).reshape(f.shape), dphi + nw.last.B @ f.ravel())
+               for (dr, dphi), f in zip(rhs, fixed)]
     lu = nw.factor(nw.matrix(x, q, zero, zero, t, lam, 0.0, 0.0, 1.0, 1.0))
     if lu is None:
         raise ValueError(f"the tangent is singular at load level {t:.6g}: no sensitivity at a critical point")
@@ -66,6 +74,8 @@ def solve_static(nw, derivatives, x, q, lam, t) -> np.ndarray:
     for k, (dr, dphi) in enumerate(rhs):
         solved = nw.solve(lu, -dr, -dphi)
         out[k] = solved[0] if solved is not None else np.nan
+        if fixed[k] is not None:
+            out[k] += fixed[k]
     return out
 
 
