@@ -8,7 +8,7 @@ import pytest
 from reference.io.deck_parameters import resolve_all
 from reference.io.deck_sensitivities import model_at, parameter_kinds
 from reference.plain.newton import Newton, compose
-from reference.sensitivity.derivatives import LoadScale, Mass, Moved, ParameterDerivatives, ResidualDerivatives, \
+from reference.sensitivity.derivatives import LoadScale, Mass, ParameterDerivatives, ResidualDerivatives, Spring, \
     Stiffness
 
 ROLLUP = "models/embedded_beam_static.toml"
@@ -66,12 +66,13 @@ def test_every_section_entry_and_the_load_scale_agree_with_the_moved_model(tmp_p
     assert max(errors) <= 1e-12, dict(zip(names, errors))
 
 
-def test_rigid_body_mass_agrees_with_the_moved_model_with_joints():
-    # A rigid body's mass (gravity, inertia) on a jointed model; its springs' stiffnesses are differentiated by
-    # the moved model itself (Moved: the same computation as the oracle's, checked for the wiring).
-    names = ["rigid_bodies.upper.mass", "rigid_bodies.lower.mass", "springs[0].stiffness"]
-    errors, kinds, expected = _compare(PENDULUM, names, {}, ("staggered_central_difference",), True)
-    assert [type(k) for k in kinds] == [Mass, Mass, Moved]
+@pytest.mark.parametrize("dynamic", [False, True])
+def test_rigid_body_masses_and_springs_agree_with_the_moved_model_with_joints(dynamic):
+    # Rigid bodies' masses (gravity, inertia) and rotational springs' stiffnesses (each spring alone with its
+    # stiffness' change, no damper) on a jointed model, at a turned state with the joints' multipliers.
+    names = ["rigid_bodies.upper.mass", "rigid_bodies.lower.mass", "springs[0].stiffness", "springs[1].stiffness"]
+    errors, kinds, expected = _compare(PENDULUM, names, {}, ("staggered_central_difference",), dynamic)
+    assert [type(k) for k in kinds] == [Mass, Mass, Spring, Spring]
     assert all(np.max(np.abs(r)) > 0 for r, _ in expected)
     assert max(errors) <= 1e-12, dict(zip(names, errors))
 

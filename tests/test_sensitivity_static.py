@@ -152,7 +152,7 @@ def test_rollup_tip_sensitivity_to_the_beam_ends_position_is_the_exact_circles(n
 def test_rollup_tip_sensitivity_to_the_end_matches_central_differences_with_beam2(tmp_path):
     # Beam2 is not exact here (its polygon): the whole static run on the decks rebuilt with the end raised by
     # ±1e-6 L, against the semi-analytic derivative, at every load level.  Truncation O(1e-12), the runs' Newton
-    # tolerance over 2e-6 L and the residual difference's 1e-8: 1e-6 of the largest.
+    # tolerance over 2e-6 L and the residual difference's 1e-8: 1e-6 of the largest (measured 3.3e-9 with a step 1e-6 L).
     from reference.io.deck_parameters import resolve_all
     from reference.io.deck_sensitivities import geometry_domain
     name, over = "nodes.beam:end.position.z", {"solver.backend": "reference"}

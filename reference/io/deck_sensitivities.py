@@ -21,7 +21,7 @@ from reference.io.deck import load_deck
 from reference.io.deck_parameters import ParameterError, parse_outputs, resolve_all
 from reference.io.deck_reader import read_toml
 from reference.plain.newton import relative_rotation
-from reference.sensitivity.derivatives import LoadScale, Mass, Moved, Stiffness
+from reference.sensitivity.derivatives import LoadScale, Mass, Moved, Spring, Stiffness
 from reference.sensitivity.dynamic import run_dynamic
 from reference.sensitivity.eigen import run_buckling, run_modes
 from reference.sensitivity.static import STATIC, StaticSensitivities, run_static
@@ -186,9 +186,21 @@ def parameter_kinds(path, parameters, overrides, algorithms):
             moved = model_at(p, path, overrides, p.value + step).nodes
             kinds.append(Mass((moved.mass - base.nodes.mass) / step, (moved.inertia - base.nodes.inertia) / step))
         else:
-            kinds.append(Moved(model_at(p, path, overrides, p.value + step), step,
-                               None if p.affine else model_at(p, path, overrides, p.value - step)))
+            kinds.append(_moved_kind(p, path, overrides, step))
     return domain, params, kinds
+
+
+def _moved_kind(p, path, overrides: dict, step: float):
+    """A parameter the model moved by Δ tells: a spring's stiffness (the one force element whose stiffnesses
+    change: :class:`~reference.sensitivity.derivatives.Spring`, ``∂k/∂p`` exact by affinity), else
+    :class:`~reference.sensitivity.derivatives.Moved` (by −Δ too for a parameter the residual is not affine in)."""
+    moved = model_at(p, path, overrides, p.value + step)
+    if p.override.startswith("springs."):
+        k0, k1 = model_at(p, path, overrides, p.value).force_elements.k, moved.force_elements.k
+        rows = np.flatnonzero(np.any(k1 != k0, axis=1))
+        if rows.size == 1:
+            return Spring(int(rows[0]), (k1[rows[0]] - k0[rows[0]]) / step)
+    return Moved(moved, step, None if p.affine else model_at(p, path, overrides, p.value - step))
 
 
 def _setup(path, parameters, overrides, algorithms):

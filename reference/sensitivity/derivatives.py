@@ -12,9 +12,10 @@
   it, so ``∂m/∂p``, ``∂J/∂p`` are differences of the assembled masses, taken once (:class:`Mass`), and
   ``∂r/∂p = ∂m/∂p (v̇ + c v − g)`` on the translations, ``∂J/∂p (ω̇ + c ω) + ω × ∂J/∂p ω`` on the rotations
   (``−∂m/∂p g`` alone when static);
-- a spring's stiffness or a time function's end value (a drive's speed): the residual of the model with the
-  parameter moved, ``(r(p + Δ) − r(p)) / Δ`` (exact: affine; a central difference for a drive's speed)
-  (:class:`Moved`);
+- a spring's stiffness: the force element's own force ``−B_eᵀ (∂k/∂p) (e − e_0)``, the element alone evaluated with
+  its stiffnesses' change per unit of p and no damper (:class:`Spring`);
+- a time function's end value (a drive's speed): the residual of the model with the parameter moved, a central
+  difference ``(r(p + Δ) − r(p − Δ)) / 2Δ`` (:class:`Moved`);
 - a node's coordinate X (geometry): the central difference ``(r(X + Δ) − r(X − Δ)) / 2Δ`` of the residual at the
   fixed state between the decks rebuilt with X moved (:class:`Moved`, with the fixed coordinates' own derivative:
   :func:`reference.sensitivity.static.solve_static`).
@@ -61,6 +62,15 @@ class Mass:
 
 
 @dataclass
+class Spring:
+    """The stiffness of the force element ``row`` (:class:`reference.state.ForceElements`): ``dk`` (6,) the change
+    of its stiffness per measure per unit of the parameter."""
+
+    row: int
+    dk: np.ndarray
+
+
+@dataclass
 class Moved:
     """A parameter differentiated by the residual of the model moved by ``step`` (and by −step: ``minus``, for a
     parameter the residual is not affine in; None otherwise); ``fixed`` (N,6), for a node's coordinate, the
@@ -90,6 +100,7 @@ class ParameterDerivatives:
             loads=type(model.loads)(*(a[k.row:k.row + 1] for a in model.loads)),
             nodes=model.nodes._replace(mass=np.zeros_like(model.nodes.mass))) for k in self.kinds
             if isinstance(k, LoadScale)}
+        self._one_spring = {k.row: _one_spring(model, k) for k in self.kinds if isinstance(k, Spring)}
         moved = [k for k in self.kinds if isinstance(k, Moved)]
         self._moved = {id(k): (Newton(k.model), None if k.minus is None else Newton(k.minus)) for k in moved}
 
@@ -120,6 +131,10 @@ class ParameterDerivatives:
                 out.append((-loads.external_forces(self._one_load[kind.row], q, t), no_phi))
             elif isinstance(kind, Mass):
                 out.append((self._mass(kind, v, w, vd, dynamic), no_phi))
+            elif isinstance(kind, Spring):
+                G = loads.force_element_forces(self._one_spring[kind.row], x, q, v, w, t,
+                                               angle[kind.row:kind.row + 1].copy())[0]
+                out.append((-G, no_phi))
             else:
                 out.append(self._reevaluated(kind, base, angle, (x, q, v, w, vd, lam, t, dynamic)))
         return out
@@ -149,6 +164,15 @@ class ParameterDerivatives:
     def moved(self, kind):
         """The Newton systems ``(+Δ, −Δ or None)`` of a :class:`Moved` parameter."""
         return self._moved[id(kind)]
+
+
+def _one_spring(model, kind: Spring):
+    """``model`` with the force element ``kind.row`` alone, its stiffnesses ``kind.dk``, no damper, no actuator:
+    its spring force is ``∂G/∂p`` (:func:`reference.plain.loads.force_element_forces`)."""
+    fe = model.force_elements
+    one = type(fe)(*(a[kind.row:kind.row + 1] for a in fe))
+    return model._replace(force_elements=one._replace(k=kind.dk[None].astype(float), c=np.zeros_like(one.c),
+                                                      tf=np.full_like(one.tf, -1)))
 
 
 class ResidualDerivatives:
