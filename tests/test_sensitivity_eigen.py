@@ -189,3 +189,51 @@ def test_damped_modes_are_refused_in_one_line(tmp_path):
     with pytest.raises(ParameterError, match=r"^mode sensitivities of damped or gyroscopic modes .*; take") as e:
         eigen_sensitivities(path, ["springs[0].stiffness"])
     assert "\n" not in str(e.value)
+
+
+TENSIONED = """
+[time_functions.load_factor]
+kind = "ramp"
+t0 = 0.0
+t1 = 1.0
+
+[[loads]]
+node = "beam:end"
+force = [FORCE, 0.0, 0.0]
+time_function = "load_factor"
+"""
+"""An axial tip tension ramped to FORCE at t = 1, added to the cantilever deck: its modes about the static
+equilibrium at t = 1 are stiffened by the tension (a string's share T/(ρA) in ω²)."""
+
+
+def _tensioned(tmp_path, force: float) -> str:
+    text = open(CANTILEVER).read().replace('about = "reference"', 'about = "static"\nt_end = 1.0\nload_steps = 1\n'
+                                                                 'tolerance = 1e-12')
+    path = tmp_path / f"tensioned_{force!r}.toml"
+    path.write_text(text + TENSIONED.replace("FORCE", repr(force)))
+    return path
+
+
+def test_modes_about_a_static_equilibrium(tmp_path):
+    T = 20.0  # ω₁ grows from 3.51 to 9.14 rad/s
+    path = _tensioned(tmp_path, T)
+    omega, d = eigen_sensitivities(path, ["sections.rect.EI2", "loads[0].force", "sections.rect.rhoA"])
+    unloaded = eigen_sensitivities(CANTILEVER, [])[0]
+    assert omega[0] > 1.1 * unloaded[0]  # the tension stiffens: the static path was taken
+    # the section entries: central differences of whole runs (relative step 1e-3, as for the reference state:
+    # round-off 2e-7 with the 1e-12 Newton tolerance, truncation below 7e-7: measured 1.2e-7 and 6.2e-7); the
+    # tension's scale: the same differences of the decks with the force scaled (measured 1.3e-7)
+    assert abs(d[0, 0] - _central(path, "sections.rect.EI2", 1.0, 0)) <= 1e-6 * abs(d[0, 0])
+    assert abs(d[2, 0] - _central(path, "sections.rect.rhoA", 1.0, 0)) <= 1e-6 * abs(d[2, 0])
+    plus, minus = (eigen_sensitivities(_tensioned(tmp_path, T * (1 + s * H)), [])[0][0] for s in (1, -1))
+    assert abs(d[1, 0] - (plus - minus) / (2 * H)) <= 1e-6 * abs(d[1, 0])
+
+
+def test_modes_about_a_static_equilibrium_with_joints_are_refused_in_one_line(tmp_path):
+    path = tmp_path / "pendulum.toml"
+    path.write_text(PENDULUM.replace("HINGE", "-0.5").replace('about = "reference"',
+                                                              'about = "static"\nt_end = 1.0\nload_steps = 1'))
+    with pytest.raises(ParameterError, match=r"^sensitivities of modes about a static equilibrium of a model with "
+                                             r"joints are not built .*; use") as e:
+        eigen_sensitivities(path, ["springs[0].stiffness"])
+    assert "\n" not in str(e.value)

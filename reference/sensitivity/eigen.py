@@ -18,6 +18,9 @@ gives (Fox & Kapoor 1968, "Rates of change of eigenvalues and eigenvectors", AIA
   that moves the constraints (B at p + Δ differs from B at p beyond :data:`CONSTRAINT_CHANGE`: a joint's
   point or axis) is refused in one line, as are damped or gyroscopic modes (the first-order pencil's
   formula needs the left eigenvectors, not built).
+- **Modes about the static equilibrium** at ``t_end`` (``about = "static"``, no joints): the same formula on
+  the free coordinates with K the tangent at the equilibrium, which moves with p: its total derivative as for
+  buckling below (:func:`total_stiffness_derivative`).
 - **Buckling** (:class:`reference.algorithms.linear.Buckling`): ``(K_0 + μ K_g) φ = 0`` with
   ``K_g = K_T(t_end) − K_T(t_0)``, i.e. ``A = K_0``, ``C = −K_g``.  The tangents are taken at the static
   equilibria, which move with p: their total derivative is the direct one (affine,
@@ -37,6 +40,7 @@ import warnings
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sps
 
 from reference.algorithms import linearization
 from reference.linalg import SingularMatrix
@@ -56,11 +60,13 @@ which a parameter moves the constraints (a joint's point or axis): round-off lea
 parameters offered), so any change is the parameter's."""
 
 
-def refusal(model) -> str:
-    """Why the buckling sensitivities of ``model`` are not built ("" when they are): joints."""
+def refusal(model, what: str = "buckling sensitivities") -> str:
+    """Why ``what`` (buckling sensitivities, those of modes about a static equilibrium) of ``model`` are not built
+    ("" when they are): joints."""
     if model.n_constraints > 0:
-        return ("buckling sensitivities of a model with joints are not built (the multipliers' sensitivity along "
-                "the static path is not carried); use a model with fixed coordinates (clamps) only, or modes")
+        return (f"{what} of a model with joints are not built (the multipliers' sensitivity along "
+                "the static path is not carried); use a model with fixed coordinates (clamps) only, or modes "
+                "about the reference state")
     return ""
 
 
@@ -100,8 +106,7 @@ def mode_sensitivities(base, moved, steps, n: int, names=None):
 
     ``moved``/``steps``: per parameter the linearisation of the model with the parameter moved by Δ, and Δ
     (exact differences: K, M and the consistent λ are affine in every parameter offered); ``names`` the
-    parameters' names for the messages.  ω is the modes algorithm's ``2π frequency``: for an unstable mode
-    (ω² < 0) its growth rate ``sqrt(−ω²)``; a zero mode (rigid-body or mechanism) stays zero along p: 0."""
+    parameters' names for the messages.  ω as :func:`frequency_derivatives` gives it."""
     names = list(names) if names is not None else [f"number {i + 1}" for i in range(len(moved))]
     size = abs(base.B).max() if base.B.nnz else 0.0
     for lin, name in zip(moved, names):
@@ -111,24 +116,43 @@ def mode_sensitivities(base, moved, steps, n: int, names=None):
                              f"{change / size:.1e} relative): its mode sensitivities are not built; name a "
                              "stiffness, mass or spring that the joints do not depend on")
     red = linearization.reduce(base)
-    if red.D.nnz and abs(red.D).max() > 0.0 or not is_symmetric(red.K):
-        raise ValueError("mode sensitivities of damped or gyroscopic modes (dampers, a moving reference state, "
-                         "follower loads) are not built; take modes of the undamped model at rest")
-    if n > red.M.shape[0]:
-        raise ValueError(f"{n} modes asked of a model with {red.M.shape[0]} independent coordinates; "
-                         f"ask at most {red.M.shape[0]}")
-    found = undamped(red.M, red.K, min(n + 1, red.M.shape[0]))  # one more: the last one's gap
-    w2, phi = found.omega2, red.Z @ found.phi  # φ = Z φ_r, φᵀ M φ = 1
+    if red.D.nnz and abs(red.D).max() > 0.0:
+        raise ValueError(DAMPED)
+    w2, phi, kind = _lowest(red.M, red.K, n)
+    phi = red.Z @ phi  # φ = Z φ_r, φᵀ M φ = 1
+    return frequency_derivatives(w2, phi, kind, [((lin.K - base.K) / d, (lin.M - base.M) / d)
+                                                 for lin, d in zip(moved, steps)])
+
+
+DAMPED = ("mode sensitivities of damped or gyroscopic modes (dampers, a moving reference state, follower loads) "
+          "are not built; take modes of the undamped model at rest")
+
+
+def _lowest(M, K, n: int):
+    """``(ω² (n,), φ (size, n) mass-normalised, kind (n,))``: the n lowest undamped modes of the symmetric pencil
+    ``(K, M)`` (sparse) as the modes algorithm finds them (:func:`reference.modal.undamped`), a repeated one said
+    in one line (one mode more is found for the last one's gap)."""
+    if not is_symmetric(K):
+        raise ValueError(DAMPED)
+    size = M.shape[0]
+    if n > size:
+        raise ValueError(f"{n} modes asked of a model with {size} independent coordinates; ask at most {size}")
+    found = undamped(M, K, min(n + 1, size))
     for k in range(n):
-        _warn_repeated(w2, k, "mode")
-    w2, phi, kind = w2[:n], phi[:, :n], found.kind[:n]
+        _warn_repeated(found.omega2, k, "mode")
+    return found.omega2[:n], found.phi[:, :n], found.kind[:n]
+
+
+def frequency_derivatives(w2, phi, kind, derivatives):
+    """``(ω (n,), dω/dp (P, n))`` from the modes ``(ω², φ mass-normalised, kind)`` and per parameter the derivatives
+    ``(dK/dp, dM/dp)`` (sparse or dense, on φ's coordinates): ``dω²/dp = φᵀ(dK/dp − ω² dM/dp)φ``, ``dω = dω²/(2ω)``.
+    ω is the modes algorithm's ``2π frequency``: for an unstable mode (ω² < 0) its growth rate ``sqrt(−ω²)``; a
+    zero mode (rigid-body or mechanism) stays zero along p: 0."""
     omega = np.sqrt(np.abs(w2))
     rate = np.where(kind == "zero", 0.0, np.where(kind == "unstable", -0.5, 0.5) / np.where(omega > 0, omega, 1))
-    out = np.empty((len(moved), n))
-    for i, (lin, d) in enumerate(zip(moved, steps)):
-        dK, dM = (lin.K - base.K) / d, (lin.M - base.M) / d
-        dw2 = np.einsum("ak,ak->k", phi, dK @ phi) - w2 * np.einsum("ak,ak->k", phi, dM @ phi)
-        out[i] = rate * dw2
+    out = np.empty((len(derivatives), len(w2)))
+    for i, (dK, dM) in enumerate(derivatives):
+        out[i] = rate * (np.einsum("ak,ak->k", phi, dK @ phi) - w2 * np.einsum("ak,ak->k", phi, dM @ phi))
     return omega, out
 
 
@@ -170,15 +194,54 @@ def buckling_sensitivities(K0, K1, dK0, dK1, n: int):
 
 
 def run_modes(domain, moved, steps, names=None):
-    """``(ω, dω/dp)`` (:func:`mode_sensitivities`) of the modes deck ``domain`` (about the reference state), on the
-    reference path; ``moved``/``steps`` per parameter as :class:`reference.sensitivity.derivatives.ResidualDerivatives`'s,
-    ``names`` the parameters' names for the messages."""
-    if domain.solver.about != "reference":
-        raise ValueError(f"mode sensitivities about = {domain.solver.about!r} are not built; use about = \"reference\"")
+    """``(ω, dω/dp)`` of the modes deck ``domain`` on the reference path: about the reference state
+    (:func:`mode_sensitivities`, joints allowed) or about the static equilibrium at ``t_end``
+    (:func:`static_mode_sensitivities`); ``moved``/``steps`` per parameter as
+    :class:`reference.sensitivity.derivatives.ResidualDerivatives`'s, ``names`` the parameters' names for the
+    messages."""
+    if domain.solver.about not in ("reference", "static"):
+        raise ValueError(f"mode sensitivities about = {domain.solver.about!r} are not built; use about = "
+                         "\"reference\" or \"static\"")
     model = domain.initialization()
     state = domain.initial_conditions()
+    if domain.solver.about == "static":
+        return static_mode_sensitivities(domain, model, state, moved, steps)
     return mode_sensitivities(linearised(model, state), [linearised(m, state) for m in moved], steps,
                               int(domain.solver.modes), names)
+
+
+def static_mode_sensitivities(domain, model, state, moved, steps):
+    """``(ω, dω/dp)`` of the modes about the static equilibrium at ``t_end`` (``about = "static"``, no joints):
+    the static path on the reference path, the equilibrium's sensitivity, K_T's total derivative
+    (:func:`total_stiffness_derivative`) and M's direct one, on the free coordinates."""
+    _refuse(model, "sensitivities of modes about a static equilibrium")
+    *_, (equilibrium, derivatives, length) = _equilibria(domain, model, state, moved, steps)
+    base = derivatives.base
+    K, M = stiffness(base, *equilibrium), _mass(base)
+    d = solve_static(base, derivatives, *equilibrium)
+    w2, phi, kind = _lowest(M, sps.csr_matrix(K), int(domain.solver.modes))
+    return frequency_derivatives(w2, phi, kind, [
+        (total_stiffness_derivative(base, nw, s, equilibrium, (d[i], np.zeros(0)), length), (_mass(nw) - M) / s)
+        for i, (nw, s) in enumerate(zip(derivatives.moved, steps))])
+
+
+def _mass(nw: Newton) -> sps.csr_matrix:
+    """The mass matrix of ``nw`` on the free coordinates."""
+    return sps.csr_matrix(nw.M)[nw.index][:, nw.index]
+
+
+def _equilibria(domain, model, state, moved, steps):
+    """The static path of ``domain`` on the reference path, yielding ``(equilibrium (x, q, λ, t), derivatives,
+    length)`` at t = 0 and then at ``t_end`` (each to be used before the next: the Newton system's state moves
+    on), ``derivatives`` the parameters' :class:`ResidualDerivatives` over the run's Newton system, ``length``
+    the run's length scale."""
+    static = PlainStatic.from_settings(domain.solver)
+    run = static.start(model, state)
+    derivatives = ResidualDerivatives(run.newton, moved, steps)
+    for n_steps in (0, static.n_steps(domain.solver.t_end)):
+        if static.advance(model, state, run, n_steps, None) != OK:
+            raise ValueError(f"the static path stopped at load level {state.t:.6g}: no eigenvalue sensitivity")
+        yield (state.x.copy(), state.q.copy(), run.lam.copy(), state.t), derivatives, run.L
 
 
 def run_buckling(domain, moved, steps):
@@ -186,19 +249,13 @@ def run_buckling(domain, moved, steps):
     to ``t_end`` on the reference path, the equilibria's sensitivities at both ends, and the total derivatives
     of their tangents (module docstring)."""
     model = domain.initialization()
-    _refuse(model)
+    _refuse(model, "buckling sensitivities")
     state = domain.initial_conditions()
-    static = PlainStatic.from_settings(domain.solver)
-    run = static.start(model, state)
-    derivatives = ResidualDerivatives(run.newton, moved, steps)
     ends = []
-    for n_steps in (0, static.n_steps(domain.solver.t_end)):
-        if static.advance(model, state, run, n_steps, None) != OK:
-            raise ValueError(f"the static path stopped at load level {state.t:.6g}: no buckling sensitivity")
-        equilibrium = (state.x.copy(), state.q.copy(), run.lam.copy(), state.t)
-        d = solve_static(run.newton, derivatives, *equilibrium)
-        K = stiffness(run.newton, *equilibrium)
-        dK = [total_stiffness_derivative(run.newton, nw, s, equilibrium, (d[i], np.zeros(0)), run.L)
+    for equilibrium, derivatives, length in _equilibria(domain, model, state, moved, steps):
+        d = solve_static(derivatives.base, derivatives, *equilibrium)
+        K = stiffness(derivatives.base, *equilibrium)
+        dK = [total_stiffness_derivative(derivatives.base, nw, s, equilibrium, (d[i], np.zeros(0)), length)
               for i, (nw, s) in enumerate(zip(derivatives.moved, steps))]
         ends.append((K, dK))
     (K0, dK0), (K1, dK1) = ends
@@ -208,7 +265,7 @@ def run_buckling(domain, moved, steps):
     return buckling_sensitivities(K0, K1, dK0, dK1, int(domain.solver.modes))
 
 
-def _refuse(model) -> None:
-    problem = refusal(model)
+def _refuse(model, what: str) -> None:
+    problem = refusal(model, what)
     if problem:
         raise ValueError(problem)
