@@ -135,7 +135,7 @@ def kernels() -> list[Kernel]:
     found.append(_kernel("beam2_se3_section_derivative", "beam2_se3", beam2.kernel_arguments(inp), out["S"], stages,
                          inp["c"], 12))
     forces = beam3.beam3_kernels()[0]
-    (s_name, s_exprs, _), c = forces.outputs[0], dict((n, v) for n, v, _ in forces.inputs)["c"]
+    (_, s_exprs, _), c = forces.outputs[0], dict((n, v) for n, v, _ in forces.inputs)["c"]
     found.append(_kernel("beam3_section_derivative", "beam3", forces.inputs, s_exprs, forces.stages, c, 18))
     return found
 

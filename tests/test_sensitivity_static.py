@@ -152,7 +152,7 @@ def test_rollup_tip_sensitivity_to_the_beam_ends_position_is_the_exact_circles(n
 def test_rollup_tip_sensitivity_to_the_end_matches_central_differences_with_beam2(tmp_path):
     # Beam2 is not exact here (its polygon): the whole static run on the decks rebuilt with the end raised by
     # ±1e-6 L, against the semi-analytic derivative, at every load level.  Truncation O(1e-12), the runs' Newton
-    # tolerance over 2e-6 L and the residual difference's 1e-8: 1e-6 of the largest (measured 3.3e-9 with a step 1e-6 L).
+    # tolerance over 2e-6 L and the residual difference's 1e-8: 1e-6 of the largest (measured 3.3e-9, step 1e-6 L).
     from reference.io.deck_parameters import resolve_all
     from reference.io.deck_sensitivities import geometry_domain
     name, over = "nodes.beam:end.position.z", {"solver.backend": "reference"}
@@ -172,3 +172,31 @@ def test_geometry_outside_static_runs_is_refused_in_one_line():
         dynamic_sensitivities("models/three_bar.toml", ["nodes.coupler:end.position.x"], ["position:coupler:end"],
                               {"solver.algorithm": "generalized_alpha"})
     assert "static runs only" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_the_stability_checks_matrix_is_reused_with_joints(tmp_path, monkeypatch):
+    # The three-bar (revolute joints, the crank's drive) as a static problem under gravity: the sensitivities with
+    # the matrix the run's stability check assembled at each equilibrium (KeptMatrix) equal those of a fresh
+    # assembly, to round-off (the same matrix: 1e-12 of the largest), and the kept one is used at every level.
+    import re
+    from reference.sensitivity import static
+    text = re.sub(r"\[solver\]\n(.*\n)*?\n", '[solver]\nalgorithm = "static"\nt_end = 0.4\nload_steps = 4\n\n',
+                  open("models/three_bar.toml").read(), count=1)
+    path = tmp_path / "three_bar_static.toml"
+    path.write_text(text + '\n[gravity]\ng = [0.0, -9.81, 0.0]\n')
+    names, out = ["sections.coupler.EI2", "sections.coupler.rhoA"], "midspan_deflection:coupler"
+    used, original = [], static.KeptMatrix.static_matrix
+
+    def spy(self, *args):
+        used.append(original(self, *args))
+        return used[-1]
+
+    monkeypatch.setattr(static.KeptMatrix, "static_matrix", spy)
+    kept = static_sensitivities(path, names, [out], {"solver.backend": "reference"})
+    monkeypatch.setattr(static.KeptMatrix, "static_matrix", lambda self, *a: None)
+    fresh = static_sensitivities(path, names, [out], {"solver.backend": "reference"})
+    assert len(used) == 5 and all(A is not None for A in used)
+    for name in names:
+        a, b = np.array(kept.outputs[out][name]), np.array(fresh.outputs[out][name])
+        assert np.max(np.abs(b)) > 0.0
+        assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(b))

@@ -223,8 +223,8 @@ def _setup(path, parameters, overrides, algorithms):
 def sensitivity_datasets(path, sensitivities: dict, overrides: dict | None = None) -> dict:
     """The results file's datasets of a deck's ``[sensitivities]`` table (docs/results.md): for a static run
     ``sensitivities/<output>/<parameter>`` (one value per load step, the observable's shape after it) and
-    ``sensitivities/load_factor``; for generalized-α the same per output time, with ``sensitivities/time``; for modes ``sensitivities/frequency/<parameter>`` (dω/dp / 2π [Hz per unit of
-    p]); for buckling ``sensitivities/load_factor/<parameter>`` (dμ/dp).  ``/`` in a name (an output
+    ``sensitivities/load_factor``; for generalized-α the same per output time, with ``sensitivities/time``; for
+    modes ``sensitivities/frequency/<parameter>`` (dω/dp / 2π [Hz per unit of p]); for buckling ``sensitivities/load_factor/<parameter>`` (dμ/dp).  ``/`` in a name (an output
     ``deflection:…``) is written as ``|``, an HDF5 path separator otherwise."""
     names, outputs = sensitivities["parameters"], sensitivities.get("outputs", [])
     key = lambda text: text.replace("/", "|")  # noqa: E731
