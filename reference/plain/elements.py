@@ -314,9 +314,9 @@ def element_stiffness_derivatives(model, x, q) -> list:
             E, n = X.shape[-1], X.shape[0]
             ds = np.empty((6 * n * 6, E))
             twin(kernel, E)(*family._inputs(data, sl, X, P)[:-1], ds)
-            ds = ds.reshape(6 * n, 6, E)
-            blocks = np.stack([_node_frames(ds[:, j], O) for j in range(6)], axis=-1)  # (n, 6, E, 6)
-            out.append((np.asarray(data.index[sl]), data.conn[sl], blocks.transpose(2, 0, 1, 3)))
+            columns = ds.reshape(6 * n, 6, E).reshape(6 * n, 6 * E)  # column j of element e at j E + e
+            blocks = _node_frames(columns, np.tile(O, (1, 1, 6))).reshape(n, 6, 6, E)  # (n, 6, j, E)
+            out.append((np.asarray(data.index[sl]), data.conn[sl], blocks.transpose(3, 0, 1, 2)))
     return out
 
 
