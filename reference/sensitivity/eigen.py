@@ -30,8 +30,13 @@ gives (Fox & Kapoor 1968, "Rates of change of eigenvalues and eigenvectors", AIA
   not generated).
 
 A repeated eigenvalue (relative gap below :data:`REPEATED`) has no derivative: the formula gives one of
-its branches' and a one-line warning says so.  Buckling of a model with joints is refused (the equilibria's
-multiplier sensitivities, which the constraints' geometric stiffness needs, are not carried here).
+its branches' and a one-line warning says so.
+
+With joints, buckling carries the equilibria's multiplier sensitivities dλ/dp
+(:func:`multiplier_sensitivities`: the joints' geometric stiffness ``∂(Bᵀλ)/∂q`` is in K_T) and reduces the
+pencil to the null space Z of B at ``t_end`` as the algorithm does; Z moves with the equilibrium, which adds
+``−2 νᵀ (dB/dp) φ`` to the numerator (``(K_0 + μ K_g) φ = Bᵀν``; :func:`buckling_sensitivities`).  Modes about a
+static equilibrium of a model with joints are refused in one line (that term is not carried for them).
 """
 
 from __future__ import annotations
@@ -43,7 +48,7 @@ import scipy.linalg as sla
 import scipy.sparse as sps
 
 from reference.algorithms import linearization
-from reference.linalg import SingularMatrix
+from reference.linalg import SingularMatrix, null_space
 from reference.modal import is_symmetric, undamped
 from reference.plain.newton import EngineFace, Newton, compose
 from reference.plain.static import PlainStatic
@@ -171,26 +176,66 @@ def total_stiffness_derivative(base: Newton, nw: Newton, d: float, equilibrium, 
     return direct + (plus - minus) / (2.0 * h)
 
 
-def buckling_sensitivities(K0, K1, dK0, dK1, n: int):
+def buckling_sensitivities(K0, K1, dK0, dK1, n: int, constraint=None):
     """``(μ (n,), dμ/dp (P, n))`` of the n lowest positive buckling load factors of ``(K_0 + μ K_g) φ = 0``,
-    ``K_g = K_1 − K_0`` (dense), from the total derivatives ``dK0``, ``dK1`` (lists over the parameters)."""
-    Kg = K1 - K0
-    symmetric = all(np.allclose(K, K.T, rtol=0.0, atol=1e-12 * np.max(np.abs(K))) for K in (K0, Kg))
-    if symmetric:  # −K_g φ = (1/μ) K_0 φ with K_0 positive definite: the symmetric solver, to round-off
-        inverse, phi = sla.eigh(-Kg, K0)
-        keep = np.flatnonzero(inverse > 0.0)[::-1][:n]
-        phi = np.linalg.solve(K0, -Kg @ phi[:, keep])  # one step of inverse iteration, then the Rayleigh
-        mu = np.einsum("ak,ab,bk->k", phi, K0, phi) / -np.einsum("ak,ab,bk->k", phi, Kg, phi)  # quotient
-    else:  # follower loads: the general solver; the formula then needs the left eigenvector (not built)
+    ``K_g = K_1 − K_0`` (dense, free coordinates), from the total derivatives ``dK0``, ``dK1`` (lists over the
+    parameters).  ``constraint``: None, or ``(B, dB)`` the joints' Jacobian at the end equilibrium (m, n) and its
+    total derivatives (list over the parameters): the pencil is then reduced to the null space Z of B, as the
+    buckling algorithm reduces it, and Z moves with the equilibrium: with ``A = K_0 + μ K_g``, ``A φ = Bᵀν``
+    (``Zᵀ A φ = 0``) and ``B dZ = −dB Z``, ``φᵀ d(ZᵀAZ)/dp φ_r = φᵀ dA φ − 2 νᵀ dB φ``."""
+    Z = np.eye(K0.shape[0]) if constraint is None else null_space(sps.csr_matrix(constraint[0]))[0].toarray()
+    K0r, Kgr = Z.T @ K0 @ Z, Z.T @ (K1 - K0) @ Z
+    symmetric = all(np.allclose(K, K.T, rtol=0.0, atol=1e-12 * np.max(np.abs(K))) for K in (K0r, Kgr))
+    if not symmetric:  # follower loads: the general solver; the formula then needs the left eigenvector
         raise ValueError("buckling sensitivities of a non-symmetric tangent (follower loads) are not built")
+    inverse, phi = sla.eigh(-Kgr, K0r)  # −K_g φ = (1/μ) K_0 φ with K_0 positive definite: to round-off
+    keep = np.flatnonzero(inverse > 0.0)[::-1][:n]
+    phi = np.linalg.solve(K0r, -Kgr @ phi[:, keep])  # one step of inverse iteration, then the Rayleigh
+    mu = np.einsum("ak,ab,bk->k", phi, K0r, phi) / -np.einsum("ak,ab,bk->k", phi, Kgr, phi)  # quotient
     for k in range(len(mu)):
         _warn_repeated(mu, k, "buckling load factor")
+    phi = Z @ phi
+    Kg = K1 - K0
     norm = -np.einsum("ak,ab,bk->k", phi, Kg, phi)  # φᵀ C φ with C = −K_g
+    nu = 0.0 if constraint is None else np.linalg.lstsq(constraint[0].T, K0 @ phi + mu * (Kg @ phi), rcond=None)[0]
     out = np.empty((len(dK0), len(mu)))
     for i, (a, b) in enumerate(zip(dK0, dK1)):
-        dC = -(b - a)
-        out[i] = (np.einsum("ak,ab,bk->k", phi, a, phi) - mu * np.einsum("ak,ab,bk->k", phi, dC, phi)) / norm
+        out[i] = np.einsum("ak,ab,bk->k", phi, a, phi) + mu * np.einsum("ak,ab,bk->k", phi, b - a, phi)
+        if constraint is not None:
+            out[i] -= 2.0 * np.einsum("ak,ak->k", nu, constraint[1][i] @ phi)
+        out[i] /= norm
     return mu, out
+
+
+def jacobian(nw: Newton, x, q, lam, t) -> np.ndarray:
+    """The joints' Jacobian B (m, free coordinates, dense) at ``(x, q)``."""
+    zero = np.zeros_like(x)
+    return nw.evaluate(x, q, zero, zero, np.zeros((x.shape[0], 6)), lam, t, False).B.tocsc()[:, nw.index].toarray()
+
+
+def multiplier_sensitivities(nw: Newton, derivatives, equilibrium, d) -> list:
+    """``dλ/dp`` (per parameter, (m,)) at a static equilibrium with the state sensitivities ``d`` (P, N, 6)
+    (:func:`reference.sensitivity.static.solve_static`): the first block row of its system,
+    ``Bᵀ dλ = −(∂r/∂p + K dδ)`` on the free coordinates, solved by least squares (B of full row rank: exact)."""
+    x, q, lam, t = equilibrium
+    if nw.m == 0:
+        return [np.zeros(0)] * len(d)
+    zero = np.zeros_like(x)
+    rhs = derivatives(x, q, zero, zero, np.zeros((x.shape[0], 6)), lam, t, False)  # evaluates nw here: its B
+    BT = nw.last.B.tocsc()[:, nw.index].T.toarray()
+    K = stiffness(nw, x, q, lam, t)
+    return [np.linalg.lstsq(BT, -(dr.ravel()[nw.index] + K @ dd.ravel()[nw.index]), rcond=None)[0]
+            for (dr, _), dd in zip(rhs, d)]
+
+
+def jacobian_derivative(nw: Newton, equilibrium, dd, length: float) -> np.ndarray:
+    """``dB/dp`` (dense, free coordinates) along the equilibrium's sensitivity ``dd`` (N,6): B reads no parameter
+    offered, so its change is the configuration's; a central difference as :func:`total_stiffness_derivative`'s."""
+    x, q, lam, t = equilibrium
+    size = max(float(np.max(np.abs(dd[:, :3]))) / length, float(np.max(np.abs(dd[:, 3:]))), 1e-300)
+    h = 1e-6 / size
+    plus = jacobian(nw, x + h * dd[:, :3], compose(q, h * dd[:, 3:]), lam, t)
+    return (plus - jacobian(nw, x - h * dd[:, :3], compose(q, -h * dd[:, 3:]), lam, t)) / (2.0 * h)
 
 
 def run_modes(domain, moved, steps, names=None):
@@ -246,23 +291,27 @@ def _equilibria(domain, model, state, moved, steps):
 
 def run_buckling(domain, moved, steps):
     """``(μ, dμ/dp)`` (:func:`buckling_sensitivities`) of the buckling deck ``domain``: the static path from t = 0
-    to ``t_end`` on the reference path, the equilibria's sensitivities at both ends, and the total derivatives
-    of their tangents (module docstring)."""
+    to ``t_end`` on the reference path, the equilibria's sensitivities (state and multipliers) at both ends, the
+    total derivatives of their tangents and, with joints, of the Jacobian at ``t_end`` (module docstring)."""
     model = domain.initialization()
-    _refuse(model, "buckling sensitivities")
     state = domain.initial_conditions()
     ends = []
     for equilibrium, derivatives, length in _equilibria(domain, model, state, moved, steps):
-        d = solve_static(derivatives.base, derivatives, *equilibrium)
-        K = stiffness(derivatives.base, *equilibrium)
-        dK = [total_stiffness_derivative(derivatives.base, nw, s, equilibrium, (d[i], np.zeros(0)), length)
+        base = derivatives.base
+        d = solve_static(base, derivatives, *equilibrium)
+        dlam = multiplier_sensitivities(base, derivatives, equilibrium, d)
+        K = stiffness(base, *equilibrium)
+        dK = [total_stiffness_derivative(base, nw, s, equilibrium, (d[i], dlam[i]), length)
               for i, (nw, s) in enumerate(zip(derivatives.moved, steps))]
-        ends.append((K, dK))
-    (K0, dK0), (K1, dK1) = ends
+        constraint = None
+        if model.n_constraints:
+            constraint = (jacobian(base, *equilibrium), [jacobian_derivative(base, equilibrium, dd, length) for dd in d])
+        ends.append((K, dK, constraint))
+    (K0, dK0, _), (K1, dK1, constraint) = ends
     if not np.any(K1 != K0):
         raise ValueError("the loads at t_end equal those at t = 0: buckling sensitivities about the whole loads "
                          "(the unloaded reference) are not built; ramp the loads from zero")
-    return buckling_sensitivities(K0, K1, dK0, dK1, int(domain.solver.modes))
+    return buckling_sensitivities(K0, K1, dK0, dK1, int(domain.solver.modes), constraint)
 
 
 def _refuse(model, what: str) -> None:
