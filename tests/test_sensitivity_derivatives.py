@@ -68,12 +68,14 @@ def test_every_section_entry_and_the_load_scale_agree_with_the_moved_model(tmp_p
 
 @pytest.mark.parametrize("dynamic", [False, True])
 def test_rigid_body_masses_and_springs_agree_with_the_moved_model_with_joints(dynamic):
-    # Rigid bodies' masses (gravity, inertia) and rotational springs' stiffnesses (each spring alone with its
-    # stiffness' change, no damper) on a jointed model, at a turned state with the joints' multipliers.
-    names = ["rigid_bodies.upper.mass", "rigid_bodies.lower.mass", "springs[0].stiffness", "springs[1].stiffness"]
+    # Rigid bodies' masses (gravity, inertia), an inertia tensor's scale (static: nothing; dynamic: J ω̇ + ω × J ω)
+    # and rotational springs' stiffnesses (each spring alone with its stiffness' change, no damper) on a jointed
+    # model, at a turned state with the joints' multipliers.
+    names = ["rigid_bodies.upper.mass", "rigid_bodies.lower.mass", "springs[0].stiffness", "springs[1].stiffness",
+             "rigid_bodies.lower.inertia"]
     errors, kinds, expected = _compare(PENDULUM, names, {}, ("staggered_central_difference",), dynamic)
-    assert [type(k) for k in kinds] == [Mass, Mass, Spring, Spring]
-    assert all(np.max(np.abs(r)) > 0 for r, _ in expected)
+    assert [type(k) for k in kinds] == [Mass, Mass, Spring, Spring, Mass]
+    assert all(np.max(np.abs(r)) > 0 for r, _ in (expected if dynamic else expected[:4]))
     assert max(errors) <= 1e-12, dict(zip(names, errors))
 
 

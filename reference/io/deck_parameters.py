@@ -8,6 +8,8 @@ A parameter is named in the vocabulary of ``flexmbs sweep`` (docs/deck.md, "Over
 - ``loads[i].force``, ``loads[i].moment`` — the scale ``s`` of the i-th ``[[loads]]`` entry
   (its vector times ``s``, nominal ``s = 1``);
 - ``rigid_bodies.NAME.mass`` — the mass of a rigid body [kg];
+- ``rigid_bodies.NAME.inertia`` — the scale ``s`` of a rigid body's inertia tensor (the deck's times ``s``,
+  nominal 1);
 - ``springs[i].stiffness`` — the stiffness of a force element with one stiffness;
 - ``time_functions.NAME.v0``, ``.v1`` — the end values of a ramp or smooth step (a drive's speed, a load's level);
 - ``nodes.NAME.position.x`` (``.y``, ``.z``) — a coordinate [m] of a ``[[nodes]]`` node or of a beam's end given
@@ -77,6 +79,8 @@ class Parameter:
     geometry : tuple
         For a node's coordinate, where the deck (its TOML dict) gives it: ``("nodes", k, "position", c)`` or
         ``("beams", k, "start" | "end", c)``; () otherwise.
+    body : str
+        For a rigid body's inertia scale, the body's label; "" otherwise.
     """
 
     name: str
@@ -85,6 +89,7 @@ class Parameter:
     value: float
     affine: bool = True
     geometry: tuple = ()
+    body: str = ""
 
 
 def candidates(deck: dict) -> list[str]:
@@ -93,7 +98,7 @@ def candidates(deck: dict) -> list[str]:
              for k, v in table.items() if isinstance(v, (int, float))]
     for i, ld in enumerate(deck.get("loads", [])):
         names += [f"loads[{i}].{k}" for k in ("force", "moment") if k in ld]
-    names += [f"rigid_bodies.{rb.get('label')}.mass" for rb in deck.get("rigid_bodies", [])]
+    names += [f"rigid_bodies.{rb.get('label')}.{k}" for rb in deck.get("rigid_bodies", []) for k in ("mass", "inertia")]
     names += [f"time_functions.{n}.{k}" for n, tf in deck.get("time_functions", {}).items()
               if isinstance(tf, dict) and tf.get("kind") in AFFINE_TIME_FUNCTIONS for k in ("v0", "v1")]
     names += [f"springs[{i}].stiffness" for i, sp in enumerate(deck.get("springs", [])) if "stiffness" in sp]
@@ -174,8 +179,10 @@ def resolve(name, deck: dict) -> Parameter:
     tf = deck.get("time_functions", {}).get(m[1]) if m else None
     if isinstance(tf, dict) and tf.get("kind") in AFFINE_TIME_FUNCTIONS:
         return Parameter(name, name, -1, float(tf.get(m[2], 0.0 if m[2] == "v0" else 1.0)), affine=False)
-    m = re.fullmatch(r"rigid_bodies\.([^.]+)\.mass", name)
+    m = re.fullmatch(r"rigid_bodies\.([^.]+)\.(mass|inertia)", name)
     labels = [rb.get("label") for rb in deck.get("rigid_bodies", [])]
+    if m and m[1] in labels and m[2] == "inertia":
+        return Parameter(name, "", -1, 1.0, body=m[1])
     if m and m[1] in labels:
         k = labels.index(m[1])
         return Parameter(name, f"rigid_bodies.{k}.mass", -1, float(deck["rigid_bodies"][k]["mass"]))

@@ -32,6 +32,10 @@ def model_at(parameter, path, overrides: dict, value: float):
     if parameter.override:
         return load_deck(path, overrides={**overrides, parameter.override: float(value)}).domain.initialization()
     domain = load_deck(path, overrides=overrides).domain
+    if parameter.body:
+        body = domain.node(parameter.body)
+        body.inertia = body.inertia * float(value)
+        return domain.initialization()
     loads = [i for i in domain.loading if isinstance(i, NodalLoad)]
     loads[parameter.load].vector = loads[parameter.load].vector * float(value)
     return domain.initialization()
@@ -181,7 +185,8 @@ def parameter_kinds(path, parameters, overrides, algorithms):
             kinds.append(Stiffness(_section_members(deck, domain, parts[1]), STIFFNESS.index(parts[2])))
         elif p.load >= 0:
             kinds.append(LoadScale(p.load))
-        elif (parts[0] == "sections" and parts[2] in MASSES) or (parts[0] == "rigid_bodies" and parts[-1] == "mass"):
+        elif (parts[0] == "sections" and parts[2] in MASSES) or (parts[0] == "rigid_bodies" and parts[-1] == "mass") \
+                or p.body:
             base = model_at(p, path, overrides, p.value) if base is None else base
             moved = model_at(p, path, overrides, p.value + step).nodes
             kinds.append(Mass((moved.mass - base.nodes.mass) / step, (moved.inertia - base.nodes.inertia) / step))
