@@ -18,8 +18,8 @@ gives (Fox & Kapoor 1968, "Rates of change of eigenvalues and eigenvectors", AIA
   that moves the constraints (B at p + Δ differs from B at p beyond :data:`CONSTRAINT_CHANGE`: a joint's
   point or axis) is refused in one line, as are damped or gyroscopic modes (the first-order pencil's
   formula needs the left eigenvectors, not built).
-- **Modes about the static equilibrium** at ``t_end`` (``about = "static"``, no joints): the same formula on
-  the free coordinates with K the tangent at the equilibrium, which moves with p: its total derivative as for
+- **Modes about the static equilibrium** at ``t_end`` (``about = "static"``): the same formula with K the
+  tangent at the equilibrium, which moves with p: its total derivative as for
   buckling below (:func:`total_stiffness_derivative`).
 - **Buckling** (:class:`reference.algorithms.linear.Buckling`): ``(K_0 + μ K_g) φ = 0`` with
   ``K_g = K_T(t_end) − K_T(t_0)``, i.e. ``A = K_0``, ``C = −K_g``.  The tangents are taken at the static
@@ -36,7 +36,7 @@ With joints, buckling carries the equilibria's multiplier sensitivities dλ/dp
 (:func:`multiplier_sensitivities`: the joints' geometric stiffness ``∂(Bᵀλ)/∂q`` is in K_T) and reduces the
 pencil to the null space Z of B at ``t_end`` as the algorithm does; Z moves with the equilibrium, which adds
 ``−2 νᵀ (dB/dp) φ`` to the numerator (``(K_0 + μ K_g) φ = Bᵀν``; :func:`buckling_sensitivities`).  Modes about a
-static equilibrium of a model with joints are refused in one line (that term is not carried for them).
+static equilibrium with joints take the same two terms (:func:`static_mode_sensitivities`).
 """
 
 from __future__ import annotations
@@ -63,16 +63,6 @@ CONSTRAINT_CHANGE = 1e-12
 """Relative change ``max |B(p + Δ) − B(p)| / max |B(p)|`` of the joints' Jacobian at the reference state beyond
 which a parameter moves the constraints (a joint's point or axis): round-off leaves none (B does not read the
 parameters offered), so any change is the parameter's."""
-
-
-def refusal(model, what: str = "buckling sensitivities") -> str:
-    """Why ``what`` (buckling sensitivities, those of modes about a static equilibrium) of ``model`` are not built
-    ("" when they are): joints."""
-    if model.n_constraints > 0:
-        return (f"{what} of a model with joints are not built (the multipliers' sensitivity along "
-                "the static path is not carried); use a model with fixed coordinates (clamps) only, or modes "
-                "about the reference state")
-    return ""
 
 
 def stiffness(nw: Newton, x, q, lam, t):
@@ -148,29 +138,31 @@ def _lowest(M, K, n: int):
     return found.omega2[:n], found.phi[:, :n], found.kind[:n]
 
 
-def frequency_derivatives(w2, phi, kind, derivatives):
+def frequency_derivatives(w2, phi, kind, derivatives, moving=0.0):
     """``(ω (n,), dω/dp (P, n))`` from the modes ``(ω², φ mass-normalised, kind)`` and per parameter the derivatives
-    ``(dK/dp, dM/dp)`` (sparse or dense, on φ's coordinates): ``dω²/dp = φᵀ(dK/dp − ω² dM/dp)φ``, ``dω = dω²/(2ω)``.
+    ``(dK/dp, dM/dp)`` (sparse or dense, on φ's coordinates): ``dω²/dp = φᵀ(dK/dp − ω² dM/dp)φ`` (plus ``moving``
+    (P, n), a moving null space's share), ``dω = dω²/(2ω)``.
     ω is the modes algorithm's ``2π frequency``: for an unstable mode (ω² < 0) its growth rate ``sqrt(−ω²)``; a
     zero mode (rigid-body or mechanism) stays zero along p: 0."""
     omega = np.sqrt(np.abs(w2))
     rate = np.where(kind == "zero", 0.0, np.where(kind == "unstable", -0.5, 0.5) / np.where(omega > 0, omega, 1))
     out = np.empty((len(derivatives), len(w2)))
     for i, (dK, dM) in enumerate(derivatives):
-        out[i] = rate * (np.einsum("ak,ak->k", phi, dK @ phi) - w2 * np.einsum("ak,ak->k", phi, dM @ phi))
-    return omega, out
+        out[i] = np.einsum("ak,ak->k", phi, dK @ phi) - w2 * np.einsum("ak,ak->k", phi, dM @ phi)
+    return omega, rate * (out + moving)
 
 
 def total_stiffness_derivative(base: Newton, nw: Newton, d: float, equilibrium, sensitivity, length: float):
     """``dK_T/dp`` (dense, free coordinates) at a static equilibrium ``(x, q, λ, t)``: the direct part
     ``(K(p + Δ) − K(p)) / Δ`` and the part along the equilibrium's sensitivity ``(dδ (N,6), dλ (m,))``, a central
-    difference of step h (``h |dx| = 1e-6 length``: truncation 1e-12, rounding 1e-10 relative)."""
+    difference of step h (``h |dx| = 1e-4 length``: truncation 1e-8 relative; rounding 1e-12 of the largest entries,
+    the axial ones, which a step of 1e-6 length left at 1e-6 of a bending mode's share, measured)."""
     x, q, lam, t = equilibrium
     dd, dlam = sensitivity
     K = stiffness(base, x, q, lam, t)
     direct = (stiffness(nw, x, q, lam, t) - K) / d
     size = max(float(np.max(np.abs(dd[:, :3]))) / length, float(np.max(np.abs(dd[:, 3:]))), 1e-300)
-    h = 1e-6 / size
+    h = 1e-4 / size
     plus = stiffness(base, x + h * dd[:, :3], compose(q, h * dd[:, 3:]), lam + h * dlam, t)
     minus = stiffness(base, x - h * dd[:, :3], compose(q, -h * dd[:, 3:]), lam - h * dlam, t)
     return direct + (plus - minus) / (2.0 * h)
@@ -230,10 +222,11 @@ def multiplier_sensitivities(nw: Newton, derivatives, equilibrium, d) -> list:
 
 def jacobian_derivative(nw: Newton, equilibrium, dd, length: float) -> np.ndarray:
     """``dB/dp`` (dense, free coordinates) along the equilibrium's sensitivity ``dd`` (N,6): B reads no parameter
-    offered, so its change is the configuration's; a central difference as :func:`total_stiffness_derivative`'s."""
+    offered, so its change is the configuration's; a central difference of the step of
+    :func:`total_stiffness_derivative`."""
     x, q, lam, t = equilibrium
     size = max(float(np.max(np.abs(dd[:, :3]))) / length, float(np.max(np.abs(dd[:, 3:]))), 1e-300)
-    h = 1e-6 / size
+    h = 1e-4 / size
     plus = jacobian(nw, x + h * dd[:, :3], compose(q, h * dd[:, 3:]), lam, t)
     return (plus - jacobian(nw, x - h * dd[:, :3], compose(q, -h * dd[:, 3:]), lam, t)) / (2.0 * h)
 
@@ -256,18 +249,27 @@ def run_modes(domain, moved, steps, names=None):
 
 
 def static_mode_sensitivities(domain, model, state, moved, steps):
-    """``(ω, dω/dp)`` of the modes about the static equilibrium at ``t_end`` (``about = "static"``, no joints):
-    the static path on the reference path, the equilibrium's sensitivity, K_T's total derivative
-    (:func:`total_stiffness_derivative`) and M's direct one, on the free coordinates."""
-    _refuse(model, "sensitivities of modes about a static equilibrium")
+    """``(ω, dω/dp)`` of the modes about the static equilibrium at ``t_end`` (``about = "static"``): the static
+    path on the reference path, the equilibrium's sensitivity (state and multipliers), K_T's total derivative
+    (:func:`total_stiffness_derivative`) and M's direct one; with joints the pencil on the null space Z of B there,
+    and Z's change along the equilibrium: ``−2 νᵀ (dB/dp) φ`` with ``(K − ω² M) φ = Bᵀν`` (as for buckling)."""
     *_, (equilibrium, derivatives, length) = _equilibria(domain, model, state, moved, steps)
     base = derivatives.base
-    K, M = stiffness(base, *equilibrium), _mass(base)
+    K, M = stiffness(base, *equilibrium), _mass(base).toarray()
     d = solve_static(base, derivatives, *equilibrium)
-    w2, phi, kind = _lowest(M, sps.csr_matrix(K), int(domain.solver.modes))
+    dlam = multiplier_sensitivities(base, derivatives, equilibrium, d)
+    B = jacobian(base, *equilibrium) if model.n_constraints else np.zeros((0, K.shape[0]))
+    Z = null_space(sps.csr_matrix(B))[0].toarray() if model.n_constraints else np.eye(K.shape[0])
+    w2, phi, kind = _lowest(sps.csr_matrix(Z.T @ M @ Z), sps.csr_matrix(Z.T @ K @ Z), int(domain.solver.modes))
+    phi = Z @ phi
+    moving = np.zeros((len(steps), len(w2)))
+    if model.n_constraints:
+        nu = np.linalg.lstsq(B.T, K @ phi - w2 * (M @ phi), rcond=None)[0]
+        moving = np.array([-2.0 * np.einsum("ak,ak->k", nu, jacobian_derivative(base, equilibrium, dd, length) @ phi)
+                           for dd in d]).reshape(len(steps), len(w2))
     return frequency_derivatives(w2, phi, kind, [
-        (total_stiffness_derivative(base, nw, s, equilibrium, (d[i], np.zeros(0)), length), (_mass(nw) - M) / s)
-        for i, (nw, s) in enumerate(zip(derivatives.moved, steps))])
+        (total_stiffness_derivative(base, nw, s, equilibrium, (d[i], dlam[i]), length), (_mass(nw) - M) / s)
+        for i, (nw, s) in enumerate(zip(derivatives.moved, steps))], moving)
 
 
 def _mass(nw: Newton) -> sps.csr_matrix:
@@ -312,9 +314,3 @@ def run_buckling(domain, moved, steps):
         raise ValueError("the loads at t_end equal those at t = 0: buckling sensitivities about the whole loads "
                          "(the unloaded reference) are not built; ramp the loads from zero")
     return buckling_sensitivities(K0, K1, dK0, dK1, int(domain.solver.modes), constraint)
-
-
-def _refuse(model, what: str) -> None:
-    problem = refusal(model, what)
-    if problem:
-        raise ValueError(problem)
