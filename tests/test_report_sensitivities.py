@@ -1,5 +1,5 @@
 """The verification report's "Sensitivities" section (flexmbs/verification/sensitivities.py): the quick subset
-runs, on the reference path, a row for each of the four checks, and every row passes."""
+runs, on the reference path, a row for each of the four checks and the jointed modes, and every row passes."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ def test_quick_sensitivity_section_has_the_four_checks_and_they_pass(tmp_path):
     lines, rows = report_lines(True, tmp_path)
     checks = [Check(*row) for row in rows]
     assert lines[0] == "## Sensitivities"
-    for subject in ("roll-up", "Euler column", "cantilever", "three-bar"):
+    for subject in ("roll-up", "Euler column", "cantilever", "three-bar", "torsion double pendulum"):
         assert any(c.name.startswith(subject) for c in checks), subject
     # each with its reference, a finite computed measure within its tolerance, and the reason of the tolerance
     for c in checks:
