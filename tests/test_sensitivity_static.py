@@ -124,6 +124,25 @@ def test_bad_sensitivities_tables_get_one_line(tmp_path, table, words):
     assert words in str(info.value) and "\n" not in str(info.value)
 
 
+@pytest.mark.parametrize("source, table, words", [
+    ("models/three_bar.toml", '[solver]\nalgorithm = "generalized_alpha"\n', "static runs only"),
+    (ROLLUP, "", "generalized-α runs only"),
+])
+def test_parameters_outside_their_algorithm_are_refused_by_the_deck_reader(tmp_path, source, table, words):
+    # A node's coordinate in a generalized-α deck, a time function's end value in a static one: one line at read.
+    from reference.io.deck_reader import DeckError
+    name = "nodes.coupler:end.position.x" if "three_bar" in source else "time_functions.load_factor.v1"
+    text = open(source).read()
+    if table:
+        text = text.replace('[solver]\nalgorithm = "staggered_central_difference"\n', table)
+    path = tmp_path / "deck.toml"
+    path.write_text(text + f'\n[sensitivities]\nparameters = ["{name}"]\n')
+    with pytest.raises(DeckError) as info:
+        load_deck(path)
+    assert words in str(info.value) and "sensitivities.parameters[0]" in str(info.value)
+    assert "\n" not in str(info.value)
+
+
 def test_sensitivities_of_the_explicit_algorithm_are_refused_by_the_deck_reader(tmp_path):
     from reference.io.deck_reader import DeckError
     path = _deck_with(tmp_path, '[sensitivities]\nparameters = ["sections.coupler.EI3"]\n', "models/three_bar.toml")

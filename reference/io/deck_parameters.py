@@ -196,6 +196,24 @@ def resolve(name, deck: dict) -> Parameter:
     raise _unknown(name, deck)
 
 
+def check_algorithm(p: Parameter, algorithm: str) -> None:
+    """Refuse a parameter ``algorithm`` has no sensitivity for: a node's coordinate outside static runs (in a
+    dynamic run the initial state moves with it; the modes and buckling loads are not built for it), a time
+    function's end value outside generalized-α runs.
+
+    Raises
+    ------
+    ParameterError
+        One line, ``problem; fix``.
+    """
+    if p.geometry and algorithm != "static":
+        raise ParameterError(f"parameter {p.name!r} (a node's coordinate) has sensitivities in static runs only, "
+                             f"not {algorithm!r}; name a stiffness, mass or load scale")
+    if not p.affine and not p.geometry and algorithm != "generalized_alpha":
+        raise ParameterError(f"parameter {p.name!r} (a time function's end value) has sensitivities in "
+                             f"generalized-α runs only, not {algorithm!r}; name a stiffness, mass or load scale")
+
+
 def resolve_all(path, names, overrides: dict | None = None) -> list[Parameter]:
     """:func:`resolve` every name of ``names`` against the deck at ``path`` (with ``overrides`` applied to its
     section values, as the deck reader applies them); a repeated name is refused."""
@@ -255,7 +273,7 @@ def read_sensitivities(rd: Reader, deck: dict, domain, algorithm: str) -> dict:
             if name in seen:
                 raise ParameterError(f"parameter {name!r} is named twice; name each parameter once")
             seen.add(name)
-            resolve(name, deck)
+            check_algorithm(resolve(name, deck), algorithm)
         except ParameterError as exc:
             raise rd.fail(f"sensitivities.parameters[{i}]", *str(exc).split("; ", 1)) from None
     try:

@@ -18,8 +18,8 @@ import numpy as np
 
 from reference.interactions import NodalLoad
 from reference.io.deck import load_deck
-from reference.io.deck_parameters import ParameterError, parse_outputs, resolve_all
-from reference.io.deck_reader import read_toml
+from reference.io.deck_parameters import ParameterError, check_algorithm, parse_outputs, resolve_all
+from reference.io.deck_reader import DeckError, read_toml
 from reference.plain.newton import relative_rotation
 from reference.sensitivity.derivatives import LoadScale, Mass, Moved, Spring, Stiffness
 from reference.sensitivity.dynamic import run_dynamic
@@ -89,16 +89,10 @@ def eigen_sensitivities(path, parameters, overrides: dict | None = None):
 
 
 def _refuse(params, algorithm: str) -> None:
-    """Refuse, before any model is built, a parameter ``algorithm`` has no sensitivity for: a time function's end
-    value (generalized-α only) or a node's coordinate (static only: in a dynamic run the initial state moves with
-    it, and the modes and buckling loads are not built for it)."""
+    """Refuse, before any model is built, a parameter ``algorithm`` has no sensitivity for
+    (:func:`reference.io.deck_parameters.check_algorithm`)."""
     for p in params:
-        if p.geometry and algorithm not in STATIC:
-            raise ParameterError(f"parameter {p.name!r} (a node's coordinate) has sensitivities in static runs only, "
-                                 f"not {algorithm!r}; name a stiffness, mass or load scale")
-        if not p.affine and not p.geometry and algorithm != "generalized_alpha":
-            raise ParameterError(f"parameter {p.name!r} (a time function's end value) has sensitivities in "
-                                 f"generalized-α runs only, not {algorithm!r}; name a stiffness, mass or load scale")
+        check_algorithm(p, algorithm)
 
 
 def _toml(value) -> str:
@@ -126,7 +120,12 @@ def geometry_domain(parameter, path, overrides: dict, value: float):
         moved = Path(folder) / Path(path).name
         moved.write_text("\n".join(f"{json.dumps(name)} = {_toml(v)}" for name, v in deck.items()) + "\n",
                          encoding="utf-8")
-        return load_deck(moved, overrides=overrides).domain
+        try:
+            return load_deck(moved, overrides=overrides).domain
+        except DeckError as exc:
+            problem = str(exc).split(": ", 1)[-1]
+            raise ParameterError(f"parameter {parameter.name!r}: the deck with it at {value:.6g} is refused "
+                                 f"({problem}); name a coordinate the deck stays valid around") from None
 
 
 def geometry_kind(parameter, path, overrides: dict, domain) -> Moved:
