@@ -155,8 +155,8 @@ def frequency_derivatives(w2, phi, kind, derivatives, moving=0.0):
 def total_stiffness_derivative(base: Newton, nw: Newton, d: float, equilibrium, sensitivity, length: float):
     """``dK_T/dp`` (dense, free coordinates) at a static equilibrium ``(x, q, λ, t)``: the direct part
     ``(K(p + Δ) − K(p)) / Δ`` and the part along the equilibrium's sensitivity ``(dδ (N,6), dλ (m,))``, a central
-    difference of step h (``h |dx| = 1e-4 length``: truncation 1e-8 relative; rounding 1e-12 of the largest entries,
-    the axial ones, which a step of 1e-6 length left at 1e-6 of a bending mode's share, measured)."""
+    difference of step h (``h |dx| = 1e-4 length``: truncation 1e-8 relative, rounding 1e-12 of the largest entries,
+    the axial ones; a smaller step lets that rounding reach a bending mode's share: docs/benchmarks.md §13)."""
     x, q, lam, t = equilibrium
     dd, dlam = sensitivity
     K = stiffness(base, x, q, lam, t)
