@@ -178,7 +178,7 @@ EIGEN_STEP = 1e-3
 ``ω ∝ EI^(1/2)`` and 6.25e-7 for ``ω ∝ ρA^(−1/2)``: both below issue 40's 1e-6."""
 RUN_STEP = 1e-6
 """Relative step of the three-bar's central differences of whole runs: truncation O(1e-12), the runs' Newton
-tolerance and round-off leave about 1e-7 of the peak (measured 1.4e-7 and 1.1e-7 over the 2 s)."""
+tolerance and round-off leave about 1e-7 of the peak over the 2 s (docs/benchmarks.md §13)."""
 THREE_BAR = {"solver.algorithm": "generalized_alpha", "dt": 1e-2, "solver.output_every": 1, **REFERENCE}
 """The three-bar on generalized-α in steps of 10 ms (tests/test_sensitivity_dynamic.py's setting)."""
 DEFLECTION = "midspan_deflection:coupler"
