@@ -2,7 +2,7 @@
 
 :class:`ParameterDerivatives` gives, at a state, ``∂r/∂p`` and ``∂Φ/∂p`` of every parameter of a run
 (docs/formulation.md §14), each by its kind (:class:`Stiffness`, :class:`LoadScale`, :class:`Mass`,
-:class:`Moved`):
+:class:`Spring`, :class:`Moved`):
 
 - a section stiffness entry: ``∂S/∂c_j`` of the elements of that section, from the generated kernels
   (derivations/sensitivities.py; :func:`reference.plain.elements.element_stiffness_derivatives`), one element
@@ -12,8 +12,8 @@
   it, so ``∂m/∂p``, ``∂J/∂p`` are differences of the assembled masses, taken once (:class:`Mass`), and
   ``∂r/∂p = ∂m/∂p (v̇ + c v − g)`` on the translations, ``∂J/∂p (ω̇ + c ω) + ω × ∂J/∂p ω`` on the rotations
   (``−∂m/∂p g`` alone when static);
-- a spring's stiffness: the force element's own force ``−B_eᵀ (∂k/∂p) (e − e_0)``, the element alone evaluated with
-  its stiffnesses' change per unit of p and no damper (:class:`Spring`);
+- a spring's stiffness: ``∂r/∂p = −∂G/∂p``, ``∂G/∂p = −B_eᵀ (∂k/∂p) (e − e_0)`` the spring force of the element
+  alone, evaluated with its stiffnesses' change per unit of p, no damper and no actuator (:class:`Spring`);
 - a time function's end value (a drive's speed): the residual of the model with the parameter moved, a central
   difference ``(r(p + Δ) − r(p − Δ)) / 2Δ`` (:class:`Moved`);
 - a node's coordinate X (geometry): the central difference ``(r(X + Δ) − r(X − Δ)) / 2Δ`` of the residual at the
@@ -103,11 +103,6 @@ class ParameterDerivatives:
         self._one_spring = {k.row: _one_spring(model, k) for k in self.kinds if isinstance(k, Spring)}
         moved = [k for k in self.kinds if isinstance(k, Moved)]
         self._moved = {id(k): (Newton(k.model), None if k.minus is None else Newton(k.minus)) for k in moved}
-
-    @property
-    def reevaluated(self) -> bool:
-        """Whether a parameter is differentiated by a moved model (:class:`Moved`)."""
-        return bool(self._moved)
 
     def __call__(self, x, q, v, w, vd, lam, t, dynamic) -> list:
         """``[(∂r/∂p (N,6), ∂Φ/∂p (m,)), …]`` per parameter at the state ``(x, q, V, V̇, λ, t)`` (the residual of
