@@ -4,6 +4,7 @@ the Euler column's critical load against central differences and the closed form
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from flexmbs.verification.sensitivities import COLUMN, PENDULUM, PENDULUM_PARAMETERS, pendulum, pendulum_omegas
@@ -236,3 +237,22 @@ def test_modes_about_a_static_equilibrium_of_a_jointed_column(tmp_path):
     # for buckling above: measured 2e-9 and 1.3e-8) within 1e-6
     for i, name in enumerate(("sections.col.EI2", "sections.col.rhoA")):
         assert abs(d[i, 0] - _central(path, name, 1.0, 0, 3e-4)) <= 1e-6 * abs(d[i, 0]), name
+
+
+def test_a_jointed_model_with_zero_and_repeated_modes(tmp_path):
+    # the pendulum without springs on spherical joints: each bar spins freely about its axis (two zero modes:
+    # derivative 0, no warning) and swings alike in two planes (each frequency double: one line each)
+    text = PENDULUM.replace("HINGE", "-0.5")
+    text = text[: text.index("[[springs]]")] + text[text.index("[gravity]"):]
+    planar, spherical = tmp_path / "planar.toml", tmp_path / "spherical.toml"
+    planar.write_text(text)
+    spherical.write_text(text.replace('kind = "revolute"', 'kind = "spherical"').replace("modes = 2", "modes = 6"))
+    with pytest.warns(Warning, match=r"mode [3-6] is repeated .*one branch only") as record:
+        omega, d = eigen_sensitivities(spherical, ["rigid_bodies.lower.mass"])
+    messages = [str(w.message) for w in record]
+    assert len(messages) == 4 and all("\n" not in m and "nan" not in m for m in messages)
+    assert omega[0] == omega[1] == 0.0 and d[0, 0] == d[0, 1] == 0.0
+    # the mass keeps the symmetry, so both branches move as the planar pendulum's modes (revolute joints)
+    w_planar, d_planar = eigen_sensitivities(planar, ["rigid_bodies.lower.mass"])
+    assert np.allclose(omega[2::2], w_planar, rtol=1e-9) and np.allclose(omega[3::2], w_planar, rtol=1e-9)
+    assert np.allclose(d[0, 2::2], d_planar[0], rtol=1e-7) and np.allclose(d[0, 3::2], d_planar[0], rtol=1e-7)

@@ -133,7 +133,7 @@ def _lowest(M, K, n: int):
     if n > size:
         raise ValueError(f"{n} modes asked of a model with {size} independent coordinates; ask at most {size}")
     found = undamped(M, K, min(n + 1, size))
-    for k in range(n):
+    for k in np.flatnonzero(found.kind[:n] != "zero"):  # a zero mode's derivative is 0, repeated or not
         _warn_repeated(found.omega2, k, "mode")
     return found.omega2[:n], found.phi[:, :n], found.kind[:n]
 
