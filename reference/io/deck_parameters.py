@@ -32,7 +32,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from reference.io.deck_reader import Reader, read_toml
+from reference.io.deck_reader import Reader, override_value, read_toml
 from reference.observables import ObservableError, parse
 
 DIFFERENTIATED = ("static", "modes", "buckling", "generalized_alpha")
@@ -215,14 +215,14 @@ def check_algorithm(p: Parameter, algorithm: str) -> None:
 
 
 def resolve_all(path, names, overrides: dict | None = None) -> list[Parameter]:
-    """:func:`resolve` every name of ``names`` against the deck at ``path`` (with ``overrides`` applied to its
-    section values, as the deck reader applies them); a repeated name is refused."""
+    """:func:`resolve` every name of ``names`` against the deck at ``path`` (with its dotted ``overrides``
+    applied as the deck reader applies them, so that a parameter's nominal value is the value the run uses);
+    a repeated name is refused."""
     _, deck = read_toml(Path(path))
     deck = copy.deepcopy(deck)
     for key, value in (overrides or {}).items():
-        parts = key.split(".")
-        if parts[0] == "sections" and len(parts) == 3 and parts[1] in deck.get("sections", {}):
-            deck["sections"][parts[1]][parts[2]] = value
+        if "." in key:
+            override_value(deck, key, value, Reader(Path(path)))
     seen = set()
     out = []
     for name in names:

@@ -82,7 +82,7 @@ def eigen_sensitivities(path, parameters, overrides: dict | None = None):
     domain, params, (moved, _), steps = _setup(path, parameters, overrides, ("modes", "buckling"))
     try:
         if domain.solver.algorithm == "modes":
-            return run_modes(domain, moved, steps)
+            return run_modes(domain, moved, steps, [p.name for p in params])
         return run_buckling(domain, moved, steps)
     except ValueError as exc:
         raise ParameterError(str(exc)) from None
