@@ -16,7 +16,7 @@ GENERATED_DIR = Path(__file__).resolve().parent.parent / "reference" / "generate
 
 def generators():
     """Map of generated file name → generator function (imported lazily: sympy is slow to load)."""
-    from derivations import beam2, beam2_se3, beam3, forces, joints, rotation_maps, tangents
+    from derivations import beam2, beam2_se3, beam3, forces, joints, rotation_maps, sensitivities, tangents
 
     return {
         "rotation_maps.py": rotation_maps.generate,
@@ -27,6 +27,7 @@ def generators():
         "tangents.py": tangents.generate,
         "beam2_se3.py": beam2_se3.generate,
         "beam3.py": beam3.generate,
+        "sensitivities.py": sensitivities.generate,
     }
 
 

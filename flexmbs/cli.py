@@ -11,6 +11,7 @@ exception                                              status  meaning
 ``crosscheck.exudyn_model.ExudynFailed``)                      up (the reference's or Exudyn's)
 :class:`reference.io.deck_reader.DeckError`            2       a bad deck or override
 :class:`reference.observables.ObservableError`         2       a bad observable text
+:class:`reference.io.deck_parameters.ParameterError`   2       a sensitivity the run cannot give
 :class:`CommandError`                                  2       any other user error (an option,
                                                                an untranslatable deck …)
 ``OSError``                                            2       a missing file, an unwritable folder
@@ -554,12 +555,13 @@ MESSAGE_CHARS = 1000
 def exit_status(exc: BaseException) -> int | None:
     """The exit status of a failure by its exception's class (the module docstring's table);
     ``None`` for an exception that is not an expected failure (a bug: its traceback is kept)."""
+    from reference.io.deck_parameters import ParameterError
     from reference.io.deck_reader import DeckError
     from reference.observables import ObservableError
     from reference.solution import SolverDiverged
 
-    table = ((RunFailed, 1), (SolverDiverged, 1), (DeckError, 2), (ObservableError, 2), (CommandError, 2),
-             (OSError, 2), (KeyError, 2))
+    table = ((RunFailed, 1), (SolverDiverged, 1), (DeckError, 2), (ObservableError, 2), (ParameterError, 2),
+             (CommandError, 2), (OSError, 2), (KeyError, 2))
     return next((status for cls, status in table if isinstance(exc, cls)), None)
 
 

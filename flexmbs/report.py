@@ -8,7 +8,9 @@ needs code to compute a reference value (a closed form, a literature table, a
 convergence study) lives in the deck's check module, ``flexmbs.deckchecks.<name>``
 (found by the deck's ``meta.name``; see :mod:`flexmbs.deckchecks`).  A deck
 without a module still runs, is drawn and cross-checked, and its ``[checks]``
-are listed as *not evaluated*.
+are listed as *not evaluated*.  After the decks come the element families' suite
+(:mod:`flexmbs.verification.families`) and the parameter sensitivities' checks
+(:mod:`flexmbs.verification.sensitivities`, counted with the decks' checks).
 
 The header names the date, the git commit (``dirty`` if the tree has
 uncommitted changes) and the versions of Python and every package the
@@ -443,8 +445,14 @@ def main(args=None) -> int:
         print(f"[{number}/{len(decks)}] {deck.name}: {len(more_checks) - len(failed_here)}/{len(more_checks)} checks pass",
               file=sys.stderr)
     from flexmbs.verification.families import report_lines
+    from flexmbs.verification.sensitivities import report_lines as sensitivity_lines
 
     families = report_lines()
+    print("sensitivities: the four checks on the reference path", file=sys.stderr)
+    text, rows = sensitivity_lines(quick, out / "sensitivities")
+    sensitivity_checks = [Check(*row) for row in rows]
+    families += text + _table(sensitivity_checks) + [""]
+    checks += sensitivity_checks
     failed = [c for c in checks if not c.passed]
     head = header + [
         f"**{len(checks) - len(failed)} of {len(checks)} checks pass** over {len(decks)} decks." + (

@@ -10,6 +10,9 @@ A study file (TOML) names a deck and a grid of overrides::
     damping = [20.0, 25.0]                  # a bare [solver] key: solver.damping
     "sections.rollup.EI2" = [100.0, 120.0]  # any deck value by its dotted name
 
+``sensitivities = true`` (optional) also differentiates the deck's ``[sensitivities]`` at every case
+(:mod:`flexmbs.sweep_sensitivities`: the results file's ``/sensitivities`` and the summary's columns).
+
 Every combination of the grid (their Cartesian product, in the order written)
 is a case: the deck read with those overrides (:func:`reference.io.deck.load_deck`,
 so every value is validated as if written in the deck), solved, its results
@@ -45,6 +48,8 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from reference.io.deck import DeckError
 
 DECK_OVERRIDES = ("refine", "dt", "t_end")
@@ -68,12 +73,15 @@ a connection closed when a stopped study closes the cluster) is shown; a case th
 
 @dataclass
 class Study:
-    """A parameter study: ``deck`` (path), ``grid`` (name → list of values, in the file's order)."""
+    """A parameter study: ``deck`` (path), ``grid`` (name → list of values, in the file's order), and
+    ``sensitivities``: whether every case also differentiates the deck's ``[sensitivities]``
+    (:mod:`flexmbs.sweep_sensitivities`)."""
 
     path: Path
     deck: Path
     grid: dict
     description: str = ""
+    sensitivities: bool = False
 
 
 def _fail(path, entry: str, problem: str, fix: str = "") -> DeckError:
@@ -96,19 +104,22 @@ def load_study(path) -> Study:
     except tomllib.TOMLDecodeError as exc:
         raise DeckError(f"{path}: not valid TOML: {exc}") from None
     for key in data:
-        if key not in ("deck", "grid", "description"):
-            raise _fail(path, key, "unknown key", "a study has deck, [grid] and optionally description")
+        if key not in ("deck", "grid", "description", "sensitivities"):
+            raise _fail(path, key, "unknown key", "a study has deck, [grid] and optionally description and "
+                        "sensitivities")
     if not isinstance(data.get("deck"), str):
         raise _fail(path, "deck", "missing or not a string", 'give the deck file, e.g. deck = "model.toml"')
     deck = (path.parent / data["deck"]).resolve()
     if not deck.is_file():
         raise _fail(path, "deck", f"no such deck file {data['deck']!r} (looked for {deck})",
                     "the path is relative to the study file")
-    return make_study(deck, data.get("grid"), str(data.get("description", "")), path)
+    return make_study(deck, data.get("grid"), str(data.get("description", "")), path,
+                      data.get("sensitivities", False))
 
 
-def make_study(deck, grid: dict, description: str = "", path=None) -> Study:
-    """A study from Python: ``deck`` (path) and ``grid`` (name → list), validated as a study file is.
+def make_study(deck, grid: dict, description: str = "", path=None, sensitivities: bool = False) -> Study:
+    """A study from Python: ``deck`` (path) and ``grid`` (name → list), validated as a study file is;
+    ``sensitivities`` (bool): every case also differentiates the deck's ``[sensitivities]`` table.
 
     E.g. a convergence study, ``run_study(make_study("models/embedded_beam.toml",
     {"refine": [1, 2, 4, 8]}), "out/convergence")``.
@@ -130,15 +141,21 @@ def make_study(deck, grid: dict, description: str = "", path=None) -> Study:
             raise _fail(path, entry, "unknown name",
                         f"use {', '.join(DECK_OVERRIDES + SOLVER_KEYS)} or a deck value's dotted name "
                         "(e.g. sections.NAME.EI2)")
-    study = Study(path, deck, dict(grid), description)
+    if not isinstance(sensitivities, bool):
+        raise _fail(path, "sensitivities", f"expected true or false, got {sensitivities!r}",
+                    "write sensitivities = true to differentiate the deck's [sensitivities] at every case")
+    study = Study(path, deck, dict(grid), description, sensitivities)
     from reference.io.deck import load_deck
 
     try:
-        load_deck(deck, overrides=deck_overrides(next(combinations(study))))
+        first = load_deck(deck, overrides=deck_overrides(next(combinations(study))))
     except DeckError as exc:
         if path == deck:
             raise
         raise DeckError(f"{path}: grid (first case): {exc}") from None
+    if sensitivities and not first.sensitivities:
+        raise _fail(path, "sensitivities", f"the deck {deck.name} has no [sensitivities] table",
+                    "add one with parameters = [...] and outputs = [...] (docs/deck.md), or drop sensitivities")
     return study
 
 
@@ -173,9 +190,7 @@ def case_values(deck, results) -> dict:
     ``check.NAME.x`` … for the components of a vector (:data:`CHECK_PREFIX`).  A check with a
     ``node`` but no observable gives that node's final position.
     """
-    import numpy as np
-
-    from reference.observables import KINDS, parse
+    from reference.observables import parse
 
     out = {"t_final": float(results.time[-1])}
     for key, series in results.energy.items():
@@ -194,21 +209,30 @@ def case_values(deck, results) -> dict:
             value = np.asarray(observable.evaluate(results), dtype=float)[-1]
         except (ValueError, KeyError, IndexError, AttributeError):  # not computable from these results
             continue
-        column = CHECK_PREFIX + str(name)
-        if value.ndim == 0:
-            out[column] = float(value)
-        elif value.ndim == 1:
-            comps = KINDS.get(observable.kind, (None, ()))[1]
-            labels = comps[: value.size] if len(comps) >= value.size else [str(i) for i in range(value.size)]
-            out.update({f"{column}.{c}": float(v) for c, v in zip(labels, value)})
+        add_columns(out, CHECK_PREFIX + str(name), value, observable.kind)
     return out
 
 
-def run_case(deck, case: dict, out_dir) -> dict:
+def add_columns(out: dict, column: str, value, kind: str) -> None:
+    """An observable's value at one time into the row ``out``: ``column`` for a scalar, ``column.x``,
+    ``column.y``, … for a vector's components (the observable kind's labels, else 0, 1, …); other shapes none."""
+    from reference.observables import KINDS
+
+    value = np.asarray(value, dtype=float)
+    if value.ndim == 0:
+        out[column] = float(value)
+    elif value.ndim == 1:
+        comps = KINDS.get(kind, (None, ()))[1]
+        labels = comps[: value.size] if len(comps) >= value.size else [str(i) for i in range(value.size)]
+        out.update({f"{column}.{c}": float(v) for c, v in zip(labels, value)})
+
+
+def run_case(deck, case: dict, out_dir, sensitivities: bool = False) -> dict:
     """Run one case in this process; never raises: a failure is the row's status.
 
     Returns the summary row: the grid values, ``status``, ``wall_time`` [s],
-    ``results`` (the file) and :func:`case_values`.  Its warnings are one line each on stderr (the worker's),
+    ``results`` (the file) and :func:`case_values`; with ``sensitivities`` also the deck's
+    ``[sensitivities]`` at the case (:func:`flexmbs.sweep_sensitivities.sensitivity_values`).  Its warnings are one line each on stderr (the worker's),
     ``flexmbs: warning: case_NNN: …``, as the command line shows them (:func:`reference.validation.show_warning`).
     """
     from reference.domain import SolverDiverged
@@ -231,6 +255,10 @@ def run_case(deck, case: dict, out_dir) -> dict:
             results = read.solve(results_path=results_path)
             row["results"] = str(results_path)
             row.update(case_values(read, results))
+            if sensitivities:
+                from flexmbs.sweep_sensitivities import sensitivity_values
+
+                row.update(sensitivity_values(read, deck, deck_overrides(case), results, results_path, add_columns))
         except (DeckError, SolverDiverged, ValueError, OSError, FloatingPointError) as exc:
             row["status"] = "failed: " + " ".join(str(exc).split())
         except Exception as exc:  # a bug still must not lose the study: record it
@@ -315,7 +343,8 @@ def run_study(study: Study, out, workers: int | None = None, scheduler: str | No
                 k, case = next(source, (None, None))
                 if case is None:
                     break
-                f = client.submit(run_case, str(study.deck), case, str(out / f"case_{k:03d}"), pure=False,
+                f = client.submit(run_case, str(study.deck), case, str(out / f"case_{k:03d}"), study.sensitivities,
+                                  pure=False,
                                   key=f"flexmbs-case-{k}-{time.time_ns()}")
                 futures[f] = (k, case)
                 pending.add(f)

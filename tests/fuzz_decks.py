@@ -326,7 +326,9 @@ VOCABULARY = {
     "crosscheck.*": {"observable": ["position:b:end", "angle.z:rocker"], "tolerance": [0.1, -1.0],
                      "relative_to": ["length", "peak", "absolute", "L"], "refine": [1, 2], "reason": ["r"]},
     "sensitivities": {"parameters": [["sections.bar.EI2"], ["loads[0].force", "springs[0].stiffness"],
-                                     ["rigid_bodies.rb.mass"], ["nodes.b.position"], ["sections.bar.EI9"], []],
+                                     ["rigid_bodies.rb.mass"], ["nodes.b.position"], ["sections.bar.EI9"], [],
+                                     ["nodes.b:end.position.x"], ["nodes.hub.position.z", "rigid_bodies.rb.inertia"],
+                                     ["nodes.b:1.position.y"]],
                       "outputs": [["position:b:end"], ["midspan_deflection:b"], ["energy:strain"], ["position:zz"]]},
 }
 """Table → key → sample values.  ``[]``: an array of tables; ``.*``: a table of named entries."""

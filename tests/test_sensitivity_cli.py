@@ -26,3 +26,16 @@ def test_run_writes_and_plot_draws_the_sensitivities(tmp_path):
     assert (tmp_path / "sensitivity_position_beam_end.png").stat().st_size > 0
     assert main(["plot", str(out / "results.h5"), "--sensitivity", "position:beam:start", "--out",
                  str(tmp_path)]) == 2
+
+
+def test_a_sensitivity_the_run_cannot_give_is_one_line_with_status_2(tmp_path, capsys):
+    """`flexmbs run` of a modes deck whose [sensitivities] ask for damped modes' derivatives: exit status 2 and
+    one line (the refusal is a ParameterError, in the CLI's table of expected failures), no traceback."""
+    from flexmbs.verification.sensitivities import PENDULUM
+
+    deck = tmp_path / "damped.toml"
+    deck.write_text(PENDULUM.replace("HINGE", "-0.5").replace("stiffness = 5.0", "stiffness = 5.0\ndamping = 0.1")
+                    + '\n[sensitivities]\nparameters = ["springs[0].stiffness"]\n')
+    assert main(["run", str(deck), "--out", str(tmp_path / "out"), "--no-vtk"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("flexmbs: error: mode sensitivities of damped") and "\n" not in err

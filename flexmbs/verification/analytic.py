@@ -90,20 +90,21 @@ def steady_precession_rate(mass: float, g: float, length: float, inertia_pivot: 
 
 
 def double_pendulum_frequencies(m1: float, c1: float, J1: float, l1: float, m2: float, c2: float, J2: float,
-                                g: float) -> tuple[np.ndarray, np.ndarray]:
+                                g: float, k1: float = 0.0, k2: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Small-oscillation angular frequencies [rad/s] and mode shapes of a planar double pendulum of rigid bodies.
 
     Body 1 hangs from a pivot (its centre of mass at ``c1`` below it, inertia
     ``J1`` about the centre, the second pivot at ``l1``); body 2 hangs from the
-    second pivot (``c2``, ``J2``).  Linearising Lagrange's equations about the
+    second pivot (``c2``, ``J2``); torsion springs ``k1`` [N m/rad] at the pivot and ``k2`` at the second one
+    (none by default).  Linearising Lagrange's equations in the absolute angles about the
     hanging equilibrium gives ``M θ̈ + K θ = 0`` with
     ``M = [[J1 + m1 c1² + m2 l1², m2 l1 c2], [m2 l1 c2, J2 + m2 c2²]]`` and
-    ``K = g diag(m1 c1 + m2 l1, m2 c2)``; returns ``(ω, modes)`` in ascending order.
+    ``K = g diag(m1 c1 + m2 l1, m2 c2) + [[k1 + k2, −k2], [−k2, k2]]``; returns ``(ω, modes)`` in ascending order.
     """
     from scipy.linalg import eigh
 
     M = np.array([[J1 + m1 * c1**2 + m2 * l1**2, m2 * l1 * c2], [m2 * l1 * c2, J2 + m2 * c2**2]])
-    K = g * np.diag([m1 * c1 + m2 * l1, m2 * c2])
+    K = g * np.diag([m1 * c1 + m2 * l1, m2 * c2]) + np.array([[k1 + k2, -k2], [-k2, k2]])
     w2, modes = eigh(K, M)
     return np.sqrt(w2), modes
 

@@ -8,13 +8,19 @@ A parameter is named in the vocabulary of ``flexmbs sweep`` (docs/deck.md, "Over
 - ``loads[i].force``, ``loads[i].moment`` — the scale ``s`` of the i-th ``[[loads]]`` entry
   (its vector times ``s``, nominal ``s = 1``);
 - ``rigid_bodies.NAME.mass`` — the mass of a rigid body [kg];
+- ``rigid_bodies.NAME.inertia`` — the scale ``s`` of a rigid body's inertia tensor (the deck's times ``s``,
+  nominal 1);
 - ``springs[i].stiffness`` — the stiffness of a force element with one stiffness;
-- ``time_functions.NAME.v0``, ``.v1`` — the end values of a ramp or smooth step (a drive's speed, a load's level).
+- ``time_functions.NAME.v0``, ``.v1`` — the end values of a ramp or smooth step (a drive's speed, a load's level);
+- ``nodes.NAME.position.x`` (``.y``, ``.z``) — a coordinate [m] of a ``[[nodes]]`` node or of a beam's end given
+  by coordinates (``BEAM:start``, ``BEAM:end``): geometry, static runs only.
 
-Every one of them enters the equations of motion affinely (:mod:`reference.sensitivity.derivatives`).
-Geometry is refused: the reference strains γ0, κ0 and lengths L0 of the elements depend on the
-node positions non-linearly (their derivative ∂S/∂X is not derived yet), and a mesh size is not a
-continuous parameter.  This module reads names only (no model is built): the deck reader checks the
+All but the last two enter the equations of motion affinely (:mod:`reference.sensitivity.derivatives`).  A
+node's position enters through the rest state the deck builds from it (the elements' lengths L0, reference
+strains γ0, κ0 and frames, the re-meshed beams), non-linearly: its ∂R/∂X is a central difference of the
+residual at the fixed state between the decks rebuilt with the coordinate moved (docs/formulation.md §14).  A
+mesh size is not a continuous parameter and is refused, as are a whole position (name a component) and a rigid
+body's geometry.  This module reads names only (no model is built): the deck reader checks the
 ``[sensitivities]`` table with it, :mod:`reference.io.deck_sensitivities` runs them.
 """
 
@@ -26,7 +32,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from reference.io.deck_reader import Reader, read_toml
+from reference.io.deck_reader import Reader, override_value, read_toml
 from reference.observables import ObservableError, parse
 
 DIFFERENTIATED = ("static", "modes", "buckling", "generalized_alpha")
@@ -45,9 +51,10 @@ class ParameterError(ValueError):
     (one line, ``problem; fix``)."""
 
 
-GEOMETRY = re.compile(r"^(nodes\.[^.]+\.position|beams\.[^.]+\.(start|end|elements)|rigid_bodies\.[^.]+\."
-                      r"(position|points|rotation)|refine)$")
+GEOMETRY = re.compile(r"^(beams\.[^.]+\.(start|end|elements)|rigid_bodies\.[^.]+\.(position|points|rotation)|refine)$")
 """Names of deck values that are geometry or mesh: not differentiable here (module docstring)."""
+COMPONENTS = ("x", "y", "z")
+"""The components of a node's position parameter, ``nodes.NAME.position.x`` …"""
 
 
 @dataclass(frozen=True)
@@ -68,7 +75,12 @@ class Parameter:
         Its nominal value (1 for a load scale).
     affine : bool
         Whether the residual is affine in it (all but a time function's end value, which a drive's rotation
-        takes non-linearly).
+        takes non-linearly, and a node's coordinate).
+    geometry : tuple
+        For a node's coordinate, where the deck (its TOML dict) gives it: ``("nodes", k, "position", c)`` or
+        ``("beams", k, "start" | "end", c)``; () otherwise.
+    body : str
+        For a rigid body's inertia scale, the body's label; "" otherwise.
     """
 
     name: str
@@ -76,6 +88,8 @@ class Parameter:
     load: int
     value: float
     affine: bool = True
+    geometry: tuple = ()
+    body: str = ""
 
 
 def candidates(deck: dict) -> list[str]:
@@ -84,11 +98,48 @@ def candidates(deck: dict) -> list[str]:
              for k, v in table.items() if isinstance(v, (int, float))]
     for i, ld in enumerate(deck.get("loads", [])):
         names += [f"loads[{i}].{k}" for k in ("force", "moment") if k in ld]
-    names += [f"rigid_bodies.{rb.get('label')}.mass" for rb in deck.get("rigid_bodies", [])]
+    names += [f"rigid_bodies.{rb.get('label')}.{k}" for rb in deck.get("rigid_bodies", []) for k in ("mass", "inertia")]
     names += [f"time_functions.{n}.{k}" for n, tf in deck.get("time_functions", {}).items()
               if isinstance(tf, dict) and tf.get("kind") in AFFINE_TIME_FUNCTIONS for k in ("v0", "v1")]
     names += [f"springs[{i}].stiffness" for i, sp in enumerate(deck.get("springs", [])) if "stiffness" in sp]
+    names += [f"nodes.{label}.position.{c}" for label in _positions(deck) for c in COMPONENTS]
     return names
+
+
+def _positions(deck: dict) -> dict:
+    """The node positions a deck (its TOML dict) gives by coordinates: label → ``(table, k, key)``, for the
+    ``[[nodes]]`` entries and the beams' ends given as ``start``/``end`` (``BEAM:start``, ``BEAM:end``)."""
+    out = {nd.get("label"): ("nodes", k, "position") for k, nd in enumerate(deck.get("nodes", []))
+           if isinstance(nd, dict) and isinstance(nd.get("position"), list)}
+    for k, bm in enumerate(deck.get("beams", [])):
+        if isinstance(bm, dict):
+            out.update({f"{bm.get('label')}:{side}": ("beams", k, side) for side in ("start", "end")
+                        if isinstance(bm.get(side), list)})
+    return out
+
+
+def _node_position(name: str, deck: dict) -> Parameter | None:
+    """A ``nodes.NAME.position…`` parameter; None for another name.
+
+    Raises
+    ------
+    ParameterError
+        A whole position (name a component), or a node whose position the deck does not give by coordinates.
+    """
+    m = re.fullmatch(r"nodes\.(.+)\.position(?:\.([^.]+))?", name)
+    if not m:
+        return None
+    where = _positions(deck).get(m[1])
+    if where is None:
+        raise ParameterError(f"parameter {name!r}: node {m[1]!r} has no position of its own in the deck (a mesh "
+                             "node or a rigid body's is geometry or mesh, not differentiated); name a [[nodes]] "
+                             "label or a beam's end given by coordinates (BEAM:start, BEAM:end)")
+    if m[2] not in COMPONENTS:
+        raise ParameterError(f"parameter {name!r} is a whole position; name one component, e.g. "
+                             f"'nodes.{m[1]}.position.x'")
+    table, k, key = where
+    c = COMPONENTS.index(m[2])
+    return Parameter(name, "", -1, float(deck[table][k][key][c]), affine=False, geometry=(table, k, key, c))
 
 
 def _unknown(name: str, deck: dict) -> ParameterError:
@@ -110,10 +161,13 @@ def resolve(name, deck: dict) -> Parameter:
     """
     if not isinstance(name, str) or not name:
         raise ParameterError(f"expected a parameter name such as 'sections.NAME.EI2', got {name!r}")
+    position = _node_position(name, deck)
+    if position is not None:
+        return position
     if GEOMETRY.match(name):
         raise ParameterError(f"parameter {name!r} is geometry or mesh, which the sensitivities do not differentiate "
-                             "(the elements' reference strains depend on it non-linearly); name a stiffness, "
-                             "a mass, a load's scale or a spring's stiffness")
+                             "(a mesh size is not continuous); name a stiffness, a mass, a load's scale, a "
+                             "spring's stiffness or a node's coordinate (nodes.NAME.position.x)")
     m = re.fullmatch(r"sections\.([^.]+)\.([^.]+)", name)
     if m and isinstance(deck.get("sections", {}).get(m[1]), dict) and isinstance(deck["sections"][m[1]].get(m[2]),
                                                                                     (int, float)):
@@ -125,8 +179,10 @@ def resolve(name, deck: dict) -> Parameter:
     tf = deck.get("time_functions", {}).get(m[1]) if m else None
     if isinstance(tf, dict) and tf.get("kind") in AFFINE_TIME_FUNCTIONS:
         return Parameter(name, name, -1, float(tf.get(m[2], 0.0 if m[2] == "v0" else 1.0)), affine=False)
-    m = re.fullmatch(r"rigid_bodies\.([^.]+)\.mass", name)
+    m = re.fullmatch(r"rigid_bodies\.([^.]+)\.(mass|inertia)", name)
     labels = [rb.get("label") for rb in deck.get("rigid_bodies", [])]
+    if m and m[1] in labels and m[2] == "inertia":
+        return Parameter(name, "", -1, 1.0, body=m[1])
     if m and m[1] in labels:
         k = labels.index(m[1])
         return Parameter(name, f"rigid_bodies.{k}.mass", -1, float(deck["rigid_bodies"][k]["mass"]))
@@ -140,15 +196,33 @@ def resolve(name, deck: dict) -> Parameter:
     raise _unknown(name, deck)
 
 
+def check_algorithm(p: Parameter, algorithm: str) -> None:
+    """Refuse a parameter ``algorithm`` has no sensitivity for: a node's coordinate outside static runs (in a
+    dynamic run the initial state moves with it; the modes and buckling loads are not built for it), a time
+    function's end value outside generalized-α runs.
+
+    Raises
+    ------
+    ParameterError
+        One line, ``problem; fix``.
+    """
+    if p.geometry and algorithm != "static":
+        raise ParameterError(f"parameter {p.name!r} (a node's coordinate) has sensitivities in static runs only, "
+                             f"not {algorithm!r}; name a stiffness, mass or load scale")
+    if not p.affine and not p.geometry and algorithm != "generalized_alpha":
+        raise ParameterError(f"parameter {p.name!r} (a time function's end value) has sensitivities in "
+                             f"generalized-α runs only, not {algorithm!r}; name a stiffness, mass or load scale")
+
+
 def resolve_all(path, names, overrides: dict | None = None) -> list[Parameter]:
-    """:func:`resolve` every name of ``names`` against the deck at ``path`` (with ``overrides`` applied to its
-    section values, as the deck reader applies them); a repeated name is refused."""
+    """:func:`resolve` every name of ``names`` against the deck at ``path`` (with its dotted ``overrides``
+    applied as the deck reader applies them, so that a parameter's nominal value is the value the run uses);
+    a repeated name is refused."""
     _, deck = read_toml(Path(path))
     deck = copy.deepcopy(deck)
     for key, value in (overrides or {}).items():
-        parts = key.split(".")
-        if parts[0] == "sections" and len(parts) == 3 and parts[1] in deck.get("sections", {}):
-            deck["sections"][parts[1]][parts[2]] = value
+        if "." in key:
+            override_value(deck, key, value, Reader(Path(path)))
     seen = set()
     out = []
     for name in names:
@@ -199,7 +273,7 @@ def read_sensitivities(rd: Reader, deck: dict, domain, algorithm: str) -> dict:
             if name in seen:
                 raise ParameterError(f"parameter {name!r} is named twice; name each parameter once")
             seen.add(name)
-            resolve(name, deck)
+            check_algorithm(resolve(name, deck), algorithm)
         except ParameterError as exc:
             raise rd.fail(f"sensitivities.parameters[{i}]", *str(exc).split("; ", 1)) from None
     try:

@@ -50,6 +50,7 @@ from reference.generated import beam2 as generated_beam2
 from reference.generated import beam2_se3 as generated_se3
 from reference.generated import beam3 as generated_beam3
 from reference.generated import rotation_maps as rm
+from reference.generated import sensitivities as generated_sensitivities
 from reference.generated import tangents as generated_tangents
 from reference.plain.vectorise import twin
 
@@ -282,5 +283,42 @@ def element_tangent(model, x, q) -> sp.csr_matrix:
     return sp.csr_matrix(sp.coo_matrix((values, (r, c)), shape=(6 * N, 6 * N)))
 
 
+SECTION_DERIVATIVES = {
+    "beam2": generated_sensitivities.beam2_section_derivative,
+    "beam2_se3": generated_sensitivities.beam2_se3_section_derivative,
+    "beam3": generated_sensitivities.beam3_section_derivative,
+}
+"""The engine's families' generated ``∂S/∂c`` (derivations/sensitivities.py) by deck name: the force kernel's
+inputs but the stiffness ``c`` (its last), writing ``ds`` (6n × 6, row-major)."""
+
+
+def element_stiffness_derivatives(model, x, q) -> list:
+    """``∂S/∂c`` of every element by its six section stiffnesses ``c = (EA, GA2, GA3, GJ, EI2, EI3)``, node frames.
+
+    One pass over the families (chunks of :data:`CHUNK`), the generated kernels of :data:`SECTION_DERIVATIVES`
+    (or a family class's ``section_derivative``) in the section frames, each column's moments mapped to the node
+    frames as the forces' (:func:`_node_frames`).
+
+    Returns
+    -------
+    list of (index (E,), conn (E, n), ds (E, n, 6, 6))
+        Per chunk the elements' Domain numbers, nodes and ``ds[e, a, k, j] = ∂S_{a,k}/∂c_j`` (node a's
+        coordinate k: inertial force [N per unit of c_j], body-frame moment).
+    """
+    out = []
+    for data, family, slices in _families(model):
+        formulation = family_of(data)
+        kernel = getattr(formulation, "section_derivative", None) or SECTION_DERIVATIVES[formulation.family]
+        for sl in slices:
+            X, P, O = _ends(data, sl, x, q)
+            E, n = X.shape[-1], X.shape[0]
+            ds = np.empty((6 * n * 6, E))
+            twin(kernel, E)(*family._inputs(data, sl, X, P)[:-1], ds)
+            columns = ds.reshape(6 * n, 6, E).reshape(6 * n, 6 * E)  # column j of element e at j E + e
+            blocks = _node_frames(columns, np.tile(O, (1, 1, 6))).reshape(n, 6, 6, E)  # (n, 6, j, E)
+            out.append((np.asarray(data.index[sl]), data.conn[sl], blocks.transpose(3, 0, 1, 2)))
+    return out
+
+
 __all__ = ["ADAPTERS", "CHUNK", "QuadraticBeam", "TwoNodeBeam", "adapter", "element_forces",
-           "element_resultants", "element_tangent"]
+           "element_resultants", "element_stiffness_derivatives", "element_tangent", "SECTION_DERIVATIVES"]

@@ -27,7 +27,7 @@ from reference.plain.generalized_alpha import PlainGeneralizedAlpha
 from reference.plain.newton import relative_rotation
 from reference.plain.vectorise import plain
 from reference.observables import _Names
-from reference.sensitivity.derivatives import ResidualDerivatives, output_derivative
+from reference.sensitivity.derivatives import Moved, ParameterDerivatives, output_derivatives
 from reference.status import OK
 
 
@@ -48,7 +48,7 @@ class SensitiveAlpha(PlainGeneralizedAlpha):
     """:class:`reference.plain.generalized_alpha.PlainGeneralizedAlpha` that carries the tangent-linear
     sensitivities of :attr:`derivatives`' parameters along every accepted step (module docstring)."""
 
-    derivatives: ResidualDerivatives
+    derivatives: ParameterDerivatives
     tangent: Tangent | None = None
 
     def _initial(self, run, state) -> int:
@@ -72,26 +72,35 @@ def _coefficients(algo, h):
 
 
 def initial_tangent(algo, run, state) -> Tangent:
-    """``V̇'_0``, ``λ'_0`` from the consistent accelerations ``A s = b``, ``A = [M, Bᵀ; B, −c_e ε]``, ``s = (V̇, λ)``:
-    ``A s' = b' − A' s`` with b affine in p and only M of A depending on it, so
-    ``s' = (s(p+Δ) − s(p))/Δ + A⁻¹ [ΔM (V̇(p+Δ) − V̇(p))/Δ; 0]`` (ΔM = M(p+Δ) − M(p)), from the two solutions."""
+    """``V̇'_0``, ``λ'_0`` from the consistent accelerations ``A s = b``, ``A = [M, Bᵀ; B, −c_e ε]``, ``s = (V̇, λ)``.
+
+    For a parameter that moves neither the constraints nor their acceleration level (all but a drive's time
+    function and a spring's stiffness, :class:`reference.sensitivity.derivatives.Moved`), differentiating
+    ``r(V̇, λ; p) = 0`` at the fixed state gives ``A s' = [−∂r/∂p; 0]``, with ∂r/∂p at the consistent ``(V̇, λ)``
+    (it holds ``∂M/∂p V̇``).  For a moved one, ``A s' = b' − A' s`` with b affine in p and only M of A depending
+    on it: ``s' = (s(p+Δ) − s(p))/Δ + A⁻¹ [ΔM (V̇(p+Δ) − V̇(p))/Δ; 0]`` (ΔM = M(p+Δ) − M(p)), from the two
+    solutions (a central difference for a time function's value)."""
     nw, h, al = run.newton, run.h, run.alpha
     bp, _ = _coefficients(algo, h)
     x, q, v, w, t = state.x, state.q, state.v, state.w, state.t
-    P, N = len(algo.derivatives.moved), x.shape[0]
-    nw.evaluate(x, q, v, w, al.vd, al.lam, t, True)  # the matrix reads B here
+    rd = algo.derivatives
+    P, N = len(rd.kinds), x.shape[0]
+    rhs = rd(x, q, v, w, al.vd, al.lam, t, True)  # leaves nw evaluated here: the matrix reads its B
     lu = nw.factor(nw.matrix(x, q, v, w, t, np.zeros(nw.m), 1.0, 0.0, 0.0, bp))
     vd, lam = np.zeros((P, N, 6)), np.zeros((P, nw.m))
-    rd = algo.derivatives
-    for k, (moved, back, d) in enumerate(zip(rd.moved, rd.minus, rd.steps)):
+    for k, kind in enumerate(rd.kinds):
+        if not isinstance(kind, Moved):
+            vd[k], lam[k] = nw.solve(lu, -rhs[k][0], np.zeros(nw.m))
+            continue
+        moved, back = rd.moved(kind)
         moved.angle[:] = nw.angle
         vd_d, lam_d = moved.consistent_accelerations(x, q, v, w, t, 1e-3 * h, ce=bp)
         if back is None:
-            dvd, dlam = (vd_d - al.vd) / d, (lam_d - al.lam) / d
+            dvd, dlam = (vd_d - al.vd) / kind.step, (lam_d - al.lam) / kind.step
         else:  # a central difference (M does not depend on such a parameter)
             back.angle[:] = nw.angle
             vd_m, lam_m = back.consistent_accelerations(x, q, v, w, t, 1e-3 * h, ce=bp)
-            dvd, dlam = (vd_d - vd_m) / (2.0 * d), (lam_d - lam_m) / (2.0 * d)
+            dvd, dlam = (vd_d - vd_m) / (2.0 * kind.step), (lam_d - lam_m) / (2.0 * kind.step)
         extra = ((moved.M - nw.M) @ dvd.ravel()).reshape(N, 6)
         fix = nw.solve(lu, extra, np.zeros(nw.m)) if np.any(extra) else (np.zeros((N, 6)), np.zeros(nw.m))
         vd[k], lam[k] = dvd + fix[0], dlam + fix[1]
@@ -107,9 +116,13 @@ def tangent_step(algo, run, state, psi, h: float) -> None:
     c = (1.0 - algo.alpha_f) / (1.0 - algo.alpha_m)
     x, q, t = state.x, state.q, state.t + h  # the caller advances the clock after the step
     rhs = algo.derivatives(x, q, state.v, state.w, al.vd, al.lam, t, True)  # leaves nw evaluated here (its B)
-    lu = nw.factor(nw.matrix(x, q, state.v, state.w, t, al.lam, 1.0, gp / bp, 1.0 / bp, bp, psi))
     K = nw.ev.tangent(x, q, state.v, state.w, t, al.lam if nw.m else None, nw.angle)
     C = nw.ev.damping_matrix(x, q, state.v, state.w)
+    ev, nw.ev = nw.ev, _Known(nw.ev, K, C)  # the matrix from these K and C, not computed again
+    try:
+        lu = nw.factor(nw.matrix(x, q, state.v, state.w, t, al.lam, 1.0, gp / bp, 1.0 / bp, bp, psi))
+    finally:
+        nw.ev = ev
     Rt, Jr = _rotation_maps(psi)
     for k, (dr, dphi) in enumerate(rhs):
         a_p = (tg.vd[k] - algo.alpha_m * tg.a[k]) / (1.0 - algo.alpha_m)
@@ -132,6 +145,24 @@ def tangent_step(algo, run, state, psi, h: float) -> None:
     tg.history.append((t, x.copy(), q.copy(), tg.c.copy()))
 
 
+class _Known:
+    """An :class:`reference.plain.model.Evaluation` whose tangent and damping matrix at the state at hand are
+    known (``K``, ``C``): :meth:`reference.plain.newton.Newton.matrix` reads them through it instead of
+    assembling them a second time (the step's residual needs ``K (x', θ')`` and ``C V'`` too)."""
+
+    def __init__(self, ev, K, C):
+        self._ev, self._K, self._C = ev, K, C
+
+    def tangent(self, *state, **keywords):
+        return self._K
+
+    def damping_matrix(self, *state):
+        return self._C
+
+    def __getattr__(self, name):
+        return getattr(self._ev, name)
+
+
 def _rotation_maps(psi):
     """Per node ``A(exp ψ)ᵀ`` and the right Jacobian ``J_r(ψ)`` (N,3,3) (the generated maps)."""
     N = psi.shape[0]
@@ -142,11 +173,11 @@ def _rotation_maps(psi):
     return np.transpose(A.T.reshape(N, 3, 3), (0, 2, 1)), J.T.reshape(N, 3, 3)
 
 
-def run_dynamic(domain, names, moved, steps, observables, minus=None):
+def run_dynamic(domain, names, kinds, observables):
     """Solve the generalized-α problem of ``domain`` (fixed steps) on the reference path with the tangent-linear
     sensitivities; ``(t (n,), {output: {name: (n, …)}})`` at the deck's outputs (as
-    :func:`reference.sensitivity.static.run_static`; ``minus`` as
-    :class:`reference.sensitivity.derivatives.ResidualDerivatives`')."""
+    :func:`reference.sensitivity.static.run_static`; ``kinds`` as
+    :class:`reference.sensitivity.derivatives.ParameterDerivatives`')."""
     base = twin(domain.algorithm())
     if getattr(base, "error_tolerance", None) is not None:
         raise ValueError("generalized-α sensitivities with error_tolerance (varying steps) are not built; "
@@ -155,7 +186,7 @@ def run_dynamic(domain, names, moved, steps, observables, minus=None):
     algo.__dict__.update(vars(base))
     model, state = domain.initialization(), domain.initial_conditions()
     run = algo.start(model, state)
-    algo.derivatives = ResidualDerivatives(run.newton, moved, steps, minus)
+    algo.derivatives = ParameterDerivatives(run.newton, kinds)
     labels = _Names(domain)
     n_total, every = algo.n_steps(domain.solver.t_end), int(domain.solver.output_every)
     times, outputs = [], {o.text: {n: [] for n in names} for o in observables}
@@ -167,9 +198,8 @@ def run_dynamic(domain, names, moved, steps, observables, minus=None):
         done += chunk
         times.append(state.t)
         for o in observables:
-            for k, n in enumerate(names):
-                c = algo.tangent.c[k]
-                outputs[o.text][n].append(output_derivative(o, labels, state.x, state.q, c[:, :3], c[:, 3:], run.L))
+            for n, value in zip(names, output_derivatives(o, labels, state.x, state.q, algo.tangent.c, run.L)):
+                outputs[o.text][n].append(value)
         if done >= n_total:
             return np.asarray(times), outputs
         chunk = min(every, n_total - done)
