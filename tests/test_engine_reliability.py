@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from flexmbs.cli import main
-from reference.domain import SolverDiverged
+from reference.errors import SolverDiverged
 from reference.io.deck import DeckError, load_deck
 from reference.validation import JOINT_OFFSET, ModelWarning, joint_offsets
 

@@ -6,8 +6,9 @@ import h5py
 import numpy as np
 import pytest
 
-from reference.domain import SolverDiverged, SolverSettings
+from reference.domain import SolverSettings
 from reference.elements import Section
+from reference.errors import SolverDiverged
 from reference.interactions import NodalLoad
 from reference.io.results import load_results
 
