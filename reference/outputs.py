@@ -116,7 +116,11 @@ def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, sec
     """Joint reactions into the rows ``slot`` of ``force``, ``moment`` (J, 3) and section
     resultants into ``section_force``, ``section_moment`` (E, 3), in one compiled call.
 
-    ``model`` is the :class:`~reference.state.Model` or its :class:`OutputArrays`."""
+    ``model`` is the :class:`~reference.state.Model` or its :class:`OutputArrays`.
+
+    Takes 17 parameters: those of :func:`reference.joints.reactions.joint_reactions` with the section outputs and
+    the elements' work, in one compiled call per output.
+    """
     model = named(model, OutputArrays)
     _joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, prim_phi, prim_B, A)
     resultants(model.elements, element_work, x, q, section_force, section_moment)

@@ -54,6 +54,9 @@ def joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, p
     force, moment : arrays (≥ J, 3), written at the rows ``slot`` [N], [N m].
     jphi, jB, jphit, prim_phi, prim_B, A : scratch
         (6,), (6, 12), (6,), (10,), (120,), (9,).
+
+    Takes 14 parameters: the Model, the configuration, λ and t, the outputs with their slots and six scratch arrays
+    the output writer allocates once.
     """
     for k in range(model.joints.i.shape[0]):
         m = model.joints.neq[k]
