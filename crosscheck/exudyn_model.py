@@ -49,7 +49,7 @@ from reference.forces import ROTATIONAL
 from reference.interactions import Gravity, LineLoad, NodalLoad
 from reference.joints.joint import PRESCRIBED
 from reference.rotation import ORTHOGONALITY_TOLERANCE, EulerParameters
-from reference.solution import SolverDiverged
+from reference.errors import SolverDiverged
 
 
 class Unsupported(ValueError):

@@ -236,7 +236,7 @@ def dynamic_large(refine: int = ROLLUP_REFINE, steps=DYNAMIC_STEPS, reference: f
     """Generalized-α roll-up to k = :data:`DYNAMIC_T_END`: every code at every step, its error against its own
     run at ``reference`` and its time (a run that fails is listed as such); then each one's time at
     :data:`MATCHED_DYNAMIC`; returns the lines."""
-    from reference.solution import SolverDiverged
+    from reference.errors import SolverDiverged
 
     engines = _engines()
     rows, refs = {}, {}

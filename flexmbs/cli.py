@@ -7,7 +7,7 @@ chosen by the exception's class (:func:`exit_status`; the first row that matches
 exception                                              status  meaning
 =====================================================  ======  =================================
 :class:`RunFailed`                                     1       a run failed (an error inside it)
-:class:`reference.solution.SolverDiverged` (and        1       a run diverged or its solver gave
+:class:`reference.errors.SolverDiverged` (and        1       a run diverged or its solver gave
 ``crosscheck.exudyn_model.ExudynFailed``)                      up (the reference's or Exudyn's)
 :class:`reference.io.deck_reader.DeckError`            2       a bad deck or override
 :class:`reference.observables.ObservableError`         2       a bad observable text
@@ -105,7 +105,7 @@ def _run_deck(args, deck):
     from flexmbs.progress import ProgressBar
     from reference.io.vtk import write_vtk
     from reference.jit import CompileTimer
-    from reference.solution import SolverDiverged
+    from reference.errors import SolverDiverged
     from reference.validation import show_warning
 
     domain = deck.domain
@@ -558,7 +558,7 @@ def exit_status(exc: BaseException) -> int | None:
     from reference.io.deck_parameters import ParameterError
     from reference.io.deck_reader import DeckError
     from reference.observables import ObservableError
-    from reference.solution import SolverDiverged
+    from reference.errors import SolverDiverged
 
     table = ((RunFailed, 1), (SolverDiverged, 1), (DeckError, 2), (ObservableError, 2), (ParameterError, 2),
              (CommandError, 2), (OSError, 2), (KeyError, 2))

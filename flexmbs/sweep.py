@@ -235,7 +235,7 @@ def run_case(deck, case: dict, out_dir, sensitivities: bool = False) -> dict:
     ``[sensitivities]`` at the case (:func:`flexmbs.sweep_sensitivities.sensitivity_values`).  Its warnings are one line each on stderr (the worker's),
     ``flexmbs: warning: case_NNN: …``, as the command line shows them (:func:`reference.validation.show_warning`).
     """
-    from reference.domain import SolverDiverged
+    from reference.errors import SolverDiverged
     from reference.io.deck import load_deck
     from reference.validation import show_warning
 

@@ -28,8 +28,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import reference
-from reference.domain import Domain, SolverDiverged, SolverSettings
+from reference.domain import Domain, SolverSettings
 from reference.elements import Section
+from reference.errors import SolverDiverged
 from reference.interactions import Clamp, NodalLoad
 from reference.io.deck import load_deck
 from reference.plain import park

@@ -45,8 +45,9 @@ import numpy as np
 import reference
 from flexmbs.verification import observables as ob
 from reference.algorithms.generalized_alpha import parameters
-from reference.domain import Domain, SolverDiverged, SolverSettings
+from reference.domain import Domain, SolverSettings
 from reference.elements import Section
+from reference.errors import SolverDiverged
 from reference.interactions import Clamp, NodalLoad, Step
 from reference.io.deck import load_deck
 from reference.io.results import load_results

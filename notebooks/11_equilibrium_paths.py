@@ -47,8 +47,9 @@ from scipy.optimize import brentq
 
 import reference
 from flexmbs.verification import analytic
-from reference.domain import Domain, SolverDiverged, SolverSettings
+from reference.domain import Domain, SolverSettings
 from reference.elements import Section
+from reference.errors import SolverDiverged
 from reference.interactions import Clamp, FixedCoordinates, NodalLoad, Ramp
 from reference.io.deck import load_deck
 from reference.io.results import load_results

@@ -1,6 +1,7 @@
 """flexmbs reference engine: the paper's computational engine in readable Python.
 
-The entry point is :class:`Domain`.  A model is built in Python from the names exported here, which
+The entry point is :class:`Domain`; ``Domain.solve`` (or ``solve(domain)``, :func:`reference.solution.solve`, the
+same run) runs it.  A model is built in Python from the names exported here, which
 follow the deck's words: ``[sections.NAME]`` → :class:`Section`, ``[[loads]]`` → :class:`NodalLoad`,
 ``[[line_loads]]`` → :class:`LineLoad`, ``[gravity]`` → :class:`Gravity` (a vector),
 ``[[joints]]`` → :class:`Joint`, ``[[springs]]`` → :class:`PointToPoint`, :class:`Rotational`,
@@ -40,7 +41,10 @@ from reference.forces import Bushing, PointToPoint, Rotational
 from reference.interactions import (Clamp, Constant, Expression, FixedCoordinates, Gravity, LineLoad, NodalLoad,
                                     PiecewiseLinear, Ramp, Sine, SmoothStep, Step)
 from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
+from reference.solution import solve
+
+Domain.solution_loop = staticmethod(solve)  # the loop Domain.solve runs; the Domain does not import it
 
 __all__ = ["Bushing", "Clamp", "Constant", "Domain", "Expression", "FixedCoordinates", "Gravity", "Jacobian", "Joint",
            "LineLoad", "MasterSlave", "NodalLoad", "PiecewiseLinear", "PointToPoint", "Ramp", "Rotational", "Section",
-           "Sine", "SmoothStep", "SolverSettings", "Step", "joint_frame"]
+           "Sine", "SmoothStep", "SolverSettings", "Step", "joint_frame", "solve"]

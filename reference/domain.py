@@ -16,8 +16,9 @@ This module assembles the model; beside it, :mod:`reference.building` checks wha
 the ``add_*`` calls are given and resolves node references (``"rod:start"``),
 :mod:`reference.mesh` gives the beams' geometry, :mod:`reference.joints.setup` the
 constraint set-up (joint tables, the redundancy check, consistent initial
-velocities) and :mod:`reference.solution` the solution loop (records, monitor,
-how a run ends).
+velocities).  The solution loop (records, monitor, how a run ends) is :mod:`reference.solution`, a function
+of a Domain that this module does not import: :meth:`Domain.solve` runs it through
+:attr:`Domain.solution_loop`, which the package sets as it is imported.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from reference.elements.families import ALWAYS_PACKED, DEFAULT_FAMILY, ELEMENT_F
 from reference.elements.formulation import formulation_groups, vector_norms
 from reference.elements.placement import add_lumped_masses, no_elements, place
 from reference.connector import GROUND
+from reference.errors import SolverDiverged
 from reference.forces import ForceElement, pack_force_elements
 from reference.interactions import (
     Constant, FixedCoordinates, Gravity, Interaction, LineLoad, NodalLoad, TimeFunction, TimeFunctionTable,
@@ -39,14 +41,11 @@ from reference.interactions import (
 )
 from reference.io.results import Results
 from reference.joints import Jacobian, Joint, joint_frame, setup
-from reference.joints.formulations import refusal as formulation_refusal
-from reference.monitor import damping_problem
 from reference.building import beam_arguments, resolve_node, with_axis2
-from reference.validation import direction, joint_offsets, vector
+from reference.validation import direction, vector
 from reference.mesh import arc_geometry, beam_triad, default_axis2, section_frames, straight_line
 from reference.nodes import Node
 from reference.rotation import EulerParameters
-from reference.solution import SolverDiverged, run
 from reference.state import Model, Nodes, State, new_clock
 from reference.status import OK
 
@@ -251,6 +250,9 @@ class Domain:
         Bodies are named as in a deck (:meth:`node`: ``"rod:start"``…); a joint of a body to itself is
         refused here, by label.  ``intended_offset``: the point lies away from both bodies by design
         (no warning, :func:`reference.validation.joint_offsets`).
+
+        Takes 12 parameters: the deck's ``[[joints]]`` keys, all but the bodies and the point keyword-only, each
+        named at the call.
         """
         what = f"joint {label or kind!r}"
         point, axis = vector(point, f"{what}: point"), direction(axis, f"{what}: axis")
@@ -437,53 +439,15 @@ class Domain:
             raise SolverDiverged(f"the solution became non-finite before t = {time}")
         return state
 
-    def solve(self, *, t_end: float | None = None, dt: float | None = None, results_path=None,
-              progress=None, monitor: bool = True, deck=None) -> Results:
-        """Run from t = 0 to ``t_end`` (paper: Solve, Fig. 9) and return the time histories.
+    solution_loop = None
+    """The solution loop that :meth:`solve` runs, :func:`reference.solution.solve` (a function of a Domain),
+    set once by the package (``reference/__init__.py``) as it is imported: the Domain assembles the problem and
+    does not import the loop that drives it (the loop imports the records, the monitor and the results file)."""
 
-        Records stream to the results file and are not kept in memory; the returned
-        :class:`Results` reads them from the file when asked.  Without a file they are
-        kept in preallocated arrays.  Whatever stops the run, the file is closed with
-        a status saying how it ended (``"completed"``, ``"diverged after t = …"``,
-        ``"interrupted at t = …"`` on Ctrl-C, ``"terminated at t = …"`` on SystemExit —
-        the command line raises it on SIGTERM and SIGHUP — or ``"failed: <reason>"``),
-        and :attr:`last_run` says where and how.
-
-        Parameters
-        ----------
-        t_end, dt : float, optional
-            Override the deck's end time and step.
-        results_path : path, optional
-            HDF5 results file (:mod:`reference.io.results`).
-        progress : callable(fraction, t), optional
-            Called after every output, and between two outputs after every compiled call of a time-stepping
-            algorithm (about every 0.1 s: :class:`reference.algorithms.base.CallBudget`).
-        monitor : bool
-            Stop a run that blows up while finite (:mod:`reference.monitor`): the algorithm
-            checks the energy balance every step (``Scratch.guard``), the solution loop
-            (:func:`reference.solution.run`) the energy balance and the deformation at every output.
-        deck : optional
-            The deck this Domain was read from (:class:`reference.io.deck.Deck`): the results
-            file records its ``path`` and ``text``.
-
-        Raises
-        ------
-        SolverDiverged
-            When the algorithm fails (non-finite state, singular constraints) or the
-            monitor sees a blow-up; records up to then are kept.
-        """
-        t_end = self.solver.t_end if t_end is None else float(t_end)
-        algo = self.algorithm(dt=dt)
-        n_total = algo.n_steps(t_end)
-        self.last_run = {"path": None, "status": "not started", "t": 0.0}
-        joint_offsets(self)
-        model = self.initialization()
-        problem = formulation_refusal(self.joints, self.solver.algorithm)
-        if problem:
-            raise ValueError(problem)
-        critical = self.critical_time_step()
-        problem = damping_problem(model.damping, algo.dt, critical) if algo.explicit else ""
-        if problem:
-            raise ValueError(f"solver damping: {problem}")
-        state = self.initial_conditions()
-        return run(self, algo, model, state, n_total, results_path, progress, monitor, deck, critical)
+    def solve(self, *, t_end: float | None = None, dt: float | None = None, results_path=None, progress=None,
+              monitor: bool = True, deck=None) -> Results:
+        """Run from t = 0 to ``t_end`` (paper: Solve, Fig. 9) and return the time histories:
+        :func:`reference.solution.solve` on this Domain, whose parameters, statuses and errors
+        (:class:`reference.errors.SolverDiverged`) these are."""
+        return type(self).solution_loop(self, t_end=t_end, dt=dt, results_path=results_path, progress=progress,
+                                        monitor=monitor, deck=deck)

@@ -103,22 +103,26 @@ class Outputs:
         """The joint reactions (rows :attr:`slot` of :attr:`force`, :attr:`moment`) and the section resultants
         (:attr:`section_force`, :attr:`section_moment`) of the record at time ``t`` [s], one compiled call."""
         rec = self.rec
-        derived_outputs(self.arrays, rec.x, rec.q, rec.lam, t, self.slot, self.force, self.moment,
-                        self.section_force, self.section_moment, self.element_work, *self.scratch)
+        derived_outputs(self.arrays, rec.x, rec.q, rec.lam, t, self.slot,
+                        (self.force, self.moment, self.section_force, self.section_moment), self.element_work,
+                        self.scratch)
 
 
 _joint_reactions = inlined(joint_reactions)  # a compiled call with the Model costs two atomic updates per array
 
 
 @kernel
-def derived_outputs(model, x, q, lam, t, slot, force, moment, section_force, section_moment, element_work,
-                    jphi, jB, jphit, prim_phi, prim_B, A):
+def derived_outputs(model, x, q, lam, t, slot, out, element_work, work):
     """Joint reactions into the rows ``slot`` of ``force``, ``moment`` (J, 3) and section
-    resultants into ``section_force``, ``section_moment`` (E, 3), in one compiled call.
+    resultants into ``section_force``, ``section_moment`` (E, 3), ``out`` the four of them, in one compiled call.
 
-    ``model`` is the :class:`~reference.state.Model` or its :class:`OutputArrays`."""
+    ``model`` is the :class:`~reference.state.Model` or its :class:`OutputArrays`; ``element_work`` the
+    families' work arrays (:func:`reference.state.element_work`); ``work`` the reactions' scratch
+    (:func:`reference.joints.reactions.scratch`).
+    """
     model = named(model, OutputArrays)
-    _joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, prim_phi, prim_B, A)
+    force, moment, section_force, section_moment = out
+    _joint_reactions(model, x, q, lam, t, slot, force, moment, work)
     resultants(model.elements, element_work, x, q, section_force, section_moment)
 
 

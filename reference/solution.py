@@ -1,7 +1,7 @@
 """The solution loop (paper §4.3, Fig. 9, ``Solve``): advance, record, watch, and how a run ends.
 
-:meth:`reference.domain.Domain.solve` assembles the model (``initialization``)
-and the initial state (``initial_conditions``) and hands them to :func:`run`,
+:func:`solve` (what :meth:`reference.domain.Domain.solve` runs) checks the model as a whole, has the Domain
+assemble the model (``initialization``) and the initial state (``initial_conditions``) and hands them to :func:`run`,
 which advances the state one output interval at a time with the algorithm
 (``Algorithm.advance``, compiled), completes each record with the derived
 outputs (:class:`Outputs`: joint reactions and section resultants) and the
@@ -25,15 +25,13 @@ from reference.algorithms.base import Algorithm
 from reference.io.results import MemoryRecorder, Results
 from reference.jit import use_threads
 from reference.joints.setup import multiplier_joints
-from reference.monitor import BlowUpMonitor, nonfinite_load, rediagnosed
+from reference.errors import SolverDiverged
+from reference.joints.formulations import refusal as formulation_refusal
+from reference.monitor import BlowUpMonitor, damping_problem, nonfinite_load, rediagnosed
 from reference.outputs import Outputs, inverse_axial_stiffness
 from reference.state import Model, Record, State
 from reference.status import OK
-from reference.validation import ModelWarning, axial_strain
-
-
-class SolverDiverged(RuntimeError):
-    """The run failed or blew up; the results written so far are kept."""
+from reference.validation import ModelWarning, axial_strain, joint_offsets
 
 
 def _where(algo, t: float) -> str:
@@ -100,12 +98,68 @@ def _completed(domain, outputs: Outputs, unrecordable: str | None) -> str:
     return status
 
 
+def solve(domain, *, t_end: float | None = None, dt: float | None = None, results_path=None, progress=None,
+          monitor: bool = True, deck=None) -> Results:
+    """Run from t = 0 to ``t_end`` (paper: Solve, Fig. 9) and return the time histories.
+
+    Records stream to the results file and are not kept in memory; the returned
+    :class:`Results` reads them from the file when asked.  Without a file they are
+    kept in preallocated arrays.  Whatever stops the run, the file is closed with
+    a status saying how it ended (``"completed"``, ``"diverged after t = …"``,
+    ``"interrupted at t = …"`` on Ctrl-C, ``"terminated at t = …"`` on SystemExit —
+    the command line raises it on SIGTERM and SIGHUP — or ``"failed: <reason>"``),
+    and ``domain.last_run`` says where and how.  Before the first step, the checks that need the whole model:
+    the joints' offsets, the joint formulations the algorithm refuses, the damping of an explicit step (a
+    ValueError of one line).
+
+    Parameters
+    ----------
+    domain : reference.domain.Domain
+        The problem: its lists, its ``solver`` settings; its ``last_run`` says where and how the run ended.
+    t_end, dt : float, optional
+        Override the deck's end time and step.
+    results_path : path, optional
+        HDF5 results file (:mod:`reference.io.results`).
+    progress : callable(fraction, t), optional
+        Called after every output, and between two outputs after every compiled call of a time-stepping
+        algorithm (about every 0.1 s: :class:`reference.algorithms.base.CallBudget`).
+    monitor : bool
+        Stop a run that blows up while finite (:mod:`reference.monitor`): the algorithm
+        checks the energy balance every step (``Scratch.guard``), the solution loop
+        (:func:`run`) the energy balance and the deformation at every output.
+    deck : optional
+        The deck this Domain was read from (:class:`reference.io.deck.Deck`): the results
+        file records its ``path`` and ``text``.
+
+    Raises
+    ------
+    reference.errors.SolverDiverged
+        When the algorithm fails (non-finite state, singular constraints) or the
+        monitor sees a blow-up; records up to then are kept.
+    """
+    t_end = domain.solver.t_end if t_end is None else float(t_end)
+    algo = domain.algorithm(dt=dt)
+    n_total = algo.n_steps(t_end)
+    domain.last_run = {"path": None, "status": "not started", "t": 0.0}
+    joint_offsets(domain)
+    model = domain.initialization()
+    problem = formulation_refusal(domain.joints, domain.solver.algorithm)
+    if problem:
+        raise ValueError(problem)
+    critical = domain.critical_time_step()
+    problem = damping_problem(model.damping, algo.dt, critical) if algo.explicit else ""
+    if problem:
+        raise ValueError(f"solver damping: {problem}")
+    state = domain.initial_conditions()
+    return run(domain, algo, model, state, n_total, results_path, progress, monitor, deck, critical)
+
+
 def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, results_path=None, progress=None,
         monitor: bool = True, deck=None, critical: float | None = None) -> Results:
     """Advance ``state`` by ``n_total`` steps of ``algo``, recording every ``domain.solver.output_every`` steps.
 
     The parameters, the statuses and the errors are those of
-    :meth:`reference.domain.Domain.solve`; ``domain.last_run`` is updated with
+    :func:`solve`; ``domain.last_run`` is updated with
     the results path, the status, the last time, the energy scale and the work; ``critical`` is the
     domain's critical step estimate [s] when the caller has it (else computed here).
     """

@@ -586,7 +586,7 @@ def solve(domain, results: Path) -> None:
     import h5py
     import numpy as np
 
-    from reference.domain import SolverDiverged
+    from reference.errors import SolverDiverged
 
     settings = domain.solver
     t_end = None
@@ -622,7 +622,7 @@ def check(path: Path, overrides: dict, results: Path | None = None) -> str:
     or with ``results`` (a results file's path) runs as on the command line (:func:`solve`)."""
     import numpy as np
 
-    from reference.domain import SolverDiverged
+    from reference.errors import SolverDiverged
     from reference.io.deck import DeckError, load_deck
     from reference.validation import ModelWarning
 
@@ -666,7 +666,7 @@ def warm_up() -> None:
     a first compilation can take longer than :data:`TIME_LIMIT` and is not a hang of the case."""
     from reference.algorithms import ALGORITHMS
     from reference.io.deck import load_deck
-    from reference.solution import SolverDiverged
+    from reference.errors import SolverDiverged
 
     deck = ROOT / "models" / "three_bar.toml"
     for name in ALGORITHMS:

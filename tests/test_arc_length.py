@@ -14,8 +14,9 @@ import pytest
 from flexmbs.verification import analytic
 from flexmbs.verification.analytic import polygon_tip
 from reference.algorithms import ALGORITHMS, ArcLength, SolverSettings, Static
-from reference.domain import Domain, SolverDiverged
+from reference.domain import Domain
 from reference.elements import Section
+from reference.errors import SolverDiverged
 from reference.interactions import FixedCoordinates, NodalLoad, Ramp
 from reference.io.deck import DeckError
 from reference.io.deck import load_deck

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from reference.domain import SolverDiverged
+from reference.errors import SolverDiverged
 from reference.io.deck import load_deck
 from reference.io.results import load_results
 

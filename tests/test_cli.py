@@ -66,7 +66,8 @@ def test_run_errors_are_one_line_with_status_2(tmp_path, capsys, args, words):
 
 
 def test_divergence_is_one_line_naming_the_results_file(tmp_path, capsys, monkeypatch):
-    from reference.domain import Domain, SolverDiverged
+    from reference.domain import Domain
+    from reference.errors import SolverDiverged
 
     def blow_up(self, **kwargs):
         kwargs["progress"](0.5, 0.01)

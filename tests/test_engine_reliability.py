@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from flexmbs.cli import main
-from reference.domain import SolverDiverged
+from reference.errors import SolverDiverged
 from reference.io.deck import DeckError, load_deck
 from reference.validation import JOINT_OFFSET, ModelWarning, joint_offsets
 
@@ -247,6 +247,15 @@ def test_the_names_a_model_needs_come_from_reference():
     assert Gravity([0.0, 0.0, -9.81]).g[2] == -9.81
     for name in reference.__all__:
         assert getattr(reference, name).__doc__, name
+
+
+def test_domain_solve_runs_the_solution_loop_the_package_hands_it():
+    """The Domain does not import the loop (tests/test_layering.py); importing any part of the engine runs
+    ``reference/__init__.py``, which hands ``Domain.solve`` the loop :func:`reference.solution.solve`."""
+    import reference.solution
+    from reference import Domain, solve
+
+    assert Domain.solution_loop is reference.solution.solve is solve
 
 
 def test_the_ground_has_the_decks_name_in_the_api():

@@ -19,8 +19,9 @@ from flexmbs.verification.analytic import polygon_tip
 from reference.algorithms import ALGORITHMS, GeneralizedAlpha, Static
 from reference.algorithms.generalized_alpha import parameters
 from reference.algorithms.implicit import NewtonSystem, compose
-from reference.domain import Domain, SolverDiverged, SolverSettings
+from reference.domain import Domain, SolverSettings
 from reference.elements import Section
+from reference.errors import SolverDiverged
 from reference.forces import Bushing, PointToPoint, Rotational
 from reference.interactions import Clamp, Gravity, NodalLoad, Ramp
 from reference.io.deck import DeckError

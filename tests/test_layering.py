@@ -15,13 +15,17 @@ The rules, from the bottom up:
    function-local imports too (a module that imports another only when called still depends
    on it: the two could not be read, tested or moved apart).  ``from P import N`` is an edge
    to the module ``P.N`` if there is one, else to ``P``.  The exceptions are the edges of
-   :data:`CYCLE_EXCEPTIONS`, each with its reason.
+   :data:`CYCLE_EXCEPTIONS`, each with its reason (none left).
 4. **No back-arrow between the engine's folders**: with each sub-package of ``reference/``
    (``reference.algorithms``, ``reference.joints``, ``reference.io`` …) taken as one unit —
    but for the results contract of rule 2, a unit of its own — and each top-level module as
    one, the units' imports form no cycle either (e.g. a top-level module that an algorithm
    imports does not import an algorithm).
-5. **The application** keeps its order: ``crosscheck`` does not import ``flexmbs`` (the
+5. **The Domain** (``reference.domain``) imports neither the deck reader (``reference.io.deck`` and the
+   ``reference.io.deck_*`` modules) nor the solution loop (``reference.solution``), function-local imports
+   included: the deck reader builds a Domain and the loop takes one, so either can be read and changed apart
+   from the Domain (``Domain.solve`` runs the loop the package hands it, :attr:`reference.domain.Domain.solution_loop`).
+6. **The application** keeps its order: ``crosscheck`` does not import ``flexmbs`` (the
    command line uses the cross-check, not the reverse); ``derivations`` imports none of
    ``reference``, ``crosscheck``, ``flexmbs`` (its output is text).
 """
@@ -38,12 +42,7 @@ PACKAGES = ("reference", "crosscheck", "flexmbs", "derivations")
 FORBIDDEN_IN_ENGINE = ("flexmbs", "crosscheck", "derivations", "matplotlib", "vtk", "exudyn", "dask")
 CORE_TO_IO = {"reference.io.results"}
 """The io modules the engine core may import anywhere."""
-CYCLE_EXCEPTIONS = {
-    ("reference.algorithms.path_checks", "reference.algorithms.arc_length"):
-        "limit_point_trace runs the arc length from inside the static algorithm (ArcLength imported when called)",
-    ("reference.algorithms.path_checks", "reference.algorithms.static"):
-        "limit_point_trace reads the static step's joint forces (_row_forces, imported when called)",
-}
+CYCLE_EXCEPTIONS: dict[tuple[str, str], str] = {}
 """(importer, imported) edges left out of the cycle check, each with the reason it remains."""
 
 
@@ -185,6 +184,24 @@ def _folder(module: str) -> str:
 def test_no_back_arrow_between_the_engine_folders():
     found = cycle(_graph("reference", _folder))
     assert not found, "import cycle between folders: " + " → ".join(found)
+
+
+def _forbidden_to_the_domain(target: str) -> bool:
+    return _within(target, "reference.solution") or _within(target, "reference.io.deck") or target.startswith(
+        "reference.io.deck_")
+
+
+def test_the_rule_of_the_domain_names_the_deck_reader_and_the_loop():
+    assert _forbidden_to_the_domain("reference.io.deck") and _forbidden_to_the_domain("reference.io.deck_solution")
+    assert _forbidden_to_the_domain("reference.solution")
+    assert not _forbidden_to_the_domain("reference.io.results") and not _forbidden_to_the_domain("reference.errors")
+    assert {"reference.io.deck_connectors", "reference.io.deck_solution"} <= set(MODULES)  # the names still exist
+
+
+def test_the_domain_imports_neither_the_deck_reader_nor_the_solution_loop():
+    bad = [f"reference/domain.py:{line} imports {target}" for target, line, _ in imports("reference.domain")
+           if _forbidden_to_the_domain(target)]
+    assert not bad, "; ".join(bad)
 
 
 def test_every_cycle_exception_is_an_import_that_exists():

@@ -21,7 +21,7 @@ from reference.interactions import Gravity, NodalLoad, Ramp
 from reference.io.deck import DeckError, load_deck
 from reference.io.results import load_results
 from reference.modal import UNSTABLE_DAMPING
-from reference.solution import SolverDiverged
+from reference.errors import SolverDiverged
 from reference.validation import ModelWarning
 
 from conftest import cantilever

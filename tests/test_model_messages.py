@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 
 from flexmbs.cli import main
-from reference.domain import Domain, SolverDiverged
+from reference.domain import Domain
 from reference.elements import Section
+from reference.errors import SolverDiverged
 from reference.io.deck import load_deck
 from reference.monitor import likely_cause, rediagnosed
 from reference.rotation import EulerParameters

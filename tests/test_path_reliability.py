@@ -14,8 +14,9 @@ import pytest
 import reference.algorithms.path_checks as path_checks
 import reference.algorithms.static as static
 from reference.algorithms import SolverSettings
-from reference.domain import Domain, SolverDiverged
+from reference.domain import Domain
 from reference.elements import Section
+from reference.errors import SolverDiverged
 from reference.interactions import Clamp, NodalLoad, Ramp
 from reference.io.deck import DeckError, load_deck
 from reference.validation import ModelWarning

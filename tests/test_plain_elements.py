@@ -85,8 +85,8 @@ def engine(model, x, q):
     K = system.matrix(x, q, np.zeros((N, 3)), 0.0, np.zeros(m), 0.0, 0.0, 1.0, ce=0.0).tocsr()
     forces, moments = np.zeros((model.n_elements, 3)), np.zeros((model.n_elements, 3))
     derived_outputs(boundary(OutputArrays(model.joints, model.time_functions, model.elements)), x, q, np.zeros(m),
-                    0.0, np.arange(J), np.zeros((J, 3)), np.zeros((J, 3)), forces, moments, element_work(model),
-                    *scratch())
+                    0.0, np.arange(J), (np.zeros((J, 3)), np.zeros((J, 3)), forces, moments), element_work(model),
+                    scratch())
     return system.work.S.copy(), U, K[:system.n_free, :system.n_free].toarray(), forces, moments, system.free
 
 

@@ -17,7 +17,7 @@ import pytest
 from reference.monitor import energy_floor
 from reference.plain import backend, park
 from reference.plain.model import Evaluation
-from reference.solution import SolverDiverged
+from reference.errors import SolverDiverged
 from reference.state import GUARD, Record
 from reference.io.deck import load_deck
 

@@ -6,10 +6,11 @@ import h5py
 import numpy as np
 import pytest
 
-from reference.domain import SolverDiverged, SolverSettings
+from reference.domain import SolverSettings
 from reference.elements import Section
+from reference.errors import SolverDiverged
 from reference.interactions import NodalLoad
-from reference.io.results import load_results
+from reference.io.results import Results, load_results
 
 from conftest import cantilever
 
@@ -20,6 +21,16 @@ CONTRACT = {
     "nodes/angular_velocity": 3, "constraints/violation_norm": 1, "constraints/velocity_violation_norm": 1,
     "energy/kinetic": 1, "energy/strain": 1, "energy/external_work": 1,
 }
+
+
+def test_results_in_memory_take_the_histories_by_their_names():
+    """``Results(**arrays)``: each history under its attribute name (``Results.ARRAYS``, ``energy``); a name it
+    does not know is refused with the known ones, not kept as an attribute nobody reads."""
+    time, x = np.array([0.0, 1.0]), np.zeros((2, 1, 3))
+    r = Results(time=time, positions=x, labels=["a"], energy={"kinetic": np.ones(2)})
+    assert r.time is time and r.positions is x and r.energy["kinetic"][1] == 1.0 and r.labels == ["a"]
+    with pytest.raises(TypeError, match=r"unknown histories \['position'\]; known: .*positions"):
+        Results(time=time, position=x)
 
 
 def test_results_file_honours_the_contract(tmp_path):

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from reference.domain import SolverDiverged
+from reference.errors import SolverDiverged
 from reference.io.deck import load_deck
 
 from test_reliability import EXAMPLE

@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from reference.algorithms.implicit import compose
-from reference.algorithms.static import Static, _row_forces
+from reference.algorithms.path_checks import row_forces
+from reference.algorithms.static import Static
 from reference.domain import Domain
 from reference.elements import Section
 from reference.interactions import Clamp, NodalLoad, Ramp
@@ -44,7 +45,7 @@ def python_newton(algo, system, x, q, lam, t, L):
         wk = system.work
         scale = max(float(np.max(np.abs(wk.S), initial=0.0)), float(np.max(np.abs(wk.F), initial=0.0)), 1e-300)
         if lam.size:
-            scale = max(scale, float(np.max(np.abs(_row_forces(system, lam)))))
+            scale = max(scale, float(np.max(np.abs(row_forces(system, lam)))))
         phi = np.abs(wk.PHI - system.model.joints.eps * lam)
         balanced = float(np.max(np.abs(wk.r[system.free]), initial=0.0)) <= algo.tolerance * scale and \
             float(np.max(phi, initial=0.0)) <= algo.tolerance * L
@@ -124,7 +125,7 @@ def python_corrector(algo, run, x, q, lam, normal):
         wk = system.work
         scale = max(float(np.max(np.abs(wk.S), initial=0.0)), abs(lam) * float(np.max(np.abs(F), initial=0.0)), 1e-300)
         if run.mu.size:
-            scale = max(scale, float(np.max(np.abs(_row_forces(system, run.mu)))))
+            scale = max(scale, float(np.max(np.abs(row_forces(system, run.mu)))))
         phi = np.abs(wk.PHI - system.model.joints.eps * run.mu)
         balanced = float(np.max(np.abs(r[system.free]), initial=0.0)) <= algo.tolerance * scale and \
             float(np.max(phi, initial=0.0)) <= algo.tolerance * run.L

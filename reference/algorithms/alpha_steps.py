@@ -151,7 +151,11 @@ def _configuration(x, q, dq, h, x1, q1, tmp, psi):
 @inlined
 def _accept(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, arr, Bl, F, fe_out, h, am, af):
     """The converged step: the energy bookkeeping with its last evaluation (within the Newton
-    tolerance of the step's end) and the new state ``x, q, V, V̇, a, λ`` from the iterate in ``arr``."""
+    tolerance of the step's end) and the new state ``x, q, V, V̇, a, λ`` from the iterate in ``arr``.
+
+    Takes 18 parameters: the step's state, energy and evaluation arrays and α coefficients, locals of :func:`steps`,
+    which inlines it (a record of them would recompile the generalized-α kernels, numerics unchanged).
+    """
     dq, Vn, vdn, an, _, _, _, lamn, _, _, _, _, x1, q1, tmp, psi = arr
     N = x.shape[0]
     _configuration(x, q, dq, h, x1, q1, tmp, psi)
@@ -193,7 +197,11 @@ def _correction(r, S, F, PHI, row_eps, lamn, dof, ck, factors, rhs, lwork, sol, 
     Returns its size (translations over the model size L, rotations in rad; NaN if the residual is not
     finite) and the evaluation's imbalance: the largest free residual force over the step's force scale
     — the largest free inertial force ``M V̇``, internal force S, external force F or ``r − S + F`` (the
-    joints' and the inertia's forces together) — moments over L, or ``max |Φ − ελ| / L`` if larger."""
+    joints' and the inertia's forces together) — moments over L, or ``max |Φ − ελ| / L`` if larger.
+
+    Takes 17 parameters: the last evaluation's arrays, the kept factor and the solve's scratch, locals of
+    :func:`steps`, which inlines it every correction.
+    """
     m = lamn.shape[0]
     n_free = rhs.shape[0] - m
     res, scale = 0.0, 0.0
@@ -337,21 +345,37 @@ def _coefficients(par):
     return h, bp, gamma / (h * beta), 1.0 / bp
 
 
+@inlined
+def _corrected(dq, Vn, vdn, lamn, delta, sol, h, gp, bp):
+    """The iterate after a Newton correction ``delta`` (N, 6) and ``sol``'s multiplier rows: ``dq += δ/h``,
+    ``V += γ' δ``, ``V̇ += β' δ``, ``λ += β' Δλ`` (``gp``, ``bp`` :func:`_coefficients`)."""
+    N, m = dq.shape[0], lamn.shape[0]
+    n_free = sol.shape[0] - m
+    for i in range(N):
+        for k in range(6):
+            dq[i, k] += delta[i, k] / h
+            Vn[i, k] += gp * delta[i, k]
+            vdn[i, k] += bp * delta[i, k]
+    for k in range(m):
+        lamn[k] += bp * sol[n_free + k]
+
+
 @kernel
 def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_steps, factors, wt, arr, rec, held):
-    """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton), or in a controlled
-    mode (``par["control"]``) up to ``n_steps`` tries of a step (accepted or rejected) towards ``par["target"]``, each
-    chosen by the step control; ``(status, steps)``, the steps those tried before the return (in a controlled mode
-    the clock is at ``par["target"]`` when it is reached; the caller bounds ``n_steps`` so that a call returns to
-    Python within a fraction of a second, :class:`reference.algorithms.base.CallBudget`).
+    """Up to ``n_steps`` generalized-α steps with the kept factor (compiled modified Newton), or in a controlled mode
+    (``par["control"]``) up to ``n_steps`` tries of a step (accepted or rejected) towards ``par["target"]``, each
+    chosen by the step control; ``(status, steps)``, the steps tried before the return (in a controlled mode the clock
+    is at ``par["target"]`` when it is reached; the caller bounds ``n_steps`` so that a call returns to Python within
+    a fraction of a second, :class:`reference.algorithms.base.CallBudget`).
 
     ``REFACTOR`` (a correction shrank by less than ``contraction``, or no factor for the step yet) leaves the
     unfinished step's iterate in ``arr`` (x1, q1, V, λ, h Δq): the caller factors the Newton matrix there at
     ``par["h"]`` and calls again, and the step resumes from it.  ``NO_CONVERGENCE`` after ``max_iterations``
-    corrections.  Converged: :func:`_correction`'s imbalance (× θ/(1 − θ) once the contraction θ is known) below
-    the Newton tolerance, or a correction at :func:`_roundoff`.  ``clock`` (1,) the state's
-    :data:`reference.state.CLOCK` and ``par`` (1,) the :data:`PAR` array, worked on in their records; ``held``:
-    :func:`_choose`."""
+    corrections.  Converged: :func:`_correction`'s imbalance (× θ/(1 − θ) once θ is known) below the Newton tolerance,
+    or a correction at :func:`_roundoff`.  ``clock``, ``par``: the (1,) records :data:`reference.state.CLOCK`,
+    :data:`PAR`; ``held``: :func:`_choose`.
+
+    Takes 19 parameters: the State's arrays one by one, as its Python driver holds them (a record: a recompile)."""
     model, rec = named(model, Model), named(rec, Record)
     clock, par = clock[0], par[0]
     dq, Vn, vdn, an, delta, _, _, lamn, mu, rhs, sol, lwork, x1, q1, tmp, psi = arr
@@ -360,8 +384,6 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
     tol, L, contraction = par["tolerance"], par["L"], par["contraction"]
     max_it = int(par["max_iterations"])
     h, bp, gp, ck = _coefficients(par)
-    N, m = x.shape[0], lam.shape[0]
-    n_free = rhs.shape[0] - m
     row_eps, angle, control, floor = model.joints.compliance, fe[1], par["control"] != FIXED, _roundoff(x, L)
     if par["record"] == 1.0:
         par["record"] = 0.0
@@ -395,13 +417,7 @@ def steps(model, x, q, v, w, vd, a, lam, clock, f_prev, energy, dof, par, n_step
                 return REFACTOR, step  # a new factor at this iterate (full Newton when it keeps happening)
             previous = size
             par["corrections"] += 1.0
-            for i in range(N):
-                for k in range(6):
-                    dq[i, k] += delta[i, k] / h
-                    Vn[i, k] += gp * delta[i, k]
-                    vdn[i, k] += bp * delta[i, k]
-            for k in range(m):
-                lamn[k] += bp * sol[n_free + k]
+            _corrected(dq, Vn, vdn, lamn, delta, sol, h, gp, bp)
             par["iterations"] += 1.0
             if done:  # a slow contraction refactors only a step that has not converged
                 converged = True

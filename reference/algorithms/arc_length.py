@@ -39,7 +39,7 @@ eigenvalues of the tangent reduced to the constraints' null space
 (:func:`reference.modal.negative_eigenvalues`).  Where it changes between two points, the eigenvalue
 nearest zero (mass metric, :func:`reference.modal.nearest_zero`) is interpolated to its zero; the
 event is a *bifurcation* when the critical mode is orthogonal to the load (``|φᵀF| ≤``
-:data:`reference.algorithms.static.BIFURCATION` ``‖φ‖_M ‖F‖_M⁻¹``), else a *limit point*.  Its load
+:data:`reference.algorithms.critical_points.BIFURCATION` ``‖φ‖_M ‖F‖_M⁻¹``), else a *limit point*.  Its load
 factor: :data:`reference.algorithms.critical_points.REFINE` secant steps on that eigenvalue along the path from the point before (probe points
 solved on its predictor's normal plane, not recorded); should a probe fail, the linear interpolation of
 the eigenvalue (bifurcation) or the extremum of the cubic Hermite interpolant of λ(s) from the values and
@@ -59,8 +59,7 @@ from reference.algorithms.critical_points import CriticalPoints
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, compose, relative_rotation
 from reference.algorithms.newton_steps import NewtonArrays
 from reference.algorithms.path_checks import (START_FIX, STILL, STOP_OPERATORS, load_factor_jump, path_end,
-                                              start_problem, unmoved)
-from reference.algorithms.static import _row_forces
+                                              row_forces, start_problem, unmoved)
 from reference.interactions import tf_value
 from reference.linalg import SingularMatrix
 from reference.observables import ObservableError, _Names, parse
@@ -333,7 +332,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
                 return SINGULAR
             run.started, clock["t"] = True, 0.0
             run.F = system.work.F.copy()
-            run.P = _row_forces(system, run.mu)
+            run.P = row_forces(system, run.mu)
             self._stability(run, x, q)
         if record is not None:
             U = float(system.evaluate(x, q, x, x, x, run.mu, self.t_end, False))
@@ -430,7 +429,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         F1 = lam * system.work.F
         work = 0.5 * float(np.sum((run.lam * run.F + F1) * d))
         run.F = system.work.F.copy()
-        P1 = _row_forces(system, run.mu)
+        P1 = row_forces(system, run.mu)
         return work - 0.5 * float(np.sum((run.P + P1) * d)), P1
 
     def recorded(self, run) -> dict:

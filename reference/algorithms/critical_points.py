@@ -4,7 +4,8 @@ bifurcations, their load factors, the critical mode for a branch switch (docs/fo
 :class:`CriticalPoints` is the arc-length algorithm's part that concerns stability
 (:class:`reference.algorithms.arc_length.ArcLength`); it uses the host's ``_evaluate`` (the residual and
 loads at λ), ``_matrix`` (the Newton matrix at λ), ``_tangent`` (``K δ_F = F``), ``_scaled`` (the path's
-norm) and ``_correct`` (the corrector on a normal plane).
+norm) and ``_correct`` (the corrector on a normal plane).  Its criterion of a bifurcation (:data:`BIFURCATION`)
+and its count's words (:func:`eigenvalue_count`) serve the static algorithm's stability checks too.
 """
 
 from __future__ import annotations
@@ -17,14 +18,22 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from reference.algorithms.implicit import compose
-from reference.algorithms.static import BIFURCATION, _eigenvalues
 from reference.linalg import SingularMatrix, null_space
 from reference.modal import SMALL, nearest_zero, negative_eigenvalues
 from reference.status import OK
 from reference.validation import ModelWarning
 
+BIFURCATION = 1e-3
+"""A change of stability is a bifurcation when the load increment's component along the critical mode is
+below this fraction of its size (mass metric): exactly zero on a perfect symmetric structure (the
+lateral–torsional mode of an in-plane loaded beam: 1e-12), of the order of the imperfection otherwise."""
 REFINE = 3
 """Secant steps that locate a critical point between two points of the path (:meth:`CriticalPoints._locate`)."""
+
+
+def eigenvalue_count(count: int) -> str:
+    """``"1 negative eigenvalue"``, ``"3 negative eigenvalues"``: the stability count in a warning line."""
+    return f"{count} negative eigenvalue{'s' if count != 1 else ''}"
 
 
 class CriticalPoints:
@@ -62,7 +71,7 @@ class CriticalPoints:
         old, run.negative, run.sign = run.negative, count, sign
         if before is None:
             if count > 0:
-                warnings.warn(f"the equilibrium at load factor {run.lam:.6g} is unstable: {_eigenvalues(count)} of "
+                warnings.warn(f"the equilibrium at load factor {run.lam:.6g} is unstable: {eigenvalue_count(count)} of "
                               "the tangent", ModelWarning, stacklevel=3)
             return
         if count == old or count < 0 or old < 0 or run.jumped:  # a branch switch is no event of the path
@@ -103,7 +112,7 @@ class CriticalPoints:
         run.events.append((lam0, lam1, lam_cr, kind, count))
         change = "stability lost" if count > old else "stability regained" if count == 0 else "stability changed"
         warnings.warn(f"{change} between load factor {lam0:.6g} and {lam1:.6g} (arc length {s0:.6g} to {s1:.6g}): "
-                      f"{kind}, {_eigenvalues(count)} (critical load factor {lam_cr:.8g})", ModelWarning, stacklevel=3)
+                      f"{kind}, {eigenvalue_count(count)} (critical load factor {lam_cr:.8g})", ModelWarning, stacklevel=3)
 
     def _locate(self, run, before, span, mu0, mu1, M, Z):
         """The load factor where the eigenvalue nearest zero vanishes between the point ``before`` and the

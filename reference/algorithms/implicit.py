@@ -102,7 +102,11 @@ class Work:
 @inlined
 def _residual_rows(lo, hi, S, F, r, mass, J, c, v, w, vd, dynamic):
     """Rows ``lo … hi − 1`` of the residual without the constraint forces: ``S − F`` and, if ``dynamic``,
-    the inertia ``m (v̇ + c v)``, ``J ω̇ + ω × J ω + c J ω``."""
+    the inertia ``m (v̇ + c v)``, ``J ω̇ + ω × J ω + c J ω``.
+
+    Takes 12 parameters: a row range, called by the serial and the parallel loop with the node arrays bound once
+    (not the Model: each array of an argument costs updates per call, :mod:`reference.jit`).
+    """
     for i in range(lo, hi):
         for k in range(6):
             r[i, k] = S[i, k] - F[i, k]
@@ -425,14 +429,21 @@ def relative_rotation(q0, q1, out, tmp):
 @kernel
 def write_record(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
     """Record: configuration, velocities, energies [T, U, W, D] (W and D from ``clock``, the state's
-    :data:`reference.state.CLOCK` (1,)), ``‖Φ‖``, ``‖B V + Φ_t‖``, λ."""
+    :data:`reference.state.CLOCK` (1,)), ``‖Φ‖``, ``‖B V + Φ_t‖``, λ.
+
+    Takes 12 parameters: the compiled entry from Python, given the State's and the last evaluation's arrays one by
+    one (a record would recompile every implicit kernel).
+    """
     write_record_named(named(model, Model), x, q, v, w, U, clock[0], lam, PHI, PHIt, Bl, named(rec, Record))
 
 
 @inlined
 def write_record_named(model, x, q, v, w, U, clock, lam, PHI, PHIt, Bl, rec):
     """:func:`write_record` of a Model and Record that are named tuples already and of the clock's record (the
-    form a kernel inlines)."""
+    form a kernel inlines).
+
+    Takes 12 parameters: those of :func:`write_record`, whose inlined form it is.
+    """
     T = 0.0
     J, mass = model.nodes.inertia, model.nodes.mass
     rx, rq, rv, rw = rec.x, rec.q, rec.v, rec.w

@@ -245,7 +245,7 @@ def at_steady_rotation(model: Model, state: State, spin_rate: float, spin_axis, 
         trial = min(1.0, level + step)
         rate = float(spin_rate) * np.sqrt(trial)
         try:
-            solved, singular = _relative_equilibrium(model, system, x, q, lam, rate * e, p, state.t, tolerance,
+            solved, singular = _relative_equilibrium(model, system, (x, q, lam), rate * e, p, state.t, tolerance,
                                                      max_iterations, span), False
         except SingularMatrix:
             solved, singular = None, True
@@ -326,12 +326,12 @@ def _force_scale(model, work, vd, w) -> float:
     return max(max(float(np.max(np.abs(a), initial=0.0)) for a in parts), 1e-300)
 
 
-def _relative_equilibrium(model, system, x, q, lam, Omega, p, t, tolerance, max_iterations, span):
-    """Newton on the residual of the spinning state from ``(x, q, λ)``: its tangent is the co-rotating K
-    (:func:`at_steady_rotation`).  The converged ``(x, q, λ)``, or None; raises
+def _relative_equilibrium(model, system, start, Omega, p, t, tolerance, max_iterations, span):
+    """Newton on the residual of the spinning state from ``start`` ``(x, q, λ)`` (left as it is): its tangent is
+    the co-rotating K (:func:`at_steady_rotation`).  The converged ``(x, q, λ)``, or None; raises
     :class:`reference.linalg.SingularMatrix` when the tangent is exactly singular (SciPy's
     ``MatrixRankWarning``, whose answer would be NaN)."""
-    x, q, lam = x.copy(), q.copy(), lam.copy()
+    x, q, lam = (a.copy() for a in start)
     free, n, eps = system.free, system.n_free, model.joints.eps
     for _ in range(max_iterations):
         lin = _spinning(model, system, x, q, lam, Omega, p, t)

@@ -133,6 +133,8 @@ def newton_loop(model, x, q, lam, t, dof, factors, csc, wt, tangent_work, arr, p
     non-finite correction or ΔΛ), NO_CONVERGENCE (``max_iterations`` corrections) or REFACTOR (the kept
     pivot order failed, or there is no factor yet: the matrix at the iterate is assembled in ``data``;
     factor it with SuperLU and call again with ``par["resume"] = 1``).
+
+    Takes 17 parameters: the iterate's arrays and the factor's and tangent's scratch (:class:`NewtonArrays`).
     """
     mdl = named(model, Model)
     Ap, Ai, Ax, work, slot, keep, values = csc[0], csc[1], csc[2], csc[5], csc[8], csc[9], csc[10]
@@ -250,7 +252,11 @@ def _update(x, q, lam, delta, sol, dth, q_new, tmp):
 def _balanced(S, big_F, r, PHI, Bl, lam, eps, dof, jt_i, jt_j, jt_row0, jt_neq, rows, tol, L):
     """Equilibrium: every free residual force below ``tol`` times the largest internal force, the external
     forces' scale ``big_F`` (``|Λ| max |F|``) or the largest joint force ``Bᵀλ`` (into ``rows``), and
-    ``|Φ − ελ|`` below ``tol × L``."""
+    ``|Φ − ελ|`` below ``tol × L``.
+
+    Takes 15 parameters: the residual's arrays, the joint table's columns :func:`newton_loop` binds once (not the
+    Model, :mod:`reference.jit`) and the tolerance.
+    """
     scale = 0.0
     for i in range(S.shape[0]):
         for k in range(6):
@@ -348,7 +354,11 @@ def _largest(F):
 @kernel
 def _bordered(factors, F, dof, weights, normal, rhs, work, sol, solF, delta, dF, sc, scF):
     """The load-factor correction on the normal plane: ``K δ_F = F``, ``Δλ = −nᵀδ_R / (nᵀδ_F + n_λ)`` (scaled
-    norm), and ``δ ← δ_R + Δλ δ_F``, ``μ ← μ_R + Δλ μ_F`` in ``delta`` and ``sol``; returns Δλ (NaN: singular)."""
+    norm), and ``δ ← δ_R + Δλ δ_F``, ``μ ← μ_R + Δλ μ_F`` in ``delta`` and ``sol``; returns Δλ (NaN: singular).
+
+    Takes 13 parameters: the factor, the load, the plane (``normal``, ``weights``) and the solve's scratch arrays
+    :func:`newton_loop` allocates once.
+    """
     m = rhs.shape[0] - sc.shape[0]
     n_free = sc.shape[0]
     for i in range(F.shape[0]):

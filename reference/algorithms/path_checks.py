@@ -10,19 +10,19 @@ Newton converges to *an* equilibrium, not necessarily to the next one along the 
   (static, :func:`why_refused`) or the load factor under displacement control (arc length,
   :func:`load_factor_jump`) falling by more than :data:`JUMP` of its largest magnitude along the path;
 * a limit point passed inside one load step under load control, traced again by arc length
-  (:func:`limit_point_trace`);
+  (:func:`reference.algorithms.limit_point.limit_point_trace`, with :data:`RATIO` and :data:`TRACE_POINTS` from here);
 * an arc-length path with nothing to scale or a controlled coordinate the load does not move
   (:func:`start_problem`, :data:`START_FIX`, :func:`unmoved`), and why a path that went well ended (:func:`path_end`).
 
-They are their own module because both algorithms use them and the trace runs the arc length from inside the
-static algorithm: imported by both, this module imports neither at load time.
+They are their own module because both algorithms use them: imported by both, this module imports neither
+(nor does it import :mod:`reference.algorithms.limit_point`, which runs the arc length from inside the static
+algorithm).  :func:`row_forces`, the joints' forces Bᵀλ per node, is here for the same reason.
 """
 
 from __future__ import annotations
 
 import math
 import operator
-import warnings
 
 import numpy as np
 
@@ -31,8 +31,6 @@ from reference.connector import body_fixed_parts
 from reference.generated.joints import joint_primitives
 from reference.interactions import tf_integral, tf_value
 from reference.status import NO_CONVERGENCE, OK
-from reference.state import new_clock
-from reference.validation import ModelWarning
 
 JUMP = 0.5
 """A load step is refused and cut when the magnitude of the reaction of a displacement drive or prescribed
@@ -44,7 +42,7 @@ quarter at most)."""
 RATIO = 4.0
 """Under load control, a step whose displacement per unit load (scaled norm: translations over the model size,
 rotations in rad) exceeds this multiple of the previous step's is traced again by arc length from the previous
-equilibrium (:func:`limit_point_trace`) to see whether it passed a limit point."""
+equilibrium (:func:`reference.algorithms.limit_point.limit_point_trace`) to see whether it passed a limit point."""
 TRACE_POINTS = 40
 """Arc-length points of that trace before it gives up (an eighth of the step's chord each, adaptive)."""
 STILL = 1e-8
@@ -102,60 +100,20 @@ def why_refused(run, labels, x, q, lam, t0, t1) -> str:
     return ""
 
 
-def limit_point_trace(static, model, state, run, saved, F0, now, t0, t1) -> None:
-    """The load interval ``[t0, t1]`` of a static step whose displacement per unit load jumped (:data:`RATIO`),
-    traced again by arc length from the equilibrium before it (``saved``: x, q, λ, the force elements'
-    angles; ``F0`` its loads; ``now`` the step's x, q, λ; ``static`` the algorithm, for its Newton settings):
-    when the load factor along that path reaches a maximum below ``t1`` and falls, the step passed a limit
-    point onto another branch — one warning line with the limit load, and an event of ``/stability`` (kind
-    ``"limit point"``).  Only for proportional loads (``F(t0) = c F(t1)``, 0 ≤ c < 1) and drives that do not
-    move over the step; the run's state is left as it is."""
-    from reference.algorithms.arc_length import ArcLength
-    from reference.algorithms.static import _row_forces
-
-    system = run.system
-    F1 = system.work.F[system.free]
-    F_0 = F0[system.free]
-    top = float(F1 @ F1)
-    c = float(F_0 @ F1) / top if top > 0.0 else -1.0
-    if not (0.0 <= c < 1.0) or np.max(np.abs(F_0 - c * F1), initial=0.0) > 1e-12 * math.sqrt(top):
-        return
-    for k, _ in drives(model):
-        tf = int(model.joints.tf[k])
-        if drive_value(model, k, tf, t0) != drive_value(model, k, tf, t1):
-            return
-    x1, q1, _ = now
-    x0, q0, lam0, angle0 = saved
-    chord = math.sqrt(moved(system, x0, q0, x1, q1, run.L) ** 2 + (1.0 - c) ** 2)
-    arc = ArcLength(chord / 8.0, TRACE_POINTS, math.inf, t1, static.tolerance, static.max_iterations)
-    trace = arc.start(model, state)
-    trace.L = run.L
-    x, q = x0.copy(), q0.copy()
-    trace.mu[:] = lam0
-    trace.system.work.angle[:] = angle0
-    if arc._correct(trace, x, q, c, None)[0] != OK:
-        return
-    trace.lam, trace.F, trace.P = c, trace.system.work.F.copy(), _row_forces(trace.system, trace.mu)
-    path = [(0.0, c)]
-    clock = new_clock()[0]
-    for _ in range(TRACE_POINTS):
-        if arc._point(trace, x, q, clock) != OK:
-            return
-        path.append((trace.s, trace.lam))
-        if trace.lam >= 1.0:
-            return
-        if trace.lam < path[-2][1]:
-            break
-    else:
-        return
-    (s0, l0), (s1, l1), (s2, l2) = path[-3:] if len(path) >= 3 else [path[0]] + path[-2:]
-    peak = vertex(s0, l0, s1, l1, s2, l2)
-    t_lim = t0 + (peak - c) / (1.0 - c) * (t1 - t0)
-    run.events.append((t0, t1, t_lim, "limit point", run.negative))
-    warnings.warn(f"the load step from load factor {t0:.6g} to {t1:.6g} passed a limit point at load factor "
-                  f"{t_lim:.6g} (traced by arc length) and jumped to another branch of the path: use algorithm = "
-                  "\"arc_length\" to follow it, or push the structure ([[prescribed_displacements]])",
-                  ModelWarning, stacklevel=3)
+def row_forces(system, lam) -> np.ndarray:
+    """The joints' forces Bᵀλ per node (N, 6) from the last evaluation of ``system``
+    (:class:`reference.algorithms.implicit.NewtonSystem`): the reactions the static step's and the arc length's
+    work increments and jump checks read."""
+    model = system.model
+    out = np.zeros((model.nodes.mass.shape[0], 6))
+    Bl = system.work.Bl
+    for k in range(model.joints.i.shape[0]):
+        r0, neq = int(model.joints.row0[k]), int(model.joints.neq[k])
+        i, j = int(model.joints.i[k]), int(model.joints.j[k])
+        out[i] += Bl[r0:r0 + neq, :6].T @ lam[r0:r0 + neq]
+        if j >= 0:
+            out[j] += Bl[r0:r0 + neq, 6:].T @ lam[r0:r0 + neq]
+    return out
 
 
 def start_problem(system, x, q, t_end: float, labels) -> tuple:

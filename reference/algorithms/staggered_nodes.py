@@ -41,7 +41,11 @@ def kick_range(lo, hi, ids, by_id, c, J, Jinv, free, mass, constrained, v, w, S,
     and the body-frame angular velocity with the midpoint gyroscopic term ``ω̄ × J ω̄`` by at most
     ``sweeps`` fixed-point sweeps (``extra`` more at a node of no joint), from ``w`` or, if
     ``from_guess``, from ``w_new``.  The loop over the nodes is here, not a call per node: an inlined
-    call inside a loop costs numba's reference-count updates of its array arguments per iteration."""
+    call inside a loop costs numba's reference-count updates of its array arguments per iteration.
+
+    Takes 20 parameters: the node arrays the serial and the parallel kick bind once (a group's field read in the
+    loop costs updates per node, :mod:`reference.jit`), the velocities and the sweeps.
+    """
     for p in range(lo, hi):
         i = ids[p] if by_id else p
         n_sweeps = sweeps if constrained[i] else sweeps + extra
@@ -90,6 +94,11 @@ def kick_range(lo, hi, ids, by_id, c, J, Jinv, free, mass, constrained, v, w, S,
 
 @parallel_kernel
 def _kick_parallel(c, J, Jinv, free, mass, constrained, v, w, S, F, hk, v_new, w_new, sweeps, extra):
+    """The kick of :func:`kick_nodes` chunk by chunk in a parallel loop (:func:`kick_range` per chunk).
+
+    Takes 15 parameters: those of :func:`kick_range` but the node range, which its parallel loop chooses per
+    chunk.
+    """
     N = v.shape[0]
     for k in prange(n_chunks(N)):
         kick_range(k * CHUNK, min(N, (k + 1) * CHUNK), constrained, False, c, J, Jinv, free, mass, constrained, v, w,
@@ -101,7 +110,11 @@ def kick_nodes(nodes, c, v, w, S, F, hk, v_new, w_new, sweeps, extra_free_sweeps
     """The kick of every node (:func:`kick_range`, ``sweeps`` sweeps, ``extra_free_sweeps`` more at a node of
     no joint); a parallel loop from :data:`~reference.parallel.PARALLEL_NODES` nodes on.  ``nodes`` the Model's
     group, ``c`` its mass-proportional damping [1/s] (not the Model: every array of an inlined function's
-    argument costs two atomic reference-count updates a call)."""
+    argument costs two atomic reference-count updates a call).
+
+    Takes 11 parameters: the Model's node group, its damping, the velocities before and after, the forces, the half
+    step and the sweeps, the kick's inputs and outputs.
+    """
     # the arrays bound once: a field read inside the loop costs two atomic reference-count updates per
     # iteration (numba), and a row view (J[i]) as many
     J, Jinv, free, mass, constrained = nodes.inertia, nodes.inertia_inv, nodes.free, nodes.mass, nodes.constrained
@@ -115,7 +128,11 @@ def kick_nodes(nodes, c, v, w, S, F, hk, v_new, w_new, sweeps, extra_free_sweeps
 @inlined
 def _chunk_sums(k, mass, J, free, v, w, v_new, w_new, F, f_prev, damped, guarded, mean, part):
     """Row k of ``part`` (:data:`SUMS`): the sums of :func:`node_sums` over the nodes of chunk k, in node
-    order (each sum's terms in the order of the serial loops it replaces)."""
+    order (each sum's terms in the order of the serial loops it replaces).
+
+    Takes 14 parameters: those of :func:`node_sums` with the node group's arrays bound once, and the chunk k the
+    parallel loop chooses.
+    """
     c = 0.5 if mean else 1.0
     d = 0.5 if mean else 0.0
     dW, dD, T, P_old, P_new, total = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
@@ -148,6 +165,10 @@ def _chunk_sums(k, mass, J, free, v, w, v_new, w_new, F, f_prev, damped, guarded
 
 @parallel_kernel
 def _sums_parallel(mass, J, free, v, w, v_new, w_new, F, f_prev, damped, guarded, mean, part):
+    """The rows of ``part`` (:func:`node_sums`) chunk by chunk in a parallel loop (:func:`_chunk_sums` per chunk).
+
+    Takes 13 parameters: those of :func:`_chunk_sums` but the chunk, which its parallel loop chooses.
+    """
     for k in prange(part.shape[0]):
         _chunk_sums(k, mass, J, free, v, w, v_new, w_new, F, f_prev, damped, guarded, mean, part)
 
@@ -165,6 +186,9 @@ def node_sums(nodes, v, w, v_new, w_new, F, f_prev, damped, guarded, mean, part,
     5. ``Σ (v^{n+½} + ω^{n+½})`` over every component: not finite if a velocity is not (or overflows).
 
     ``nodes`` the Model's group.
+
+    Takes 12 parameters: the node group, the velocities before and after the kick, the forces of two steps, three
+    flags and two outputs: the energy balance's inputs.
     """
     mass, J, free = nodes.mass, nodes.inertia, nodes.free
     if v.shape[0] >= PARALLEL_NODES:

@@ -27,7 +27,7 @@ displacement drive or prescribed displacement whose magnitude falls by more than
 :data:`reference.algorithms.path_checks.JUMP` of its largest along the path (a jump across a snap-back:
 :func:`reference.algorithms.path_checks.why_refused`).  Under load control a step whose displacement per
 unit load exceeds :data:`reference.algorithms.path_checks.RATIO` times the previous step's is traced again
-by arc length (:func:`reference.algorithms.path_checks.limit_point_trace`): a limit point passed without a
+by arc length (:func:`reference.algorithms.limit_point.limit_point_trace`): a limit point passed without a
 change of the stability count (both sides stable) becomes a warning line and a ``/stability`` event.
 
 Records: velocities and kinetic energy 0; strain energy; external work by the
@@ -41,8 +41,8 @@ negative eigenvalues of the tangent reduced to the constraints' null space (its 
 is recorded (``/stability/negative_eigenvalues``).  When it changes between two load levels, the
 eigenvalue nearest zero at both (:func:`reference.modal.nearest_zero`, in the mass metric) is
 interpolated linearly to its zero, the critical load factor; the event is a *bifurcation* when the
-load increment is orthogonal to the critical mode (``|φᵀ ΔF| ≤`` :data:`BIFURCATION` ``‖φ‖_M ‖ΔF‖_M⁻¹``),
-else a *limit point*, and is announced as one :class:`reference.validation.ModelWarning` line and
+load increment is orthogonal to the critical mode (``|φᵀ ΔF| ≤``
+:data:`reference.algorithms.critical_points.BIFURCATION` ``‖φ‖_M ‖ΔF‖_M⁻¹``), else a *limit point*, and is announced as one :class:`reference.validation.ModelWarning` line and
 written to ``/stability/critical_load_factor`` and ``/stability/critical_kind`` at the end.
 """
 
@@ -55,9 +55,11 @@ import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
+from reference.algorithms.critical_points import BIFURCATION, eigenvalue_count
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem, relative_rotation
 from reference.algorithms.newton_steps import NewtonArrays
-from reference.algorithms.path_checks import PUSHED_FIX, RATIO, limit_point_trace, moved, why_refused
+from reference.algorithms.limit_point import limit_point_trace
+from reference.algorithms.path_checks import PUSHED_FIX, RATIO, moved, row_forces, why_refused
 from reference.algorithms.step_control import SolverStatistics
 from reference.linalg import null_space
 from reference.modal import SMALL, nearest_zero, negative_eigenvalues
@@ -66,10 +68,6 @@ from reference.validation import ModelWarning
 
 MAX_CUTS = 8
 """Halvings of a load step before the run stops (smallest step 1/256 of the nominal)."""
-BIFURCATION = 1e-3
-"""A change of stability is a bifurcation when the load increment's component along the critical mode is
-below this fraction of its size (mass metric): exactly zero on a perfect symmetric structure (the
-lateral–torsional mode of an in-plane loaded beam: 1e-12), of the order of the imperfection otherwise."""
 
 
 @dataclass
@@ -188,7 +186,7 @@ class Static(ImplicitAlgorithm):
             if run.refused:
                 run.stopped_at = clock["t"]
                 return NO_CONVERGENCE
-            run.P = _row_forces(system, lam)
+            run.P = row_forces(system, lam)
             f_prev[:] = system.work.F
             run.started = True
             self._stability(run, x, q, lam, clock["t"])
@@ -292,7 +290,7 @@ class Static(ImplicitAlgorithm):
         (old, run.negative), run.sign = (run.negative, count), sign
         if before is None:
             if count > 0:
-                warnings.warn(f"the equilibrium at load factor {t:.6g} is unstable: {_eigenvalues(count)} of the "
+                warnings.warn(f"the equilibrium at load factor {t:.6g} is unstable: {eigenvalue_count(count)} of the "
                               "tangent", ModelWarning, stacklevel=2)
             return
         if count == old or count < 0 or old < 0:
@@ -310,13 +308,9 @@ class Static(ImplicitAlgorithm):
         kind = "bifurcation" if along <= BIFURCATION * size else "limit point"
         run.events.append((t0, t, t_cr, kind, count))
         change = "stability lost" if count > old else "stability regained" if count == 0 else "stability changed"
-        warnings.warn(f"{change} between load factor {t0:.6g} and {t:.6g}: {kind}, {_eigenvalues(count)} "
+        warnings.warn(f"{change} between load factor {t0:.6g} and {t:.6g}: {kind}, {eigenvalue_count(count)} "
                       f"(critical load factor {t_cr:.6g}, interpolated from the lowest eigenvalue)",
                       ModelWarning, stacklevel=2)
-
-
-def _eigenvalues(count: int) -> str:
-    return f"{count} negative eigenvalue{'s' if count != 1 else ''}"
 
 
 def reduced_tangent(system, x, q, lam, t, Z=None, known=None, evaluate=True, assembled=False):
@@ -349,19 +343,5 @@ def _work_increment(system, x0, q0, F0, P0, x, q, lam):
     d = np.concatenate([x - x0, dth], axis=1)
     F1 = system.work.F
     work = 0.5 * float(np.sum((F0 + F1) * d))
-    P1 = _row_forces(system, lam)
+    P1 = row_forces(system, lam)
     return work - 0.5 * float(np.sum((P0 + P1) * d)), P1
-
-
-def _row_forces(system, lam):
-    """Bᵀλ per node (N,6) from the last evaluation."""
-    model = system.model
-    out = np.zeros((model.nodes.mass.shape[0], 6))
-    Bl = system.work.Bl
-    for k in range(model.joints.i.shape[0]):
-        r0, neq = int(model.joints.row0[k]), int(model.joints.neq[k])
-        i, j = int(model.joints.i[k]), int(model.joints.j[k])
-        out[i] += Bl[r0:r0 + neq, :6].T @ lam[r0:r0 + neq]
-        if j >= 0:
-            out[j] += Bl[r0:r0 + neq, 6:].T @ lam[r0:r0 + neq]
-    return out

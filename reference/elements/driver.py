@@ -193,7 +193,11 @@ def assemble(data, W, x, q, S):
 def _tangent_range(data, W, x, q, psi, ck, values, p0, Jr, K, X, lo, hi):
     """``ck`` times the tangent blocks of the elements ``lo … hi − 1`` in the node frames, element e's into
     ``values`` from ``p0 + (6n)² e`` on, its rotation columns times each node's ``J_r(ψ)``
-    (:func:`reference.newton_blocks.store_block`); ``Jr`` (9,), ``K`` (at least (6n)²), ``X`` (n, 3) scratch."""
+    (:func:`reference.newton_blocks.store_block`); ``Jr`` (9,), ``K`` (at least (6n)²), ``X`` (n, 3) scratch.
+
+    Takes 13 parameters: an element range of the generic driver, inlined into its serial and its parallel loop with
+    the family's data and each thread's scratch.
+    """
     row = _layout(data)
     size = 6 * row.nodes
     Kb = K[:size * size].reshape((size, size))

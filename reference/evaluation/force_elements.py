@@ -118,6 +118,9 @@ def force_element_forces(fe, time_functions, x, q, v, w, t, angle, F, F_ext, e, 
     dissipation : float
         ``Σ c (B_e V)²`` [W], ≥ 0 (an explicit step books
         :func:`force_element_dissipation` instead).
+
+    Takes 12 parameters: the two Model groups it reads, the configuration and velocities, two outputs and two
+    scratch arrays, as :func:`reference.evaluation.forces.model_forces` calls it.
     """
     energy = 0.0
     dissipation = 0.0
@@ -178,6 +181,9 @@ def force_element_tangent(model, x, q, v, w, angle, k, K, C, e, B, G):
     ``C = Bᵀ diag(c) B`` (``G`` the derived tangent of B, derivations/forces.py).
     The ground's rows and columns are zero.  ``e``, ``B``, ``G`` are work arrays
     (≥ 6, ≥ 72, ≥ 864); ``angle`` is read, not updated.
+
+    Takes 12 parameters: the configuration, the element k, the outputs K and C and three scratch arrays the tangent
+    assembly allocates once for every force element.
     """
     i, j = model.force_elements.i[k], model.force_elements.j[k]
     s_i, s_j, f_i, f_j = body_fixed_parts(model.force_elements.par[k])

@@ -86,6 +86,9 @@ def generalized_forces(model, element_work, x, q, v, w, t, S, F, G, angle, A, fe
     ``G`` (N, 6) receives the force elements' forces; ``angle`` (F,) the rotational springs'
     continuous angles, carried on (:mod:`reference.forces`); ``A`` (9,), ``fe_phi``, ``fe_B``
     scratch (at least 6 and 72 entries).  The algorithms' kernels inline :func:`model_forces`.
+
+    Takes 14 parameters: the compiled entry from Python of :func:`model_forces`, given the Model, the state's
+    arrays, three outputs and the scratch.
     """
     return model_forces(model.nodes.mass, model.gravity, model.loads, model.time_functions, model.elements,
                         model.force_elements, element_work, x, q, v, w, t, S, F, G, angle, A, fe_phi, fe_B)
@@ -97,7 +100,11 @@ def model_forces(mass, gravity, loads, time_functions, elements, force_elements,
     """:func:`generalized_forces` of the Model's groups (``model.nodes.mass``, ``model.gravity``, ``model.loads``,
     ``model.time_functions``, ``model.elements``, ``model.force_elements``): the form an algorithm's kernel
     inlines.  Not the Model itself: an inlined function's argument costs two atomic reference-count updates
-    per array in it, each call (:mod:`reference.jit`), and the Model has some seventy arrays."""
+    per array in it, each call (:mod:`reference.jit`), and the Model has some seventy arrays.
+
+    Takes 19 parameters: the six Model groups it reads (not the Model, above), the state's arrays, three outputs and
+    the scratch.
+    """
     N = x.shape[0]
     if N >= PARALLEL_NODES:  # the same numbers, node by node in parallel
         reset_forces(S, F, mass, gravity[0], gravity[1], gravity[2])

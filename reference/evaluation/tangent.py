@@ -62,7 +62,11 @@ class TangentWork(NamedTuple):
 
 @inlined
 def _loads_tangent(node, code_, tf_, vec, tf_kind, tf_par, q, t, i, K6, T9):
-    """:func:`load_tangent` on the loads' arrays (``model.loads``, ``model.time_functions``)."""
+    """:func:`load_tangent` on the loads' arrays (``model.loads``, ``model.time_functions``).
+
+    Takes 11 parameters: the loads' and the time functions' arrays :func:`_node_range` binds once, and one node's
+    outputs.
+    """
     for l in range(node.shape[0]):
         if node[l] != i:
             continue
@@ -93,7 +97,11 @@ def load_tangent(model, q, t, i, K6, T9):
 @inlined
 def _node_range(lo, hi, node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p0,
                 blk, Jr, J9, A):
-    """The 6×6 blocks of the nodes ``lo … hi − 1`` (see :func:`_node_blocks`), node i's from ``p0 + 36 i`` on."""
+    """The 6×6 blocks of the nodes ``lo … hi − 1`` (see :func:`_node_blocks`), node i's from ``p0 + 36 i`` on.
+
+    Takes 24 parameters: the node range of the serial and the parallel loop, the node, load and time-function arrays
+    bound once (:mod:`reference.jit`), the coefficients and each thread's scratch.
+    """
     for i in range(lo, hi):
         p = p0 + 36 * i
         for a in range(6):
@@ -125,6 +133,11 @@ def _node_range(lo, hi, node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, 
 
 @parallel_kernel
 def _node_blocks_parallel(node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w, psi, t, cm, cc, ck, values, p):
+    """The node blocks of :func:`_node_blocks` chunk by chunk in a parallel loop (:func:`_node_range` per chunk).
+
+    Takes 18 parameters: those of :func:`_node_range` but the range and the scratch, which its parallel loop
+    chooses and allocates per chunk.
+    """
     N = q.shape[0]
     for k in prange(n_chunks(N)):
         blk, Jr, J9, A = np.empty((6, 6)), np.empty(9), np.empty(9), np.empty(9)
@@ -136,7 +149,11 @@ def _node_blocks_parallel(node, code, tf, vec, tf_kind, tf_par, c, J, mass, q, w
 def _node_blocks(model, q, w, psi, t, cm, cc, ck, values, p, K12, Jr, J9, A):
     """Each node's 6×6 block: ``c_k`` times the load tangents (times ``J_r(ψ)``), the mass and damping
     ``(c_m + c_c c) M`` and ``c_c`` times the gyroscopic tangent, node after node from ``p`` on (a
-    parallel loop from :data:`~reference.parallel.PARALLEL_NODES` nodes on); returns the position after them."""
+    parallel loop from :data:`~reference.parallel.PARALLEL_NODES` nodes on); returns the position after them.
+
+    Takes 14 parameters: the configuration, the coefficients c_m, c_c, c_k and the scratch of
+    :func:`tangent_values`, whose node part it is.
+    """
     c, J, mass = model.damping, model.nodes.inertia, model.nodes.mass
     node, code, tf, vec = model.loads.node, model.loads.code, model.loads.tf, model.loads.vec
     tf_kind, tf_par = model.time_functions.kind, model.time_functions.par
@@ -152,7 +169,11 @@ def _node_blocks(model, q, w, psi, t, cm, cc, ck, values, p, K12, Jr, J9, A):
 @inlined
 def _joint_blocks(model, x, q, psi, t, lam, ck, ce, values, p, w_, tw):
     """The joints' λ-weighted constraint Hessians ``c_k ∂(Bᵀλ)/∂δ`` (12×12 each), B's rows (times
-    ``J_r(ψ)``) and columns, and the −ε diagonal times ``c_e``; returns the position after them."""
+    ``J_r(ψ)``) and columns, and the −ε diagonal times ``c_e``; returns the position after them.
+
+    Takes 12 parameters: the configuration, λ, the coefficients c_k, c_e and the work tuples of
+    :func:`tangent_values`, whose joint part it is.
+    """
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, element_work = w_
     K12, Jr, Bs = tw.K12, tw.Jr, tw.B_row
     joints, tfs = model.joints, model.time_functions
@@ -198,7 +219,11 @@ def _joint_blocks(model, x, q, psi, t, lam, ck, ce, values, p, w_, tw):
 @inlined
 def _force_element_blocks(model, x, q, psi, t, cc, ck, values, p, w_, K12, Jr):
     """The force elements' blocks ``c_k K T + c_c C`` at the velocities and angles of the last
-    evaluation, K with the actuator forces' tangent; returns the position after them."""
+    evaluation, K with the actuator forces' tangent; returns the position after them.
+
+    Takes 12 parameters: the configuration, the coefficients c_c, c_k and the work and scratch of
+    :func:`tangent_values`, whose force-element part it is.
+    """
     S, F, r, PHI, PHIt, Bl, A, jphi, jB, jphit, prim_phi, prim_B, fe, element_work = w_
     G, angle, fe_e, fe_B, fe_G, C12, fv, fw, fe_out = fe
     elements, tfs = model.force_elements, model.time_functions
@@ -238,6 +263,9 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, tw):
     angles of the last :func:`reference.algorithms.implicit.evaluate`.  ``w_`` the implicit
     algorithms' work tuple (:func:`reference.algorithms.implicit.work_tuple`); ``tw`` the scratch
     (:class:`TangentWork`).
+
+    Takes 14 parameters: the compiled entry from Python, given the Model, the iterate (x, q, w, ψ, t, λ), the Newton
+    matrix's four coefficients and the work tuples.
     """
     model = named(model, Model)
     A = w_[6]

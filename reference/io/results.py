@@ -304,6 +304,8 @@ class Results:
     source : path, optional
         A results file: the arrays not given are read from it on first use, so a
         long run's histories are not held in memory unless asked for.
+    **arrays
+        The histories given, by their names above (:attr:`ARRAYS`' keys and ``energy``).
     """
 
     ARRAYS = {
@@ -321,18 +323,12 @@ class Results:
               "elements/section_force": "element_labels", "elements/section_moment": "element_labels"}
     """Per-item datasets (n, items, 3): NaN of that shape when a file lacks them."""
 
-    def __init__(self, time=None, labels=None, positions=None, rotations=None, velocities=None,
-                 angular_velocities=None, energy=None, constraint_violation=None, velocity_constraint_violation=None,
-                 status: str = "completed", wall_time: float = 0.0, attrs=None, joint_labels=None,
-                 reaction_forces=None, reaction_moments=None, element_labels=None, section_forces=None,
-                 section_moments=None, multipliers=None, source=None, extra=None):
-        given = {"time": time, "positions": positions, "rotations": rotations, "velocities": velocities,
-                 "angular_velocities": angular_velocities, "energy": energy,
-                 "constraint_violation": constraint_violation,
-                 "velocity_constraint_violation": velocity_constraint_violation,
-                 "reaction_forces": reaction_forces, "reaction_moments": reaction_moments,
-                 "section_forces": section_forces, "section_moments": section_moments, "multipliers": multipliers}
-        self.__dict__.update({k: v for k, v in given.items() if v is not None})
+    def __init__(self, *, labels=None, status: str = "completed", wall_time: float = 0.0, attrs=None,
+                 joint_labels=None, element_labels=None, source=None, extra=None, **arrays):
+        unknown = sorted(set(arrays) - set(self.ARRAYS) - {"energy"})
+        if unknown:
+            raise TypeError(f"Results got unknown histories {unknown}; known: {sorted(self.ARRAYS)} and energy")
+        self.__dict__.update({k: v for k, v in arrays.items() if v is not None})
         self.source = source
         self.extra = dict(extra or {})
         self.wall_time = wall_time

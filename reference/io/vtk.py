@@ -160,8 +160,9 @@ class Layout:
 
 
 @kernel
-def point_arrays(X, Q, V, W, node_of_point, offsets, p0, points, displacement, velocity, t1, t2, t3):
-    """Fill the per-point arrays (k, P, 3), single precision, of k outputs.
+def point_arrays(X, Q, V, W, node_of_point, offsets, p0, out):
+    """Fill the per-point arrays ``out`` (6, k, P, 3), single precision, of k outputs: the points' positions,
+    displacements and velocities and their triads' columns u1, u2, u3.
 
     A point at body-frame offset s from its node moves as x + A s with velocity
     v + A (ω × s) (ω body frame); its triad is A's columns (A from
@@ -179,12 +180,12 @@ def point_arrays(X, Q, V, W, node_of_point, offsets, p0, points, displacement, v
             c0, c1, c2 = w1 * s2 - w2 * s1, w2 * s0 - w0 * s2, w0 * s1 - w1 * s0
             for i in range(3):
                 x = X[s, n, i] + A[3 * i] * s0 + A[3 * i + 1] * s1 + A[3 * i + 2] * s2
-                points[s, p, i] = x
-                displacement[s, p, i] = x - p0[p, i]
-                velocity[s, p, i] = V[s, n, i] + A[3 * i] * c0 + A[3 * i + 1] * c1 + A[3 * i + 2] * c2
-                t1[s, p, i] = A[3 * i]
-                t2[s, p, i] = A[3 * i + 1]
-                t3[s, p, i] = A[3 * i + 2]
+                out[0, s, p, i] = x
+                out[1, s, p, i] = x - p0[p, i]
+                out[2, s, p, i] = V[s, n, i] + A[3 * i] * c0 + A[3 * i + 1] * c1 + A[3 * i + 2] * c2
+                out[3, s, p, i] = A[3 * i]
+                out[4, s, p, i] = A[3 * i + 1]
+                out[5, s, p, i] = A[3 * i + 2]
 
 
 class _History:
@@ -281,8 +282,7 @@ def _write_vtk(f, lay: Layout, history: _History, times: np.ndarray, every: int,
         h = history.block(b0 * every, (b0 + k - 1) * every + 1, every)
         X, Q = h["positions"], h["rotations"]
         out = buffers[:, :k]
-        point_arrays(X, Q, h["velocities"], h["angular_velocities"], lay.node_of_point, lay.offsets, lay.p0,
-                     *out)
+        point_arrays(X, Q, h["velocities"], h["angular_velocities"], lay.node_of_point, lay.offsets, lay.p0, out)
         if lay.curves:
             curve = np.empty((P, 3))
             for s in range(k):

@@ -53,6 +53,9 @@ def joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, p
     ``drive`` 0 none; 1/2 rotation drive with θ = f(t) / θ = ∫f; 3/4 displacement
     drive with s = f(t) / s = ∫f; 5 prescribed displacement, s = f(t) along the ground-fixed
     u3 (of ``f_j``, the ground's frame, is inertial).
+
+    Takes 15 parameters: one joint's row of the joint table, its time function, t, and the outputs and scratch, as
+    the explicit, implicit and Hessian callers hold them.
     """
     xj, qj = GROUND_X, GROUND_Q  # one type for both branches: the generated kernel compiles once
     if j >= 0:
@@ -275,6 +278,9 @@ def constraint_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
     """Stabilised implicit stage with the factor ``Lx``: correct ``v, w`` (N,3) in place.
 
     ``lam`` receives λ = Λ/h_k.
+
+    Takes 12 parameters: the Model, the stage's factor and B arrays, the violation, the velocities (in place), the
+    step sizes and λ, locals of the explicit step that inlines it.
     """
     m = PHI.shape[0]
     iperm = model.joints.pattern.row_iperm
@@ -305,7 +311,7 @@ def iterated_impulse(model, Bj, BMj, Lx, work, PHI, PHIt, v, w, h, hk, lam):
     ΔΛ in the solve's elimination order (``row_iperm``: both loops below index it so, ``lam``
     keeping Λ in row order); ``lam`` receives λ = Λ/h_k.
 
-    Twelve parameters: those of :func:`constraint_impulse`, whose place it takes in the same stage.
+    Takes 12 parameters: those of :func:`constraint_impulse`, whose place it takes in the same stage.
     """
     iperm, c = model.joints.pattern.row_iperm, model.joints.compliance
     jt_i, jt_j, jt_neq, jt_row0 = model.joints.i, model.joints.j, model.joints.neq, model.joints.row0

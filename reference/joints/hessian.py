@@ -77,6 +77,9 @@ def joint_rows_hessian(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, lam, ph
         length or angle).
     prim_phi, prim_B, w : arrays (10,), (120,), (10,)
         Scratch.
+
+    Takes 18 parameters: those of :func:`reference.joints.assembly.joint_rows` with λ, the Hessian H and its scratch
+    w.
     """
     joint_rows(x, q, i, j, par, rows, drive, tf_kind, tf_par, t, phi, B, phit, prim_phi, prim_B)
     primitive_weights(par, rows, drive, tf_kind, tf_par, t, lam, w)

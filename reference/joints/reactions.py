@@ -37,7 +37,7 @@ from reference.joints.assembly import joint_rows
 
 
 @kernel
-def joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, prim_phi, prim_B, A):
+def joint_reactions(model, x, q, lam, t, slot, force, moment, work):
     """Reactions of the multiplier joints on their body i, about the joint point, inertial.
 
     Parameters
@@ -52,9 +52,11 @@ def joint_reactions(model, x, q, lam, t, slot, force, moment, jphi, jB, jphit, p
     slot : int array (J,)
         Row of ``force``/``moment`` that receives multiplier joint k (``model.joints`` order).
     force, moment : arrays (≥ J, 3), written at the rows ``slot`` [N], [N m].
-    jphi, jB, jphit, prim_phi, prim_B, A : scratch
-        (6,), (6, 12), (6,), (10,), (120,), (9,).
+    work : tuple
+        The scratch of :func:`scratch`: ``jphi, jB, jphit, prim_phi, prim_B, A`` (6,), (6, 12), (6,), (10,),
+        (120,), (9,).
     """
+    jphi, jB, jphit, prim_phi, prim_B, A = work
     for k in range(model.joints.i.shape[0]):
         m = model.joints.neq[k]
         r0 = model.joints.row0[k]
@@ -95,5 +97,5 @@ def reactions(model, x, q, lam, t: float):
     J = model.joints.i.shape[0]
     force, moment = np.zeros((J, 3)), np.zeros((J, 3))
     joint_reactions(model, np.asarray(x, dtype=float), np.asarray(q, dtype=float), np.asarray(lam, dtype=float),
-                    float(t), np.arange(J), force, moment, *scratch())
+                    float(t), np.arange(J), force, moment, scratch())
     return force, moment

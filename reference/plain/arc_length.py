@@ -68,7 +68,7 @@ class PlainArcLength(ArcLength):
         load blocks (follower forces, dead moments: :func:`reference.plain.loads.load_tangent`) scaled to λ."""
         nw = run.plain
         zero = np.zeros_like(x)
-        A = nw.matrix(x, q, zero, zero, self.t_end, run.mu, 0.0, 0.0, 1.0, 1.0 if ce is None else ce)
+        A = nw.matrix(x, q, zero, zero, self.t_end, run.mu, (0.0, 0.0, 1.0, 1.0 if ce is None else ce))
         if lam == 1.0 or not np.any(np.isin(nw.model.loads.code, (1, 2))):
             return A
         blocks = sps.block_diag(list(load_tangent(nw.model, q, self.t_end)), format="csr")[nw.index][:, nw.index]
@@ -220,7 +220,7 @@ class PlainArcLength(ArcLength):
 
 
 def limit_point_trace(static, model, state, run, saved, F0, t0, t1) -> None:
-    """:func:`reference.algorithms.path_checks.limit_point_trace` on the reference path: the load interval
+    """:func:`reference.algorithms.limit_point.limit_point_trace` on the reference path: the load interval
     ``[t0, t1]`` of a static step (:class:`reference.plain.static.PlainStatic`) whose displacement per unit
     load jumped, traced again by :class:`PlainArcLength` from the equilibrium before it (``saved``: x, q, λ,
     the angles; ``F0`` its loads; the step's equilibrium the state's, its loads ``run.F``).  When the load

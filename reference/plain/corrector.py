@@ -59,7 +59,7 @@ def static_newton(nw: Newton, x, q, lam, t, tolerance, L, max_iterations, path: 
             return OK, history
         if it == max_iterations:
             return NO_CONVERGENCE, history
-        A = nw.matrix(x, q, zero, zero, t, lam, 0.0, 0.0, 1.0, 1.0) if path is None else path.matrix(x, q, load)
+        A = nw.matrix(x, q, zero, zero, t, lam, (0.0, 0.0, 1.0, 1.0)) if path is None else path.matrix(x, q, load)
         lu = nw.factor(A)
         solved = nw.solve(lu, -r, -gap) if lu is not None else None
         if solved is None:

@@ -103,7 +103,7 @@ def alpha_step(nw: Newton, st, al: AlphaState, h: float, p: AlphaParameters) -> 
         if not np.all(np.isfinite(res.r)):
             return DIVERGED, its, facts
         if al.lu is None or previous == REFACTOR:  # no factor for h, or a slow contraction: factor here
-            al.lu = nw.factor(nw.matrix(x1, q1, Vn[:, :3], Vn[:, 3:], t1, lamn, 1.0, gp / bp, 1.0 / bp, bp,
+            al.lu = nw.factor(nw.matrix(x1, q1, Vn[:, :3], Vn[:, 3:], t1, lamn, (1.0, gp / bp, 1.0 / bp, bp),
                                         h * dq[:, 3:]))
             al.h_lu, facts, previous = h, facts + 1, -1.0
             if al.lu is None:

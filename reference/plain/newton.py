@@ -118,10 +118,12 @@ class Newton:
         self.last = Residual(r, S, F, phi, B, phi_t, float(U), float(D))
         return self.last
 
-    def matrix(self, x, q, v, w, t, lam, cm, cc, ck, ce, psi=None) -> sps.csc_matrix:
+    def matrix(self, x, q, v, w, t, lam, coefficients, psi=None) -> sps.csc_matrix:
         """The Newton matrix (module docstring) on the free coordinates and the multipliers (CSC), at the
-        configuration of the last :meth:`evaluate` (its B); ``psi`` (N,3) the rotation of the iterate
+        configuration of the last :meth:`evaluate` (its B); ``coefficients`` ``(c_m, c_c, c_k, c_e)`` of the
+        mass, damping and stiffness blocks and of the −ε diagonal; ``psi`` (N,3) the rotation of the iterate
         (generalized-α), None for the static update."""
+        cm, cc, ck, ce = coefficients
         ev, idx = self.ev, self.index
         B = self.last.B
         A = cm * self.M if cm else sps.csr_matrix(self.M.shape)
@@ -185,7 +187,7 @@ class Newton:
                 g.append(phi_t + B @ V)
             rate = (g[0] - g[1]) / (2.0 * tau)
             self.evaluate(x, q, v, w, np.zeros((N, 6)), np.zeros(m), t, True)
-        lu = self.factor(self.matrix(x, q, v, w, t, np.zeros(m), 1.0, 0.0, 0.0, ce))
+        lu = self.factor(self.matrix(x, q, v, w, t, np.zeros(m), (1.0, 0.0, 0.0, ce)))
         solved = self.solve(lu, -r0, -rate) if lu is not None else None
         return solved
 
@@ -235,7 +237,7 @@ class EngineFace:
     def matrix(self, x, q, w, t, lam, cm, cc, ck, ce=None, psi=None):
         """:meth:`Newton.matrix` (the force elements at the velocities of the last :meth:`evaluate`)."""
         ce = 1.0 / ck if ce is None else ce
-        return self.newton.matrix(x, q, self._v, w, t, lam, cm, cc, ck, ce, psi)
+        return self.newton.matrix(x, q, self._v, w, t, lam, (cm, cc, ck, ce), psi)
 
     def consistent_accelerations(self, x, q, v, w, t, tau, ce=0.0):
         """:meth:`Newton.consistent_accelerations`; raises :class:`reference.linalg.SingularMatrix`."""

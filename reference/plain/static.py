@@ -24,8 +24,9 @@ import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
+from reference.algorithms.critical_points import BIFURCATION, eigenvalue_count
 from reference.algorithms.path_checks import RATIO, why_refused
-from reference.algorithms.static import BIFURCATION, MAX_CUTS, Static, _eigenvalues, reduced_tangent
+from reference.algorithms.static import MAX_CUTS, Static, reduced_tangent
 from reference.algorithms.step_control import SolverStatistics
 from reference.modal import nearest_zero
 from reference.validation import ModelWarning
@@ -105,7 +106,7 @@ class PlainStatic(Static):
         old, run.negative = run.negative, count
         if before is None or count == old or count < 0 or old < 0:
             if before is None and count > 0:
-                warnings.warn(f"the equilibrium at load factor {t:.6g} is unstable: {_eigenvalues(count)} of the "
+                warnings.warn(f"the equilibrium at load factor {t:.6g} is unstable: {eigenvalue_count(count)} of the "
                               "tangent", ModelWarning, stacklevel=3)
             return
         x0, q0, lam0, t0, F0 = before
@@ -120,7 +121,7 @@ class PlainStatic(Static):
         kind = "bifurcation" if abs(phi @ dF) <= BIFURCATION * size else "limit point"
         run.events.append((t0, t, t_cr, kind, count))
         change = "stability lost" if count > old else "stability regained" if count == 0 else "stability changed"
-        warnings.warn(f"{change} between load factor {t0:.6g} and {t:.6g}: {kind}, {_eigenvalues(count)} "
+        warnings.warn(f"{change} between load factor {t0:.6g} and {t:.6g}: {kind}, {eigenvalue_count(count)} "
                       f"(critical load factor {t_cr:.6g}, interpolated from the lowest eigenvalue)",
                       ModelWarning, stacklevel=3)
 
