@@ -34,16 +34,32 @@ Traceback (most recent call last):
 ValueError: Gravity g [m/s²]: expected a vector of 3 finite numbers, got -9.81; give a vector, e.g. ...
 """
 
-from reference.algorithms.base import SolverSettings
-from reference.domain import Domain
-from reference.elements.section import Section
-from reference.forces import Bushing, PointToPoint, Rotational
-from reference.interactions import (Clamp, Constant, Expression, FixedCoordinates, Gravity, LineLoad, NodalLoad,
-                                    PiecewiseLinear, Ramp, Sine, SmoothStep, Step)
-from reference.joints import Jacobian, Joint, MasterSlave, joint_frame
-from reference.solution import solve
+from __future__ import annotations
 
-Domain.solution_loop = staticmethod(solve)  # the loop Domain.solve runs; the Domain does not import it
+import importlib
+
+_WHERE = {"SolverSettings": "reference.algorithms.base", "Domain": "reference.domain",
+          "Section": "reference.elements.section",
+          **dict.fromkeys(("Bushing", "PointToPoint", "Rotational"), "reference.forces"),
+          **dict.fromkeys(("Clamp", "Constant", "Expression", "FixedCoordinates", "Gravity", "LineLoad", "NodalLoad",
+                           "PiecewiseLinear", "Ramp", "Sine", "SmoothStep", "Step"), "reference.interactions"),
+          **dict.fromkeys(("Jacobian", "Joint", "MasterSlave", "joint_frame"), "reference.joints"),
+          "solve": "reference.solution"}
+"""Each public name → the module that defines it, imported when the name is first used (:func:`__getattr__`):
+``import reference`` (or of one engine module) loads nothing else, and ``from reference import Domain`` what the
+Domain needs."""
+
+
+def __getattr__(name: str):
+    """A public name, imported from its module on first use (PEP 562)."""
+    if name in _WHERE:
+        return getattr(importlib.import_module(_WHERE[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_WHERE})
+
 
 __all__ = ["Bushing", "Clamp", "Constant", "Domain", "Expression", "FixedCoordinates", "Gravity", "Jacobian", "Joint",
            "LineLoad", "MasterSlave", "NodalLoad", "PiecewiseLinear", "PointToPoint", "Ramp", "Rotational", "Section",

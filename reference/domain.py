@@ -18,7 +18,7 @@ the ``add_*`` calls are given and resolves node references (``"rod:start"``),
 constraint set-up (joint tables, the redundancy check, consistent initial
 velocities).  The solution loop (records, monitor, how a run ends) is :mod:`reference.solution`, a function
 of a Domain that this module does not import: :meth:`Domain.solve` runs it through
-:attr:`Domain.solution_loop`, which the package sets as it is imported.
+:attr:`Domain.solution_loop`, its name resolved on the first solve.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from reference.algorithms import ALGORITHMS, Algorithm, SolverSettings
+from reference.algorithms import ALGORITHMS, Algorithm, SolverSettings, resolve
 from reference.elements import Element, Section
 from reference.elements.families import ALWAYS_PACKED, DEFAULT_FAMILY, ELEMENT_FAMILIES
 from reference.elements.formulation import formulation_groups, vector_norms
@@ -439,15 +439,16 @@ class Domain:
             raise SolverDiverged(f"the solution became non-finite before t = {time}")
         return state
 
-    solution_loop = None
-    """The solution loop that :meth:`solve` runs, :func:`reference.solution.solve` (a function of a Domain),
-    set once by the package (``reference/__init__.py``) as it is imported: the Domain assembles the problem and
-    does not import the loop that drives it (the loop imports the records, the monitor and the results file)."""
+    solution_loop = "reference.solution:solve"
+    """The solution loop that :meth:`solve` runs, :func:`reference.solution.solve` (a function of a Domain), by
+    name: resolved on the first solve as the algorithms' registry resolves its classes
+    (:func:`reference.algorithms.resolve`), so the Domain, which assembles the problem, does not import the loop
+    that drives it (the loop imports the records, the monitor and the results file)."""
 
     def solve(self, *, t_end: float | None = None, dt: float | None = None, results_path=None, progress=None,
               monitor: bool = True, deck=None) -> Results:
         """Run from t = 0 to ``t_end`` (paper: Solve, Fig. 9) and return the time histories:
         :func:`reference.solution.solve` on this Domain, whose parameters, statuses and errors
         (:class:`reference.errors.SolverDiverged`) these are."""
-        return type(self).solution_loop(self, t_end=t_end, dt=dt, results_path=results_path, progress=progress,
-                                        monitor=monitor, deck=deck)
+        return resolve(self.solution_loop)(self, t_end=t_end, dt=dt, results_path=results_path, progress=progress,
+                                           monitor=monitor, deck=deck)

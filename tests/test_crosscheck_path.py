@@ -15,17 +15,17 @@ DECK = Path(__file__).resolve().parents[1] / "models" / "lee_frame.toml"
 
 
 def coarse(per_leg: int) -> dict:
-    """The deck at ``per_leg`` Beam2 elements per leg (a fifth of them between the knee and the load), its path
-    cut after 45 points (past the first limit point)."""
+    """The deck at ``per_leg`` Beam2 elements per leg (a fifth of them between the knee and the load; the deck
+    itself is beam3), its path cut after 45 points (past the first limit point), on the compiled path as before."""
     return {"beams.0.elements": per_leg, "beams.1.elements": per_leg // 5, "beams.2.elements": per_leg - per_leg // 5,
-            "solver.max_points": 45}
+            **{f"beams.{k}.element": "beam2" for k in range(3)}, "solver.max_points": 45, "solver.backend": "compiled"}
 
 
 def test_exudyn_static_path_converges_to_the_arc_length_points(tmp_path):
     """Both engines on the same Beam2-type meshes (flexmbs' Beam2, Exudyn's ObjectBeamGeometricallyExact) from 0
     to 0.9 of the first limit load: the load point and the knee at every flexmbs point of the rising branch.  The
     two elements differ at second order in the element size, so the largest difference falls by about 4 from
-    5 to 10 elements per leg (measured 4.4: 1.5e-2 and 3.4e-3; 2.3e-4 of the size at the deck's 40 per leg, ``flexmbs crosscheck``)."""
+    5 to 10 elements per leg (measured 4.4: 1.5e-2 and 3.4e-3; 2.3e-4 of the size at 40 per leg, the deck's former mesh)."""
     a = run(DECK, tmp_path / "5", overrides=coarse(5))
     b = run(DECK, tmp_path / "10", overrides=coarse(10))
     for c in (a, b):

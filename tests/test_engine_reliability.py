@@ -249,13 +249,14 @@ def test_the_names_a_model_needs_come_from_reference():
         assert getattr(reference, name).__doc__, name
 
 
-def test_domain_solve_runs_the_solution_loop_the_package_hands_it():
-    """The Domain does not import the loop (tests/test_layering.py); importing any part of the engine runs
-    ``reference/__init__.py``, which hands ``Domain.solve`` the loop :func:`reference.solution.solve`."""
+def test_domain_solve_runs_the_solution_loop_it_names():
+    """The Domain does not import the loop (tests/test_layering.py): ``Domain.solve`` resolves the loop it names,
+    :func:`reference.solution.solve`, on the first solve, as the algorithms' registry resolves its classes."""
     import reference.solution
     from reference import Domain, solve
+    from reference.algorithms import resolve
 
-    assert Domain.solution_loop is reference.solution.solve is solve
+    assert resolve(Domain.solution_loop) is reference.solution.solve is solve
 
 
 def test_the_ground_has_the_decks_name_in_the_api():

@@ -24,7 +24,7 @@ The rules, from the bottom up:
 5. **The Domain** (``reference.domain``) imports neither the deck reader (``reference.io.deck`` and the
    ``reference.io.deck_*`` modules) nor the solution loop (``reference.solution``), function-local imports
    included: the deck reader builds a Domain and the loop takes one, so either can be read and changed apart
-   from the Domain (``Domain.solve`` runs the loop the package hands it, :attr:`reference.domain.Domain.solution_loop`).
+   from the Domain (``Domain.solve`` runs the loop it names, :attr:`reference.domain.Domain.solution_loop`).
 6. **The application** keeps its order: ``crosscheck`` does not import ``flexmbs`` (the
    command line uses the cross-check, not the reverse); ``derivations`` imports none of
    ``reference``, ``crosscheck``, ``flexmbs`` (its output is text).

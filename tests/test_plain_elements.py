@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import LEE_FRAME_BEAM2
 from reference.io.deck import load_deck
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -33,8 +34,9 @@ CASES = {
     "three_bar": ("three_bar.toml", {}),
     # two arcs: section frames offset from the node frames (the curved mesh and the 'mid' node's identity frame)
     "curved_cantilever": ("curved_cantilever.toml", {}),
-    # 80 elements: the vectorised block loop and the parallel tangent of the compiled family
-    "lee_frame": ("lee_frame.toml", {}),
+    # 80 elements (the deck's former Beam2 mesh): the vectorised block loop and the parallel tangent of the
+    # compiled family
+    "lee_frame": ("lee_frame.toml", LEE_FRAME_BEAM2),
     "curved_beam2_se3": ("curved_cantilever.toml", {"beams.0.element": "beam2_se3", "beams.1.element": "beam2_se3",
                                                     "solver.algorithm": "generalized_alpha"}),
     "three_bar_beam2_se3": ("three_bar.toml", {"beams.1.element": "beam2_se3",

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import LEE_FRAME_BEAM2
 from reference.io.deck import load_deck
 from reference.plain.algorithms import REFERENCE_TWINS
 from reference.validation import ModelWarning
@@ -180,7 +181,7 @@ def test_lateral_buckling_load_factor_agrees():
 
 
 def test_lee_frame_arc_length_path_to_its_first_limit_point_agrees():
-    """lee_frame's arc-length path, its first 30 points, past the first limit load: the load factors,
+    """lee_frame's arc-length path on its former mesh (80 Beam2), its first 30 points, past the first limit load: the load factors,
     configurations and stability counts on both paths, and the critical point.  Every point is a corrector
     converged to the Newton tolerance (1e-10 of L for a correction) on the same normal plane, so the load
     factors agree to about that, accumulated over the points' predictors (each taken from the previous point):
@@ -188,7 +189,7 @@ def test_lee_frame_arc_length_path_to_its_first_limit_point_agrees():
     on the lowest eigenvalue from those points: within 1e-8 relative (the eigenvalue's round-off near zero over
     its slope; measured 4e-16); the kind exactly."""
     with pytest.warns(ModelWarning, match="stability lost between load factor 1.8511 and 1.85592"):
-        compiled, plain, domain = both("lee_frame", {"solver.max_points": 30})
+        compiled, plain, domain = both("lee_frame", {**LEE_FRAME_BEAM2, "solver.max_points": 30})
     L, tol, points = model_size(domain), 1e-10, 30
     lam0 = compiled.data("path/load_factor")
     assert lam0.size == points + 1 and np.max(lam0) > 1.8  # the path passed the first limit load, 1.856
@@ -319,7 +320,7 @@ def signatures():
 
 called = set()
 for deck, overrides in [("embedded_beam_static", None), ("cantilever_modes", None), ("lateral_buckling", None),
-                        ("steel_three_bar", {"t_end": 0.01}), ("lee_frame", {"solver.max_points": 2})]:
+                        ("steel_three_bar", {"t_end": 0.01}), ("lee_frame", {"solver.max_points": 2, **LEE_FRAME_BEAM2})]:
     domain = load_deck(f"models/{deck}.toml", overrides).domain
     domain.solver.backend = "reference"
     before = signatures()
@@ -335,7 +336,8 @@ def test_the_implicit_twins_call_no_numba_dispatcher_of_their_own():
     import sys
 
     root = Path(__file__).resolve().parent.parent
-    out = subprocess.run([sys.executable, "-c", NO_DISPATCHER], cwd=root, capture_output=True, text=True, timeout=900,
+    script = f"LEE_FRAME_BEAM2 = {LEE_FRAME_BEAM2!r}\n{NO_DISPATCHER}"  # lee_frame's former Beam2 mesh
+    out = subprocess.run([sys.executable, "-c", script], cwd=root, capture_output=True, text=True, timeout=900,
                          env={**os.environ, "PYTHONPATH": str(root)})
     assert out.returncode == 0, out.stderr[-2000:]
     assert ast.literal_eval(out.stdout.strip()) == []

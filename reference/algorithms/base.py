@@ -7,6 +7,8 @@ import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
+ABOUT = ("reference", "static", "rotation")
+"""The configurations a modal analysis linearises about (``solver.about``)."""
 CALL_SECONDS = 0.1
 """The wall time [s] a compiled stepping call aims at (:class:`CallBudget`): Python's signal handlers
 (Ctrl-C, SIGTERM), the results file's timed flush and the progress run between two calls only, so each

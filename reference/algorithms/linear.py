@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from reference.algorithms.base import Algorithm
+from reference.algorithms.base import ABOUT, Algorithm
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem
 from reference.algorithms.static import Static, StaticRun
 from reference.algorithms import linearization
@@ -48,8 +48,6 @@ from reference.state import State
 from reference.status import NO_CONVERGENCE, OK, SINGULAR
 from reference.validation import ModelWarning
 
-ABOUT = ("reference", "static", "rotation")
-"""The configurations a modal analysis linearises about (``solver.about``)."""
 EQUILIBRIUM = 1e-6
 """Modes about the reference state: the state is an equilibrium of the loads at t = 0 when the largest
 unbalanced generalised force ``|S − F + Bᵀλ|`` (free coordinates, λ consistent with the accelerations) is

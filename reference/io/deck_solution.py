@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 from reference.algorithms import ALGORITHMS, SolverSettings
-from reference.algorithms.linear import ABOUT
+from reference.algorithms.base import ABOUT
 from reference.domain import Domain
 from reference.io.deck_reader import Reader, show
 from reference.monitor import SAFETY, damping_problem
