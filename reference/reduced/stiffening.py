@@ -65,3 +65,23 @@ def centrifugal_stiffening(domain, beam, modes, held, axis, origin) -> np.ndarra
     K_sigma = T @ (tangents[0] - tangents[1]) @ T.T / (2.0 * scale)
     K_G = modes.T.T @ K_sigma @ modes.T
     return 0.5 * (K_G + K_G.T)
+
+
+def spin_stiffness(domain, beam, modes, interfaces) -> np.ndarray:
+    """``𝕂`` (3, 3, r, r): the modes' centrifugal stress stiffness at any spin ``ω`` (frame components),
+    ``K_G(ω) = Σ_ab ω_a ω_b 𝕂_ab``, the body turning about its first interface node (a blade about its hub; that
+    node held).  The centrifugal load is quadratic in ω and the stress stiffness linear in the load, so six
+    :func:`centrifugal_stiffening` calls fix it: ``𝕂_aa = K_G(e_a)`` and
+    ``𝕂_ab = K_G((e_a + e_b)/√2) − ½ (𝕂_aa + 𝕂_bb)``."""
+    held = (interfaces[0],)
+    origin = beam.x[interfaces[0]]
+    r = modes.T.shape[1]
+    out = np.zeros((3, 3, r, r))
+    axes = np.eye(3)
+    for a in range(3):
+        out[a, a] = centrifugal_stiffening(domain, beam, modes, held, axes[a], origin)
+    for a in range(3):
+        for b in range(a + 1, 3):
+            both = centrifugal_stiffening(domain, beam, modes, held, axes[a] + axes[b], origin)
+            out[a, b] = out[b, a] = both - 0.5 * (out[a, a] + out[b, b])
+    return out
