@@ -11,8 +11,9 @@ from __future__ import annotations
 
 from reference.reduced.coupling import CoupledModel
 from reference.reduced.explicit import ReducedStaggered
+from reference.reduced.implicit import ReducedGeneralizedAlpha, ReducedModes, ReducedStatic
 
-REDUCED_TWINS = {cls.name: cls for cls in (ReducedStaggered,)}
+REDUCED_TWINS = {cls.name: cls for cls in (ReducedStaggered, ReducedStatic, ReducedGeneralizedAlpha, ReducedModes)}
 """Algorithm classes for models with reduced bodies, by deck name."""
 
 
