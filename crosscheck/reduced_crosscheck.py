@@ -11,6 +11,8 @@ mid-span deflection within 1 % of its peak, the target of issue 39.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from crosscheck.compare import Verdict, pointwise
@@ -21,6 +23,15 @@ TOLERANCE = 0.01
 """The default table's tolerance, relative to the peak deflection (issue 39: the Exudyn cross-check of the reduced
 three-bar within 1 % of the peak): both engines integrate one set of equations, so what differs is the time
 integration (central difference or generalized-α in flexmbs, Exudyn's generalized-α) and the joints' rows."""
+
+
+def is_reduced(path) -> bool:
+    """Whether the deck at ``path`` marks a ``[[beams]]`` entry ``reduce`` (``flexmbs crosscheck`` then runs
+    :func:`run`)."""
+    from reference.io.deck_reader import read_toml
+
+    beams = read_toml(Path(path))[1].get("beams", [])
+    return any(isinstance(beam, dict) and "reduce" in beam for beam in beams)
 
 
 def bodies_of(path, overrides: dict | None = None) -> tuple:

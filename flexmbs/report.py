@@ -451,7 +451,7 @@ def main(args=None) -> int:
     families = report_lines()
     reduced, reduced_checks = report_section(quick, out)
     families += reduced
-    checks += reduced_checks
+    checks += [Check(*row) for row in reduced_checks]
     failed = [c for c in checks if not c.passed]
     head = header + [
         f"**{len(checks) - len(failed)} of {len(checks)} checks pass** over {len(decks)} decks." + (

@@ -66,3 +66,13 @@ def test_three_bar_reduced_agrees_with_exudyn():
     assert verdict.passed, verdict
     z = np.abs(out["exudyn"]["positions"]["coupler"][:, :, 2]).max()
     assert z < 1e-12  # planar: Exudyn's position-only pins leave nothing out of the plane to constrain
+
+
+def test_the_command_takes_a_reduced_deck_and_refuses_a_refinement_in_one_line(capsys):
+    """``flexmbs crosscheck`` sends a deck with reduced beams to this comparison (flexmbs/cli.py): the reduced body
+    has no refinement, so ``--refine`` is refused before anything runs."""
+    from flexmbs.cli import main
+
+    assert main(["crosscheck", str(DECK), "--refine", "2"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("flexmbs: error: ") and "drop --refine" in err and "\n" not in err

@@ -12,7 +12,8 @@ reference path, where reduced bodies run:
   stiffened tip within 2 % of the peak tip deflection; the unstiffened model's divergence stated) — not in
   ``--quick``.
 
-:func:`report_section` returns the section's lines and its :class:`flexmbs.report.Check` rows.
+:func:`report_section` returns the section's lines and its check rows, ``(name, reference, computed, tolerance,
+why)`` each (the report's :class:`flexmbs.report.Check`).
 """
 
 from __future__ import annotations
@@ -46,7 +47,6 @@ def variant(deck: Path, folder: Path, name: str, reduce: str | None = None, drop
 
 def modes_check(folder: Path):
     """The clamped-free beam reduced with 6 modes: its frequencies against the full mesh's."""
-    from flexmbs.report import Check
     from reference.io.deck import load_deck
 
     deck = MODELS / "cantilever_modes.toml"
@@ -57,7 +57,7 @@ def modes_check(folder: Path):
     lines = [f"Clamped-free beam (`models/cantilever_modes.toml`, 32 elements) reduced to 6 fixed-interface modes at "
              f"its clamp: frequencies {', '.join(f'{f:.6g}' for f in f_red)} Hz, the full mesh's "
              f"{', '.join(f'{f:.6g}' for f in f_full)} Hz (the first three bending modes among them).", ""]
-    return lines, [Check("reduced cantilever: 6 kept frequencies", "the full mesh's modes", error, 1e-6,
+    return lines, [("reduced cantilever: 6 kept frequencies", "the full mesh's modes", error, 1e-6,
                          "the reduction of a linear model is exact in its kept modes; 1e-6 is the issue's bound "
                          "(the shift-invert solver's digits)")]
 
@@ -77,7 +77,6 @@ def three_bar_checks(folder: Path, horizon: float):
     """The reduced three-bar against the full beam and against Exudyn's reduced body, to ``horizon`` [s]."""
     from crosscheck.exudyn_reduced import solve as solve_exudyn
     from crosscheck.reduced_crosscheck import bodies_of, default_checks, judged, verdicts
-    from flexmbs.report import Check
     from reference.io.deck import load_deck
 
     deck = MODELS / "three_bar_reduced.toml"
@@ -91,10 +90,10 @@ def three_bar_checks(folder: Path, horizon: float):
              f"{gap:.2e} of the peak; Exudyn's `ObjectFFRFreducedOrder` (same modes and invariants) against "
              f"flexmbs's reduced run {verdict.measure:.2e} of the peak. Mode counts 2, 4, 8: docs/benchmarks.md.", ""]
     return lines, [
-        Check(f"reduced three-bar: coupler deflection ({horizon:g} s)", "full geometrically exact coupler", gap, 0.01,
+        (f"reduced three-bar: coupler deflection ({horizon:g} s)", "full geometrically exact coupler", gap, 0.01,
               "issue 39's target: the reduced coupler follows the full beam's mid-span deflection within 1 % of "
               "its peak"),
-        Check(f"reduced three-bar in Exudyn ({horizon:g} s)", "Exudyn ObjectFFRFreducedOrder", verdict.measure, 0.01,
+        (f"reduced three-bar in Exudyn ({horizon:g} s)", "Exudyn ObjectFFRFreducedOrder", verdict.measure, 0.01,
               "issue 39's target: the same reduced body in both engines within 1 % of the peak deflection")]
 
 
@@ -109,7 +108,6 @@ def tip_in_hub(results, hub: str = "blade:start", tip: str = "blade:end") -> np.
 
 def spinup_checks(folder: Path):
     """The spin-up: the reduced blade with and without stiffening against the full beam (lead-lag tip deflection)."""
-    from flexmbs.report import Check
     from reference.io.deck import load_deck
     from reference.solution import SolverDiverged
 
@@ -128,13 +126,13 @@ def spinup_checks(folder: Path):
     lines = [f"Spin-up (`models/rotating_blade_reduced.toml`, 0 → 6 rad/s in 15 s, 8 elements, 4 modes): peak "
              f"lead-lag tip deflection {peak:.4e} m (full beam); stiffened reduced blade within {gap:.2e} of that "
              f"peak. Without stiffening the linear modes soften past Ω = 3.52 rad/s: {grown}.", ""]
-    return lines, [Check("reduced spin-up, stiffened: tip deflection", "full geometrically exact blade", gap, 0.02,
+    return lines, [("reduced spin-up, stiffened: tip deflection", "full geometrically exact blade", gap, 0.02,
                          "issue 39's target: the stiffened reduced blade follows the full beam within 2 % of the peak "
                          "tip deflection")]
 
 
 def report_section(quick: bool, out: Path) -> tuple[list[str], list]:
-    """The section's Markdown lines and its checks (module docstring); ``out`` holds the deck variants."""
+    """The section's Markdown lines and its check rows (module docstring); ``out`` holds the deck variants."""
     folder = Path(out) / "reduced"
     lines = ["## Reduced bodies", "",
              "A beam marked `reduce` becomes a floating frame plus Craig–Bampton modes from the project's own "
