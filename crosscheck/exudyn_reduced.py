@@ -91,17 +91,21 @@ def _g_local(p) -> np.ndarray:
     return 2.0 * np.array([[-p[1], p[0], p[3], -p[2]], [-p[2], -p[3], p[0], p[1]], [-p[3], p[2], -p[1], p[0]]])
 
 
-def _rotary_force(body, p0):
+def _rotary_force(body, p0, spin_stiffness=None):
     """Exudyn's force user function adding ``−Gᵀ (ω × (Σ J_i Φr_i q̇))`` to the frame's Euler-parameter rows (the
-    module docstring's missing quadratic-velocity term); ``p0`` the frame's reference Euler parameters (Exudyn's
-    coordinates are displacements from them)."""
+    module docstring's missing quadratic-velocity term) and, given ``spin_stiffness`` 𝕂 (3, 3, r, r), the stress
+    stiffness ``−K_G(ω) q``, ``K_G(ω) = Σ ω_a ω_b 𝕂_ab`` (:mod:`reference.reduced.stiffening`), to the modal rows;
+    ``p0`` the frame's reference Euler parameters (Exudyn's coordinates are displacements from them)."""
     coupling, r = rotary_coupling(body), body.n_modes
 
     def force(mbs, t, item, q, q_t):
         q, q_t = np.asarray(q), np.asarray(q_t)
         G = _g_local(q[3:7] + p0)
+        w = G @ q_t[3:7]
         out = np.zeros(7 + r)
-        out[3:7] = -G.T @ np.cross(G @ q_t[3:7], coupling @ q_t[7:])
+        out[3:7] = -G.T @ np.cross(w, coupling @ q_t[7:])
+        if spin_stiffness is not None:
+            out[7:] = -np.einsum("a,b,abkl,l->k", w, w, spin_stiffness, q[7:])
         return out
 
     return force
@@ -141,15 +145,16 @@ class _Without:
         return getattr(self._domain, name)
 
 
-def reduced_body(t: Translation, body) -> tuple[int, dict]:
-    """``body`` as an ``ObjectFFRFreducedOrder`` of ``t``'s system, its frame at the rest centre of mass and at
-    rest (the decks start the reduced beams at rest); returns the object and, by node id, its mesh index."""
+def reduced_body(t: Translation, body, spin_stiffness=None) -> tuple[int, dict]:
+    """``body`` as an ``ObjectFFRFreducedOrder`` of ``t``'s system, its frame at the invariants' origin and at rest
+    (the decks start the reduced beams at rest), with the stress stiffness ``spin_stiffness`` if given
+    (:func:`_rotary_force`); returns the object and, by node id, its mesh index."""
     eii, mbs, r = t.eii, t.mbs, body.n_modes
     p0 = np.array([1.0, 0.0, 0.0, 0.0])
     frame = mbs.AddNode(eii.NodeRigidBodyEP(referenceCoordinates=list(body.inv.origin) + list(p0)))
     modal = mbs.AddNode(eii.NodeGenericODE2(numberOfODE2Coordinates=r, referenceCoordinates=[0.0] * r,
                                             initialCoordinates=[0.0] * r, initialCoordinates_t=[0.0] * r))
-    force = _rotary_force(body, p0)
+    force = _rotary_force(body, p0, spin_stiffness)
     t.user_functions.append(force)
     obj = mbs.AddObject(eii.ObjectFFRFreducedOrder(nodeNumbers=[frame, modal], forceUserFunction=force,
                                                    computeFFRFterms=True, **exudyn_parameters(body)))
