@@ -45,6 +45,8 @@ def test_exudyn_constants_are_its_definitions_on_flexmbs_modes(coupler):
         value = value + rotary.get(name, 0.0)
         assert np.abs(par[name] - value).max() <= 1e-12 * size, name
     assert par["centerOfMass"] == pytest.approx(np.zeros(3), abs=1e-14)  # the frame at the centre of mass
+    X = par["mXRefTildePsiTilde"].reshape(3, body.n_modes, 3).transpose(1, 0, 2)  # blocks k: Σ m_i x̄̃_iᵀ φ̃_ik
+    assert np.abs(X + X.transpose(0, 2, 1) - body.inv.inertia_linear).max() <= 1e-12 * size  # I₁ₖ, its sym. part
 
 
 def test_tables_it_cannot_judge_are_refused_in_one_line(coupler):
