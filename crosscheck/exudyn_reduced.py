@@ -92,20 +92,27 @@ def _g_local(p) -> np.ndarray:
 
 
 def _rotary_force(body, p0, spin_stiffness=None):
-    """Exudyn's force user function adding ``−Gᵀ (ω × (Σ J_i Φr_i q̇))`` to the frame's Euler-parameter rows (the
-    module docstring's missing quadratic-velocity term) and, given ``spin_stiffness`` 𝕂 (3, 3, r, r), the stress
-    stiffness ``−K_G(ω) q``, ``K_G(ω) = Σ ω_a ω_b 𝕂_ab`` (:mod:`reference.reduced.stiffening`), to the modal rows;
-    ``p0`` the frame's reference Euler parameters (Exudyn's coordinates are displacements from them)."""
+    """Exudyn's force user function adding to the frame's Euler-parameter rows ``−Gᵀ (ω × (Σ J_i Φr_i q̇))`` (the
+    module docstring's missing quadratic-velocity term) and to the modal rows the stiffness flexmbs adds to the
+    linear modes when the deck asks for it: the stress stiffness of a spin ``−K_G(ω) q``,
+    ``K_G(ω) = Σ ω_a ω_b 𝕂_ab`` (``spin_stiffness`` 𝕂 (3, 3, r, r), default the body's ``spin_stiffness``,
+    ``reduce.stiffening``) and the modes' second-order force ``−½ K₃ : q q`` (the body's ``cubic`` K₃ (r, r, r),
+    ``reduce.second_order``; :mod:`reference.reduced.stiffening`); ``p0`` the frame's reference Euler parameters
+    (Exudyn's coordinates are displacements from them)."""
     coupling, r = rotary_coupling(body), body.n_modes
+    spin = getattr(body, "spin_stiffness", None) if spin_stiffness is None else spin_stiffness
+    cubic = getattr(body, "cubic", None)
 
     def force(mbs, t, item, q, q_t):
         q, q_t = np.asarray(q), np.asarray(q_t)
         G = _g_local(q[3:7] + p0)
-        w = G @ q_t[3:7]
+        w, eta = G @ q_t[3:7], q[7:]
         out = np.zeros(7 + r)
         out[3:7] = -G.T @ np.cross(w, coupling @ q_t[7:])
-        if spin_stiffness is not None:
-            out[7:] = -np.einsum("a,b,abkl,l->k", w, w, spin_stiffness, q[7:])
+        if spin is not None:
+            out[7:] -= np.einsum("a,b,abkl,l->k", w, w, spin, eta)
+        if cubic is not None:
+            out[7:] -= 0.5 * np.einsum("klm,l,m->k", cubic, eta, eta)
         return out
 
     return force
@@ -147,8 +154,8 @@ class _Without:
 
 def reduced_body(t: Translation, body, spin_stiffness=None) -> tuple[int, dict]:
     """``body`` as an ``ObjectFFRFreducedOrder`` of ``t``'s system, its frame at the invariants' origin and at rest
-    (the decks start the reduced beams at rest), with the stress stiffness ``spin_stiffness`` if given
-    (:func:`_rotary_force`); returns the object and, by node id, its mesh index."""
+    (the decks start the reduced beams at rest), with the stress stiffness ``spin_stiffness`` (default the body's;
+    :func:`_rotary_force`); returns the object and, by node id, its mesh index."""
     eii, mbs, r = t.eii, t.mbs, body.n_modes
     p0 = np.array([1.0, 0.0, 0.0, 0.0])
     frame = mbs.AddNode(eii.NodeRigidBodyEP(referenceCoordinates=list(body.inv.origin) + list(p0)))
