@@ -20,8 +20,8 @@ Exudyn parameter            its definition              flexmbs's invariant
 ``mXRefTildePsi``           ``Σ m_i x̄̃_iᵀ Φt_i``        ``−coupling`` (``C₀``, with ``Σ J_i Φr_i``)
 ``mPsiTildePsi`` block k    ``Σ m_i φ̃_ikᵀ Φt_i``       ``−coupling_linear[k]``
 ``mPsiTildePsiTilde`` k, l  ``Σ m_i φ̃_ikᵀ φ̃_il``       ``inertia_quadratic[k, l]``
-``mXRefTildePsiTilde`` k    ``Σ m_i x̄̃_iᵀ φ̃_ik``        its symmetric part is ``½ inertia_linear[k]``; the
-                                                        matrix itself from the nodal rows (:func:`x_ref_tilde_psi_tilde`)
+``mXRefTildePsiTilde`` k    ``Σ m_i x̄̃_iᵀ φ̃_ik``        symmetric part ``½ inertia_linear[k]``; the matrix
+                                                        from the nodal rows: :func:`x_ref_tilde_psi_tilde`
 ==========================  ==========================  =========================================================
 
 Exudyn's mesh nodes carry no rotation: its mass matrix and quadratic-velocity vector are those of point masses.

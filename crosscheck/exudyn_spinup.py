@@ -1,4 +1,4 @@
-"""The spin-up of ``models/rotating_blade_reduced.toml`` with the blade as Exudyn's ``ObjectFFRFreducedOrder`` (issue 39).
+"""The spin-up of ``models/rotating_blade_reduced.toml``, the blade as Exudyn's ``ObjectFFRFreducedOrder`` (issue 39).
 
 The blade reduced as a floating frame **clamped at its root** (Shabana's "clamped" reference condition,
 :func:`reference.reduced.craig_bampton.clamped_modes`: the root node's six coordinates held, the deck's mode count
@@ -73,8 +73,9 @@ def spinup(path, stiffening: bool = True, t_end: float | None = None) -> dict:
     offset = _drive_offset(drives[0])
     t.user_functions.append(offset)
     ground = t.mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=t.ground, localPosition=list(body.inv.origin)))
-    t.mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[ground, t.mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=frame))],
-                                           constrainedAxes=[1] * 6, offsetUserFunction=offset))
+    hub = t.mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=frame))
+    t.mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[ground, hub], constrainedAxes=[1] * 6,
+                                           offsetUserFunction=offset))
     OV = exu.OutputVariableType
     tip = t.mbs.AddSensor(eii.SensorSuperElement(bodyNumber=obj, meshNodeNumber=len(body.rest) - 1, storeInternal=True,
                                                  writeToFile=False, outputVariableType=OV.Position))
