@@ -8,7 +8,9 @@ A deck marks a beam for reduction with
   attach; a Craig–Bampton basis keeps their six coordinates each, so it needs at least one;
 - ``basis``: ``"craig_bampton"`` (default) or ``"free_free"`` (:mod:`reference.reduced.craig_bampton`);
 - ``stiffening``: ``true`` adds the centrifugal stress stiffness of the modes
-  (:func:`reference.reduced.stiffening.spin_stiffness`) to the modal stiffness, at the frame's current spin.
+  (:func:`reference.reduced.stiffening.spin_stiffness`) to the modal stiffness, at the frame's current spin;
+- ``second_order``: ``true`` adds the modes' second-order stiffness
+  (:func:`reference.reduced.stiffening.modal_derivatives`): the stress stiffness of the body's own deformation.
 
 :func:`read_reduce` checks the key (one line ``FILE: beams[i].reduce…: problem; fix`` for a node that does not
 exist or is not the beam's, more modes than the mesh has, a rigid bar, an unknown key), then the run: the
@@ -31,7 +33,7 @@ from reference.reduced.craig_bampton import (beam_matrices, craig_bampton, float
                                              interface_positions)
 from reference.reduced.invariants import invariants
 from reference.reduced.registry import RUNS, register
-from reference.reduced.stiffening import spin_stiffness
+from reference.reduced.stiffening import modal_derivatives, spin_stiffness
 from reference.reduced.attachments import attachment_problem
 
 BASES = ("craig_bampton", "free_free")
@@ -45,7 +47,8 @@ class Reduction(NamedTuple):
     """One beam's ``reduce`` table as read: ``label``; ``modes`` the count kept; ``interfaces`` their positions
     along the beam (:func:`reference.reduced.craig_bampton.interface_positions`); ``basis`` one of :data:`BASES`;
     ``beam`` its :class:`~reference.reduced.craig_bampton.BeamMatrices`; ``stiffening`` whether the modal stiffness
-    takes the centrifugal stress stiffness (``domain`` the Domain its tangent is taken from)."""
+    takes the centrifugal stress stiffness, ``second_order`` the modes' second-order stiffness (``domain`` the
+    Domain their tangents are taken from)."""
 
     label: str
     modes: int
@@ -54,6 +57,7 @@ class Reduction(NamedTuple):
     beam: object
     stiffening: bool = False
     domain: object = None
+    second_order: bool = False
 
 
 def _split(message: str, prefix: str) -> tuple[str, str]:
@@ -118,7 +122,7 @@ def read_reduce(rd, deck: dict, domain) -> dict:
             continue
         entry = f"beams[{i}].reduce"
         table = bm["reduce"]
-        rd.keys(table, entry, required=["modes"], optional=["interfaces", "basis", "stiffening"])
+        rd.keys(table, entry, required=["modes"], optional=["interfaces", "basis", "stiffening", "second_order"])
         if bm.get("rigid", False) is True:
             raise rd.fail(entry, "a rigid bar is one rigid body, it has no modes to reduce", "remove reduce or rigid")
         basis = rd.choice(table.get("basis", BASES[0]), f"{entry}.basis", BASES, "basis")
@@ -134,8 +138,9 @@ def read_reduce(rd, deck: dict, domain) -> dict:
         if stiffening and not interfaces:
             raise rd.fail(f"{entry}.stiffening", "the centrifugal stress state needs the node the body turns about",
                           "name it first in interfaces (the hub)")
+        second = rd.boolean(table.get("second_order", False), f"{entry}.second_order")
         found[beam.label] = Reduction(beam.label, _modes(rd, table, entry, basis, beam, interfaces), interfaces,
-                                      basis, beam, stiffening, domain if stiffening else None)
+                                      basis, beam, stiffening, domain, second)
     collect = _COLLECT.get()
     if collect is not None:
         collect.update(found)
@@ -158,6 +163,8 @@ def reduced_body(reduction: Reduction) -> ReducedBody:
     body = ReducedBody(reduction.label, beam, modes, invariants(beam, modes), interfaces=reduction.interfaces)
     if reduction.stiffening:
         body.spin_stiffness = spin_stiffness(reduction.domain, beam, modes, reduction.interfaces)
+    if reduction.second_order:
+        body.cubic = modal_derivatives(reduction.domain, beam, modes)
     return body
 
 

@@ -57,6 +57,9 @@ class ReducedBody:
     spin_stiffness = None
     """``𝕂`` (3, 3, r, r) of :func:`reference.reduced.stiffening.spin_stiffness` when the body takes geometric
     stiffening (``reduce.stiffening``), else None."""
+    cubic = None
+    """``K₃`` (r, r, r) of :func:`reference.reduced.stiffening.modal_derivatives` when the body takes the modes'
+    second-order stiffness (``reduce.second_order``), else None."""
 
     def __init__(self, label: str, beam, modes, inv: Invariants, damping_ratio: float = 0.0, interfaces=()):
         self.label, self.modes, self.inv, self.interfaces = label, modes, inv, tuple(interfaces)

@@ -202,14 +202,27 @@ class CoupledModel:
         blocks += [body.mass_matrix(b.p, b.eta) for body, b in zip(self.bodies, bodies)]
         return sp.block_diag(blocks, format="csr") if blocks else sp.csr_matrix((0, 0))
 
-    def modal_stiffness(self, k: int, b: BodyState) -> np.ndarray:
-        """Body ``k``'s modal stiffness in state ``b``: ``K_ff``, plus with ``stiffening`` the stress stiffness
-        ``Σ ω_a ω_b 𝕂_ab`` at the frame's spin ω (:func:`reference.reduced.stiffening.spin_stiffness`)."""
+    def _linear_stiffness(self, k: int, b: BodyState) -> np.ndarray:
+        """``K_ff``, plus with ``stiffening`` the stress stiffness ``Σ ω_a ω_b 𝕂_ab`` at the frame's spin ω
+        (:func:`reference.reduced.stiffening.spin_stiffness`)."""
         body = self.bodies[k]
         if body.spin_stiffness is None:
             return body.K
         w = b.V[3:6]
         return body.K + np.einsum("a,b,abkl->kl", w, w, body.spin_stiffness)
+
+    def elastic(self, k: int, b: BodyState) -> np.ndarray:
+        """Body ``k``'s modal elastic force in state ``b``: ``K η`` (:meth:`_linear_stiffness`), plus with
+        ``second_order`` ``½ K₃ : η η`` (:func:`reference.reduced.stiffening.modal_derivatives`)."""
+        f = self._linear_stiffness(k, b) @ b.eta
+        cubic = self.bodies[k].cubic
+        return f if cubic is None else f + 0.5 * np.einsum("ijk,j,k->i", cubic, b.eta, b.eta)
+
+    def modal_stiffness(self, k: int, b: BodyState) -> np.ndarray:
+        """The tangent of :meth:`elastic` in η: ``K (+ K₃ · η)``."""
+        K = self._linear_stiffness(k, b)
+        cubic = self.bodies[k].cubic
+        return K if cubic is None else K + np.einsum("ijk,k->ij", cubic, b.eta)
 
     def inertial(self, bodies: list[BodyState], V) -> np.ndarray:
         """The velocity-dependent forces (size,) that the generalised accelerations balance, with their sign
@@ -223,15 +236,21 @@ class CoupledModel:
         for i, (body, b, start) in enumerate(zip(self.bodies, bodies, self.offsets)):
             Vb = V[start:start + 6 + body.n_modes]
             Q = body.quadratic_velocity(b.p, b.eta, Vb[3:6], Vb[6:])
-            Q[6:] += self.modal_stiffness(i, b) @ b.eta + body.D @ Vb[6:]
+            Q[6:] += self.elastic(i, b) + body.D @ Vb[6:]
             out[start:start + Q.size] = Q
         if self.ev.damping:
             out += self.ev.damping * (self.mass(bodies) @ V)
         return out
 
     def strain(self, bodies: list[BodyState]) -> float:
-        """The bodies' modal strain energy ``Σ ½ ηᵀ K η`` [J] (the stripped model's elements give the rest)."""
-        return float(sum(0.5 * b.eta @ self.modal_stiffness(i, b) @ b.eta for i, b in enumerate(bodies)))
+        """The bodies' modal strain energy ``Σ ½ ηᵀ K η (+ ⅙ K₃ ⋮ η η η)`` [J] (the stripped model's elements give
+        the rest)."""
+        total = 0.0
+        for i, b in enumerate(bodies):
+            total += 0.5 * b.eta @ self._linear_stiffness(i, b) @ b.eta
+            if self.bodies[i].cubic is not None:
+                total += np.einsum("ijk,i,j,k->", self.bodies[i].cubic, b.eta, b.eta, b.eta) / 6.0
+        return float(total)
 
     def constraints(self, state, bodies: list[BodyState], T) -> tuple:
         """``(Φ, B T, Φ_t, ε)`` of the joints (the model's m rows first) and of the fixed coordinates of the

@@ -83,7 +83,7 @@ def residual(cm: CoupledModel, state, bodies, lam, Vdot=None, V=None) -> tuple:
     scale = np.abs(r).max(initial=0.0)
     if V is None:
         for i, (b, start) in enumerate(zip(bodies, cm.offsets)):
-            r[start + 6:start + 6 + b.eta.size] += cm.modal_stiffness(i, b) @ b.eta
+            r[start + 6:start + 6 + b.eta.size] += cm.elastic(i, b)
     else:
         inertia = cm.mass(bodies) @ Vdot + cm.inertial(bodies, V)
         scale = max(scale, np.abs(inertia).max(initial=0.0))
