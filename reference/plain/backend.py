@@ -13,7 +13,7 @@
   at most :data:`REFERENCE_SECONDS`; a long job pays the compilation once and runs fast.  The measurements
   behind :data:`COSTS` are in docs/benchmarks.md ("The reference path").
 
-A model of a formulation that only the reference path runs (:data:`FORMULATIONS`: the reduced bodies of a
+A model of a formulation that only the reference path runs (:data:`REFERENCE_ONLY`: the reduced bodies of a
 ``[[beams]] reduce`` table, issue 39, :mod:`reference.reduced.registry`) runs there: ``auto`` chooses it,
 ``compiled`` is refused in one line (:func:`decide`), and :func:`twin` gives the formulation's twin of the
 algorithm.
@@ -87,7 +87,7 @@ class Choice(NamedTuple):
         return f"backend: {self.backend} ({self.reason})"
 
 
-FORMULATIONS: list = []
+REFERENCE_ONLY: list = []
 """Formulations whose models run on the reference path only, registered by their packages (this module imports
 none of them): each has ``name`` (its words in a message), ``labels(model)`` (the labels of its parts in
 ``model``, an empty tuple when it has none), ``algorithms`` (the deck names of the algorithms that run it) and
@@ -98,7 +98,7 @@ _CHOSEN: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def _formulation_choice(requested: str, algo, model, formulation, labels: tuple) -> Choice:
-    """The reference path for a model with parts of a :data:`FORMULATIONS` entry, or a one-line ValueError: the
+    """The reference path for a model with parts of a :data:`REFERENCE_ONLY` entry, or a one-line ValueError: the
     compiled path asked for, or an algorithm that does not run them."""
     names = ", ".join(map(repr, labels))
     if requested == "compiled":
@@ -157,7 +157,7 @@ def decide(requested: str, algo, model, steps: int) -> Choice:
     why = problem(requested, algo.name)
     if why:
         raise ValueError(f"solver backend: {why}")
-    for formulation in FORMULATIONS:
+    for formulation in REFERENCE_ONLY:
         labels = formulation.labels(model)
         if labels:
             return _formulation_choice(requested, algo, model, formulation, labels)
@@ -192,7 +192,7 @@ def for_domain(domain) -> Choice:
 
 def twin(algo):
     """The reference-path twin of the compiled algorithm ``algo``, with its settings (the same attributes); the
-    formulation's own when :func:`decide` chose this path for a model of a :data:`FORMULATIONS` entry."""
+    formulation's own when :func:`decide` chose this path for a model of a :data:`REFERENCE_ONLY` entry."""
     chosen = _CHOSEN.get(algo)
     if chosen is not None:
         formulation, model = chosen

@@ -9,7 +9,7 @@
 - :mod:`reference.reduced.coupling`: a model whose reduced beams move as reduced bodies (generalised coordinates,
   the velocity map, mass, forces, joint rows by the chain rule), with :mod:`reference.reduced.attachments` (joints,
   springs and loads at interface nodes only) and :mod:`reference.reduced.registry` (which Domains have them, and
-  the formulation's entry in :data:`reference.plain.backend.FORMULATIONS`);
+  the formulation's entry in :data:`reference.plain.backend.REFERENCE_ONLY`);
 - :mod:`reference.reduced.explicit` and :mod:`reference.reduced.implicit`: the explicit, static, generalized-α and
   modes algorithms on those coordinates (:data:`reference.reduced.algorithms.REDUCED_TWINS`), on the reference
   path (``[[beams]] reduce``, :mod:`reference.io.deck_reduce`).

@@ -2,7 +2,7 @@
 
 :func:`reference.io.deck_reduce.read_reduce` registers the reduced beams of a Domain read from a deck
 (:func:`register`); the backend's choice (:func:`reference.plain.backend.decide`, through
-:data:`reference.plain.backend.FORMULATIONS`, where this module enters :data:`REDUCED`) asks :meth:`Reduced.labels`
+:data:`reference.plain.backend.REFERENCE_ONLY`, where this module enters :data:`REDUCED`) asks :meth:`Reduced.labels`
 of the model it is handed: the Domain caches the model it runs (``Domain.model``), so the model identifies the
 Domain.  Weak references: a Domain that is gone leaves nothing behind.
 """
@@ -34,7 +34,7 @@ def domain_of(model):
 
 
 class Reduced:
-    """Reduced bodies as an entry of :data:`reference.plain.backend.FORMULATIONS`."""
+    """Reduced bodies as an entry of :data:`reference.plain.backend.REFERENCE_ONLY`."""
 
     name = "reduced beam"
     algorithms = RUNS
@@ -56,5 +56,5 @@ class Reduced:
 
 
 REDUCED = Reduced()
-if not any(isinstance(f, Reduced) for f in backend.FORMULATIONS):
-    backend.FORMULATIONS.append(REDUCED)
+if not any(isinstance(f, Reduced) for f in backend.REFERENCE_ONLY):
+    backend.REFERENCE_ONLY.append(REDUCED)
