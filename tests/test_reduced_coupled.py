@@ -140,10 +140,13 @@ def test_a_reduced_cantilever_takes_the_full_beams_static_deflection(tmp_path):
     (('backend = "reference"', 'backend = "compiled"'), "beams[1].reduce",
      'reduced bodies run on the reference path only; set backend = "reference" (or "auto") in [solver]'),
     (("interfaces = [", 'stiffening = 1, interfaces = ['), "beams[1].reduce.stiffening", "expected true or false"),
+    (('algorithm = "staggered_central_difference"', 'algorithm = "generalized_alpha"\nerror_tolerance = 1e-4'),
+     "beams[1].reduce", "generalized-α runs reduced bodies at the fixed step dt (no error control); remove "
+     "error_tolerance from [solver]"),
 ])
 def test_bad_input_is_one_line(tmp_path, change, entry, problem):
     """A joint at a mesh node that is not an interface, the compiled backend, a stiffening that is not a
-    boolean: one line naming the entry."""
+    boolean, generalized-α with error control: one line naming the entry."""
     text = REDUCED.read_text()
     assert text.count(change[0]) == 1
     path = tmp_path / "bad.toml"

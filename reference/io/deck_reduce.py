@@ -169,14 +169,22 @@ def reduced_body(reduction: Reduction) -> ReducedBody:
 
 
 def _check_run(rd, entry: str, domain, found: dict) -> None:
-    """The run of a deck with reduced beams: the reference path (``solver.backend`` "reference" or "auto") and
-    an algorithm that runs them (:data:`RUNS`); joints, springs and loads only at the interface nodes."""
+    """The run of a deck with reduced beams: the reference path (``solver.backend`` "reference" or "auto"), an
+    algorithm that runs them (:data:`RUNS`: generalized-α at a fixed step, modes about the reference state);
+    joints, springs and loads only at the interface nodes."""
     if domain.solver.backend == "compiled":
         raise rd.fail(entry, "reduced bodies run on the reference path only",
                       'set backend = "reference" (or "auto") in [solver]')
     if domain.solver.algorithm not in RUNS:
         raise rd.fail(entry, f"reduced bodies run in {', '.join(RUNS)}, not in {domain.solver.algorithm!r}",
                       "choose one of them in [solver], or remove reduce")
+    solver = domain.solver
+    if solver.algorithm == "generalized_alpha" and getattr(solver, "error_tolerance", None) is not None:
+        raise rd.fail(entry, "generalized-α runs reduced bodies at the fixed step dt (no error control)",
+                      "remove error_tolerance from [solver]")
+    if solver.algorithm == "modes" and getattr(solver, "about", "reference") != "reference":
+        raise rd.fail(entry, "modes of a model with reduced bodies are taken about the reference state only",
+                      'remove about from [solver] (or set about = "reference")')
     problem = attachment_problem(domain.model, {label: (r.beam.nodes, r.interfaces) for label, r in found.items()},
                                  [n.label for n in domain.nodes])
     if problem:
