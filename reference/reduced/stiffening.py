@@ -45,7 +45,9 @@ def centrifugal_displacement(beam, held, axis, origin) -> np.ndarray:
 def tangent_derivative(domain, beam, u) -> np.ndarray:
     """``K_σ = (K_T(+ε u) − K_T(−ε u)) / 2ε`` (6n, 6n): the derivative of the beam's tangent at rest along the
     displacement ``u`` (6n,) (body-frame coordinates of the module docstring), per unit of ``u``; ε = :data:`STEP`
-    over the largest entry of ``u``."""
+    over the largest entry of ``u`` (zero for ``u = 0``: a spin about a straight blade's own axis loads nothing)."""
+    if not np.abs(u).max() > 0.0:
+        return np.zeros((u.size, u.size))
     scale = STEP / np.abs(u).max()
     x = np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3)
     q = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4)
