@@ -143,6 +143,7 @@ class Translation:
                     seen.add(i)
                     self.primary[i] = data.offset[r, a]
         self.nodes, self.bodies, self.beams, self.joints = [], {}, [], {}
+        self.reduced = set()  # ids of nodes of reduced beams: no Exudyn node (crosscheck.exudyn_reduced)
         self.loads, self.actuators, self.user_functions = [], [], []
 
     def exudyn_node(self, i: int, o) -> int:
@@ -171,8 +172,12 @@ class Translation:
 
 
 def nodes(t: Translation) -> None:
-    """Every node, and a rigid body on each node that no element uses."""
+    """Every node, and a rigid body on each node that no element uses; none for a node of a reduced beam
+    (``t.reduced``: :mod:`crosscheck.exudyn_reduced` makes the reduced body)."""
     for n in t.domain.nodes:
+        if n.id in t.reduced:
+            t.nodes.append(None)
+            continue
         t.nodes.append(t.exudyn_node(n.id, t.primary[n.id]))
         if n.id not in t.beam_nodes:
             J = n.inertia

@@ -265,6 +265,9 @@ def cmd_crosscheck(args) -> int:
             raise CommandError(f"{args.deck}: --element compares time histories on converged meshes; a modes or "
                                "buckling deck is compared on its own mesh: drop --element")
         return _crosscheck_modes(args, out, refine, exudyn_model)
+    reduced = _module("crosscheck.reduced_crosscheck", "crosscheck")
+    if reduced.is_reduced(args.deck):
+        return _crosscheck_reduced(args, refine, exudyn_model, reduced)
     path = _module("crosscheck.path_crosscheck", "crosscheck")
     if path.is_path(_domain(args.deck)):
         return _crosscheck_path(args, out, refine, exudyn_model, path)
@@ -329,6 +332,21 @@ def _crosscheck_path(args, out: Path, refine: int, exudyn_model, path) -> int:
     for line in cmp["lines"]:
         print(line)
     return 0 if cmp["passed"] else 1
+
+
+def _crosscheck_reduced(args, refine: int, exudyn_model, reduced) -> int:
+    """A deck with reduced beams: flexmbs's reduced run against Exudyn's ObjectFFRFreducedOrder built from the same
+    modes and invariants (:mod:`crosscheck.reduced_crosscheck`)."""
+    if refine != 1 or args.element:
+        raise CommandError(f"{args.deck}: a reduced beam is compared on its own mesh and modes: drop --refine and "
+                           "--element")
+    with _exudyn_errors(args.deck, exudyn_model):
+        cmp = reduced.run(args.deck, t_end=args.t_end)
+    for v in cmp["verdicts"]:
+        print(f"{'pass' if v.passed else 'FAIL'}  {v.observable}: {v.measure:.3e} (tolerance {v.tolerance:g}, "
+              f"relative to {v.relative_to}; Exudyn ObjectFFRFreducedOrder, same modes and invariants)")
+    print(f"solve times: reference {cmp['reference'].wall_time:.3g} s, Exudyn {cmp['exudyn']['wall_time']:.3g} s")
+    return 0 if all(v.passed for v in cmp["verdicts"]) else 1
 
 
 def _crosscheck_modes(args, out: Path, refine: int, exudyn_model) -> int:

@@ -177,7 +177,11 @@ MEANINGS = {
                         "or elastic modes (free-free)",
         "reduce.interfaces": "in `reduce`: node references of the beam where joints, springs and loads attach "
                              "(Craig–Bampton keeps their six coordinates each: at least one)",
-        "reduce.basis": "in `reduce`: `craig_bampton` (fixed-interface and constraint modes) or `free_free`"},
+        "reduce.basis": "in `reduce`: `craig_bampton` (fixed-interface and constraint modes) or `free_free`",
+        "reduce.stiffening": "in `reduce`: `true` adds the modes' centrifugal stress stiffness at the frame's spin "
+                             "(a body turning about its first interface); default `false`",
+        "reduce.second_order": "in `reduce`: `true` adds the modes' second-order stiffness (the stress stiffness of "
+                               "the body's own deformation, e.g. an axial force stiffening bending); default `false`"},
     "[[clamps]]": {"node": "the node or body whose six coordinates are fixed"},
     "[[fixed]]": {"node": "the node or body", "dofs": "the fixed coordinates: `x`, `y`, `z` (inertial translations), "
                                                       "`rx`, `ry`, `rz` (rotations about the body axes)"},

@@ -2,7 +2,7 @@
 
 A beam of a deck marked ``reduce = {modes, interfaces, basis}`` gives the same reduced body as
 reference/reduced built directly; bad input is one line naming the entry; and a deck that reduces a beam is
-refused by the reader in one line, since the algorithms do not run reduced bodies yet.
+refused by the reader in one line on the compiled backend (reduced bodies run on the reference path only).
 """
 
 from __future__ import annotations
@@ -65,14 +65,13 @@ def test_the_decks_reduced_body_is_the_one_built_directly(tmp_path, reduce, basi
 
 
 def test_a_deck_that_reduces_a_beam_is_refused_in_one_line(tmp_path):
-    """load_deck reads the key, then says the algorithms do not run reduced bodies yet: one line, naming
-    the entry and the fix, not a run of the full beam that would look like the reduced one's."""
+    """load_deck reads the key, then refuses the compiled backend (the three-bar's default): reduced bodies
+    run on the reference path only; one line, naming the entry and the fix."""
     path = _deck(tmp_path, '{ modes = 4, interfaces = ["coupler:start", "coupler:end"] }')
     with pytest.raises(DeckError) as err:
         load_deck(path)
-    assert str(err.value) == (f"{path}: beams[1].reduce: reduced bodies are built (modes, invariants) but not yet "
-                              "run by the algorithms; remove reduce to run the full beam, or read them with "
-                              "reference.io.reduced_deck.reduced_bodies")
+    assert str(err.value) == (f"{path}: beams[1].reduce: reduced bodies run on the reference path only; "
+                              'set backend = "reference" (or "auto") in [solver]')
 
 
 def test_the_command_line_refuses_a_reduced_deck_in_one_line(tmp_path):
@@ -81,10 +80,9 @@ def test_the_command_line_refuses_a_reduced_deck_in_one_line(tmp_path):
     run = subprocess.run([sys.executable, "-m", "flexmbs", "run", str(path), "--out", str(tmp_path / "out"),
                           "--no-vtk"], capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert run.returncode == 2
-    assert run.stderr.strip().splitlines() == [f"flexmbs: error: {path}: beams[1].reduce: reduced bodies are built "
-                                               "(modes, invariants) but not yet run by the algorithms; remove reduce "
-                                               "to run the full beam, or read them with "
-                                               "reference.io.reduced_deck.reduced_bodies"]
+    assert run.stderr.strip().splitlines() == [f"flexmbs: error: {path}: beams[1].reduce: reduced bodies run on the "
+                                               'reference path only; set backend = "reference" (or "auto") in '
+                                               "[solver]"]
 
 
 @pytest.mark.parametrize("reduce, after, entry, problem", [

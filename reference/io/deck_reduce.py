@@ -6,12 +6,19 @@ A deck marks a beam for reduction with
 - ``modes``: the fixed-interface normal modes kept (Craig–Bampton) or the elastic modes kept (free-free);
 - ``interfaces``: node references of the beam (docs/deck.md, "Node references") where joints, springs and loads
   attach; a Craig–Bampton basis keeps their six coordinates each, so it needs at least one;
-- ``basis``: ``"craig_bampton"`` (default) or ``"free_free"`` (:mod:`reference.reduced.craig_bampton`).
+- ``basis``: ``"craig_bampton"`` (default) or ``"free_free"`` (:mod:`reference.reduced.craig_bampton`);
+- ``stiffening``: ``true`` adds the centrifugal stress stiffness of the modes
+  (:func:`reference.reduced.stiffening.spin_stiffness`) to the modal stiffness, at the frame's current spin;
+- ``second_order``: ``true`` adds the modes' second-order stiffness
+  (:func:`reference.reduced.stiffening.modal_derivatives`): the stress stiffness of the body's own deformation.
 
 :func:`read_reduce` checks the key (one line ``FILE: beams[i].reduce…: problem; fix`` for a node that does not
-exist or is not the beam's, more modes than the mesh has, a rigid bar, an unknown key) and then refuses the deck:
-the reduced body (:class:`reference.reduced.body.ReducedBody`) is built but not yet run by the algorithms.
-:func:`reference.io.reduced_deck.reduced_bodies` reads a deck past that refusal (:func:`collecting`) and
+exist or is not the beam's, more modes than the mesh has, a rigid bar, an unknown key), then the run: the
+reference path only (``[solver] backend = "reference"`` or ``"auto"``), an algorithm of :data:`RUNS`, joints,
+springs and loads at interface nodes only (:func:`reference.reduced.attachments.attachment_problem`); it builds
+each body (:class:`reference.reduced.body.ReducedBody`) and registers them with the Domain
+(:mod:`reference.reduced.registry`), where the backend's choice finds them.
+:func:`reference.io.reduced_deck.reduced_bodies` reads a deck past those run checks (:func:`collecting`) and
 returns each reduced beam's body, its modes and invariants, so that the reduction can be inspected from the deck.
 """
 
@@ -25,24 +32,32 @@ from reference.reduced.body import ReducedBody
 from reference.reduced.craig_bampton import (beam_matrices, craig_bampton, floating_modes, free_free,
                                              interface_positions)
 from reference.reduced.invariants import invariants
+from reference.reduced.registry import RUNS, register
+from reference.reduced.stiffening import modal_derivatives, spin_stiffness
+from reference.reduced.attachments import attachment_problem
 
 BASES = ("craig_bampton", "free_free")
 """The reduced bases a deck may name (:mod:`reference.reduced.craig_bampton`)."""
 
 _COLLECT: ContextVar = ContextVar("reduce_collect", default=None)
-"""Set by :func:`collecting` to a dict that :func:`read_reduce` fills instead of refusing the deck."""
+"""Set by :func:`collecting` to a dict that :func:`read_reduce` fills instead of checking the run."""
 
 
 class Reduction(NamedTuple):
     """One beam's ``reduce`` table as read: ``label``; ``modes`` the count kept; ``interfaces`` their positions
     along the beam (:func:`reference.reduced.craig_bampton.interface_positions`); ``basis`` one of :data:`BASES`;
-    ``beam`` its :class:`~reference.reduced.craig_bampton.BeamMatrices`."""
+    ``beam`` its :class:`~reference.reduced.craig_bampton.BeamMatrices`; ``stiffening`` whether the modal stiffness
+    takes the centrifugal stress stiffness, ``second_order`` the modes' second-order stiffness (``domain`` the
+    Domain their tangents are taken from)."""
 
     label: str
     modes: int
     interfaces: tuple
     basis: str
     beam: object
+    stiffening: bool = False
+    domain: object = None
+    second_order: bool = False
 
 
 def _split(message: str, prefix: str) -> tuple[str, str]:
@@ -91,14 +106,15 @@ def _modes(rd, table: dict, entry: str, basis: str, beam, interfaces: tuple) -> 
 
 def read_reduce(rd, deck: dict, domain) -> dict:
     """Check every ``[[beams]]`` entry's ``reduce`` table of the TOML table ``deck`` against the built ``domain``
-    (its beams and nodes); return label → :class:`Reduction` while :func:`collecting`, else refuse a
-    deck that reduces a beam (the algorithms do not run reduced bodies yet).
+    (its beams and nodes); return label → :class:`Reduction`; outside :func:`collecting`, check the run
+    (:func:`_check_run`) and register the bodies with ``domain``.
 
     Raises
     ------
     reference.io.deck_reader.DeckError
         One line naming the entry: an unknown key (did you mean), a rigid bar marked for reduction, an interface
-        node that does not exist or is not the beam's, more modes than the mesh has, or the refusal.
+        node that does not exist or is not the beam's, more modes than the mesh has, the compiled backend, an
+        algorithm that does not run reduced bodies, a joint, spring or load at a node that is not an interface.
     """
     found = {}
     for i, bm in enumerate(rd.items(deck, "beams")):
@@ -106,7 +122,7 @@ def read_reduce(rd, deck: dict, domain) -> dict:
             continue
         entry = f"beams[{i}].reduce"
         table = bm["reduce"]
-        rd.keys(table, entry, required=["modes"], optional=["interfaces", "basis"])
+        rd.keys(table, entry, required=["modes"], optional=["interfaces", "basis", "stiffening", "second_order"])
         if bm.get("rigid", False) is True:
             raise rd.fail(entry, "a rigid bar is one rigid body, it has no modes to reduce", "remove reduce or rigid")
         basis = rd.choice(table.get("basis", BASES[0]), f"{entry}.basis", BASES, "basis")
@@ -118,16 +134,20 @@ def read_reduce(rd, deck: dict, domain) -> dict:
         if basis == "craig_bampton" and not interfaces:
             raise rd.fail(f"{entry}.interfaces", "a Craig–Bampton basis needs at least one interface node",
                           'name one (e.g. interfaces = ["BEAM:start"]) or write basis = "free_free"')
+        stiffening = rd.boolean(table.get("stiffening", False), f"{entry}.stiffening")
+        if stiffening and not interfaces:
+            raise rd.fail(f"{entry}.stiffening", "the centrifugal stress state needs the node the body turns about",
+                          "name it first in interfaces (the hub)")
+        second = rd.boolean(table.get("second_order", False), f"{entry}.second_order")
         found[beam.label] = Reduction(beam.label, _modes(rd, table, entry, basis, beam, interfaces), interfaces,
-                                      basis, beam)
+                                      basis, beam, stiffening, domain, second)
     collect = _COLLECT.get()
-    if found and collect is None:
-        first = next(i for i, bm in enumerate(deck["beams"]) if isinstance(bm, dict) and "reduce" in bm)
-        raise rd.fail(f"beams[{first}].reduce", "reduced bodies are built (modes, invariants) but not yet run by "
-                      "the algorithms", "remove reduce to run the full beam, or read them with "
-                      "reference.io.reduced_deck.reduced_bodies")
     if collect is not None:
         collect.update(found)
+    elif found:
+        first = next(i for i, bm in enumerate(deck["beams"]) if isinstance(bm, dict) and "reduce" in bm)
+        _check_run(rd, f"beams[{first}].reduce", domain, found)
+        register(domain, {label: (reduced_body(r), r.beam.nodes) for label, r in found.items()})
     return found
 
 
@@ -140,14 +160,42 @@ def reduced_body(reduction: Reduction) -> ReducedBody:
         modes = floating_modes(beam, craig_bampton(beam, reduction.interfaces, reduction.modes))
     else:
         modes = free_free(beam, reduction.modes)
-    return ReducedBody(reduction.label, beam, modes, invariants(beam, modes), interfaces=reduction.interfaces)
+    body = ReducedBody(reduction.label, beam, modes, invariants(beam, modes), interfaces=reduction.interfaces)
+    if reduction.stiffening:
+        body.spin_stiffness = spin_stiffness(reduction.domain, beam, modes, reduction.interfaces)
+    if reduction.second_order:
+        body.cubic = modal_derivatives(reduction.domain, beam, modes)
+    return body
+
+
+def _check_run(rd, entry: str, domain, found: dict) -> None:
+    """The run of a deck with reduced beams: the reference path (``solver.backend`` "reference" or "auto"), an
+    algorithm that runs them (:data:`RUNS`: generalized-α at a fixed step, modes about the reference state);
+    joints, springs and loads only at the interface nodes."""
+    if domain.solver.backend == "compiled":
+        raise rd.fail(entry, "reduced bodies run on the reference path only",
+                      'set backend = "reference" (or "auto") in [solver]')
+    if domain.solver.algorithm not in RUNS:
+        raise rd.fail(entry, f"reduced bodies run in {', '.join(RUNS)}, not in {domain.solver.algorithm!r}",
+                      "choose one of them in [solver], or remove reduce")
+    solver = domain.solver
+    if solver.algorithm == "generalized_alpha" and getattr(solver, "error_tolerance", None) is not None:
+        raise rd.fail(entry, "generalized-α runs reduced bodies at the fixed step dt (no error control)",
+                      "remove error_tolerance from [solver]")
+    if solver.algorithm == "modes" and getattr(solver, "about", "reference") != "reference":
+        raise rd.fail(entry, "modes of a model with reduced bodies are taken about the reference state only",
+                      'remove about from [solver] (or set about = "reference")')
+    problem = attachment_problem(domain.model, {label: (r.beam.nodes, r.interfaces) for label, r in found.items()},
+                                 [n.label for n in domain.nodes])
+    if problem:
+        raise rd.fail(entry, *problem)
 
 
 @contextmanager
 def collecting():
     """Within the ``with`` block, :func:`read_reduce` puts each deck's reductions (label → :class:`Reduction`)
-    into the dict yielded instead of refusing the deck (a context variable: a deck read in another thread or
-    task is refused as usual)."""
+    into the dict yielded instead of checking the run and registering the bodies (a context variable: a deck read
+    in another thread or task is checked as usual)."""
     collect = {}
     token = _COLLECT.set(collect)
     try:

@@ -13,6 +13,11 @@
   at most :data:`REFERENCE_SECONDS`; a long job pays the compilation once and runs fast.  The measurements
   behind :data:`COSTS` are in docs/benchmarks.md ("The reference path").
 
+A model of a formulation that only the reference path runs (:data:`REFERENCE_ONLY`: the reduced bodies of a
+``[[beams]] reduce`` table, issue 39, :mod:`reference.reduced.registry`) runs there: ``auto`` chooses it,
+``compiled`` is refused in one line (:func:`decide`), and :func:`twin` gives the formulation's twin of the
+algorithm.
+
 :func:`decide` returns the decision and its one line (printed by ``flexmbs run`` for ``auto``, recorded in the
 results' attributes ``backend`` and ``backend_reason``); :func:`twin` gives the reference algorithm.
 """
@@ -20,6 +25,7 @@ results' attributes ``backend`` and ``backend_reason``); :func:`twin` gives the 
 from __future__ import annotations
 
 import functools
+import weakref
 from typing import NamedTuple
 
 import numpy as np
@@ -81,6 +87,31 @@ class Choice(NamedTuple):
         return f"backend: {self.backend} ({self.reason})"
 
 
+REFERENCE_ONLY: list = []
+"""Formulations whose models run on the reference path only, registered by their packages (this module imports
+none of them): each has ``name`` (its words in a message), ``labels(model)`` (the labels of its parts in
+``model``, an empty tuple when it has none), ``algorithms`` (the deck names of the algorithms that run it) and
+``twin(algo, model)`` (the algorithm that runs it, with ``algo``'s settings)."""
+
+_CHOSEN: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+"""Compiled algorithm → ``(formulation, model)`` that :func:`decide` chose the reference path for (:func:`twin`)."""
+
+
+def _formulation_choice(requested: str, algo, model, formulation, labels: tuple) -> Choice:
+    """The reference path for a model with parts of a :data:`REFERENCE_ONLY` entry, or a one-line ValueError: the
+    compiled path asked for, or an algorithm that does not run them."""
+    names = ", ".join(map(repr, labels))
+    if requested == "compiled":
+        raise ValueError(f"solver backend: {formulation.name} {names} runs on the reference path only; set backend "
+                         "= \"reference\" (or \"auto\")")
+    if algo.name not in formulation.algorithms:
+        raise ValueError(f"solver backend: {formulation.name} {names} runs in {', '.join(formulation.algorithms)}, "
+                         f"not in {algo.name!r}; choose one of them")
+    _CHOSEN[algo] = (formulation, model)
+    return Choice("reference", "asked for" if requested == "reference" else
+                  f"{formulation.name} {names} runs on the reference path only")
+
+
 def problem(requested: str, algorithm: str) -> str:
     """Why ``backend = requested`` cannot run ``algorithm`` ("" when it can): an unknown backend, or an
     algorithm with no reference twin."""
@@ -126,6 +157,10 @@ def decide(requested: str, algo, model, steps: int) -> Choice:
     why = problem(requested, algo.name)
     if why:
         raise ValueError(f"solver backend: {why}")
+    for formulation in REFERENCE_ONLY:
+        labels = formulation.labels(model)
+        if labels:
+            return _formulation_choice(requested, algo, model, formulation, labels)
     if requested == "compiled":
         return Choice("compiled", "asked for")
     refused = twin(algo).refusal(model) if algo.name in twins() else f"algorithm {algo.name!r} has no twin there"
@@ -156,7 +191,12 @@ def for_domain(domain) -> Choice:
 
 
 def twin(algo):
-    """The reference-path twin of the compiled algorithm ``algo``, with its settings (the same attributes)."""
+    """The reference-path twin of the compiled algorithm ``algo``, with its settings (the same attributes); the
+    formulation's own when :func:`decide` chose this path for a model of a :data:`REFERENCE_ONLY` entry."""
+    chosen = _CHOSEN.get(algo)
+    if chosen is not None:
+        formulation, model = chosen
+        return formulation.twin(algo, model)
     cls = twins()[algo.name]
     if not isinstance(algo, cls.__mro__[1]):
         raise TypeError(f"{cls.__name__} is not the twin of {type(algo).__name__}")

@@ -54,6 +54,13 @@ class ReducedBody:
         Positions along the beam of the nodes where joints, springs and loads attach.
     """
 
+    spin_stiffness = None
+    """``𝕂`` (3, 3, r, r) of :func:`reference.reduced.stiffening.spin_stiffness` when the body takes geometric
+    stiffening (``reduce.stiffening``), else None."""
+    cubic = None
+    """``K₃`` (r, r, r) of :func:`reference.reduced.stiffening.modal_derivatives` when the body takes the modes'
+    second-order stiffness (``reduce.second_order``), else None."""
+
     def __init__(self, label: str, beam, modes, inv: Invariants, damping_ratio: float = 0.0, interfaces=()):
         self.label, self.modes, self.inv, self.interfaces = label, modes, inv, tuple(interfaces)
         self.rest = beam.x - inv.origin
@@ -84,8 +91,9 @@ class ReducedBody:
         S = inv.first_moment + inv.modal_first_moment @ q
         I_tt, I_tt_dot, I_tf, I_tf_dot, dI = self._inertia(q, qd)
         Q = np.empty(6 + self.n_modes)
-        Q[:3] = A @ (np.cross(w, np.cross(w, S)) + 2.0 * np.cross(w, inv.modal_first_moment @ qd))
-        Q[3:6] = I_tt_dot @ w + I_tf_dot @ qd + np.cross(w, I_tt @ w + I_tf @ qd)
+        W = skew(w)
+        Q[:3] = A @ (W @ (W @ S) + 2.0 * W @ (inv.modal_first_moment @ qd))
+        Q[3:6] = I_tt_dot @ w + I_tf_dot @ qd + W @ (I_tt @ w + I_tf @ qd)
         Q[6:] = I_tf_dot.T @ w - 0.5 * np.einsum("a,kab,b->k", w, dI, w) \
             - np.einsum("a,kal,l->k", w, inv.coupling_linear, qd)
         return Q

@@ -42,10 +42,12 @@ def centrifugal_displacement(beam, held, axis, origin) -> np.ndarray:
     return u
 
 
-def centrifugal_stiffening(domain, beam, modes, held, axis, origin) -> np.ndarray:
-    """``K_G`` (r, r): the modes' geometric stiffness per (rad/s)² of spin about ``axis`` through ``origin``
-    (module docstring), the nodes at positions ``held`` along the beam fixed to the frame (the hub)."""
-    u = centrifugal_displacement(beam, held, axis, origin)
+def tangent_derivative(domain, beam, u) -> np.ndarray:
+    """``K_σ = (K_T(+ε u) − K_T(−ε u)) / 2ε`` (6n, 6n): the derivative of the beam's tangent at rest along the
+    displacement ``u`` (6n,) (body-frame coordinates of the module docstring), per unit of ``u``; ε = :data:`STEP`
+    over the largest entry of ``u`` (zero for ``u = 0``: a spin about a straight blade's own axis loads nothing)."""
+    if not np.abs(u).max() > 0.0:
+        return np.zeros((u.size, u.size))
     scale = STEP / np.abs(u).max()
     x = np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3)
     q = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4)
@@ -62,6 +64,48 @@ def centrifugal_stiffening(domain, beam, modes, held, axis, origin) -> np.ndarra
     for a, R in enumerate(A):
         T[6 * a:6 * a + 3, 6 * a:6 * a + 3] = np.eye(3)
         T[6 * a + 3:6 * a + 6, 6 * a + 3:6 * a + 6] = R
-    K_sigma = T @ (tangents[0] - tangents[1]) @ T.T / (2.0 * scale)
+    return T @ (tangents[0] - tangents[1]) @ T.T / (2.0 * scale)
+
+
+def modal_derivatives(domain, beam, modes) -> np.ndarray:
+    """``K₃`` (r, r, r): the derivative of the modal stiffness along each mode,
+    ``K₃[:, :, k] = Φᵀ K_σ(Φ_k) Φ`` (:func:`tangent_derivative`), made symmetric in its three indices (it is the
+    third derivative of the strain energy in the modal coordinates).  The modes' second-order stiffness: the
+    elastic force ``K η + ½ K₃ : η η``, the tangent ``K + K₃ · η``, the energy ``½ ηᵀ K η + ⅙ K₃ ⋮ η η η``; it
+    carries the stress stiffness of the body's own deformation (a coupler's axial force stiffening its bending,
+    the P-δ effect that linear modes lack)."""
+    phi = modes.T
+    r = phi.shape[1]
+    K3 = np.zeros((r, r, r))
+    for k in range(r):
+        K3[:, :, k] = phi.T @ tangent_derivative(domain, beam, phi[:, k]) @ phi
+    return sum(K3.transpose(p) for p in ((0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0))) / 6.0
+
+
+def centrifugal_stiffening(domain, beam, modes, held, axis, origin) -> np.ndarray:
+    """``K_G`` (r, r): the modes' geometric stiffness per (rad/s)² of spin about ``axis`` through ``origin``
+    (module docstring), the nodes at positions ``held`` along the beam fixed to the frame (the hub)."""
+    u = centrifugal_displacement(beam, held, axis, origin)
+    K_sigma = tangent_derivative(domain, beam, u)
     K_G = modes.T.T @ K_sigma @ modes.T
     return 0.5 * (K_G + K_G.T)
+
+
+def spin_stiffness(domain, beam, modes, interfaces) -> np.ndarray:
+    """``𝕂`` (3, 3, r, r): the modes' centrifugal stress stiffness at any spin ``ω`` (frame components),
+    ``K_G(ω) = Σ_ab ω_a ω_b 𝕂_ab``, the body turning about its first interface node (a blade about its hub; that
+    node held).  The centrifugal load is quadratic in ω and the stress stiffness linear in the load, so six
+    :func:`centrifugal_stiffening` calls fix it: ``𝕂_aa = K_G(e_a)`` and
+    ``𝕂_ab = K_G((e_a + e_b)/√2) − ½ (𝕂_aa + 𝕂_bb)``."""
+    held = (interfaces[0],)
+    origin = beam.x[interfaces[0]]
+    r = modes.T.shape[1]
+    out = np.zeros((3, 3, r, r))
+    axes = np.eye(3)
+    for a in range(3):
+        out[a, a] = centrifugal_stiffening(domain, beam, modes, held, axes[a], origin)
+    for a in range(3):
+        for b in range(a + 1, 3):
+            both = centrifugal_stiffening(domain, beam, modes, held, axes[a] + axes[b], origin)
+            out[a, b] = out[b, a] = both - 0.5 * (out[a, a] + out[b, b])
+    return out
