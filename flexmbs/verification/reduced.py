@@ -32,12 +32,14 @@ QUICK_HORIZON = 0.5
 
 def variant(deck: Path, folder: Path, name: str, reduce: str | None = None, drop_reduce: bool = False) -> Path:
     """A copy of ``deck`` in ``folder`` as ``name``.toml: the first ``[[beams]]`` entry given ``reduce`` (its inline
-    table's text), or every ``reduce`` line dropped with the reference-path backend line (the full beam, compiled)."""
+    table's text, on the reference path: a backend line the deck has is replaced), or every ``reduce`` line dropped
+    with the backend line (the full beam, compiled)."""
     text = deck.read_text(encoding="utf-8")
     if drop_reduce:
         text = re.sub(r"(?m)^(reduce|backend) = .*\n", "", text)
     if reduce is not None:
         text = re.sub(r"(?m)^(section = .*\n)", rf"\1reduce = {reduce}\n", text, count=1)
+        text = re.sub(r"(?m)^backend = .*\n", "", text)
         text = re.sub(r"(?m)^\[solver\]\n", '[solver]\nbackend = "reference"\n', text, count=1)
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{name}.toml"
