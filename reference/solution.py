@@ -45,16 +45,15 @@ def _on_backend(domain, algo: Algorithm, model: Model, n_total: int, rec: Record
     :func:`reference.plain.backend.decide`) the algorithm's twin and outputs computed in NumPy
     (:class:`reference.plain.outputs.PlainOutputs`), which compile nothing.  ValueError (one line) for a backend
     that cannot run the algorithm."""
-    requested = domain.solver.backend
-    if requested == "compiled":  # the reference path is not even imported
-        return algo, Outputs(model, domain.joints, rec), ("compiled", "asked for")
     from reference.plain import backend
+
+    requested = domain.solver.backend
+    choice = backend.decide(requested, algo, model, n_total)  # compiled is refused for a reference-only model
+    if choice.backend == "compiled":
+        return algo, Outputs(model, domain.joints, rec), tuple(choice)
     from reference.plain.model import Evaluation
     from reference.plain.outputs import PlainOutputs
 
-    choice = backend.decide(requested, algo, model, n_total)
-    if choice.backend == "compiled":
-        return algo, Outputs(model, domain.joints, rec), tuple(choice)
     return backend.twin(algo), PlainOutputs(model, domain.joints, rec, Evaluation(model)), tuple(choice)
 
 
