@@ -58,7 +58,9 @@ def time_exudyn(deck: Path, repeat: int) -> tuple[float, int]:
     from crosscheck.exudyn_model import solve
     from reference.io.deck import load_deck
 
-    solve(load_deck(deck).domain, t_end=20 * load_deck(deck).domain.solver.dt)  # warm-up
+    settings = load_deck(deck).domain.solver
+    # warm-up, to the first output at least (Exudyn's run is checked to end on the output grid)
+    solve(load_deck(deck).domain, t_end=max(20, settings.output_every) * settings.dt)
     times, steps = [], 0
     for _ in range(repeat):
         out = solve(load_deck(deck).domain)
@@ -102,7 +104,8 @@ def _deflection_runner(deck: Path, t_end: float, every: float, algorithm: str, d
     else:
         from crosscheck.exudyn_model import solve
 
-        solve(domain(), dt=dt, t_end=20 * dt)
+        warm = domain()
+        solve(warm, dt=dt, t_end=max(20, warm.solver.output_every) * dt)  # warm-up, to the first output at least
 
         def run():
             out = solve(domain(), dt=dt)
