@@ -1,4 +1,4 @@
-"""Where numba's compile time goes: seconds per dispatcher and per phase (docs/benchmarks.md §16).
+"""Where numba's compile time goes: seconds per dispatcher and per phase (docs/benchmarks.md §18).
 
 While a :class:`CompileProfile` listens, numba's ``numba:compile`` events (one per dispatcher and signature),
 its ``numba:run_pass`` events (one per compiler pass: bytecode, IR inlining, type inference, lowering, …)

@@ -1,5 +1,5 @@
 """The compile profile charges numba's compile time to the dispatcher and phase it was spent in
-(reference/compile_profile.py, docs/benchmarks.md §16)."""
+(reference/compile_profile.py, docs/benchmarks.md §18)."""
 
 from __future__ import annotations
 
