@@ -33,7 +33,7 @@ def test_the_variants_differ_from_the_deck_only_where_asked(tmp_path):
 def spun(tmp_path_factory):
     """Lead-lag tip deflections (hub frame's y) [m] of the full beam and the reduced blade with and without
     stiffening, to :data:`HORIZON`; the unstiffened run may stop (None then)."""
-    from reference.solution import SolverDiverged
+    from reference.errors import SolverDiverged
 
     folder = tmp_path_factory.mktemp("spinup")
     over = {"t_end": HORIZON}

@@ -126,7 +126,7 @@ def spinup_checks(folder: Path):
     run by flexmbs and, with flexmbs's modes and stress stiffness, by Exudyn (:mod:`crosscheck.exudyn_spinup`)."""
     from crosscheck.exudyn_spinup import spinup
     from reference.io.deck import load_deck
-    from reference.solution import SolverDiverged
+    from reference.errors import SolverDiverged
 
     deck = MODELS / "rotating_blade_reduced.toml"
     full = tip_in_hub(load_deck(variant(deck, folder, "rotating_blade_full", drop_reduce=True)).solve())[:, 1]

@@ -161,6 +161,24 @@ def _section_members(deck: dict, domain, section: str) -> np.ndarray:
     return np.array([e.label.rsplit("/", 1)[0] in beams for e in domain.elements], dtype=bool)
 
 
+def _prepared(path, parameters, overrides: dict, algorithms):
+    """The deck's Domain and its resolved parameters, for a run of one of ``algorithms`` only (one-line
+    ParameterError otherwise, and for a parameter that algorithm cannot differentiate)."""
+    domain = load_deck(path, overrides=overrides).domain
+    if domain.solver.algorithm not in algorithms:
+        raise ParameterError(f"sensitivities of a {domain.solver.algorithm!r} run are not built here; "
+                             f"use algorithm = {' or '.join(map(repr, algorithms))}")
+    params = resolve_all(path, parameters, overrides)
+    _refuse(params, domain.solver.algorithm)
+    return domain, params
+
+
+def _step(p) -> float:
+    """The step Δ a parameter is moved by: ``max(|p|, 1)`` where the residual is affine in it (the difference is
+    exact), ``1e-4 |p|`` for a central difference (truncation 1e-8 relative)."""
+    return max(abs(p.value), 1.0) if p.affine else 1e-4 * max(abs(p.value), 1e-300)
+
+
 def parameter_kinds(path, parameters, overrides, algorithms):
     """The deck's Domain, the resolved parameters and how each is differentiated
     (:class:`reference.sensitivity.derivatives.ParameterDerivatives`' kinds), for ``algorithms`` only.  A mass
@@ -168,16 +186,11 @@ def parameter_kinds(path, parameters, overrides, algorithms):
     (exact: affine); a :class:`~reference.sensitivity.derivatives.Moved` one carries its moved models (as
     :func:`_setup`)."""
     overrides = dict(overrides or {})
-    domain = load_deck(path, overrides=overrides).domain
-    if domain.solver.algorithm not in algorithms:
-        raise ParameterError(f"sensitivities of a {domain.solver.algorithm!r} run are not built here; "
-                             f"use algorithm = {' or '.join(map(repr, algorithms))}")
-    params = resolve_all(path, parameters, overrides)
-    _refuse(params, domain.solver.algorithm)
+    domain, params = _prepared(path, parameters, overrides, algorithms)
     base, deck, kinds = None, read_toml(Path(path))[1], []
     for p in params:
         parts = p.override.split(".")
-        step = max(abs(p.value), 1.0) if p.affine else 1e-4 * max(abs(p.value), 1e-300)
+        step = _step(p)
         if p.geometry:
             kinds.append(geometry_kind(p, path, overrides, domain))
         elif parts[0] == "sections" and parts[2] in STIFFNESS:
@@ -212,13 +225,8 @@ def _setup(path, parameters, overrides, algorithms):
     residual is affine in: :class:`reference.sensitivity.derivatives.ResidualDerivatives`) and the steps Δ, for
     ``algorithms`` only."""
     overrides = dict(overrides or {})
-    domain = load_deck(path, overrides=overrides).domain
-    if domain.solver.algorithm not in algorithms:
-        raise ParameterError(f"sensitivities of a {domain.solver.algorithm!r} run are not built here; "
-                             f"use algorithm = {' or '.join(map(repr, algorithms))}")
-    params = resolve_all(path, parameters, overrides)
-    _refuse(params, domain.solver.algorithm)
-    steps = [max(abs(p.value), 1.0) if p.affine else 1e-4 * max(abs(p.value), 1e-300) for p in params]
+    domain, params = _prepared(path, parameters, overrides, algorithms)
+    steps = [_step(p) for p in params]
     moved = [model_at(p, path, overrides, p.value + d) for p, d in zip(params, steps)]
     minus = [None if p.affine else model_at(p, path, overrides, p.value - d) for p, d in zip(params, steps)]
     return domain, params, (moved, minus), steps

@@ -86,7 +86,7 @@ def initial_tangent(algo, run, state) -> Tangent:
     rd = algo.derivatives
     P, N = len(rd.kinds), x.shape[0]
     rhs = rd(x, q, v, w, al.vd, al.lam, t, True)  # leaves nw evaluated here: the matrix reads its B
-    lu = nw.factor(nw.matrix(x, q, v, w, t, np.zeros(nw.m), 1.0, 0.0, 0.0, bp))
+    lu = nw.factor(nw.matrix(x, q, v, w, t, np.zeros(nw.m), (1.0, 0.0, 0.0, bp)))
     vd, lam = np.zeros((P, N, 6)), np.zeros((P, nw.m))
     for k, kind in enumerate(rd.kinds):
         if not isinstance(kind, Moved):
@@ -120,7 +120,7 @@ def tangent_step(algo, run, state, psi, h: float) -> None:
     C = nw.ev.damping_matrix(x, q, state.v, state.w)
     ev, nw.ev = nw.ev, _Known(nw.ev, K, C)  # the matrix from these K and C, not computed again
     try:
-        lu = nw.factor(nw.matrix(x, q, state.v, state.w, t, al.lam, 1.0, gp / bp, 1.0 / bp, bp, psi))
+        lu = nw.factor(nw.matrix(x, q, state.v, state.w, t, al.lam, (1.0, gp / bp, 1.0 / bp, bp), psi))
     finally:
         nw.ev = ev
     Rt, Jr = _rotation_maps(psi)

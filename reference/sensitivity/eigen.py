@@ -69,7 +69,7 @@ def stiffness(nw: Newton, x, q, lam, t):
     """The tangent K (dense, on the free coordinates) of the static residual at ``(x, q, λ, t)``."""
     zero = np.zeros_like(x)
     nw.evaluate(x, q, zero, zero, np.zeros((x.shape[0], 6)), lam, t, False)
-    return nw.matrix(x, q, zero, zero, t, lam, 0.0, 0.0, 1.0, 0.0)[: nw.n_free, : nw.n_free].toarray()
+    return nw.matrix(x, q, zero, zero, t, lam, (0.0, 0.0, 1.0, 0.0))[: nw.n_free, : nw.n_free].toarray()
 
 
 def _warn_repeated(values, k: int, what: str) -> None:

@@ -101,7 +101,7 @@ def solve_static(nw, derivatives, x, q, lam, t, kept: KeptMatrix | None = None) 
         rhs = [(dr, dphi) if f is None else (dr + (K @ f.ravel()).reshape(f.shape), dphi + nw.last.B @ f.ravel())
                for (dr, dphi), f in zip(rhs, fixed)]
     A = None if kept is None else kept.static_matrix(nw, x, q, lam, t)
-    lu = nw.factor(nw.matrix(x, q, zero, zero, t, lam, 0.0, 0.0, 1.0, 1.0) if A is None else A)
+    lu = nw.factor(nw.matrix(x, q, zero, zero, t, lam, (0.0, 0.0, 1.0, 1.0)) if A is None else A)
     if lu is None:
         raise ValueError(f"the tangent is singular at load level {t:.6g}: no sensitivity at a critical point")
     out = np.empty((len(rhs), x.shape[0], 6))
