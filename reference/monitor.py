@@ -104,6 +104,9 @@ class BlowUpMonitor:
             self.conn[data.index] = data.conn[:, [0, -1]]
         x0 = np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3)
         self.L0 = np.linalg.norm(x0[self.conn[:, 1]] - x0[self.conn[:, 0]], axis=1)
+        with np.errstate(all="ignore"):
+            self.bounds = ((self.L0 / MAX_STRETCH) ** 2, (self.L0 * MAX_STRETCH) ** 2)
+        """The squared lengths [m²] between which every element is within its stretch bounds (:meth:`stretch`)."""
         self.dt, self.explicit = dt, explicit
         self.critical = domain.critical_time_step() if critical is None else critical
         self.labels = [e.label for e in domain.elements]
@@ -153,6 +156,10 @@ class BlowUpMonitor:
         """The element whose length ratio (current / initial) is farthest outside ``(1/MAX_STRETCH, MAX_STRETCH)``
         (or not a number) and by how much, else None (plain NumPy, every output: nothing to compile)."""
         if not len(self.L0):
+            return None
+        d = x[self.conn[:, 1]] - x[self.conn[:, 0]]
+        squared = np.einsum("ij,ij->i", d, d)
+        if np.all((squared > self.bounds[0]) & (squared < self.bounds[1])):  # a NaN or an inf is outside
             return None
         with np.errstate(all="ignore"):
             L = np.linalg.norm(x[self.conn[:, 1]] - x[self.conn[:, 0]], axis=1)

@@ -80,10 +80,19 @@ class Outputs:
         if self.prescribed:
             self.entry["prescribed_reaction"] = self.prescribed_reaction = np.full(J, np.nan)
         self.inverse_EA = np.zeros(E)
-        """``1 / EA`` of every element, set by the caller (:func:`run`); the largest ``|N| / EA`` of the
-        records so far is :attr:`strain`."""
+        """``1 / EA`` of every element, set by :meth:`watch_strain`; the largest ``|N| / EA`` of the records so
+        far is :attr:`strain`."""
+        self.largest_inverse_EA = 0.0
+        """The largest of :attr:`inverse_EA`: ``max |N| × max 1/EA`` bounds every element's strain, so a record
+        whose bound is below :attr:`strain` is not searched."""
         self.strain = (0.0, 0, 0.0)
         """(largest axial strain ``|N| / EA`` at an element's midpoint over the records, its element, its time)."""
+
+    def watch_strain(self, inverse_EA: np.ndarray) -> None:
+        """Watch the axial strain ``|N| / EA`` of the elements of ``1 / EA`` [1/N] ``inverse_EA`` (0: not watched)
+        over the records (:attr:`strain`)."""
+        self.inverse_EA = np.asarray(inverse_EA, dtype=float)
+        self.largest_inverse_EA = float(self.inverse_EA.max(initial=0.0))
 
     def record(self, t: float) -> dict:
         """Complete the record at time ``t`` with the derived outputs; returns :attr:`entry`."""
@@ -91,7 +100,8 @@ class Outputs:
         self.derive(float(t))
         for k, u in self.prescribed:
             self.prescribed_reaction[k] = self.force[k] @ u
-        if self.inverse_EA.size:
+        if self.inverse_EA.size and not np.abs(self.section_force[:, 0]).max() * self.largest_inverse_EA \
+                <= self.strain[0]:
             with np.errstate(invalid="ignore"):
                 strain = np.abs(self.section_force[:, 0]) * self.inverse_EA
             e = int(np.argmax(np.where(np.isfinite(strain), strain, 0.0)))

@@ -166,7 +166,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     rec = Record.empty(len(domain.nodes), model.n_constraints)
     algo, outputs, choice = _on_backend(domain, algo, model, n_total, rec)
     domain.last_run["backend"] = choice
-    outputs.inverse_EA = inverse_axial_stiffness(domain.elements)
+    outputs.watch_strain(inverse_axial_stiffness(domain.elements))
     critical = domain.critical_time_step() if critical is None else critical
     watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True), critical) if monitor else None
     run_state = None
