@@ -40,7 +40,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from flexmbs import __version__
-from flexmbs.signals import SIGNAL_NAMES, STOP, Stopped, install_signal_handlers, check_signals
+from flexmbs.signals import SIGNAL_NAMES, Stopped, install_signal_handlers, check_signals
 
 
 BACKEND_CHOICES = ("compiled", "reference", "auto")

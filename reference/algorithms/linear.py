@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from reference.algorithms.base import ABOUT, Algorithm
+from reference.algorithms.base import Algorithm
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem
 from reference.algorithms.static import Static, StaticRun
 from reference.algorithms import linearization
