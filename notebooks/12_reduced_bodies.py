@@ -182,7 +182,7 @@ print(f"full mesh: {np.round(w_full, 4)} rad/s, tip deflection {tip_full:.5f} m 
 tip_short_4 = -100 * rows[1][2]  # [%]
 
 # %% tags=["check"] jupyter={"source_hidden": true}
-# exact in the kept modes: 1e-6 is the issue's bound (measured ~1e-9, the shift-invert solver's digits)
+# exact in the kept modes: 1e-6 is the bound asked (measured ~1e-9, the shift-invert solver's digits)
 assert all(err < 1e-6 for _, err, _ in rows)
 # the static response converges: each doubling of the modes cuts the error (measured -2.9e-2, -4.2e-3, -4.2e-4)
 assert abs(rows[0][2]) > abs(rows[1][2]) > abs(rows[2][2]) and abs(rows[2][2]) < 1e-3
