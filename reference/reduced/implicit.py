@@ -70,8 +70,9 @@ def stiffness(cm: CoupledModel, state, bodies: list[BodyState], T) -> np.ndarray
 
 
 def residual(cm: CoupledModel, state, bodies, lam, Vdot=None, V=None) -> tuple:
-    """``(r, Φ − ελ, B T, T, U, scale)`` at ``state``/``bodies`` (static without ``Vdot``: velocities zero);
-    ``scale`` the largest of the force terms, for the convergence test."""
+    """``(r, Φ − ελ, B T, T, U, scale, Q)`` at ``state``/``bodies`` (static without ``Vdot``: velocities zero);
+    ``scale`` the largest of the force terms, for the convergence test; ``Q = Tᵀ F`` the applied forces'
+    generalised share (for :func:`power`)."""
     zero = np.zeros_like(state.v)
     if V is not None:
         cm.scatter(V, state, bodies)
@@ -80,6 +81,7 @@ def residual(cm: CoupledModel, state, bodies, lam, Vdot=None, V=None) -> tuple:
     S, F, U, _ = cm.ev.forces(state.x, state.q, v, w, state.t, state.angle.copy())
     T = cm.velocity_map(bodies)
     r = T.T @ (S - F).ravel()
+    Q = T.T @ F.ravel()
     scale = np.abs(r).max(initial=0.0)
     if V is None:
         for i, (b, start) in enumerate(zip(bodies, cm.offsets)):
@@ -91,7 +93,7 @@ def residual(cm: CoupledModel, state, bodies, lam, Vdot=None, V=None) -> tuple:
     phi, BT, _, eps = cm.constraints(state, bodies, T)
     if phi.size:
         r += BT.T @ lam
-    return r, phi - eps * lam, BT, T, U, scale
+    return r, phi - eps * lam, BT, T, U, scale, Q
 
 
 def solve_saddle(A, BT, free, r, g, eps) -> tuple[np.ndarray, np.ndarray]:
@@ -130,7 +132,7 @@ def newton_static(cm: CoupledModel, state, bodies, lam, tolerance: float, iterat
     """Equilibrium at ``state.t`` (module docstring), in place; ``(status, iterations)``."""
     L = _length(cm)
     for it in range(iterations):
-        r, g, BT, T, _, scale = residual(cm, state, bodies, lam)
+        r, g, BT, T, _, scale, _ = residual(cm, state, bodies, lam)
         if np.abs(r[cm.free]).max(initial=0.0) <= tolerance * max(scale, 1e-300) and \
                 np.abs(g).max(initial=0.0) <= tolerance * L:
             return OK, it
@@ -140,18 +142,13 @@ def newton_static(cm: CoupledModel, state, bodies, lam, tolerance: float, iterat
     return NO_CONVERGENCE, iterations
 
 
-def power(cm: CoupledModel, state, bodies, lam, V) -> float:
-    """The power [W] of the applied forces and of the joints' and drives' reactions at the current configuration
-    and generalised velocities ``V``: ``(Tᵀ F)·V − λ·(B T V)`` (the residual's sign convention: the reactions are
-    ``−(B T)ᵀ λ``; a scleronomic joint's term vanishes on its manifold, a drive's is its work rate).  The
-    generalized-α run integrates it by the trapezoidal rule into the clock's ``work``, as the explicit step does."""
-    S, F, _, _ = cm.ev.forces(state.x, state.q, state.v, state.w, state.t, state.angle.copy())
-    T = cm.velocity_map(bodies)
-    rate = float((T.T @ F.ravel()) @ V)
-    phi, BT, _, _ = cm.constraints(state, bodies, T)
-    if phi.size:
-        rate -= float(lam @ (BT @ V))
-    return rate
+def power(Q, BT, lam, V) -> float:
+    """The power [W] of the applied forces and of the joints' and drives' reactions at generalised velocities
+    ``V``, from a :func:`residual` at the same configuration (its ``Q = Tᵀ F`` and rows ``B T``):
+    ``Q·V − λ·(B T V)`` (the residual's sign convention: the reactions are ``−(B T)ᵀ λ``; a scleronomic joint's
+    term vanishes on its manifold, a drive's is its work rate).  The generalized-α run integrates it by the
+    trapezoidal rule into the clock's ``work``, as the explicit step does."""
+    return float(Q @ V) - (float(lam @ (BT @ V)) if lam.size else 0.0)
 
 
 def _record(cm: CoupledModel, record, state, bodies, lam, U: float, V=None) -> None:
@@ -254,11 +251,11 @@ class ReducedGeneralizedAlpha(PlainGeneralizedAlpha):
     def start(self, model, state, critical_step=None, guard=None) -> ReducedImplicitRun:
         run = _start(self.coupled_model, state)
         cm = run.coupled
-        r, g, BT, _, _, _ = residual(cm, state, run.bodies, run.lam, np.zeros(cm.size), run.V)
+        r, g, BT, _, _, _, Q = residual(cm, state, run.bodies, run.lam, np.zeros(cm.size), run.V)
         Vdot, lam = solve_saddle(cm.mass(run.bodies).toarray(), BT, cm.free, r, np.zeros(g.size),
                                  np.zeros(g.size))
         run.Vdot, run.a, run.lam = Vdot, Vdot.copy(), lam
-        run.power = power(cm, state, run.bodies, lam, run.V)
+        run.power = power(Q, BT, lam, run.V)
         return run
 
     def advance(self, model, state, run, n_steps, record) -> int:
@@ -287,7 +284,7 @@ class ReducedGeneralizedAlpha(PlainGeneralizedAlpha):
         L, lam = _length(cm), run.lam.copy()
         for it in range(QUASI_NEWTON_FACTOR * self.max_iterations):
             _configure(cm, state, run.bodies, base, dq)
-            r, g, BT, T, _, scale = residual(cm, state, run.bodies, lam, Vdot, V)
+            r, g, BT, T, _, scale, Q = residual(cm, state, run.bodies, lam, Vdot, V)
             if it > 0 and np.abs(r[cm.free]).max(initial=0.0) <= self.tolerance * max(scale, 1e-300) and \
                     np.abs(g).max(initial=0.0) <= self.tolerance * L:
                 break
@@ -299,10 +296,8 @@ class ReducedGeneralizedAlpha(PlainGeneralizedAlpha):
         run.V, run.Vdot, run.lam = V, Vdot, lam
         run.a = ((1.0 - af) * Vdot + af * Vdn - am * an) / (1.0 - am)
         run.iterations += it
-        state.clock[0]["n"] += 1
-        cm.scatter(V, state, run.bodies)
-        cm.place(run.bodies, state)
-        rate = power(cm, state, run.bodies, lam, V)
+        state.clock[0]["n"] += 1  # the last residual left the state at the converged configuration and V
+        rate = power(Q, BT, lam, V)
         state.clock[0]["work"] += 0.5 * h * (run.power + rate)
         run.power = rate
         return OK
