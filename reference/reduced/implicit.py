@@ -192,7 +192,18 @@ def _start(cm: CoupledModel, state) -> ReducedImplicitRun:
     return ReducedImplicitRun(cm, bodies, np.zeros(rows), cm.gather(state, bodies))
 
 
-class ReducedStatic(PlainStatic):
+class _ReducedIterations:
+    """What the static and generalized-α runs of a reduced model record besides the states: the reduced bodies'
+    datasets (:meth:`~reference.reduced.coupling.CoupledModel.recorded`) and the quasi-Newton iterations."""
+
+    def recorded(self, run) -> dict:
+        return {**run.coupled.recorded(run.bodies), "newton_iterations": float(run.iterations)}
+
+    def finish(self, model, state, run, completed: bool) -> dict:
+        return {}
+
+
+class ReducedStatic(_ReducedIterations, PlainStatic):
     """Static load stepping with reduced bodies (module docstring); the records of the configuration, energies,
     ``‖Φ‖`` and multipliers, and each body's ``reduced/<label>/…``."""
 
@@ -235,14 +246,8 @@ class ReducedStatic(PlainStatic):
         return ("failed: no convergence", f"the quasi-Newton iteration of the reduced model did not converge at "
                 f"load factor {state.t:.6g}; use more load_steps")
 
-    def recorded(self, run) -> dict:
-        return {**run.coupled.recorded(run.bodies), "newton_iterations": float(run.iterations)}
 
-    def finish(self, model, state, run, completed: bool) -> dict:
-        return {}
-
-
-class ReducedGeneralizedAlpha(PlainGeneralizedAlpha):
+class ReducedGeneralizedAlpha(_ReducedIterations, PlainGeneralizedAlpha):
     """Generalized-α with reduced bodies at the fixed step ``dt`` (module docstring)."""
 
     coupled_model: CoupledModel | None = None
@@ -305,12 +310,6 @@ class ReducedGeneralizedAlpha(PlainGeneralizedAlpha):
     def failure(self, code, state, run):
         return ("failed: no convergence", f"the quasi-Newton iteration of the reduced model did not converge at "
                 f"t = {state.t:.6g}; use a smaller dt")
-
-    def recorded(self, run) -> dict:
-        return {**run.coupled.recorded(run.bodies), "newton_iterations": float(run.iterations)}
-
-    def finish(self, model, state, run, completed: bool) -> dict:
-        return {}
 
     def summary(self, run) -> str:
         return f"{run.iterations} quasi-Newton iterations"
