@@ -95,8 +95,12 @@ class BlowUpMonitor:
         The domain's critical step estimate [s] (:meth:`Domain.critical_time_step`), if already computed.
     """
 
-    def __init__(self, domain, dt: float, explicit: bool = True, critical: float | None = None):
+    def __init__(self, domain, dt: float, explicit: bool = True, critical: float | None = None, screen=None):
         self.domain = domain
+        self.screen = within_stretch if screen is None else screen
+        """``screen(x, conn, low, high) → bool``: whether every element is within its stretch bounds (:meth:`stretch`);
+        :func:`within_stretch` in NumPy, or its compiled twin on the compiled path
+        (:func:`reference.outputs.within_stretch_compiled`), which costs a tenth of it per output."""
         model = domain.model
         # every element's end nodes and their initial distance (a two-node beam's reference length)
         self.conn = np.zeros((model.n_elements, 2), dtype=np.int64)
@@ -155,11 +159,7 @@ class BlowUpMonitor:
     def stretch(self, x: np.ndarray) -> str | None:
         """The element whose length ratio (current / initial) is farthest outside ``(1/MAX_STRETCH, MAX_STRETCH)``
         (or not a number) and by how much, else None (plain NumPy, every output: nothing to compile)."""
-        if not len(self.L0):
-            return None
-        d = x[self.conn[:, 1]] - x[self.conn[:, 0]]
-        squared = np.einsum("ij,ij->i", d, d)
-        if np.all((squared > self.bounds[0]) & (squared < self.bounds[1])):  # a NaN or an inf is outside
+        if not len(self.L0) or self.screen(x, self.conn, self.bounds[0], self.bounds[1]):
             return None
         with np.errstate(all="ignore"):
             L = np.linalg.norm(x[self.conn[:, 1]] - x[self.conn[:, 0]], axis=1)
@@ -173,6 +173,15 @@ class BlowUpMonitor:
     def cause(self, what: str) -> str:
         """``what`` happened; add the likely cause and the fix."""
         return f"{what}: {likely_cause(self.dt, self.critical, self.explicit, self.domain)}"
+
+
+def within_stretch(x: np.ndarray, conn: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
+    """Whether every element's squared end-to-end distance lies within ``(low, high)`` [m²] (a NaN or an inf
+    is outside): the screen of :meth:`BlowUpMonitor.stretch`, ``x`` (N, 3) the node positions [m] and ``conn``
+    (E, 2) each element's end nodes."""
+    d = x[conn[:, 1]] - x[conn[:, 0]]
+    squared = np.einsum("ij,ij->i", d, d)
+    return bool(np.all((squared > low) & (squared < high)))
 
 
 LENGTH_SPREAD = 100.0

@@ -9,6 +9,7 @@ sources: the loop may choose an algorithm of the reference path (``reference/pla
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -33,6 +34,41 @@ class OutputArrays(NamedTuple):
     elements: tuple
 
 
+@kernel
+def within_stretch_compiled(x, conn, low, high):
+    """:func:`reference.monitor.within_stretch` compiled: whether every element's squared end-to-end distance lies
+    within ``(low, high)`` [m²] (a NaN or an inf is outside), for the monitor of a run on the compiled path."""
+    for e in range(conn.shape[0]):
+        i, j = conn[e, 0], conn[e, 1]
+        d0, d1, d2 = x[j, 0] - x[i, 0], x[j, 1] - x[i, 1], x[j, 2] - x[i, 2]
+        squared = d0 * d0 + d1 * d1 + d2 * d2
+        if not (squared > low[e] and squared < high[e]):
+            return False
+    return True
+
+
+def largest_strain(section_force: np.ndarray, inverse_EA: np.ndarray) -> tuple[float, int]:
+    """The largest finite axial strain ``|N| / EA`` of the elements (section forces ``section_force`` (E, 3) [N],
+    ``inverse_EA`` (E,) [1/N], 0 for an element not watched) and its element (the first of equal ones; (0, 0)
+    when none is positive); a NaN or an inf counts as 0."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        strain = np.abs(section_force[:, 0]) * inverse_EA
+    strain[~np.isfinite(strain)] = 0.0
+    e = int(np.argmax(strain))
+    return float(strain[e]), e
+
+
+@kernel
+def largest_strain_compiled(section_force, inverse_EA):
+    """:func:`largest_strain` compiled, for the records of a run on the compiled path."""
+    best, at = 0.0, 0
+    for e in range(inverse_EA.shape[0]):
+        strain = abs(section_force[e, 0]) * inverse_EA[e]
+        if strain > best and strain < math.inf:  # a NaN fails both
+            best, at = strain, e
+    return best, at
+
+
 class Outputs:
     """The output record of a run: the algorithm's :class:`~reference.state.Record` and the derived
     outputs, joint reactions and element section resultants, as one dict of preallocated arrays.
@@ -53,6 +89,11 @@ class Outputs:
     rec : Record
         The record the algorithm fills.
     """
+
+    stretch_screen = staticmethod(within_stretch_compiled)
+    """The screen of the run's blow-up monitor (:attr:`reference.monitor.BlowUpMonitor.screen`) on this path."""
+    strain_search = staticmethod(largest_strain_compiled)
+    """``(largest finite |N| / EA, its element)`` of a record on this path (:func:`largest_strain`)."""
 
     def __init__(self, model: Model, joints: list, rec: Record):
         rows = [k for k, j in enumerate(joints) if j.formulation.multipliers]
@@ -82,17 +123,13 @@ class Outputs:
         self.inverse_EA = np.zeros(E)
         """``1 / EA`` of every element, set by :meth:`watch_strain`; the largest ``|N| / EA`` of the records so
         far is :attr:`strain`."""
-        self.largest_inverse_EA = 0.0
-        """The largest of :attr:`inverse_EA`: ``max |N| × max 1/EA`` bounds every element's strain, so a record
-        whose bound is below :attr:`strain` is not searched."""
         self.strain = (0.0, 0, 0.0)
         """(largest axial strain ``|N| / EA`` at an element's midpoint over the records, its element, its time)."""
 
     def watch_strain(self, inverse_EA: np.ndarray) -> None:
         """Watch the axial strain ``|N| / EA`` of the elements of ``1 / EA`` [1/N] ``inverse_EA`` (0: not watched)
         over the records (:attr:`strain`)."""
-        self.inverse_EA = np.asarray(inverse_EA, dtype=float)
-        self.largest_inverse_EA = float(self.inverse_EA.max(initial=0.0))
+        self.inverse_EA = np.ascontiguousarray(inverse_EA, dtype=float)
 
     def record(self, t: float) -> dict:
         """Complete the record at time ``t`` with the derived outputs; returns :attr:`entry`."""
@@ -100,13 +137,10 @@ class Outputs:
         self.derive(float(t))
         for k, u in self.prescribed:
             self.prescribed_reaction[k] = self.force[k] @ u
-        if self.inverse_EA.size and not np.abs(self.section_force[:, 0]).max() * self.largest_inverse_EA \
-                <= self.strain[0]:
-            with np.errstate(invalid="ignore"):
-                strain = np.abs(self.section_force[:, 0]) * self.inverse_EA
-            e = int(np.argmax(np.where(np.isfinite(strain), strain, 0.0)))
-            if strain[e] > self.strain[0]:
-                self.strain = (float(strain[e]), e, float(t))
+        if self.inverse_EA.size:
+            strain, e = self.strain_search(self.section_force, self.inverse_EA)
+            if strain > self.strain[0]:
+                self.strain = (float(strain), int(e), float(t))
         return self.entry
 
     def derive(self, t: float) -> None:

@@ -168,7 +168,8 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
     domain.last_run["backend"] = choice
     outputs.watch_strain(inverse_axial_stiffness(domain.elements))
     critical = domain.critical_time_step() if critical is None else critical
-    watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True), critical) if monitor else None
+    watch = BlowUpMonitor(domain, algo.dt, getattr(algo, "explicit", True), critical,
+                          outputs.stretch_screen) if monitor else None
     run_state = None
     sink = _sink(domain, algo, outputs, results_path, n_total // every + 2, deck, choice)
     status = "failed: stopped before the first step"

@@ -82,3 +82,54 @@ def test_stretch_check_names_the_most_deformed_element():
     assert repr(d.elements[7].label) in watch.stretch(y)
     y[5, 0] = np.nan
     assert watch.stretch(y) is not None
+
+
+def test_stretch_screens_agree():
+    """The stretch screen in NumPy (the reference path's) and its compiled twin (the compiled path's) give the same
+    verdict on a sound mesh, one element stretched or collapsed past its bound, just inside it, and NaN or inf."""
+    from reference.monitor import MAX_STRETCH, BlowUpMonitor, within_stretch
+    from reference.outputs import within_stretch_compiled
+
+    d = load_deck(MODELS / "embedded_beam.toml").domain
+    d.initialization()
+    watch = BlowUpMonitor(d, d.solver.dt)
+    conn, low, high = watch.conn, watch.bounds[0], watch.bounds[1]
+    x = np.array([n.position for n in d.nodes], dtype=float)
+    i, j = conn[3]
+    cases = {"sound": x}
+    for name, factor in (("stretched", 1.01 * MAX_STRETCH), ("inside", 0.99 * MAX_STRETCH),
+                         ("collapsed", 0.99 / MAX_STRETCH), ("barely", 1.01 / MAX_STRETCH)):
+        y = x.copy()
+        y[j:] += (factor - 1.0) * (x[j] - x[i])  # element 3 scaled by factor, the rest moved rigidly
+        cases[name] = y
+    for name, value in (("nan", np.nan), ("inf", np.inf)):
+        y = x.copy()
+        y[j, 1] = value
+        cases[name] = y
+    verdicts = {name: (within_stretch(y, conn, low, high), bool(within_stretch_compiled(y, conn, low, high)))
+                for name, y in cases.items()}
+    assert all(a == b for a, b in verdicts.values()), verdicts
+    assert {name for name, (a, _) in verdicts.items() if a} == {"sound", "inside", "barely"}
+
+
+def test_largest_strain_twins_agree():
+    """The records' largest axial strain |N| / EA in NumPy (the reference path's) and compiled (the compiled path's):
+    the same value and element on finite forces, with ties (the first), NaN and inf forces (skipped), elements not
+    watched (1/EA = 0, also against an infinite force), and none positive."""
+    from reference.outputs import largest_strain, largest_strain_compiled
+
+    rng = np.random.default_rng(3)
+    inverse = rng.uniform(1e-9, 1e-7, 9)
+    inverse[4] = 0.0
+    cases = [rng.normal(0.0, 1e5, (9, 3)) for _ in range(3)] + [np.zeros((9, 3))]
+    tie = cases[0].copy()
+    tie[6, 0] = -tie[2, 0] * inverse[2] / inverse[6]
+    cases.append(tie)
+    bad = cases[1].copy()
+    bad[[1, 3, 4], 0] = np.nan, np.inf, np.inf
+    cases.append(bad)
+    for force in cases:
+        expected = largest_strain(force, inverse)
+        assert tuple(largest_strain_compiled(force, inverse)) == expected
+    assert largest_strain(bad, inverse)[1] not in (1, 3, 4)
+    assert largest_strain(np.zeros((9, 3)), inverse) == (0.0, 0)

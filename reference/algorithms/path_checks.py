@@ -71,16 +71,18 @@ def why_refused(run, labels, x, q, lam, t0, t1) -> str:
     ``run.refused_fix``, the advice of the failure that follows when no shorter step helps, and keeps the
     reactions and their largest magnitudes in ``run.reactions`` and ``run.peaks``; ``labels`` the joints'."""
     model, system = run.system.model, run.system
-    for k, cos in drive_alignment(model, x, q, t1):
+    driven = drives(model)
+    for k, cos in drive_alignment(model, x, q, t1, driven):
         if cos < 0.0:
             run.refused_fix = ("Raise load_steps so that the drive turns less than π/2 per load step, or "
                                "start the drive nearer its angle at t = 0.")
             return (f"the rotation drive {joint_label(labels, k)} converged π away from its angle θ(t) at load "
                     f"factor {t1:.6g} (the other root of sin(θ − θ(t)) = 0; cos(θ − θ(t)) = {cos:.3g}): "
                     "refused")
-    rows = model.joints.row0[np.isin(model.joints.drive, DISPLACEMENT_DRIVES)]
-    if not rows.size:
+    pushed = [k for k, code in driven if code in DISPLACEMENT_DRIVES]
+    if not pushed:
         return ""
+    rows = model.joints.row0[pushed]
     values = lam[rows]
     if run.reactions is None:
         run.reactions, run.peaks = values.copy(), np.abs(values)
@@ -90,7 +92,7 @@ def why_refused(run, labels, x, q, lam, t0, t1) -> str:
     for n, (old, new) in enumerate(zip(run.reactions, values)):
         peak = max(run.peaks[n], abs(new))
         if peak > noise and fall(old, new) > JUMP * peak:
-            k = int(np.flatnonzero(np.isin(model.joints.drive, DISPLACEMENT_DRIVES))[n])
+            k = pushed[n]
             run.refused_fix = ("The pushed displacement turns back along the path there (a snap-back): trace it "
                                "with algorithm = \"arc_length\", or stop t_end before it.")
             return (f"the reaction of {joint_label(labels, k)} jumps from {old:.6g} to {new:.6g} between load factor "
@@ -182,7 +184,7 @@ def path_end(x, lam: float, max_load_factor: float, stop_when) -> str:
 
 def drives(model):
     """``(joint index, drive code)`` of the model's drives and prescribed displacements."""
-    return [(k, int(code)) for k, code in enumerate(model.joints.drive) if code > 0]
+    return [(k, int(code)) for k, code in enumerate(model.joints.drive.tolist()) if code > 0]
 
 
 def drive_value(model, k, tf, t) -> float:
@@ -193,15 +195,16 @@ def drive_value(model, k, tf, t) -> float:
     return float(tf_integral(kind, par, t) if code in (2, 4) else tf_value(kind, par, t))
 
 
-def drive_alignment(model, x, q, t):
+def drive_alignment(model, x, q, t, driven=None):
     """``(joint index, cos(θ − θ(t)))`` of every rotation drive at (x, q, t): θ the rotation of body i relative
     to body j about the drive's axis from the primitives' rows 5 and 9 (sin θ and cos θ,
     :mod:`derivations.joints`), θ(t) the prescribed angle.  The drive's equation ``sin(θ − θ(t)) = 0`` holds
-    at both roots; this is +1 at the prescribed one and −1 at the one π away."""
+    at both roots; this is +1 at the prescribed one and −1 at the one π away.  ``driven``: :func:`drives` of
+    the model, when the caller has it."""
     out = []
     phi, B = np.zeros(10), np.zeros(120)
     jt = model.joints
-    for k, code in drives(model):
+    for k, code in drives(model) if driven is None else driven:
         if code not in (1, 2):
             continue
         j = int(jt.j[k])

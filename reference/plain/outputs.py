@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from reference.outputs import Outputs
+from reference.monitor import within_stretch
+from reference.outputs import Outputs, largest_strain
 from reference.plain.elements import element_resultants
 from reference.plain.loads import rotation_matrices
 from reference.plain.model import Evaluation
@@ -28,6 +29,11 @@ class PlainOutputs(Outputs):
     evaluation : Evaluation
         The model's equations (its joints' rows B at the record's configuration and time).
     """
+
+    stretch_screen = staticmethod(within_stretch)
+    """The blow-up monitor's stretch screen in NumPy: the reference path compiles nothing."""
+    strain_search = staticmethod(largest_strain)
+    """The records' largest axial strain in NumPy."""
 
     def __init__(self, model, joints: list, rec, evaluation: Evaluation):
         super().__init__(model, joints, rec)
