@@ -104,6 +104,8 @@ class Outputs:
         # rows of master/slave joints are never written: NaN once
         self.force, self.moment = np.full((J, 3), np.nan), np.full((J, 3), np.nan)
         self.section_force, self.section_moment = np.zeros((E, 3)), np.zeros((E, 3))
+        self.out = (self.force, self.moment, self.section_force, self.section_moment)
+        """The four arrays :func:`derived_outputs` writes."""
         self.scratch, self.element_work = reaction_scratch(), element_work(model)
         self.time = np.zeros(())
         self.entry = {
@@ -147,9 +149,7 @@ class Outputs:
         """The joint reactions (rows :attr:`slot` of :attr:`force`, :attr:`moment`) and the section resultants
         (:attr:`section_force`, :attr:`section_moment`) of the record at time ``t`` [s], one compiled call."""
         rec = self.rec
-        derived_outputs(self.arrays, rec.x, rec.q, rec.lam, t, self.slot,
-                        (self.force, self.moment, self.section_force, self.section_moment), self.element_work,
-                        self.scratch)
+        derived_outputs(self.arrays, rec.x, rec.q, rec.lam, t, self.slot, self.out, self.element_work, self.scratch)
 
 
 _joint_reactions = inlined(joint_reactions)  # a compiled call with the Model costs two atomic updates per array

@@ -191,7 +191,7 @@ def run(domain, algo: Algorithm, model: Model, state: State, n_total: int, resul
             code = algo.advance(model, state, run_state, chunk, rec)
             entry, extra = outputs.record(t_record), algo.recorded(run_state)
             sink.append({**entry, **extra} if extra else entry)
-            if unrecordable is None and not np.all(np.isfinite(rec.constraint)):
+            if unrecordable is None and not all(map(math.isfinite, rec.constraint.tolist())):
                 unrecordable = _where(algo, t_record)
             why = watch.check(rec.energy, rec.x) if watch is not None and code == OK else ""
             if why:
