@@ -30,6 +30,7 @@ from reference.algorithms.implicit import relative_rotation
 from reference.connector import body_fixed_parts
 from reference.generated.joints import joint_primitives
 from reference.interactions import tf_integral, tf_value
+from reference.jit import kernel
 from reference.status import NO_CONVERGENCE, OK
 
 JUMP = 0.5
@@ -222,11 +223,23 @@ def joint_label(labels, k) -> str:
 
 def moved(system, x0, q0, x, q, L) -> float:
     """The scaled size of the move from (x0, q0) to (x, q): ``√(Σ|Δx/L|² + Σ|Δθ|²)`` over the free coordinates
-    (the arc length's norm without its load part)."""
+    (the arc length's norm without its load part), ``L`` the length scale [m]; at every converged load step of
+    the static algorithm, one compiled call."""
+    return float(_scaled_move(x0, q0, x, q, float(L), system.free))
+
+
+@kernel
+def _scaled_move(x0, q0, x, q, L, free):
+    """:func:`moved` of the coordinates marked in ``free`` (N, 6)."""
     dth = np.empty_like(x)
     relative_rotation(q0, q, dth, np.empty(4))
-    d = np.concatenate([(x - x0) / L, dth], axis=1)[system.free]
-    return float(np.sqrt(d @ d))
+    total = 0.0
+    for i in range(x.shape[0]):
+        for k in range(6):
+            if free[i, k]:
+                d = (x[i, k] - x0[i, k]) / L if k < 3 else dth[i, k - 3]
+                total += d * d
+    return math.sqrt(total)
 
 
 def fall(old: float, new: float) -> float:
