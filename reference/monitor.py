@@ -100,7 +100,7 @@ class BlowUpMonitor:
         self.screen = within_stretch if screen is None else screen
         """``screen(x, conn, low, high) → bool``: whether every element is within its stretch bounds (:meth:`stretch`);
         :func:`within_stretch` in NumPy, or its compiled twin on the compiled path
-        (:func:`reference.outputs.within_stretch_compiled`), which costs a tenth of it per output."""
+        (:func:`reference.outputs.within_stretch_compiled`): it runs at every output (docs/benchmarks.md §20)."""
         model = domain.model
         # every element's end nodes and their initial distance (a two-node beam's reference length)
         self.conn = np.zeros((model.n_elements, 2), dtype=np.int64)
@@ -158,7 +158,8 @@ class BlowUpMonitor:
 
     def stretch(self, x: np.ndarray) -> str | None:
         """The element whose length ratio (current / initial) is farthest outside ``(1/MAX_STRETCH, MAX_STRETCH)``
-        (or not a number) and by how much, else None (plain NumPy, every output: nothing to compile)."""
+        (or not a number) and by how much, else None: :attr:`screen` at every output, and the NumPy search for
+        the element only when it fires."""
         if not len(self.L0) or self.screen(x, self.conn, self.bounds[0], self.bounds[1]):
             return None
         with np.errstate(all="ignore"):

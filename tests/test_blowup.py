@@ -122,9 +122,13 @@ def test_largest_strain_twins_agree():
     inverse = rng.uniform(1e-9, 1e-7, 9)
     inverse[4] = 0.0
     cases = [rng.normal(0.0, 1e5, (9, 3)) for _ in range(3)] + [np.zeros((9, 3))]
+    inverse_tie = inverse.copy()
+    inverse_tie[[2, 6]] = inverse.max()
     tie = cases[0].copy()
-    tie[6, 0] = -tie[2, 0] * inverse[2] / inverse[6]
-    cases.append(tie)
+    tie[2, 0] = 3.0 * np.abs(tie[:, 0]).max()  # element 2 the largest, element 6 its exact equal
+    tie[6, 0] = -tie[2, 0]
+    assert largest_strain(tie, inverse_tie)[1] == 2  # the first of the two equal ones
+    assert tuple(largest_strain_compiled(tie, inverse_tie)) == largest_strain(tie, inverse_tie)
     bad = cases[1].copy()
     bad[[1, 3, 4], 0] = np.nan, np.inf, np.inf
     cases.append(bad)

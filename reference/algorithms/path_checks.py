@@ -130,7 +130,7 @@ def start_problem(system, x, q, t_end: float, labels) -> tuple:
                 "they are zero (no [[loads]], [[line_loads]] or gravity, or their time functions "
                 "vanish at t_end): the path would not move. Give a load nonzero at t_end; to "
                 "follow a prescribed displacement alone, use algorithm = \"static\".")
-    for k, cos in drive_alignment(system.model, x, q, t_end):
+    for k, cos in drive_alignment(system.model, x, q, t_end, drives(system.model)):
         if cos < 0.0:
             return ("failed: drive π away at load factor 0",
                     f"the rotation drive {joint_label(labels, k)} converged π away from its angle at t_end = "
@@ -196,16 +196,16 @@ def drive_value(model, k, tf, t) -> float:
     return float(tf_integral(kind, par, t) if code in (2, 4) else tf_value(kind, par, t))
 
 
-def drive_alignment(model, x, q, t, driven=None):
+def drive_alignment(model, x, q, t, driven):
     """``(joint index, cos(θ − θ(t)))`` of every rotation drive at (x, q, t): θ the rotation of body i relative
     to body j about the drive's axis from the primitives' rows 5 and 9 (sin θ and cos θ,
     :mod:`derivations.joints`), θ(t) the prescribed angle.  The drive's equation ``sin(θ − θ(t)) = 0`` holds
     at both roots; this is +1 at the prescribed one and −1 at the one π away.  ``driven``: :func:`drives` of
-    the model, when the caller has it."""
+    the model."""
     out = []
     phi, B = np.zeros(10), np.zeros(120)
     jt = model.joints
-    for k, code in drives(model) if driven is None else driven:
+    for k, code in driven:
         if code not in (1, 2):
             continue
         j = int(jt.j[k])
