@@ -18,6 +18,8 @@ from __future__ import annotations
 import functools
 import types
 
+import numpy as np
+
 ENGINE = "reference."
 """The package whose modules a kernel may call into by attribute (``rm.log_quaternion``)."""
 
@@ -84,4 +86,30 @@ def build_time_form(kernel, items: int):
     return scalar_twin(kernel) if items <= PYTHON_ITEMS else kernel
 
 
-__all__ = ["PYTHON_ITEMS", "build_time_form", "global_names", "scalar_twin"]
+REMEMBERED = 16
+"""Meshes whose rest states :func:`remembered` keeps per function (the oldest is dropped first)."""
+
+
+def remembered(function):
+    """``function`` of float arrays returning a tuple of arrays, with its results kept for the arguments' values
+    (:data:`REMEMBERED` of them): ``Domain.solve`` rebuilds the model at every call, and a study that solves one
+    mesh again and again (a sweep, a benchmark, the sensitivities' runs) would otherwise evaluate its rest states
+    in Python each time.  The results are the same numbers (``function`` is a function of its arguments' values);
+    each call returns copies, so a caller may change them."""
+    memory: dict = {}
+
+    @functools.wraps(function)
+    def call(*arrays):
+        arrays = tuple(np.ascontiguousarray(a, dtype=float) for a in arrays)
+        key = tuple((a.shape, a.tobytes()) for a in arrays)
+        found = memory.get(key)
+        if found is None:
+            found = function(*arrays)
+            if len(memory) >= REMEMBERED:
+                memory.pop(next(iter(memory)))
+            memory[key] = found
+        return tuple(np.array(part, copy=True) for part in found)
+    return call
+
+
+__all__ = ["PYTHON_ITEMS", "REMEMBERED", "build_time_form", "global_names", "remembered", "scalar_twin"]

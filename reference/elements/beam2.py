@@ -6,9 +6,9 @@ The per-element arithmetic is the sympy-generated code of
 per-element functions :func:`element_forces`, :func:`element_tangent` and :func:`element_resultants`
 in the element's section frames ``p_a = q_a ⊗ o_a``; the generic driver
 (:mod:`reference.elements.driver`) gathers, takes the moments and tangents back to the node frames,
-sums and stores the tangent blocks.  The family's own :func:`assemble` runs, from
-:data:`~reference.elements.driver.PARALLEL_ELEMENTS` elements on, the structure-of-arrays form of the
-same generated arithmetic (``reference/generated/beam2_soa.py``, ``derivations/soa.py``: blocks of 64
+sums and stores the tangent blocks.  The family's own :func:`assemble` runs, on a model below
+:data:`~reference.parallel.PARALLEL_NODES` nodes or from :data:`~reference.elements.driver.PARALLEL_ELEMENTS`
+elements on, the structure-of-arrays form of the same generated arithmetic (``reference/generated/beam2_soa.py``, ``derivations/soa.py``: blocks of 64
 elements, loops vectorised across the elements; :mod:`reference.elements.beam2_blocks`), bit for bit the
 per-element rows.
 """
@@ -28,7 +28,7 @@ from reference.generated import rotation_maps as rm
 from reference.generated import tangents as generated_tangents
 from reference.jit import inlined, kernel
 from reference.parallel import PARALLEL_NODES, accumulate, energy_sum, node_incidence, scatter
-from reference.scalar import build_time_form
+from reference.scalar import build_time_form, remembered
 
 class Beam2Data(NamedTuple):
     """The Beam2 elements of a model (E elements), as the compiled kernels take them.
@@ -144,16 +144,17 @@ def _assemble_parallel(x, q, conn, offset, straight, blocked, S, W):
 
 @inlined
 def assemble(data, W, x, q, S):
-    """:meth:`Beam2Formulation.assemble`: each element's forces into its row of ``W`` (the vectorised
-    structure-of-arrays loop from :data:`~reference.elements.driver.PARALLEL_ELEMENTS` elements on, the
-    generic driver's below: the same numbers either way), then added into ``S`` in element order
-    (:func:`reference.parallel.accumulate`); returns the strain energy (element order).  Below
-    :data:`~reference.parallel.PARALLEL_NODES` nodes the blocks' forces go into ``S`` in the same serial pass
-    (:func:`soa_forces`, the same bits; no parallel launch, no round trip through ``W``)."""
-    large = data.conn.shape[0] >= driver.PARALLEL_ELEMENTS
-    if large and S.shape[0] < PARALLEL_NODES:
+    """:meth:`Beam2Formulation.assemble`: each element's forces into ``S`` (N, 6), returning the strain energy
+    (element order).  Below :data:`~reference.parallel.PARALLEL_NODES` nodes, whatever the element count, one
+    serial pass of the structure-of-arrays form adds the blocks' forces into ``S`` (:func:`soa_forces`: no
+    parallel launch, no round trip through ``W``; on the three-bar's four elements it is also cheaper than the
+    generic driver's element rows).  On a larger model each element's row of ``W`` (the vectorised parallel
+    loop from :data:`~reference.elements.driver.PARALLEL_ELEMENTS` elements on, the generic driver's below),
+    then added into ``S`` in element order (:func:`reference.parallel.accumulate`).  The same numbers every
+    way."""
+    if S.shape[0] < PARALLEL_NODES:
         return soa_forces(x, q, data.conn, data.offset, data.straight, data.blocked, W, S)
-    if large:
+    if data.conn.shape[0] >= driver.PARALLEL_ELEMENTS:
         soa_rows(x, q, data.conn, data.offset, data.straight, data.blocked, W)
     else:
         driver.rows_serial(data, x, q, W)
@@ -249,6 +250,7 @@ class Beam2Formulation(BeamFormulation):
         return {"L0": float(L0[0]), "psi0": psi0[0], "gamma0": gamma0[0]}
 
     @staticmethod
+    @remembered
     def rest_states(x, p, stiff):
         """``L0`` (E,) [m], ``ψ0 = log(p1* ⊗ p2)`` and ``Γ0`` (E, 3) of E elements at rest, node positions
         ``x`` (E, 2, 3), section triads ``p`` (E, 2, 4), stiffnesses ``stiff`` (E, 6): ``Γ0 = Amᵀ x'``

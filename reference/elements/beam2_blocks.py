@@ -154,6 +154,8 @@ def soa_forces(x, q, conn, offset, straight, blocked, W, S):
     ``W`` (but a curved element's); returns the strain energy.  The same bits as the two passes; it spares
     the parallel launch and the rows' round trip through ``W`` (docs/benchmarks.md §5)."""
     E = conn.shape[0]
+    if E == 0:
+        return 0.0  # a model without Beam2 elements: no work array to allocate
     v = np.empty(soa.ROWS * soa.BLOCK)
     U = 0.0
     for b in range((E + soa.BLOCK - 1) // soa.BLOCK):

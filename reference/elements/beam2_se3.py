@@ -28,7 +28,7 @@ from reference.elements.formulation import vector_norms
 from reference.generated import beam2_se3 as generated
 from reference.generated import rotation_maps as rm
 from reference.jit import inlined
-from reference.scalar import build_time_form
+from reference.scalar import build_time_form, remembered
 
 
 class Beam2SE3Data(NamedTuple):
@@ -125,6 +125,7 @@ class Beam2SE3Formulation(Beam2Formulation):
         return node_frames[i], node_frames[i + 1]
 
     @staticmethod
+    @remembered
     def rest_states(x, p, stiff):
         """``L0 = |U0|`` (E,) (the helicoid's arc length, the chord for a straight element),
         ``ψ0 = log(Λ1ᵀΛ2)`` and ``Γ0 = U0/L0`` (E, 3) with ``U0 = B(ψ0) Λ1ᵀ(x2 − x1)`` at rest, of E elements
