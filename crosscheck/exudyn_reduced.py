@@ -97,11 +97,12 @@ def _rotary_force(body, p0, spin_stiffness=None):
     linear modes when the deck asks for it: the stress stiffness of a spin ``−K_G(ω) q``,
     ``K_G(ω) = Σ ω_a ω_b 𝕂_ab`` (``spin_stiffness`` 𝕂 (3, 3, r, r), default the body's ``spin_stiffness``,
     ``reduce.stiffening``) and the modes' second-order force ``−½ K₃ : q q`` (the body's ``cubic`` K₃ (r, r, r),
-    ``reduce.second_order``; :mod:`reference.reduced.stiffening`); ``p0`` the frame's reference Euler parameters
+    ``reduce.second_order``) and third-order force ``−⅙ K₄ ⋮ q q q`` (its ``quartic`` K₄ (r, r, r, r),
+    ``reduce.third_order``; :mod:`reference.reduced.stiffening`); ``p0`` the frame's reference Euler parameters
     (Exudyn's coordinates are displacements from them)."""
     coupling, r = rotary_coupling(body), body.n_modes
     spin = getattr(body, "spin_stiffness", None) if spin_stiffness is None else spin_stiffness
-    cubic = getattr(body, "cubic", None)
+    cubic, quartic = getattr(body, "cubic", None), getattr(body, "quartic", None)
 
     def force(mbs, t, item, q, q_t):
         q, q_t = np.asarray(q), np.asarray(q_t)
@@ -113,6 +114,8 @@ def _rotary_force(body, p0, spin_stiffness=None):
             out[7:] -= np.einsum("a,b,abkl,l->k", w, w, spin, eta)
         if cubic is not None:
             out[7:] -= 0.5 * np.einsum("klm,l,m->k", cubic, eta, eta)
+        if quartic is not None:
+            out[7:] -= np.einsum("klmn,l,m,n->k", quartic, eta, eta, eta) / 6.0
         return out
 
     return force

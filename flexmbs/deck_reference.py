@@ -181,7 +181,10 @@ MEANINGS = {
         "reduce.stiffening": "in `reduce`: `true` adds the modes' centrifugal stress stiffness at the frame's spin "
                              "(a body turning about its first interface); default `false`",
         "reduce.second_order": "in `reduce`: `true` adds the modes' second-order stiffness (the stress stiffness of "
-                               "the body's own deformation, e.g. an axial force stiffening bending); default `false`"},
+                               "the body's own deformation, e.g. an axial force stiffening bending); default `false`",
+        "reduce.third_order": "in `reduce`: `true` adds, with `second_order`, the modes' third-order stiffness (the "
+                              "strain energy to fourth order: a beam's shortening by its own bending stiffening it); "
+                              "default `false`"},
     "[[clamps]]": {"node": "the node or body whose six coordinates are fixed"},
     "[[fixed]]": {"node": "the node or body", "dofs": "the fixed coordinates: `x`, `y`, `z` (inertial translations), "
                                                       "`rx`, `ry`, `rz` (rotations about the body axes)"},

@@ -10,7 +10,10 @@ A deck marks a beam for reduction with
 - ``stiffening``: ``true`` adds the centrifugal stress stiffness of the modes
   (:func:`reference.reduced.stiffening.spin_stiffness`) to the modal stiffness, at the frame's current spin;
 - ``second_order``: ``true`` adds the modes' second-order stiffness
-  (:func:`reference.reduced.stiffening.modal_derivatives`): the stress stiffness of the body's own deformation.
+  (:func:`reference.reduced.stiffening.modal_derivatives`): the stress stiffness of the body's own deformation;
+- ``third_order``: ``true`` adds, with it, the modes' third-order stiffness
+  (:func:`reference.reduced.stiffening.modal_fourth_derivatives`): the strain energy to fourth order in the modal
+  coordinates, where a beam's shortening by its own bending stiffens it.
 
 :func:`read_reduce` checks the key (one line ``FILE: beams[i].reduce…: problem; fix`` for a node that does not
 exist or is not the beam's, more modes than the mesh has, a rigid bar, an unknown key), then the run: the
@@ -33,7 +36,7 @@ from reference.reduced.craig_bampton import (beam_matrices, craig_bampton, float
                                              interface_positions)
 from reference.reduced.invariants import invariants
 from reference.reduced.registry import RUNS, register
-from reference.reduced.stiffening import modal_derivatives, spin_stiffness
+from reference.reduced.stiffening import modal_derivatives, modal_fourth_derivatives, spin_stiffness
 from reference.reduced.attachments import attachment_problem
 
 BASES = ("craig_bampton", "free_free")
@@ -47,8 +50,8 @@ class Reduction(NamedTuple):
     """One beam's ``reduce`` table as read: ``label``; ``modes`` the count kept; ``interfaces`` their positions
     along the beam (:func:`reference.reduced.craig_bampton.interface_positions`); ``basis`` one of :data:`BASES`;
     ``beam`` its :class:`~reference.reduced.craig_bampton.BeamMatrices`; ``stiffening`` whether the modal stiffness
-    takes the centrifugal stress stiffness, ``second_order`` the modes' second-order stiffness (``domain`` the
-    Domain their tangents are taken from)."""
+    takes the centrifugal stress stiffness, ``second_order`` the modes' second-order stiffness, ``third_order`` also
+    their third-order stiffness (``domain`` the Domain their tangents are taken from)."""
 
     label: str
     modes: int
@@ -58,6 +61,7 @@ class Reduction(NamedTuple):
     stiffening: bool = False
     domain: object = None
     second_order: bool = False
+    third_order: bool = False
 
 
 def _split(message: str, prefix: str) -> tuple[str, str]:
@@ -122,7 +126,8 @@ def read_reduce(rd, deck: dict, domain) -> dict:
             continue
         entry = f"beams[{i}].reduce"
         table = bm["reduce"]
-        rd.keys(table, entry, required=["modes"], optional=["interfaces", "basis", "stiffening", "second_order"])
+        rd.keys(table, entry, required=["modes"], optional=["interfaces", "basis", "stiffening", "second_order",
+                                                                 "third_order"])
         if bm.get("rigid", False) is True:
             raise rd.fail(entry, "a rigid bar is one rigid body, it has no modes to reduce", "remove reduce or rigid")
         basis = rd.choice(table.get("basis", BASES[0]), f"{entry}.basis", BASES, "basis")
@@ -139,8 +144,12 @@ def read_reduce(rd, deck: dict, domain) -> dict:
             raise rd.fail(f"{entry}.stiffening", "the centrifugal stress state needs the node the body turns about",
                           "name it first in interfaces (the hub)")
         second = rd.boolean(table.get("second_order", False), f"{entry}.second_order")
+        third = rd.boolean(table.get("third_order", False), f"{entry}.third_order")
+        if third and not second:
+            raise rd.fail(f"{entry}.third_order", "the third-order stiffness continues the second-order one",
+                          "add second_order = true")
         found[beam.label] = Reduction(beam.label, _modes(rd, table, entry, basis, beam, interfaces), interfaces,
-                                      basis, beam, stiffening, domain, second)
+                                      basis, beam, stiffening, domain, second, third)
     collect = _COLLECT.get()
     if collect is not None:
         collect.update(found)
@@ -165,6 +174,8 @@ def reduced_body(reduction: Reduction) -> ReducedBody:
         body.spin_stiffness = spin_stiffness(reduction.domain, beam, modes, reduction.interfaces)
     if reduction.second_order:
         body.cubic = modal_derivatives(reduction.domain, beam, modes)
+    if reduction.third_order:
+        body.quartic = modal_fourth_derivatives(reduction.domain, beam, modes)
     return body
 
 

@@ -60,6 +60,9 @@ class ReducedBody:
     cubic = None
     """``K₃`` (r, r, r) of :func:`reference.reduced.stiffening.modal_derivatives` when the body takes the modes'
     second-order stiffness (``reduce.second_order``), else None."""
+    quartic = None
+    """``K₄`` (r, r, r, r) of :func:`reference.reduced.stiffening.modal_fourth_derivatives` when the body takes the
+    modes' third-order stiffness (``reduce.third_order``), else None."""
 
     def __init__(self, label: str, beam, modes, inv: Invariants, damping_ratio: float = 0.0, interfaces=()):
         self.label, self.modes, self.inv, self.interfaces = label, modes, inv, tuple(interfaces)

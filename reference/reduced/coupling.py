@@ -213,16 +213,25 @@ class CoupledModel:
 
     def elastic(self, k: int, b: BodyState) -> np.ndarray:
         """Body ``k``'s modal elastic force in state ``b``: ``K η`` (:meth:`_linear_stiffness`), plus with
-        ``second_order`` ``½ K₃ : η η`` (:func:`reference.reduced.stiffening.modal_derivatives`)."""
+        ``second_order`` ``½ K₃ : η η`` (:func:`reference.reduced.stiffening.modal_derivatives`) and with
+        ``third_order`` ``⅙ K₄ ⋮ η η η`` (:func:`reference.reduced.stiffening.modal_fourth_derivatives`)."""
         f = self._linear_stiffness(k, b) @ b.eta
-        cubic = self.bodies[k].cubic
-        return f if cubic is None else f + 0.5 * np.einsum("ijk,j,k->i", cubic, b.eta, b.eta)
+        body = self.bodies[k]
+        if body.cubic is not None:
+            f = f + 0.5 * np.einsum("ijk,j,k->i", body.cubic, b.eta, b.eta)
+        if body.quartic is not None:
+            f = f + np.einsum("ijkl,j,k,l->i", body.quartic, b.eta, b.eta, b.eta) / 6.0
+        return f
 
     def modal_stiffness(self, k: int, b: BodyState) -> np.ndarray:
-        """The tangent of :meth:`elastic` in η: ``K (+ K₃ · η)``."""
+        """The tangent of :meth:`elastic` in η: ``K (+ K₃ · η) (+ ½ K₄ : η η)``."""
         K = self._linear_stiffness(k, b)
-        cubic = self.bodies[k].cubic
-        return K if cubic is None else K + np.einsum("ijk,k->ij", cubic, b.eta)
+        body = self.bodies[k]
+        if body.cubic is not None:
+            K = K + np.einsum("ijk,k->ij", body.cubic, b.eta)
+        if body.quartic is not None:
+            K = K + 0.5 * np.einsum("ijkl,k,l->ij", body.quartic, b.eta, b.eta)
+        return K
 
     def inertial(self, bodies: list[BodyState], V) -> np.ndarray:
         """The velocity-dependent forces (size,) that the generalised accelerations balance, with their sign
@@ -243,13 +252,15 @@ class CoupledModel:
         return out
 
     def strain(self, bodies: list[BodyState]) -> float:
-        """The bodies' modal strain energy ``Σ ½ ηᵀ K η (+ ⅙ K₃ ⋮ η η η)`` [J] (the stripped model's elements give
-        the rest)."""
+        """The bodies' modal strain energy ``Σ ½ ηᵀ K η (+ ⅙ K₃ ⋮ η η η) (+ ¹⁄₂₄ K₄ ⋮ η η η η)`` [J] (the stripped
+        model's elements give the rest)."""
         total = 0.0
         for i, b in enumerate(bodies):
             total += 0.5 * b.eta @ self._linear_stiffness(i, b) @ b.eta
             if self.bodies[i].cubic is not None:
                 total += np.einsum("ijk,i,j,k->", self.bodies[i].cubic, b.eta, b.eta, b.eta) / 6.0
+            if self.bodies[i].quartic is not None:
+                total += np.einsum("ijkl,i,j,k,l->", self.bodies[i].quartic, b.eta, b.eta, b.eta, b.eta) / 24.0
         return float(total)
 
     def constraints(self, state, bodies: list[BodyState], T) -> tuple:

@@ -16,6 +16,8 @@ radial blade, a linearisation of the initial-displacement terms otherwise.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from reference.plain.elements import element_tangent
@@ -42,6 +44,31 @@ def centrifugal_displacement(beam, held, axis, origin) -> np.ndarray:
     return u
 
 
+def _tangent_at(domain, beam, u, scale: float = 1.0) -> np.ndarray:
+    """The beam's tangent (6n, 6n) at its rest state displaced by ``scale · u`` (``u`` (6n,) in the body-frame
+    coordinates of the module docstring: ``x + s u_x``, ``q ⊗ exp(s A u_θ)``), in the node frames
+    (:func:`_to_body_frame` turns it)."""
+    x = np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3)
+    q = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4)
+    A = rotation_matrices(q[beam.nodes])
+    U = u.reshape(-1, 6)
+    idx = (6 * beam.nodes[:, None] + np.arange(6)).reshape(-1)
+    x[beam.nodes] += scale * U[:, :3]
+    q[beam.nodes] = compose(q[beam.nodes], scale * np.einsum("nba,nb->na", A, U[:, 3:]))
+    return element_tangent(domain.model, x, q)[idx][:, idx].toarray()
+
+
+def _to_body_frame(domain, beam, K) -> np.ndarray:
+    """``T K Tᵀ``: a (6n, 6n) matrix of the beam's node frames at rest (rotation rows body frame) in the body-frame
+    coordinates of the module docstring."""
+    q = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4)
+    T = np.zeros_like(K)
+    for a, R in enumerate(rotation_matrices(q[beam.nodes])):
+        T[6 * a:6 * a + 3, 6 * a:6 * a + 3] = np.eye(3)
+        T[6 * a + 3:6 * a + 6, 6 * a + 3:6 * a + 6] = R
+    return T @ K @ T.T
+
+
 def tangent_derivative(domain, beam, u) -> np.ndarray:
     """``K_σ = (K_T(+ε u) − K_T(−ε u)) / 2ε`` (6n, 6n): the derivative of the beam's tangent at rest along the
     displacement ``u`` (6n,) (body-frame coordinates of the module docstring), per unit of ``u``; ε = :data:`STEP`
@@ -49,22 +76,15 @@ def tangent_derivative(domain, beam, u) -> np.ndarray:
     if not np.abs(u).max() > 0.0:
         return np.zeros((u.size, u.size))
     scale = STEP / np.abs(u).max()
-    x = np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3)
-    q = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4)
-    A = rotation_matrices(q[beam.nodes])
-    U = u.reshape(-1, 6)
-    idx = (6 * beam.nodes[:, None] + np.arange(6)).reshape(-1)
-    tangents = []
-    for sign in (1.0, -1.0):
-        xs, qs = x.copy(), q.copy()
-        xs[beam.nodes] += sign * scale * U[:, :3]
-        qs[beam.nodes] = compose(q[beam.nodes], sign * scale * np.einsum("nba,nb->na", A, U[:, 3:]))
-        tangents.append(element_tangent(domain.model, xs, qs)[idx][:, idx].toarray())
-    T = np.zeros((idx.size, idx.size))
-    for a, R in enumerate(A):
-        T[6 * a:6 * a + 3, 6 * a:6 * a + 3] = np.eye(3)
-        T[6 * a + 3:6 * a + 6, 6 * a + 3:6 * a + 6] = R
-    return T @ (tangents[0] - tangents[1]) @ T.T / (2.0 * scale)
+    difference = _tangent_at(domain, beam, u, scale) - _tangent_at(domain, beam, u, -scale)
+    return _to_body_frame(domain, beam, difference) / (2.0 * scale)
+
+
+def _symmetric(tensor) -> np.ndarray:
+    """The mean of ``tensor`` over every permutation of its indices (a derivative of the strain energy is
+    symmetric in them; the difference quotients are so to their truncation error)."""
+    perms = list(itertools.permutations(range(tensor.ndim)))
+    return sum(tensor.transpose(p) for p in perms) / len(perms)
 
 
 def modal_derivatives(domain, beam, modes) -> np.ndarray:
@@ -79,7 +99,30 @@ def modal_derivatives(domain, beam, modes) -> np.ndarray:
     K3 = np.zeros((r, r, r))
     for k in range(r):
         K3[:, :, k] = phi.T @ tangent_derivative(domain, beam, phi[:, k]) @ phi
-    return sum(K3.transpose(p) for p in ((0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0))) / 6.0
+    return _symmetric(K3)
+
+
+def modal_fourth_derivatives(domain, beam, modes) -> np.ndarray:
+    """``K₄`` (r, r, r, r): the second derivative of the modal stiffness along each pair of modes,
+    ``K₄[:, :, k, l] = Φᵀ ∂²K_T/∂u_k ∂u_l Φ`` (mixed central differences of the tangent, steps ε = :data:`STEP` over
+    each mode's largest entry), made symmetric in its four indices (the fourth derivative of the strain energy in
+    the modal coordinates).  The modes' third-order stiffness: the elastic force ``… + ⅙ K₄ ⋮ η η η``, the tangent
+    ``… + ½ K₄ : η η``, the energy ``… + ¹⁄₂₄ K₄ ⋮ η η η η``.  With :func:`modal_derivatives` it gives the strain
+    energy to fourth order in η, the order of a beam's axial stretch from its own bending (von Kármán's
+    ``EA/8L (∫ w′² dx)²``): the bent coupler's shortening stiffens its bending, which the third order alone lacks
+    (Barbič & James 2005 keep the same orders for St. Venant–Kirchhoff solids, whose energy is exactly quartic)."""
+    phi = modes.T
+    r = phi.shape[1]
+    steps = STEP / np.abs(phi).max(axis=0)
+    K4 = np.zeros((r, r, r, r))
+    for k in range(r):
+        for l in range(k, r):
+            uk, ul = steps[k] * phi[:, k], steps[l] * phi[:, l]
+            second = (_tangent_at(domain, beam, uk + ul) - _tangent_at(domain, beam, uk - ul)
+                      - _tangent_at(domain, beam, ul - uk) + _tangent_at(domain, beam, -uk - ul))
+            second = _to_body_frame(domain, beam, second)
+            K4[:, :, k, l] = K4[:, :, l, k] = phi.T @ second @ phi / (4.0 * steps[k] * steps[l])
+    return _symmetric(K4)
 
 
 def centrifugal_stiffening(domain, beam, modes, held, axis, origin) -> np.ndarray:
