@@ -159,3 +159,23 @@ def test_a_large_model_builds_with_the_compiled_kernel_a_small_one_with_its_pyth
 
     assert build_time_form(_rest_strains, PYTHON_ITEMS) is scalar_twin(_rest_strains)
     assert build_time_form(_rest_strains, PYTHON_ITEMS + 1) is _rest_strains
+
+
+def test_rest_states_are_remembered_per_mesh_and_handed_out_as_copies():
+    """``Domain.solve`` rebuilds the model at every call: Beam2's rest states of a mesh already seen are the kept
+    ones (:func:`reference.scalar.remembered`), equal to a fresh evaluation, new arrays each call (changing one
+    changes nothing kept), and a moved node gives new ones."""
+    from reference.elements.beam2 import Beam2Formulation
+
+    x = np.array([[[0.0, 0.0, 0.0], [0.5, 0.1, 0.0]], [[0.5, 0.1, 0.0], [1.0, 0.0, 0.2]]])
+    p = np.tile([1.0, 0.0, 0.0, 0.0], (2, 2, 1))
+    stiff = np.tile([1e4, 4e3, 4e3, 1.1, 1.0, 4.0], (2, 1))
+    fresh = Beam2Formulation.rest_states.__wrapped__(x, p, stiff)
+    first = Beam2Formulation.rest_states(x, p, stiff)
+    first[1][:] = np.nan
+    again = Beam2Formulation.rest_states(x, p, stiff)
+    for a, b in zip(fresh, again):
+        np.testing.assert_array_equal(a, b)
+    moved = x.copy()
+    moved[1, 1, 0] = 1.5
+    assert Beam2Formulation.rest_states(moved, p, stiff)[0][1] != again[0][1]

@@ -336,7 +336,8 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             run.nominal += done
             run.stats.steps += done
             if done:
-                run.stats.h_min, run.stats.h_max = min(run.stats.h_min, par["h"]), max(run.stats.h_max, par["h"])
+                h = par["h"]
+                run.stats.h_min, run.stats.h_max = min(run.stats.h_min, h), max(run.stats.h_max, h)
             if code in RECOVERABLE:
                 code = self._cut(state, run, code)
                 if code == OK:
@@ -357,14 +358,15 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         x, q, v, w, f_prev = state[:5]
         clock = state.clock[0]
         control = par["control"] != ak.FIXED
+        # the kernel's arguments before and after the two that change between its calls
+        first = (system.arg, x, q, v, w, run.vd, run.a, run.lam, state.clock, f_prev, run.powers, system.dof, run.par)
+        last = (system.wt, run.arrays, system.record_arg(rec), run.held)
         left, done = n_steps, 0
         while left > 0:
             if run.factors is None:
                 par["fresh"] = -1.0  # only predict: the factor is made at the predictor
             size = min(left, budget.start())
-            factors = NO_FACTOR if run.factors is None else run.factors
-            code, n = steps(system.arg, x, q, v, w, run.vd, run.a, run.lam, state.clock, f_prev, run.powers,
-                            system.dof, run.par, size, factors, system.wt, run.arrays, system.record_arg(rec), run.held)
+            code, n = steps(*first, size, NO_FACTOR if run.factors is None else run.factors, *last)
             budget.took(n)
             left -= n
             done += n

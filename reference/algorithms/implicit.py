@@ -221,6 +221,7 @@ class NewtonSystem:
         self.n_free = int(self.free.sum())
         self.work = Work(model)
         self.wt = work_tuple(self.work)
+        self.tangent_arg = boundary(self.work.tangent)  # a plain tuple: numba types a named one slower per call
         self.zero_psi = np.zeros((model.nodes.mass.shape[0], 3))
         self.slu = SparseLU(self.pattern.n)
         self._mass = None
@@ -243,7 +244,7 @@ class NewtonSystem:
         wk = self.work
         ce = 1.0 / ck if ce is None else ce
         psi = self.zero_psi if psi is None else psi
-        tangent_values(self.arg, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, wk.tangent)
+        tangent_values(self.arg, x, q, w, psi, t, lam, cm, cc, ck, ce, wk.values, self.wt, self.tangent_arg)
         return self.pattern.matrix(wk.values)
 
     def mass(self, x, q):

@@ -64,7 +64,7 @@ class NewtonArrays:
         A, wk = system.pattern.assembled, system.work
         self.csc = (A.indptr, A.indices, A.data)
         self.scatter = (system.pattern.slot, system.pattern.keep, wk.values)
-        self.tangent_work = (wk.tangent, system.zero_psi, np.zeros((0, 0)) if dense is None else dense)
+        self.tangent_work = (system.tangent_arg, system.zero_psi, np.zeros((0, 0)) if dense is None else dense)
         self.arrays = (np.zeros(n), np.zeros(n), np.zeros((N, 6)), np.zeros((N, 3)), np.zeros((N, 4)), np.zeros(4),
                        np.zeros((N, 6)), np.zeros(n), np.zeros((N, 6)), np.zeros(nf), np.zeros(nf), np.zeros((N, 6)))
         self.hist = np.zeros(max_iterations + 1)

@@ -262,12 +262,12 @@ def tangent_values(model, x, q, w, psi, t, lam, cm, cc, ck, ce, values, w_, tw):
     static update ``q ⊗ exp(δ)``.  The force elements' blocks come last, at the velocities and
     angles of the last :func:`reference.algorithms.implicit.evaluate`.  ``w_`` the implicit
     algorithms' work tuple (:func:`reference.algorithms.implicit.work_tuple`); ``tw`` the scratch
-    (:class:`TangentWork`).
+    (:class:`TangentWork`, or its :func:`reference.jit.boundary` copy).
 
     Takes 14 parameters: the compiled entry from Python, given the Model, the iterate (x, q, w, ψ, t, λ), the Newton
     matrix's four coefficients and the work tuples.
     """
-    model = named(model, Model)
+    model, tw = named(model, Model), named(tw, TangentWork)
     A = w_[6]
     p = _node_blocks(model, q, w, psi, t, cm, cc, ck, values, 0, tw.K12, tw.Jr, tw.J9, A)
     p = element_tangent_values(model.elements, w_[13], x, q, psi, ck, values, p, tw.Jr, tw.Kel)
