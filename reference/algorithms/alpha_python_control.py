@@ -25,7 +25,7 @@ def controlled_python(alpha, state, run, n_steps, rec) -> int:
     with the step control in Python (:mod:`reference.algorithms.step_control`'s functions) around one compiled
     step of :data:`~reference.algorithms.alpha_steps.FIXED` mode per call: the steps to the output time
     ``n_steps`` steps of ``dt`` ahead; the status."""
-    system, par, stats = run.system, run.par[0], run.stats
+    system, par, stats = run.system, run.fields, run.stats
     x, q, v, w, f_prev = state[:5]
     clock = state.clock[0]
     par["control"] = ak.FIXED

@@ -68,7 +68,7 @@ from reference.algorithms.alpha_steps import NO_FACTOR, RECOVERABLE, dissipation
 from reference.algorithms.base import CallBudget
 from reference.algorithms.implicit import ImplicitAlgorithm, NewtonSystem
 from reference.linalg import SingularMatrix
-from reference.state import Record
+from reference.state import Record, RecordView
 from reference.algorithms.step_control import DEAD_BAND, MAX_CUTS, SolverStatistics
 from reference.status import OK, REFACTOR, SINGULAR, newton_failure
 from reference.validation import ModelWarning
@@ -92,7 +92,8 @@ class GeneralizedAlphaRun:
     ``h`` the first step [s] (then ``par["h_next"]``); ``vd``, ``a`` (N, 6) the accelerations V̇ and the
     algorithmic accelerations; ``lam`` (m,) the multipliers; ``powers`` = [constraint power P, dissipated power D]
     of the last step; ``factors`` the kept LU factor (None: none yet); ``par`` the compiled steps'
-    settings, counters and step control (:data:`reference.algorithms.alpha_steps.PAR`: the controller's
+    settings, counters and step control (:data:`reference.algorithms.alpha_steps.PAR`; ``fields`` its record as
+    Python reads and writes it, :class:`~reference.state.RecordView`: the controller's
     next step, the converged steps since the last cut, the largest step a cut step grows back to — below the
     last that failed, doubled at every output up to ``dt`` —, …); ``arrays`` their work arrays; ``held`` the
     force elements' angles at the step's start (restored after a rejected or failed step); ``started`` whether the consistent initial accelerations
@@ -114,6 +115,7 @@ class GeneralizedAlphaRun:
     powers: np.ndarray = field(default_factory=lambda: np.zeros(2))
     factors: tuple | None = None
     par: np.ndarray | None = None
+    fields: RecordView | None = None
     arrays: tuple = ()
     held: np.ndarray | None = None
     started: bool = False
@@ -300,6 +302,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
                              h_next=run.h, dt_min=self.dt_min, dt_max=self.dt_max,
                              error_tolerance=self.error_tolerance or 0.0, ceiling=math.inf, dead_band=self.dead_band,
                              reuse=self.reuse, h_factor=run.h)
+        run.fields = RecordView(run.par)
         run.varying = self.error_tolerance is not None or run.h != self.dt
         run.nominal = int(round(t / self.dt))
         run.started = True
@@ -315,7 +318,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
             if code != OK:
                 run.stopped_at = clock["t"]
                 return code
-        par = run.par[0]
+        par = run.fields
         left = int(n_steps)
         rec = Record.empty(x.shape[0], model.n_constraints) if record is None else record
         if record is not None:
@@ -354,7 +357,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         """Up to ``n_steps`` compiled steps (in a controlled mode: tries to the output time ``par["target"]``), the
         Newton matrix factored when they ask, in calls of at most ``run.budget`` steps (each returns to Python
         within a fraction of a second: a signal stops the run between two); returns (status, steps done)."""
-        system, par, budget = run.system, run.par[0], run.budget
+        system, par, budget = run.system, run.fields, run.budget
         x, q, v, w, f_prev = state[:5]
         clock = state.clock[0]
         control = par["control"] != ak.FIXED
@@ -392,7 +395,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     def _cut(self, state, run, code) -> int:
         """Halve the step after a failed one (its iterate is dropped; the state is the last converged);
         the failure's code when the step would fall below ``dt_min``."""
-        par, stats = run.par[0], run.stats
+        par, stats = run.fields, run.stats
         run.factors = None
         par["resume"] = 0.0
         h = par["h"] * 0.5
@@ -413,7 +416,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
         compiled steps per call (:func:`steps`), the factorisations and the step cuts here."""
         if self.python_control:
             return controlled_python(self, state, run, n_steps, rec)
-        par, angle = run.par[0], run.system.work.angle
+        par, angle = run.fields, run.system.work.angle
         par["control"] = ak.GROWING if self.error_tolerance is None else ak.ERROR_CONTROL
         par["target"] = (run.nominal + n_steps) * self.dt
         par["after_rejection"] = 0.0
@@ -433,7 +436,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
 
     def _collect(self, run) -> None:
         """The compiled steps' statistics (:data:`reference.algorithms.alpha_steps.PAR`) into ``run.stats``."""
-        par, stats = run.par[0], run.stats
+        par, stats = run.fields, run.stats
         stats.steps += int(par["accepted"])
         stats.rejected += int(par["rejected"])
         stats.over += int(par["over"])
@@ -447,7 +450,7 @@ class GeneralizedAlpha(ImplicitAlgorithm):
     def _landed(self, state, run, n_steps) -> None:
         """The output time ``n_steps`` steps of ``dt`` ahead is reached: the cut step's ceiling doubles, and a
         step grown back to ``dt`` returns to the fixed steps."""
-        par, clock = run.par[0], state.clock[0]
+        par, clock = run.fields, state.clock[0]
         run.nominal += n_steps
         par["ceiling"] = min(2.0 * par["ceiling"], self.dt)
         if self.error_tolerance is None and par["h_next"] == self.dt:
