@@ -160,8 +160,8 @@ def record_dtype(*names: str) -> np.dtype:
 class RecordView:
     """The record of a (1,) array of a :func:`record_dtype`, read and written from Python by field name,
     ``view["h"]``, as its :class:`numpy.void` is, through a float view of the array and each field's position: a
-    third of the void's cost per access (0.12 against 0.30 µs), for the drivers that read and write their kernels'
-    records between every two compiled calls.  The numbers are the array's (a view, not a copy)."""
+    fraction of the void's cost per access (docs/benchmarks.md §21), for the drivers that read and write their
+    kernels' records between every two compiled calls.  The numbers are the array's (a view, not a copy)."""
 
     __slots__ = ("_values", "_position")
 
