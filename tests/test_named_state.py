@@ -77,3 +77,20 @@ def test_records_are_named_and_flat():
     par = alpha_steps.new_par(h=1e-3, h_next=1e-3)[0]
     assert [par[name] for name in ("h", "h_next", "accepted", "h_min", "h_max")] == [1e-3, 1e-3, 0.0, np.inf, 0.0]
     assert np.isnan(par["error"])
+
+
+def test_a_record_view_reads_and_writes_the_records_fields():
+    """:class:`reference.state.RecordView` (the Python drivers' access to a kernel's record): every field of the
+    generalized-α record reads what the numpy.void reads, and a write through the view is what the void and the
+    array then hold."""
+    from reference.algorithms.alpha_steps import PAR, new_par
+    from reference.state import RecordView
+
+    par = new_par(h=1e-3, alpha_m=0.2, U=np.nan)
+    par[0]["dt_max"] = np.inf
+    view = RecordView(par)
+    for name in PAR.names:
+        assert np.array_equal(view[name], par[0][name], equal_nan=True), name
+    for k, name in enumerate(PAR.names):
+        view[name] = k + 0.5
+    assert [float(par[0][name]) for name in PAR.names] == [k + 0.5 for k in range(len(PAR.names))]
