@@ -158,8 +158,10 @@ print(f"to t = {horizon:g} s with the second- and third-order stiffness: largest
 assert gap_higher < (0.01 if QUICK else 0.2 * gap), (gap_higher, gap)
 
 # %% [markdown]
-# Over 10 s the difference is 0.92 % of the peak with 4 modes, and again about the same with 2 or 8: what is left
-# is still a nonlinearity (the coupler's interior cannot stretch along its bending modes), not a missing mode.
+# Over 10 s the difference is 0.92 % of the peak with 4 modes, about the same with 2 or 8, and 3e-5 with 12
+# (`docs/benchmarks.md`): what is left is a mode that the frequency order keeps out until then, the coupler's
+# second axial mode. The membrane strain of its bending, $\tfrac12 w'^2 \propto \cos^2(\pi x/L)$, relaxes
+# through the axial displacement $\sin(2\pi x/L)$, and only a basis that holds it lets the coupler stretch that way.
 #
 # ## 3. How many modes? A convergence study
 #
