@@ -174,7 +174,7 @@ MEANINGS = {
         "points.NAME": "one named point: 3 inertial coordinates at t = 0 [m]"},
     "[[beams]]": {
         "reduce.modes": "in `reduce`, required: the modes kept — fixed-interface normal modes (Craig–Bampton) "
-                        "or elastic modes (free-free)",
+                        "or elastic modes (free-free); a count (the lowest) or a list of mode numbers (1 the lowest)",
         "reduce.interfaces": "in `reduce`: node references of the beam where joints, springs and loads attach "
                              "(Craig–Bampton keeps their six coordinates each: at least one)",
         "reduce.basis": "in `reduce`: `craig_bampton` (fixed-interface and constraint modes) or `free_free`",

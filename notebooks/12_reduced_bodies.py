@@ -162,6 +162,8 @@ assert gap_higher < (0.01 if QUICK else 0.2 * gap), (gap_higher, gap)
 # (`docs/benchmarks.md`): what is left is a mode that the frequency order keeps out until then, the coupler's
 # second axial mode. The membrane strain of its bending, $\tfrac12 w'^2 \propto \cos^2(\pi x/L)$, relaxes
 # through the axial displacement $\sin(2\pi x/L)$, and only a basis that holds it lets the coupler stretch that way.
+# Naming the modes kept does it with three: `reduce.modes = [1, 2, 9]` (the first bending pair and that axial
+# mode, the 9th by frequency) follows the full beam within 0.063 % of the peak over 10 s.
 #
 # ## 3. How many modes? A convergence study
 #

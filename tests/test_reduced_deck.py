@@ -45,6 +45,7 @@ def _direct(basis: str, interfaces: tuple, n_modes: int):
 @pytest.mark.parametrize("reduce, basis, interfaces, n_modes", [
     ('{ modes = 4, interfaces = ["coupler:start", "coupler:end"] }', "craig_bampton", (0, 4), 4),
     ('{ modes = 3, interfaces = ["coupler:mid"], basis = "free_free" }', "free_free", (2,), 3),
+    ('{ modes = [1, 2, 3, 4], interfaces = ["coupler:start", "coupler:end"] }', "craig_bampton", (0, 4), 4),
 ])
 def test_the_decks_reduced_body_is_the_one_built_directly(tmp_path, reduce, basis, interfaces, n_modes):
     """reduced_bodies reads the key and builds the coupler's body; its modes, modal stiffness and mass
@@ -99,6 +100,12 @@ def test_the_command_line_refuses_a_reduced_deck_in_one_line(tmp_path):
      "19 modes asked of beam 'coupler', whose mesh has 18 (its 5 nodes less 2 interface nodes); ask 0 to 18"),
     ('{ modes = 25, basis = "free_free" }', COUPLER, "beams[1].reduce.modes",
      "25 modes asked of beam 'coupler', whose mesh has 24 (its 5 free nodes); ask 1 to 24"),
+    ('{ modes = [1, 2, 19], interfaces = ["coupler:start", "coupler:end"] }', COUPLER, "beams[1].reduce.modes",
+     "mode 19 asked of beam 'coupler', whose mesh has 18 (its 5 nodes less 2 interface nodes); name modes 1 to 18"),
+    ('{ modes = [1, 2, 2], interfaces = ["coupler:start", "coupler:end"] }', COUPLER, "beams[1].reduce.modes",
+     "mode numbers [1, 2, 2] repeat one or name none; name each mode once"),
+    ('{ modes = [1, 0], interfaces = ["coupler:start", "coupler:end"] }', COUPLER, "beams[1].reduce.modes[1]",
+     "expected an integer ≥ 1, got 0"),
     ('{ modes = 4 }', COUPLER, "beams[1].reduce.interfaces", "a Craig–Bampton basis needs at least one interface"),
     ('{ modes = 4, interface = ["coupler:start"] }', COUPLER, "beams[1].reduce.interface",
      "unknown key; did you mean 'interfaces'?"),
@@ -117,3 +124,17 @@ def test_bad_reduce_input_is_one_line_naming_the_entry(tmp_path, reduce, after, 
         message = str(err.value)
         assert "\n" not in message and message.startswith(f"{path}: {entry}: "), message
         assert problem in message, message
+
+
+def test_modes_named_by_number_are_those_of_the_lowest_count():
+    """``modes = [1, 2, 9]``: the fixed-interface modes 1, 2 and 9 of the coupler, the same frequencies and shapes
+    (up to sign, 1e-12 of the largest entry: the same eigensolution) as the 1st, 2nd and 9th of the 9 lowest; the
+    interface columns the same; likewise for free-free modes."""
+    domain = load_deck(ROOT / "models" / "three_bar.toml").domain
+    beam = beam_matrices(domain, "coupler")
+    nine, picked = craig_bampton(beam, (0, 4), 9), craig_bampton(beam, (0, 4), [1, 2, 9])
+    np.testing.assert_allclose(picked.frequencies, nine.frequencies[[0, 1, 8]], rtol=1e-12)
+    columns = list(range(12)) + [12, 13, 20]
+    np.testing.assert_allclose(np.abs(picked.T), np.abs(nine.T[:, columns]), rtol=0, atol=1e-12 * np.abs(nine.T).max())
+    free, some = free_free(beam, 5), free_free(beam, [2, 5])
+    np.testing.assert_allclose(some.frequencies, free.frequencies[[1, 4]], rtol=1e-12)

@@ -3,7 +3,8 @@
 A deck marks a beam for reduction with
 ``reduce = { modes = 6, interfaces = ["coupler:start", "coupler:end"], basis = "craig_bampton" }``:
 
-- ``modes``: the fixed-interface normal modes kept (Craig–Bampton) or the elastic modes kept (free-free);
+- ``modes``: the fixed-interface normal modes kept (Craig–Bampton) or the elastic modes kept (free-free): a
+  count (the lowest that many) or a list of mode numbers (1 the lowest, in frequency order);
 - ``interfaces``: node references of the beam (docs/deck.md, "Node references") where joints, springs and loads
   attach; a Craig–Bampton basis keeps their six coordinates each, so it needs at least one;
 - ``basis``: ``"craig_bampton"`` (default) or ``"free_free"`` (:mod:`reference.reduced.craig_bampton`);
@@ -47,14 +48,15 @@ _COLLECT: ContextVar = ContextVar("reduce_collect", default=None)
 
 
 class Reduction(NamedTuple):
-    """One beam's ``reduce`` table as read: ``label``; ``modes`` the count kept; ``interfaces`` their positions
+    """One beam's ``reduce`` table as read: ``label``; ``modes`` the count kept or the mode numbers kept (a tuple,
+    :func:`reference.reduced.craig_bampton.kept_modes`); ``interfaces`` their positions
     along the beam (:func:`reference.reduced.craig_bampton.interface_positions`); ``basis`` one of :data:`BASES`;
     ``beam`` its :class:`~reference.reduced.craig_bampton.BeamMatrices`; ``stiffening`` whether the modal stiffness
     takes the centrifugal stress stiffness, ``second_order`` the modes' second-order stiffness, ``third_order`` also
     their third-order stiffness (``domain`` the Domain their tangents are taken from)."""
 
     label: str
-    modes: int
+    modes: int | tuple
     interfaces: tuple
     basis: str
     beam: object
@@ -92,16 +94,27 @@ def _interfaces(rd, table: dict, entry: str, domain, beam) -> tuple:
     return tuple(found)
 
 
-def _modes(rd, table: dict, entry: str, basis: str, beam, interfaces: tuple) -> int:
-    """The mode count, checked against what the mesh has (the interior's coordinates for Craig–Bampton, the
-    ``6 n − 6`` elastic modes of a free beam of ``n`` nodes)."""
+def _modes(rd, table: dict, entry: str, basis: str, beam, interfaces: tuple):
+    """The modes kept: a count (the lowest that many) or a list of mode numbers (1 the lowest, in frequency order),
+    checked against what the mesh has (the interior's coordinates for Craig–Bampton, the ``6 n − 6`` elastic modes of
+    a free beam of ``n`` nodes)."""
     n_nodes = len(beam.nodes)
     if basis == "craig_bampton":
         most, have = 6 * (n_nodes - len(interfaces)), f"its {n_nodes} nodes less {len(interfaces)} interface nodes"
         least = 0
     else:
         most, have, least = 6 * n_nodes - 6, f"its {n_nodes} free nodes", 1
-    modes = rd.integer(table["modes"], f"{entry}.modes", minimum=0)
+    value = table["modes"]
+    if isinstance(value, list):
+        numbers = [rd.integer(m, f"{entry}.modes[{k}]", minimum=1) for k, m in enumerate(value)]
+        if len(set(numbers)) != len(numbers) or len(numbers) < least:
+            raise rd.fail(f"{entry}.modes", f"mode numbers {numbers} repeat one or name none",
+                          "name each mode once (1 the lowest), e.g. modes = [1, 2, 3, 4, 9]")
+        if max(numbers) > most:
+            raise rd.fail(f"{entry}.modes", f"mode {max(numbers)} asked of beam {beam.label!r}, whose mesh has "
+                          f"{most} ({have})", f"name modes 1 to {most}, or refine the mesh (more elements)")
+        return tuple(sorted(numbers))
+    modes = rd.integer(value, f"{entry}.modes", minimum=0)
     if not least <= modes <= most:
         raise rd.fail(f"{entry}.modes", f"{modes!r} modes asked of beam {beam.label!r}, whose mesh has {most} "
                       f"({have})", f"ask {least} to {most}, or refine the mesh (more elements)")

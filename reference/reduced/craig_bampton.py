@@ -152,10 +152,21 @@ def _reduced(beam: BeamMatrices, T, interfaces, w2) -> Basis:
     return Basis(T, T.T @ beam.K @ T, T.T @ beam.M @ T, tuple(interfaces), _frequencies(w2))
 
 
-def craig_bampton(beam: BeamMatrices, interfaces: tuple, n_modes: int) -> Basis:
+def kept_modes(modes) -> tuple[int, list | None]:
+    """``modes`` of a reduction, a count (the lowest that many) or mode numbers (1 the lowest, in frequency order):
+    ``(how many of the lowest to compute, the positions kept among them or None for all)``."""
+    if isinstance(modes, (int, np.integer)):
+        return int(modes), None
+    numbers = sorted(int(m) for m in modes)
+    return (numbers[-1] if numbers else 0), [m - 1 for m in numbers]
+
+
+def craig_bampton(beam: BeamMatrices, interfaces: tuple, n_modes) -> Basis:
     """The Craig–Bampton basis of ``beam``: its interface nodes' coordinates (positions along the beam,
     :func:`interface_positions`) and ``n_modes`` fixed-interface normal modes, mass-normalised
-    (module docstring).
+    (module docstring): the lowest ``n_modes``, or the modes of those numbers when it is a list
+    (:func:`kept_modes`: a mode that frequency order puts late may carry what a response needs, e.g. a bent
+    coupler's axial stretching).
 
     Raises
     ------
@@ -168,30 +179,34 @@ def craig_bampton(beam: BeamMatrices, interfaces: tuple, n_modes: int) -> Basis:
     size = beam.K.shape[0]
     b = (6 * np.asarray(interfaces)[:, None] + np.arange(6)).reshape(-1)
     i = np.setdiff1d(np.arange(size), b)
-    if not 0 <= n_modes <= i.size:
-        raise ValueError(f"reduce.modes: {n_modes} modes asked of beam {beam.label!r}, whose "
+    lowest, keep = kept_modes(n_modes)
+    if not 0 <= lowest <= i.size:
+        raise ValueError(f"reduce.modes: {lowest} modes asked of beam {beam.label!r}, whose "
                          f"{len(beam.nodes)} nodes less {len(interfaces)} interface nodes have {i.size} coordinates; "
                          f"ask 0 to {i.size} (or refine the mesh)")
     K_ii, K_ib = beam.K[np.ix_(i, i)], beam.K[np.ix_(i, b)]
     psi = -sla.solve(K_ii, K_ib, assume_a="sym")
-    w2, phi, _ = _pairs(K_ii, beam.M[np.ix_(i, i)], n_modes)
-    T = np.zeros((size, b.size + n_modes))
+    w2, phi, _ = _pairs(K_ii, beam.M[np.ix_(i, i)], lowest)
+    if keep is not None:
+        w2, phi = w2[keep], phi[:, keep]
+    T = np.zeros((size, b.size + phi.shape[1]))
     T[b, :b.size] = np.eye(b.size)
     T[i, :b.size] = psi
     T[i, b.size:] = phi
     return _reduced(beam, T, interfaces, w2)
 
 
-def free_free(beam: BeamMatrices, n_modes: int) -> Basis:
-    """The ``n_modes`` lowest elastic modes of the unsupported ``beam``, mass-normalised (its rigid motions,
-    the zero modes of :func:`_pairs`, skipped).  A ValueError of one line when the beam has
+def free_free(beam: BeamMatrices, n_modes) -> Basis:
+    """The ``n_modes`` lowest elastic modes of the unsupported ``beam`` (or those of the numbers in a list,
+    :func:`kept_modes`), mass-normalised (its rigid motions, the zero modes of :func:`_pairs`, skipped).  A ValueError of one line when the beam has
     fewer elastic modes."""
     w2, phi, kind = _pairs(beam.K, beam.M, beam.K.shape[0])
     elastic = np.flatnonzero(kind != "zero")
-    if not 1 <= n_modes <= elastic.size:
-        raise ValueError(f"reduce.modes: {n_modes} modes asked of beam {beam.label!r}, which has {elastic.size} "
+    lowest, numbers = kept_modes(n_modes)
+    if not 1 <= lowest <= elastic.size:
+        raise ValueError(f"reduce.modes: {lowest} modes asked of beam {beam.label!r}, which has {elastic.size} "
                          f"elastic modes; ask 1 to {elastic.size} (or refine the mesh)")
-    keep = elastic[:n_modes]
+    keep = elastic[:lowest] if numbers is None else elastic[numbers]
     return _reduced(beam, phi[:, keep], (), w2[keep])
 
 
