@@ -8,9 +8,9 @@ in the element's section frames ``p_a = q_a ⊗ o_a``; the generic driver
 (:mod:`reference.elements.driver`) gathers, takes the moments and tangents back to the node frames,
 sums and stores the tangent blocks.  The family's own :func:`assemble` runs, on a model below
 :data:`~reference.parallel.PARALLEL_NODES` nodes or from :data:`~reference.elements.driver.PARALLEL_ELEMENTS`
-elements on, the structure-of-arrays form of the same generated arithmetic (``reference/generated/beam2_soa.py``, ``derivations/soa.py``: blocks of 64
-elements, loops vectorised across the elements; :mod:`reference.elements.beam2_blocks`), bit for bit the
-per-element rows.
+elements on, the structure-of-arrays form of the same generated arithmetic
+(``reference/generated/beam2_soa.py``, ``derivations/soa.py``: blocks of 64 elements, loops vectorised across the
+elements; :mod:`reference.elements.beam2_blocks`), bit for bit the per-element rows.
 """
 
 from __future__ import annotations

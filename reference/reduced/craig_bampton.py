@@ -198,8 +198,8 @@ def craig_bampton(beam: BeamMatrices, interfaces: tuple, n_modes) -> Basis:
 
 def free_free(beam: BeamMatrices, n_modes) -> Basis:
     """The ``n_modes`` lowest elastic modes of the unsupported ``beam`` (or those of the numbers in a list,
-    :func:`kept_modes`), mass-normalised (its rigid motions, the zero modes of :func:`_pairs`, skipped).  A ValueError of one line when the beam has
-    fewer elastic modes."""
+    :func:`kept_modes`), mass-normalised (its rigid motions, the zero modes of :func:`_pairs`, skipped).  A
+    ValueError of one line when the beam has fewer elastic modes."""
     w2, phi, kind = _pairs(beam.K, beam.M, beam.K.shape[0])
     elastic = np.flatnonzero(kind != "zero")
     lowest, numbers = kept_modes(n_modes)
