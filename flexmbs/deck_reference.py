@@ -184,7 +184,10 @@ MEANINGS = {
                                "the body's own deformation, e.g. an axial force stiffening bending); default `false`",
         "reduce.third_order": "in `reduce`: `true` adds, with `second_order`, the modes' third-order stiffness (the "
                               "strain energy to fourth order: a beam's shortening by its own bending stiffening it); "
-                              "default `false`"},
+                              "default `false`",
+        "reduce.modal_derivatives": "in `reduce`: `true` adds to a Craig–Bampton basis the static modal derivatives of "
+                                    "its modes (their second-order displacement field, e.g. a bent beam's axial "
+                                    "relaxation); default `false`"},
     "[[clamps]]": {"node": "the node or body whose six coordinates are fixed"},
     "[[fixed]]": {"node": "the node or body", "dofs": "the fixed coordinates: `x`, `y`, `z` (inertial translations), "
                                                       "`rx`, `ry`, `rz` (rotations about the body axes)"},

@@ -11,10 +11,13 @@ A deck marks a beam for reduction with
 - ``stiffening``: ``true`` adds the centrifugal stress stiffness of the modes
   (:func:`reference.reduced.stiffening.spin_stiffness`) to the modal stiffness, at the frame's current spin;
 - ``second_order``: ``true`` adds the modes' second-order stiffness
-  (:func:`reference.reduced.stiffening.modal_derivatives`): the stress stiffness of the body's own deformation;
+  (:func:`reference.reduced.stiffening.modal_third_derivatives`): the stress stiffness of the body's own deformation;
 - ``third_order``: ``true`` adds, with it, the modes' third-order stiffness
   (:func:`reference.reduced.stiffening.modal_fourth_derivatives`): the strain energy to fourth order in the modal
-  coordinates, where a beam's shortening by its own bending stiffens it.
+  coordinates, where a beam's shortening by its own bending stiffens it;
+- ``modal_derivatives``: ``true`` adds to a Craig–Bampton basis the static modal derivatives of its modes
+  (:func:`reference.reduced.stiffening.derivative_modes`): their second-order displacement field, e.g. the axial
+  relaxation of a bent beam's membrane strain.
 
 :func:`read_reduce` checks the key (one line ``FILE: beams[i].reduce…: problem; fix`` for a node that does not
 exist or is not the beam's, more modes than the mesh has, a rigid bar, an unknown key), then the run: the
@@ -33,11 +36,12 @@ from contextvars import ContextVar
 from typing import NamedTuple
 
 from reference.reduced.body import ReducedBody
-from reference.reduced.craig_bampton import (beam_matrices, craig_bampton, floating_modes, free_free,
+from reference.reduced.craig_bampton import (beam_matrices, craig_bampton, enriched, floating_modes, free_free,
                                              interface_positions)
 from reference.reduced.invariants import invariants
 from reference.reduced.registry import RUNS, register
-from reference.reduced.stiffening import modal_derivatives, modal_fourth_derivatives, spin_stiffness
+from reference.reduced.stiffening import (derivative_modes, modal_fourth_derivatives, modal_third_derivatives,
+                                          spin_stiffness)
 from reference.reduced.attachments import attachment_problem
 
 BASES = ("craig_bampton", "free_free")
@@ -53,7 +57,8 @@ class Reduction(NamedTuple):
     along the beam (:func:`reference.reduced.craig_bampton.interface_positions`); ``basis`` one of :data:`BASES`;
     ``beam`` its :class:`~reference.reduced.craig_bampton.BeamMatrices`; ``stiffening`` whether the modal stiffness
     takes the centrifugal stress stiffness, ``second_order`` the modes' second-order stiffness, ``third_order`` also
-    their third-order stiffness (``domain`` the Domain their tangents are taken from)."""
+    their third-order stiffness, ``modal_derivatives`` the basis enriched by its modes' modal derivatives (``domain``
+    the Domain their tangents are taken from)."""
 
     label: str
     modes: int | tuple
@@ -64,6 +69,7 @@ class Reduction(NamedTuple):
     domain: object = None
     second_order: bool = False
     third_order: bool = False
+    modal_derivatives: bool = False
 
 
 def _split(message: str, prefix: str) -> tuple[str, str]:
@@ -140,7 +146,7 @@ def read_reduce(rd, deck: dict, domain) -> dict:
         entry = f"beams[{i}].reduce"
         table = bm["reduce"]
         rd.keys(table, entry, required=["modes"], optional=["interfaces", "basis", "stiffening", "second_order",
-                                                                 "third_order"])
+                                                                 "third_order", "modal_derivatives"])
         if bm.get("rigid", False) is True:
             raise rd.fail(entry, "a rigid bar is one rigid body, it has no modes to reduce", "remove reduce or rigid")
         basis = rd.choice(table.get("basis", BASES[0]), f"{entry}.basis", BASES, "basis")
@@ -161,8 +167,12 @@ def read_reduce(rd, deck: dict, domain) -> dict:
         if third and not second:
             raise rd.fail(f"{entry}.third_order", "the third-order stiffness continues the second-order one",
                           "add second_order = true")
+        derivatives = rd.boolean(table.get("modal_derivatives", False), f"{entry}.modal_derivatives")
+        if derivatives and basis != "craig_bampton":
+            raise rd.fail(f"{entry}.modal_derivatives", "modal derivatives are taken with the interfaces held",
+                          'use basis = "craig_bampton" (the default), or remove modal_derivatives')
         found[beam.label] = Reduction(beam.label, _modes(rd, table, entry, basis, beam, interfaces), interfaces,
-                                      basis, beam, stiffening, domain, second, third)
+                                      basis, beam, stiffening, domain, second, third, derivatives)
     collect = _COLLECT.get()
     if collect is not None:
         collect.update(found)
@@ -176,17 +186,21 @@ def read_reduce(rd, deck: dict, domain) -> dict:
 def reduced_body(reduction: Reduction) -> ReducedBody:
     """The :class:`~reference.reduced.body.ReducedBody` of one beam's :class:`Reduction`: Craig–Bampton's
     basis turned into floating-frame modes (:func:`~reference.reduced.craig_bampton.floating_modes`, the frame's
-    mean axes), or the free-free modes; invariants about the centre of mass."""
+    mean axes), enriched first by the modes' modal derivatives where asked, or the free-free modes; invariants about
+    the centre of mass."""
     beam = reduction.beam
     if reduction.basis == "craig_bampton":
-        modes = floating_modes(beam, craig_bampton(beam, reduction.interfaces, reduction.modes))
+        basis = craig_bampton(beam, reduction.interfaces, reduction.modes)
+        if reduction.modal_derivatives:
+            basis = enriched(beam, basis, derivative_modes(reduction.domain, beam, basis))
+        modes = floating_modes(beam, basis)
     else:
         modes = free_free(beam, reduction.modes)
     body = ReducedBody(reduction.label, beam, modes, invariants(beam, modes), interfaces=reduction.interfaces)
     if reduction.stiffening:
         body.spin_stiffness = spin_stiffness(reduction.domain, beam, modes, reduction.interfaces)
     if reduction.second_order:
-        body.cubic = modal_derivatives(reduction.domain, beam, modes)
+        body.cubic = modal_third_derivatives(reduction.domain, beam, modes)
     if reduction.third_order:
         body.quartic = modal_fourth_derivatives(reduction.domain, beam, modes)
     return body

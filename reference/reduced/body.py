@@ -58,7 +58,7 @@ class ReducedBody:
     """``𝕂`` (3, 3, r, r) of :func:`reference.reduced.stiffening.spin_stiffness` when the body takes geometric
     stiffening (``reduce.stiffening``), else None."""
     cubic = None
-    """``K₃`` (r, r, r) of :func:`reference.reduced.stiffening.modal_derivatives` when the body takes the modes'
+    """``K₃`` (r, r, r) of :func:`reference.reduced.stiffening.modal_third_derivatives` when the body takes the modes'
     second-order stiffness (``reduce.second_order``), else None."""
     quartic = None
     """``K₄`` (r, r, r, r) of :func:`reference.reduced.stiffening.modal_fourth_derivatives` when the body takes the

@@ -213,7 +213,7 @@ class CoupledModel:
 
     def elastic(self, k: int, b: BodyState) -> np.ndarray:
         """Body ``k``'s modal elastic force in state ``b``: ``K η`` (:meth:`_linear_stiffness`), plus with
-        ``second_order`` ``½ K₃ : η η`` (:func:`reference.reduced.stiffening.modal_derivatives`) and with
+        ``second_order`` ``½ K₃ : η η`` (:func:`reference.reduced.stiffening.modal_third_derivatives`) and with
         ``third_order`` ``⅙ K₄ ⋮ η η η`` (:func:`reference.reduced.stiffening.modal_fourth_derivatives`)."""
         f = self._linear_stiffness(k, b) @ b.eta
         body = self.bodies[k]

@@ -196,6 +196,25 @@ def craig_bampton(beam: BeamMatrices, interfaces: tuple, n_modes) -> Basis:
     return _reduced(beam, T, interfaces, w2)
 
 
+def enriched(beam: BeamMatrices, basis: Basis, vectors, tolerance: float = 1e-6) -> Basis:
+    """``basis`` with the columns of ``vectors`` (6n, k) added (e.g. the modal derivatives of
+    :func:`reference.reduced.stiffening.derivative_modes`), each first scaled to unit mass norm, then made
+    M-orthogonal to the basis and to each other.  Dropped: a vector whose mass norm is below ``tolerance`` × the
+    largest one's (zero by symmetry but for the difference quotients' truncation, e.g. the derivative of an in-plane
+    mode along an out-of-plane one), and a direction whose mass norm is below ``tolerance`` once made orthogonal (one
+    the basis already spans).  Interfaces and frequencies stay the basis's (:func:`floating_modes` finds the
+    enriched body's own)."""
+    T, M = basis.T, beam.M
+    V = np.asarray(vectors, dtype=float)
+    norms = np.sqrt(np.einsum("ik,ij,jk->k", V, M, V))
+    V = V[:, norms > tolerance * norms.max(initial=0.0)] / norms[norms > tolerance * norms.max(initial=0.0)]
+    V = V - T @ np.linalg.solve(T.T @ M @ T, T.T @ M @ V)
+    lam, U = np.linalg.eigh(0.5 * ((V.T @ M @ V) + (V.T @ M @ V).T))
+    keep = lam > tolerance ** 2
+    T = np.hstack([T, V @ (U[:, keep] / np.sqrt(lam[keep]))])
+    return Basis(T, T.T @ beam.K @ T, T.T @ M @ T, basis.interfaces, basis.frequencies)
+
+
 def free_free(beam: BeamMatrices, n_modes) -> Basis:
     """The ``n_modes`` lowest elastic modes of the unsupported ``beam`` (or those of the numbers in a list,
     :func:`kept_modes`), mass-normalised (its rigid motions, the zero modes of :func:`_pairs`, skipped).  A

@@ -87,7 +87,7 @@ def _symmetric(tensor) -> np.ndarray:
     return sum(tensor.transpose(p) for p in perms) / len(perms)
 
 
-def modal_derivatives(domain, beam, modes) -> np.ndarray:
+def modal_third_derivatives(domain, beam, modes) -> np.ndarray:
     """``K₃`` (r, r, r): the derivative of the modal stiffness along each mode,
     ``K₃[:, :, k] = Φᵀ K_σ(Φ_k) Φ`` (:func:`tangent_derivative`), made symmetric in its three indices (it is the
     third derivative of the strain energy in the modal coordinates).  The modes' second-order stiffness: the
@@ -107,7 +107,7 @@ def modal_fourth_derivatives(domain, beam, modes) -> np.ndarray:
     ``K₄[:, :, k, l] = Φᵀ ∂²K_T/∂u_k ∂u_l Φ`` (mixed central differences of the tangent, steps ε = :data:`STEP` over
     each mode's largest entry), made symmetric in its four indices (the fourth derivative of the strain energy in
     the modal coordinates).  The modes' third-order stiffness: the elastic force ``… + ⅙ K₄ ⋮ η η η``, the tangent
-    ``… + ½ K₄ : η η``, the energy ``… + ¹⁄₂₄ K₄ ⋮ η η η η``.  With :func:`modal_derivatives` it gives the strain
+    ``… + ½ K₄ : η η``, the energy ``… + ¹⁄₂₄ K₄ ⋮ η η η η``.  With :func:`modal_third_derivatives` it gives the strain
     energy to fourth order in η, the order of a beam's axial stretch from its own bending (von Kármán's
     ``EA/8L (∫ w′² dx)²``): the bent coupler's shortening stiffens its bending, which the third order alone lacks
     (Barbič & James 2005 keep the same orders for St. Venant–Kirchhoff solids, whose energy is exactly quartic)."""
@@ -123,6 +123,33 @@ def modal_fourth_derivatives(domain, beam, modes) -> np.ndarray:
             second = _to_body_frame(domain, beam, second)
             K4[:, :, k, l] = K4[:, :, l, k] = phi.T @ second @ phi / (4.0 * steps[k] * steps[l])
     return _symmetric(K4)
+
+
+def derivative_modes(domain, beam, basis) -> np.ndarray:
+    """Static modal derivatives (Idelsohn & Cardona, Comput. Methods Appl. Mech. Eng. 49 (1985) 253) of the
+    fixed-interface modes of a Craig–Bampton ``basis`` (:func:`reference.reduced.craig_bampton.craig_bampton`):
+    for each pair ``k ≤ l`` of its modes ``φ``, the displacement (6n,) that the tangent's change along one mode
+    makes of the other, interface nodes held,
+
+        ``θ_kl = −K_ii⁻¹ ½ (K_σ(φ_l) φ_k + K_σ(φ_k) φ_l)``,
+
+    ``K_σ(u)`` the tangent's derivative along ``u`` (:func:`tangent_derivative`).  They are the second-order
+    displacement field of the modes: a beam bent in its mode shape ``φ`` moves axially by ``½ θ`` per unit of
+    modal amplitude squared (the membrane strain ``½ w′²`` relaxed), which fixed-interface modes place late in
+    frequency order or not at all.  Columns in the order ``(1, 1), (1, 2), …, (1, m), (2, 2), …`` [m per unit of
+    modal coordinate squared, body-frame coordinates of the module docstring of
+    :mod:`reference.reduced.craig_bampton`]."""
+    held = (6 * np.asarray(basis.interfaces)[:, None] + np.arange(6)).reshape(-1)
+    phi = basis.T[:, held.size:]
+    size, m = phi.shape
+    interior = np.setdiff1d(np.arange(size), held)
+    K_ii = beam.K[np.ix_(interior, interior)]
+    changes = [tangent_derivative(domain, beam, phi[:, k]) for k in range(m)]
+    out = np.zeros((size, m * (m + 1) // 2))
+    for column, (k, l) in enumerate(itertools.combinations_with_replacement(range(m), 2)):
+        load = 0.5 * (changes[l] @ phi[:, k] + changes[k] @ phi[:, l])
+        out[interior, column] = -np.linalg.solve(K_ii, load[interior])
+    return out
 
 
 def centrifugal_stiffening(domain, beam, modes, held, axis, origin) -> np.ndarray:
