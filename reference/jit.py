@@ -53,8 +53,8 @@ algorithms make hundreds of such calls per solve (an evaluation, a factorisation
 steps, the derived outputs of a record), so those kernels take their named tuples through
 :func:`boundary` (the same arrays as plain nested tuples, made once per run by the caller) and name them
 again on entry with :func:`named`, which costs nothing in compiled code (a copy of pointers;
-on a named tuple it is the identity).  The explicit step kernel, called once per output for
-many steps, takes its named tuples as they are.
+on a named tuple it is the identity).  So does the explicit step kernel, called once per output
+(:meth:`reference.algorithms.staggered.ExplicitRun.arguments`).
 
 numba's on-disk cache checks only the source file that defines a function, not the files of the
 functions it calls and inlines: after an edit of, say, ``reference/interactions.py`` the cached step kernel

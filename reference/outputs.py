@@ -54,6 +54,8 @@ def largest_strain(section_force: np.ndarray, inverse_EA: np.ndarray) -> tuple[f
     with np.errstate(invalid="ignore", over="ignore"):
         strain = np.abs(section_force[:, 0]) * inverse_EA
     strain[~np.isfinite(strain)] = 0.0
+    if strain.size == 0:
+        return 0.0, 0
     e = int(np.argmax(strain))
     return float(strain[e]), e
 
@@ -92,8 +94,6 @@ class Outputs:
 
     stretch_screen = staticmethod(within_stretch_compiled)
     """The screen of the run's blow-up monitor (:attr:`reference.monitor.BlowUpMonitor.screen`) on this path."""
-    strain_search = staticmethod(largest_strain_compiled)
-    """``(largest finite |N| / EA, its element)`` of a record on this path (:func:`largest_strain`)."""
 
     def __init__(self, model: Model, joints: list, rec: Record):
         rows = [k for k, j in enumerate(joints) if j.formulation.multipliers]
@@ -136,29 +136,33 @@ class Outputs:
     def record(self, t: float) -> dict:
         """Complete the record at time ``t`` with the derived outputs; returns :attr:`entry`."""
         self.time[()] = t
-        self.derive(float(t))
+        strain, e = self.derive(float(t))
         for k, u in self.prescribed:
             self.prescribed_reaction[k] = self.force[k] @ u
-        if self.inverse_EA.size:
-            strain, e = self.strain_search(self.section_force, self.inverse_EA)
-            if strain > self.strain[0]:
-                self.strain = (float(strain), int(e), float(t))
+        if strain > self.strain[0]:
+            self.strain = (float(strain), int(e), float(t))
         return self.entry
 
-    def derive(self, t: float) -> None:
+    def derive(self, t: float) -> tuple[float, int]:
         """The joint reactions (rows :attr:`slot` of :attr:`force`, :attr:`moment`) and the section resultants
-        (:attr:`section_force`, :attr:`section_moment`) of the record at time ``t`` [s], one compiled call."""
+        (:attr:`section_force`, :attr:`section_moment`) of the record at time ``t`` [s], one compiled call;
+        returns the record's largest axial strain and its element (:func:`largest_strain`, of the elements
+        :meth:`watch_strain` watches)."""
         rec = self.rec
-        derived_outputs(self.arrays, rec.x, rec.q, rec.lam, t, self.slot, self.out, self.element_work, self.scratch)
+        return derived_outputs(self.arrays, rec.x, rec.q, rec.lam, t, self.slot, self.out, self.element_work,
+                               self.scratch, self.inverse_EA)
 
 
 _joint_reactions = inlined(joint_reactions)  # a compiled call with the Model costs two atomic updates per array
+_largest_strain = inlined(largest_strain_compiled)
 
 
 @kernel
-def derived_outputs(model, x, q, lam, t, slot, out, element_work, work):
+def derived_outputs(model, x, q, lam, t, slot, out, element_work, work, inverse_EA):
     """Joint reactions into the rows ``slot`` of ``force``, ``moment`` (J, 3) and section
-    resultants into ``section_force``, ``section_moment`` (E, 3), ``out`` the four of them, in one compiled call.
+    resultants into ``section_force``, ``section_moment`` (E, 3), ``out`` the four of them, in one compiled call;
+    returns the largest axial strain ``|N| / EA`` and its element (:func:`largest_strain`, ``inverse_EA`` (E,)
+    [1/N]).
 
     ``model`` is the :class:`~reference.state.Model` or its :class:`OutputArrays`; ``element_work`` the
     families' work arrays (:func:`reference.state.element_work`); ``work`` the reactions' scratch
@@ -168,6 +172,7 @@ def derived_outputs(model, x, q, lam, t, slot, out, element_work, work):
     force, moment, section_force, section_moment = out
     _joint_reactions(model, x, q, lam, t, slot, force, moment, work)
     resultants(model.elements, element_work, x, q, section_force, section_moment)
+    return _largest_strain(section_force, inverse_EA)
 
 
 def inverse_axial_stiffness(elements) -> np.ndarray:

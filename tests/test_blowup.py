@@ -115,7 +115,7 @@ def test_stretch_screens_agree():
 def test_largest_strain_twins_agree():
     """The records' largest axial strain |N| / EA in NumPy (the reference path's) and compiled (the compiled path's):
     the same value and element on finite forces, with ties (the first), NaN and inf forces (skipped), elements not
-    watched (1/EA = 0, also against an infinite force), and none positive."""
+    watched (1/EA = 0, also against an infinite force), none positive, and no element at all."""
     from reference.outputs import largest_strain, largest_strain_compiled
 
     rng = np.random.default_rng(3)
@@ -137,3 +137,5 @@ def test_largest_strain_twins_agree():
         assert tuple(largest_strain_compiled(force, inverse)) == expected
     assert largest_strain(bad, inverse)[1] not in (1, 3, 4)
     assert largest_strain(np.zeros((9, 3)), inverse) == (0.0, 0)
+    assert largest_strain(np.zeros((0, 3)), np.zeros(0)) == (0.0, 0) == tuple(largest_strain_compiled(np.zeros((0, 3)),
+                                                                                                   np.zeros(0)))

@@ -60,7 +60,8 @@ def test_explicit_steps_are_bit_identical_for_any_thread_count(large):
         run = d.algorithm(dt=h).start(model, state, d.critical_time_step(), energy_floor(model, state.x))
         recs = [Record.empty(state.x.shape[0]) for _ in range(2)]
         for rec in recs:
-            assert advance(model, state, h, 3, True, rec, run.scratch) == 0
+            model_arg, state_arg, rec_arg, scratch_arg = run.arguments(model, state, rec)
+            assert advance(model_arg, state_arg, h, 3, True, rec_arg, scratch_arg) == 0
         runs.append([*state, *recs[0], *recs[1], run.scratch.guard.copy()])
     use_threads(1)
     assert runs[0][0][-1, 2] != d.nodes[-1].position[2] and runs[0][-1][0]["energy"] > 0.0  # it moved; the guard ran

@@ -99,3 +99,26 @@ def test_redundant_constraints_can_be_regularised():
     r = four_bar(1e-9).solve()
     assert np.all(np.isfinite(r.positions))
     assert r.constraint_violation.max() < 1e-4
+
+
+def test_the_redundancy_check_remembers_what_passed_and_nothing_else(monkeypatch):
+    """``Domain.solve`` rebuilds and checks the model at every call: a model and configuration that passed are
+    not checked again (reference.joints.setup.REDUNDANCY_CHECKED), a changed one is, and a refused one is refused
+    at every call, also after its regularised twin passed (ε is part of what is remembered)."""
+    from reference.joints import setup
+
+    checked = []
+    inner = setup._check_redundancy
+    monkeypatch.setattr(setup, "_check_redundancy", lambda *args: checked.append(1) or inner(*args))
+    monkeypatch.setattr(setup, "REDUNDANCY_CHECKED", {})
+    d = four_bar(1e-9)
+    d.initialization()
+    d.initialization()
+    assert len(checked) == 1
+    d.nodes[0].position = np.asarray(d.nodes[0].position) + 1e-3
+    d.initialization()
+    assert len(checked) == 2
+    for _ in range(2):
+        with pytest.raises(ValueError, match="redundant constraints"):
+            four_bar(0.0).initialization()
+    assert len(checked) == 4

@@ -88,7 +88,7 @@ def engine(model, x, q):
     forces, moments = np.zeros((model.n_elements, 3)), np.zeros((model.n_elements, 3))
     derived_outputs(boundary(OutputArrays(model.joints, model.time_functions, model.elements)), x, q, np.zeros(m),
                     0.0, np.arange(J), (np.zeros((J, 3)), np.zeros((J, 3)), forces, moments), element_work(model),
-                    scratch())
+                    scratch(), np.zeros(model.n_elements))
     return system.work.S.copy(), U, K[:system.n_free, :system.n_free].toarray(), forces, moments, system.free
 
 

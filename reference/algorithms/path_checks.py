@@ -73,6 +73,8 @@ def why_refused(run, labels, x, q, lam, t0, t1) -> str:
     reactions and their largest magnitudes in ``run.reactions`` and ``run.peaks``; ``labels`` the joints'."""
     model, system = run.system.model, run.system
     driven = drives(model)
+    if not driven:
+        return ""
     for k, cos in drive_alignment(model, x, q, t1, driven):
         if cos < 0.0:
             run.refused_fix = ("Raise load_steps so that the drive turns less than π/2 per load step, or "

@@ -41,7 +41,7 @@ from reference.algorithms.constraint_stage import CONSTRAINED_SWEEPS, constrain
 from reference.algorithms.staggered_nodes import SUMS, drift_nodes, kick_nodes, node_sums
 from reference.evaluation.force_elements import force_element_dissipation
 from reference.evaluation.forces import model_forces
-from reference.jit import inlined, kernel, use_threads
+from reference.jit import boundary, inlined, kernel, named, use_threads
 from reference.joints.assembly import constraint_power, jacobian_times
 from reference.joints.master_slave import master_slave_positions
 from reference.monitor import TOLERANCE as GUARD_TOLERANCE, BlowUpMonitor, likely_cause
@@ -133,8 +133,11 @@ def advance(model, state, h, n_steps, record, rec, scratch):
     written into ``rec`` (its integer-step velocities need the first kick).
     ``n_steps = 0`` with ``record`` only writes the record.  Returns ``OK``,
     ``DIVERGED`` (non-finite state, checked before the energy guard: the state is left at the last finite step),
-    ``SINGULAR`` (the constraint matrix lost rank) or ``BLOWUP`` (the energy guard).
+    ``SINGULAR`` (the constraint matrix lost rank) or ``BLOWUP`` (the energy guard).  ``model``, ``state``,
+    ``rec`` and ``scratch`` are the named tuples or their :func:`reference.jit.boundary` copies, which a call
+    from Python unboxes faster (:class:`ExplicitRun` keeps them).
     """
+    model, state, rec, scratch = named(model, Model), named(state, State), named(rec, Record), named(scratch, Scratch)
     x, q, v, w, f_prev = state.x, state.q, state.v, state.w, state.f_prev
     clock, guard = state.clock[0], scratch.guard[0]
     S, F, v_new, w_new, G = scratch.S, scratch.F, scratch.v_new, scratch.w_new, scratch.G
@@ -222,7 +225,8 @@ class StaggeredCentralDifference(Algorithm):
         scratch = Scratch.for_model(model)
         if guard is not None:
             scratch.guard[0]["scale"], scratch.guard[0]["tolerance"] = guard, GUARD_TOLERANCE
-        return ExplicitRun(scratch, float(critical_step), CallBudget())
+        spare = Record.empty(state.x.shape[0], model.n_constraints)
+        return ExplicitRun(scratch, float(critical_step), CallBudget(), spare, [])
 
     def failure(self, code, state, run):
         status, message = explicit_failure(code, state.t, likely_cause(self.dt, run.critical_step))
@@ -231,12 +235,12 @@ class StaggeredCentralDifference(Algorithm):
     def advance(self, model: Model, state: State, run: "ExplicitRun", n_steps: int, record: Record | None) -> int:
         """``n_steps`` steps in compiled calls of at most ``run.budget`` steps (each returns to Python within a
         fraction of a second: a signal stops the run between two); the same steps as one call, bit for bit."""
-        rec = record if record is not None else Record.empty(state.x.shape[0], model.n_constraints)
+        plain_model, plain_state, rec, scratch = run.arguments(model, state, record)
         use_threads(nodes=state.x.shape[0])
         left, write = int(n_steps), record is not None
         while True:
             size = min(left, run.budget.start())
-            code = advance(model, state, self.dt, size, write, rec, run.scratch)
+            code = advance(plain_model, plain_state, self.dt, size, write, rec, scratch)
             run.budget.took(size)
             left -= size
             if code != OK or left <= 0:
@@ -246,11 +250,26 @@ class StaggeredCentralDifference(Algorithm):
 
 class ExplicitRun(NamedTuple):
     """The staggered scheme's run state: its work arrays and energy guard, the Domain's critical
-    step estimate [s] (for the message of a blow-up) and the steps a compiled call may take."""
+    step estimate [s] (for the message of a blow-up), the steps a compiled call may take, the record a call
+    without output writes into (``spare``) and the step kernel's last arguments (``plain``,
+    :meth:`arguments`)."""
 
     scratch: Scratch
     critical_step: float
     budget: CallBudget
+    spare: Record
+    plain: list
+
+    def arguments(self, model: Model, state: State, record: Record | None) -> tuple:
+        """``(model, state, record, scratch)`` as the step kernel takes them, :func:`reference.jit.boundary`
+        copies of the same arrays, made again only for another model, state or record (``record`` None: the
+        spare one)."""
+        record = self.spare if record is None else record
+        known = self.plain
+        if not (known and known[0] is model and known[1] is state and known[2] is record):
+            known[:] = [model, state, record,
+                        (boundary(model), boundary(state), boundary(record), boundary(self.scratch))]
+        return known[3]
 
     @property
     def energy(self) -> float:
@@ -262,8 +281,8 @@ def step(model: Model, state: State, h: float) -> State:
     """One staggered step as a pure function: returns the state at ``t_{n+1}``."""
     new = state.copy()
     use_threads(nodes=new.x.shape[0])
-    status = advance(model, new, h, 1, False, Record.empty(new.x.shape[0], model.n_constraints),
-                     Scratch.for_model(model))
+    status = advance(boundary(model), boundary(new), h, 1, False,
+                     boundary(Record.empty(new.x.shape[0], model.n_constraints)), boundary(Scratch.for_model(model)))
     if status != OK:
         raise FloatingPointError(f"the step failed with status {status}")
     return new

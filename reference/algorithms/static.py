@@ -63,6 +63,7 @@ from reference.algorithms.path_checks import PUSHED_FIX, RATIO, moved, row_force
 from reference.algorithms.step_control import SolverStatistics
 from reference.linalg import null_space
 from reference.modal import SMALL, nearest_zero, negative_eigenvalues
+from reference.state import RecordView
 from reference.status import NO_CONVERGENCE, OK, newton_failure
 from reference.validation import ModelWarning
 
@@ -170,7 +171,7 @@ class Static(ImplicitAlgorithm):
 
     def advance(self, model, state, run, n_steps, record) -> int:
         x, q, v, w, f_prev = state[:5]
-        clock = state.clock[0]
+        clock = RecordView(state.clock)
         system, lam = run.system, run.lam
         if not run.started:
             # equilibrium at the starting load level (gravity or loads at t = 0, drives)

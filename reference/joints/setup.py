@@ -21,6 +21,7 @@ tests and tools; the step never forms them.
 
 from __future__ import annotations
 
+import hashlib
 from typing import Callable
 
 import numpy as np
@@ -31,7 +32,7 @@ from reference.joints.assembly import (
 )
 from reference.joints.formulations import LAYOUTS, layout_of
 from reference.joints.joint import PRESCRIBED, Joint
-from reference.scalar import build_time_form
+from reference.scalar import REMEMBERED, build_time_form
 from reference.state import Model, State
 
 DEPENDENT_PIVOT = 1e-10
@@ -166,6 +167,33 @@ def dependency_rows(model: Model, Lx, dependent, positions) -> list[int]:
     return sorted(rows)
 
 
+def _digest(*parts) -> bytes:
+    """A digest of the values of ``parts``: nested (named) tuples of arrays and numbers, with their shapes and
+    types."""
+    h = hashlib.blake2b(digest_size=20)
+
+    def walk(part):
+        if isinstance(part, tuple):
+            h.update(b"(")
+            for item in part:
+                walk(item)
+            h.update(b")")
+        elif isinstance(part, np.ndarray):
+            h.update(f"{part.dtype.str}{part.shape}".encode())
+            h.update(np.ascontiguousarray(part).tobytes())
+        else:
+            h.update(repr(part).encode())
+
+    walk(parts)
+    return h.digest()
+
+
+REDUNDANCY_CHECKED: dict = {}
+"""Digests of the models (joints, nodes, time functions) and configurations :func:`check_redundancy` passed, the
+newest :data:`reference.scalar.REMEMBERED` of them: ``Domain.solve`` rebuilds the model and checks it again at
+every call, and a study that solves one model again and again would otherwise repeat the check in Python."""
+
+
 def check_redundancy(model: Model, lagrange: list[Joint], x, q) -> None:
     """Refuse redundant constraints that are not regularised (ε = 0), naming the joints.
 
@@ -174,7 +202,7 @@ def check_redundancy(model: Model, lagrange: list[Joint], x, q) -> None:
     by the sparse Cholesky factorisation of ``B M⁻¹ Bᵀ`` in the elimination
     order of the step (:func:`dependent_rows`): a row whose pivot is negligible
     depends on the rows eliminated before it.  Cost as for one step's
-    factorisation.
+    factorisation; a model and configuration that passed are remembered (:data:`REDUNDANCY_CHECKED`).
 
     Parameters
     ----------
@@ -192,6 +220,18 @@ def check_redundancy(model: Model, lagrange: list[Joint], x, q) -> None:
     """
     if model.n_constraints == 0:
         return
+    key = _digest(model.joints, model.nodes, model.time_functions, np.asarray(x, dtype=float),
+                  np.asarray(q, dtype=float), tuple(j.formulation.epsilon for j in lagrange))
+    if key in REDUNDANCY_CHECKED:
+        return
+    _check_redundancy(model, lagrange, x, q)
+    if len(REDUNDANCY_CHECKED) >= REMEMBERED:
+        REDUNDANCY_CHECKED.pop(next(iter(REDUNDANCY_CHECKED)))
+    REDUNDANCY_CHECKED[key] = True
+
+
+def _check_redundancy(model: Model, lagrange: list[Joint], x, q) -> None:
+    """:func:`check_redundancy` itself, for a model not yet checked."""
     _, _, Bj, BMj = constraint_blocks(model, x, q, 0.0)
     Lx, dependent = dependent_rows(model, Bj, BMj)
     redundant = np.flatnonzero(dependent[model.joints.pattern.row_iperm])

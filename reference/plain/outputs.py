@@ -32,16 +32,15 @@ class PlainOutputs(Outputs):
 
     stretch_screen = staticmethod(within_stretch)
     """The blow-up monitor's stretch screen in NumPy: the reference path compiles nothing."""
-    strain_search = staticmethod(largest_strain)
-    """The records' largest axial strain in NumPy."""
 
     def __init__(self, model, joints: list, rec, evaluation: Evaluation):
         super().__init__(model, joints, rec)
         self.evaluation = evaluation
 
-    def derive(self, t: float) -> None:
+    def derive(self, t: float) -> tuple[float, int]:
         """The reactions of the multiplier joints on their body i, about the joint point, inertial [N], [N m],
-        into the rows :attr:`slot`; the section resultants of every element."""
+        into the rows :attr:`slot`; the section resultants of every element; returns the largest axial strain and
+        its element (:func:`~reference.outputs.largest_strain`)."""
         rec, joints = self.rec, self.model.joints
         if self.slot.size:
             _, B, _ = self.evaluation.constraints(rec.x, rec.q, t)
@@ -54,3 +53,4 @@ class PlainOutputs(Outputs):
                 self.moment[o] = A[i] @ generalised[3:] - np.cross(arm, generalised[:3])
         if self.section_force.size:
             self.section_force[:], self.section_moment[:] = element_resultants(self.model, rec.x, rec.q)
+        return largest_strain(self.section_force, self.inverse_EA)
