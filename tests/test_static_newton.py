@@ -74,7 +74,7 @@ def test_compiled_static_newton_gives_the_python_loops_iterates_bit_for_bit():
         state = d.initial_conditions()
         run = algo.start(model, state)
         if threshold is not None:
-            run.newton.par[0]["threshold"] = run.system.slu.PIVOT_THRESHOLD = threshold
+            run.newton.fields["threshold"] = run.system.slu.PIVOT_THRESHOLD = threshold
         x, q, lam = state.x.copy(), state.q.copy(), run.lam
         ox, oq, olam = x.copy(), q.copy(), lam.copy()
         oracle = algo.newton_system(model)

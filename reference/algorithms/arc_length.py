@@ -298,7 +298,7 @@ class ArcLength(CriticalPoints, ImplicitAlgorithm):
         (:func:`reference.algorithms.newton_steps.newton_loop`); Python makes only the SuperLU factorisations
         it asks for (the first, and after the kept pivots went bad) and resumes it."""
         nw = run.newton
-        par = nw.par[0]
+        par = nw.fields
         moved = np.zeros(run.system.n_free + 1)
         par["load"] = lam
         code = nw.solve(x, q, run.mu, self.t_end, normal, moved)

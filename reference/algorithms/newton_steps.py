@@ -26,7 +26,7 @@ from reference.evaluation.tangent import tangent_values
 from reference.jit import kernel, named
 from reference.linalg import SingularMatrix, lu_solve, refactor
 from reference.modal import SYMMETRY
-from reference.state import Model, record_dtype
+from reference.state import Model, RecordView, record_dtype
 from reference.status import DIVERGED, NO_CONVERGENCE, OK, REFACTOR, SINGULAR
 
 NO_FACTOR = (np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(1, np.int64),
@@ -47,7 +47,8 @@ unknown on a normal plane (arc length; in), the ``load`` factor λ (1 for the st
 
 class NewtonArrays:
     """What :func:`newton_loop` works in for one :class:`reference.algorithms.implicit.NewtonSystem`, made once
-    per run: ``par`` (a :data:`PAR` array of shape (1,)), the CSC arrays and scatter of the Newton matrix, the scratch of the
+    per run: ``par`` (a :data:`PAR` array of shape (1,); ``fields`` its record as Python reads and writes it,
+    :class:`~reference.state.RecordView`), the CSC arrays and scatter of the Newton matrix, the scratch of the
     tangent assembly (``dense`` (n, n) for the static stability sign, else empty), ``hist``
     (max_iterations + 1), the loop's ``arrays`` and, for a path, the scaled norm's ``weights`` (n_free) and the
     follower loads ``follower`` (node, code 1 force / 2 moment, f, vector (k, 3)), none by default."""
@@ -57,7 +58,7 @@ class NewtonArrays:
         n, N, nf = system.pattern.n, system.dof.shape[0], system.n_free
         self.system = system
         self.par = np.zeros(1, PAR)
-        par = self.par[0]
+        self.fields = par = RecordView(self.par)
         par["load"] = 1.0
         par["tolerance"], par["L"], par["max_iterations"] = tolerance, L, max_iterations
         par["threshold"] = system.slu.PIVOT_THRESHOLD
@@ -78,7 +79,7 @@ class NewtonArrays:
         """:func:`newton_loop` from ``(x, q, λ)`` at t (load factor ``par["load"]``) in place, on the plane of
         ``normal`` when given (``par["bordered"]``), accumulating the scaled corrections into ``moved``; a status."""
         system, par = self.system, self.par
-        par[0]["bordered"] = 0.0 if normal is None else 1.0
+        self.fields["bordered"] = 0.0 if normal is None else 1.0
         plane = self.plane if normal is None else np.ascontiguousarray(normal, dtype=float)
         moved = self.moved if moved is None else moved
         return self.run(lambda factors, csc: newton_loop(system.arg, x, q, lam, t, system.dof, factors, csc, system.wt,
@@ -88,7 +89,7 @@ class NewtonArrays:
     def run(self, call) -> int:
         """``call(factors, csc)`` (a compiled loop given its factor and CSC arrays) until it ends, with the
         SuperLU factorisations it asks for (REFACTOR: the matrix it left assembled, then resumed); a status."""
-        slu, par = self.system.slu, self.par[0]
+        slu, par = self.system.slu, self.fields
         par["corrections"], par["resume"] = 0.0, 0.0
         while True:
             par["factored"] = 0.0 if slu.f is None else 1.0
@@ -105,7 +106,7 @@ class NewtonArrays:
 
     def history(self) -> list:
         """The residual norms of the last loop's evaluations."""
-        return list(self.hist[: int(self.par[0]["corrections"]) + 1])
+        return list(self.hist[: int(self.fields["corrections"]) + 1])
 
 
 @kernel

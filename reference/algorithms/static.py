@@ -158,7 +158,7 @@ class Static(ImplicitAlgorithm):
         makes only the SuperLU factorisations the kernel asks for (the first, and any after the kept
         pivots went bad) and resumes it."""
         nw = run.newton
-        par = nw.par[0]
+        par = nw.fields
         # the stability count's tangent is assembled at the equilibrium, and the sign of its determinant
         # computed there when that is all the count needs (negative_eigenvalues' known-count path)
         par["tangent"], par["sign"] = (2.0 if run.dense and run.negative >= 0 else 1.0), 3.0
@@ -278,7 +278,7 @@ class Static(ImplicitAlgorithm):
         tangent the compiled Newton loop assembled, are at it); a change from the previous equilibrium
         becomes an event and a warning."""
         system = run.system
-        sign = run.newton.par[0]["sign"]
+        sign = run.newton.fields["sign"]
         if sign in (-1.0, 0.0, 1.0) and int(sign) == run.sign:
             # a non-symmetric tangent whose determinant kept its sign: the count is the previous one
             # (negative_eigenvalues with known = (count, sign), its sign from the compiled loop)
