@@ -74,6 +74,23 @@ def rotation_matrices(q) -> np.ndarray:
     return A.T.reshape(len(q), 3, 3)
 
 
+def node_coordinates(nodes) -> np.ndarray:
+    """The indices of the six coordinates of each of ``nodes`` (node ids in the model, or positions along a beam),
+    node by node."""
+    return (6 * np.asarray(nodes, dtype=np.int64)[:, None] + np.arange(6)).reshape(-1)
+
+
+def frame_map(A) -> np.ndarray:
+    """``T`` (6n, 6n) from the engine's node-frame coordinates ``[δx, δθ_node]`` to those of the module docstring,
+    ``[δx, A_n δθ_node]``, ``A`` (n, 3, 3) the nodes' rest rotations: a matrix ``K`` of the former is ``T K Tᵀ`` in
+    the latter."""
+    T = np.zeros((6 * len(A), 6 * len(A)))
+    for a, R in enumerate(A):
+        T[6 * a:6 * a + 3, 6 * a:6 * a + 3] = np.eye(3)
+        T[6 * a + 3:6 * a + 6, 6 * a + 3:6 * a + 6] = R
+    return T
+
+
 def beam_matrices(domain, label: str) -> BeamMatrices:
     """K and M of the flexible beam ``label`` of ``domain`` about its rest state (module docstring).
 
@@ -96,14 +113,12 @@ def beam_matrices(domain, label: str) -> BeamMatrices:
     model = domain.model
     x_all = np.array([n.position for n in domain.nodes], dtype=float).reshape(-1, 3)
     q_all = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4)
-    idx = (6 * nodes[:, None] + np.arange(6)).reshape(-1)
+    idx = node_coordinates(nodes)
     K_node = element_tangent(model, x_all, q_all)[idx][:, idx].toarray()
     A = rotation_matrices(q_all[nodes])
-    T = np.zeros((len(idx), len(idx)))
+    T = frame_map(A)
     M = np.zeros_like(T)
     for a, (n, R) in enumerate(zip(nodes, A)):
-        T[6 * a:6 * a + 3, 6 * a:6 * a + 3] = np.eye(3)
-        T[6 * a + 3:6 * a + 6, 6 * a + 3:6 * a + 6] = R
         M[6 * a:6 * a + 3, 6 * a:6 * a + 3] = model.nodes.mass[n] * np.eye(3)
         M[6 * a + 3:6 * a + 6, 6 * a + 3:6 * a + 6] = R @ model.nodes.inertia[n] @ R.T
     K = T @ K_node @ T.T
@@ -177,7 +192,7 @@ def craig_bampton(beam: BeamMatrices, interfaces: tuple, n_modes) -> Basis:
         raise ValueError("reduce: Craig–Bampton needs at least one interface node; name one, or reduce by "
                          "free-free modes")
     size = beam.K.shape[0]
-    b = (6 * np.asarray(interfaces)[:, None] + np.arange(6)).reshape(-1)
+    b = node_coordinates(interfaces)
     i = np.setdiff1d(np.arange(size), b)
     lowest, keep = kept_modes(n_modes)
     if not 0 <= lowest <= i.size:
@@ -207,9 +222,11 @@ def enriched(beam: BeamMatrices, basis: Basis, vectors, tolerance: float = 1e-6)
     T, M = basis.T, beam.M
     V = np.asarray(vectors, dtype=float)
     norms = np.sqrt(np.einsum("ik,ij,jk->k", V, M, V))
-    V = V[:, norms > tolerance * norms.max(initial=0.0)] / norms[norms > tolerance * norms.max(initial=0.0)]
+    kept = norms > tolerance * norms.max(initial=0.0)
+    V = V[:, kept] / norms[kept]
     V = V - T @ np.linalg.solve(T.T @ M @ T, T.T @ M @ V)
-    lam, U = np.linalg.eigh(0.5 * ((V.T @ M @ V) + (V.T @ M @ V).T))
+    gram = V.T @ M @ V
+    lam, U = np.linalg.eigh(0.5 * (gram + gram.T))
     keep = lam > tolerance ** 2
     T = np.hstack([T, V @ (U[:, keep] / np.sqrt(lam[keep]))])
     return Basis(T, T.T @ beam.K @ T, T.T @ M @ T, basis.interfaces, basis.frequencies)

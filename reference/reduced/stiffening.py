@@ -22,7 +22,7 @@ import numpy as np
 
 from reference.plain.elements import element_tangent
 from reference.plain.newton import compose
-from reference.reduced.craig_bampton import rotation_matrices
+from reference.reduced.craig_bampton import frame_map, node_coordinates, rotation_matrices
 
 STEP = 1e-3
 """ε × the largest centrifugal displacement [m] (× the beam's length scale 1): small enough that the O(ε²) error of
@@ -37,8 +37,7 @@ def centrifugal_displacement(beam, held, axis, origin) -> np.ndarray:
     radial = (beam.x - origin) - np.outer((beam.x - origin) @ e, e)
     f = np.zeros(beam.K.shape[0])
     f.reshape(-1, 6)[:, :3] = m[:, None] * radial
-    fixed = (6 * np.asarray(held)[:, None] + np.arange(6)).reshape(-1)
-    free = np.setdiff1d(np.arange(f.size), fixed)
+    free = np.setdiff1d(np.arange(f.size), node_coordinates(held))
     u = np.zeros_like(f)
     u[free] = np.linalg.solve(beam.K[np.ix_(free, free)], f[free])
     return u
@@ -52,7 +51,7 @@ def _tangent_at(domain, beam, u, scale: float = 1.0) -> np.ndarray:
     q = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4)
     A = rotation_matrices(q[beam.nodes])
     U = u.reshape(-1, 6)
-    idx = (6 * beam.nodes[:, None] + np.arange(6)).reshape(-1)
+    idx = node_coordinates(beam.nodes)
     x[beam.nodes] += scale * U[:, :3]
     q[beam.nodes] = compose(q[beam.nodes], scale * np.einsum("nba,nb->na", A, U[:, 3:]))
     return element_tangent(domain.model, x, q)[idx][:, idx].toarray()
@@ -62,10 +61,7 @@ def _to_body_frame(domain, beam, K) -> np.ndarray:
     """``T K Tᵀ``: a (6n, 6n) matrix of the beam's node frames at rest (rotation rows body frame) in the body-frame
     coordinates of the module docstring."""
     q = np.array([n.rotation for n in domain.nodes], dtype=float).reshape(-1, 4)
-    T = np.zeros_like(K)
-    for a, R in enumerate(rotation_matrices(q[beam.nodes])):
-        T[6 * a:6 * a + 3, 6 * a:6 * a + 3] = np.eye(3)
-        T[6 * a + 3:6 * a + 6, 6 * a + 3:6 * a + 6] = R
+    T = frame_map(rotation_matrices(q[beam.nodes]))
     return T @ K @ T.T
 
 
@@ -139,7 +135,7 @@ def derivative_modes(domain, beam, basis) -> np.ndarray:
     frequency order or not at all.  Columns in the order ``(1, 1), (1, 2), …, (1, m), (2, 2), …`` [m per unit of
     modal coordinate squared, body-frame coordinates of the module docstring of
     :mod:`reference.reduced.craig_bampton`]."""
-    held = (6 * np.asarray(basis.interfaces)[:, None] + np.arange(6)).reshape(-1)
+    held = node_coordinates(basis.interfaces)
     phi = basis.T[:, held.size:]
     size, m = phi.shape
     interior = np.setdiff1d(np.arange(size), held)
